@@ -1,0 +1,34 @@
+# Two entry points, both idempotent, no activation needed:
+#   make demo   -> create .venv, install, run the demo scenario with recording, print a summary
+#   make test   -> create .venv, install, ruff check, the whole pytest suite
+VENV    := .venv
+PY      := $(VENV)/bin/python3
+PIP     := $(PY) -m pip -q --disable-pip-version-check
+PKGS    := src/track_core src/track_msgs_py src/track_nodes
+export AMENT_PREFIX_PATH := $(CURDIR)/$(VENV)
+
+.PHONY: install demo test lint clean
+
+$(VENV)/.deps-stamp: requirements.txt constraints.txt
+	test -x $(PY) || python3 -m venv $(VENV)
+	$(PIP) install -r requirements.txt -c constraints.txt
+	touch $@
+
+# Non-editable install: editable installs carry no data_files, so `ros2 run` would not see them.
+# Stale build/ trees leak old modules into new wheels, so remove them first.
+install: $(VENV)/.deps-stamp
+	rm -rf $(addsuffix /build,$(PKGS)) $(addsuffix /*.egg-info,$(PKGS))
+	$(PIP) install --no-deps --no-build-isolation --force-reinstall $(PKGS)
+	rm -rf $(addsuffix /build,$(PKGS)) $(addsuffix /*.egg-info,$(PKGS))
+
+demo: install
+	$(PY) -m track_nodes.launch demo --record --duration 30 --rate 10
+
+lint: $(VENV)/.deps-stamp
+	$(VENV)/bin/ruff check .
+
+test: install lint
+	$(PY) -m pytest
+
+clean:
+	rm -rf $(VENV) $(addsuffix /build,$(PKGS)) $(addsuffix /*.egg-info,$(PKGS))

@@ -1,0 +1,31 @@
+"""ament_python package track_core: numerical cores, no ROS imports."""
+from setuptools import find_packages, setup
+
+PKG = 'track_core'
+
+setup(
+    name=PKG,
+    version='0.1.0',
+    packages=find_packages(exclude=['test', 'test.*']),
+    data_files=[
+        ('share/ament_index/resource_index/packages', [f'resource/{PKG}']),
+        (f'share/{PKG}', ['package.xml']),
+    ],
+    install_requires=['numpy', 'scipy', 'matplotlib', 'tqdm'],
+    zip_safe=False,
+    description='ROS-free numerical cores of the tracking package set',
+    license='BSD-3-Clause',
+    entry_points={
+        'console_scripts': [
+            'track-experiment = track_core.cli:experiment_main',
+            'track-bench = track_core.cli:bench_main',
+        ],
+        # Registries: other packages add entries to these groups in their setup.py.
+        'track.experiments': [
+            'demo-kf = track_core.demo.experiment:nees_experiment',
+        ],
+        'track.benchmarks': [
+            'kalman = track_core.demo.experiment:kalman_benchmark',
+        ],
+    },
+)

@@ -1,0 +1,159 @@
+"""``track-experiment`` and ``track-bench``: one runner, two entry-point registries.
+
+Packages register entries in their setup.py under the groups ``track.experiments`` and
+``track.benchmarks`` (``name = module:function``). An entry is a function taking a
+``RunConfig`` and returning an ``Outcome``; the runner owns argument parsing, the output
+directory, the JSON file and error reporting, so entries contain only their science.
+Entries are imported lazily, so ``--help`` never imports rclpy.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import sys
+import time
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from importlib.metadata import entry_points
+from pathlib import Path
+from typing import Any
+
+GROUPS = {'experiment': 'track.experiments', 'bench': 'track.benchmarks'}
+
+
+@dataclass
+class RunConfig:
+    """What every experiment or benchmark is given. ``runs=None`` means the entry's default."""
+
+    seed: int = 0
+    runs: int | None = None
+    quick: bool = False
+    out: Path = Path('out')
+    show_progress: bool = True
+
+    def n_runs(self, full: int, quick: int) -> int:
+        """The run count: ``--runs`` if given, else ``quick`` under ``--quick``, else ``full``."""
+        if self.runs is not None:
+            return self.runs
+        return quick if self.quick else full
+
+    def progress(self, iterable: Iterable, **kw: Any) -> Iterable:
+        """A tqdm progress bar on stderr (silent when show_progress is False)."""
+        from tqdm import tqdm
+
+        return tqdm(iterable, disable=not self.show_progress, file=sys.stderr, **kw)
+
+
+@dataclass
+class Outcome:
+    """An entry's result: ``table`` is printed, ``data`` goes to ``--json``, ``figures`` are PNGs."""
+
+    table: str
+    data: dict[str, Any]
+    figures: list[Path] = field(default_factory=list)
+
+
+def registry(kind: str) -> dict[str, Any]:
+    """Name → entry point for ``kind`` in {'experiment', 'bench'}."""
+    return {ep.name: ep for ep in entry_points(group=GROUPS[kind])}
+
+
+def format_table(header: list[str], rows: list[list[Any]]) -> str:
+    """Plain fixed-width table; floats get 4 significant digits."""
+
+    def fmt(v: Any) -> str:
+        return f'{v:.4g}' if isinstance(v, float) else str(v)
+
+    cells = [header, *[[fmt(v) for v in r] for r in rows]]
+    widths = [max(len(r[i]) for r in cells) for i in range(len(header))]
+    lines = ['  '.join(c.rjust(w) for c, w in zip(r, widths, strict=True)) for r in cells]
+    lines.insert(1, '  '.join('-' * w for w in widths))
+    return '\n'.join(lines)
+
+
+def best_time(fn: Callable[[], Any], repeat: int = 5, min_time: float = 0.05) -> float:
+    """Seconds per call: best of ``repeat`` batches, each looping until ``min_time`` passes."""
+    fn()  # warm-up
+    best = float('inf')
+    for _ in range(repeat):
+        n, t0 = 0, time.perf_counter()
+        while True:
+            fn()
+            n += 1
+            dt = time.perf_counter() - t0
+            if dt >= min_time:
+                break
+        best = min(best, dt / n)
+    return best
+
+
+def _main(kind: str, argv: list[str] | None) -> int:
+    entries = registry(kind)
+    prog = f'track-{kind}'
+    parser = argparse.ArgumentParser(
+        prog=prog,
+        description=(
+            'Reproduce a paper table or figure.' if kind == 'experiment'
+            else 'Time our code against a baseline or peer in the same run and report ratios.'
+        ),
+        epilog='registered: ' + (', '.join(sorted(entries)) or '(none)'),
+    )
+    parser.add_argument('name', nargs='?', help='entry to run (see "registered" below)')
+    parser.add_argument('--list', action='store_true', help='list registered entries and exit')
+    parser.add_argument('--runs', type=int, default=None, help='Monte-Carlo runs / repetitions')
+    parser.add_argument('--seed', type=int, default=0, help='seed of the numpy Generator (default 0)')
+    parser.add_argument('--quick', action='store_true', help='small, fast version (used by the tests)')
+    parser.add_argument('--json', type=Path, default=None, metavar='FILE', help='write the result as JSON')
+    parser.add_argument('--out', type=Path, default=Path('out') / kind, help='directory for PNG/JSON output')
+    parser.add_argument('--no-progress', action='store_true', help='hide the progress bar')
+    args = parser.parse_args(argv)
+
+    if args.list or not args.name:
+        print('\n'.join(sorted(entries)) if entries else '(no entries registered)')
+        return 0 if args.list else 2
+    if args.name not in entries:
+        print(f'{prog}: unknown entry {args.name!r}; registered: {", ".join(sorted(entries))}', file=sys.stderr)
+        return 2
+    if args.runs is not None and args.runs < 1:
+        print(f'{prog}: --runs must be >= 1, got {args.runs}', file=sys.stderr)
+        return 2
+
+    logging.basicConfig(level=logging.WARNING, format='%(levelname)s %(name)s: %(message)s')
+    cfg = RunConfig(seed=args.seed, runs=args.runs, quick=args.quick, out=args.out,
+                    show_progress=not args.no_progress)
+    try:
+        cfg.out.mkdir(parents=True, exist_ok=True)
+        fn = entries[args.name].load()
+        outcome: Outcome = fn(cfg)
+    except (ValueError, OSError) as exc:
+        print(f'{prog} {args.name}: {exc}', file=sys.stderr)
+        return 2
+
+    print(outcome.table)
+    for fig in outcome.figures:
+        print(f'figure: {fig}')
+    if args.json is not None:
+        payload = {'name': args.name, 'seed': args.seed, 'runs': args.runs, 'quick': args.quick,
+                   **outcome.data}
+        try:
+            args.json.parent.mkdir(parents=True, exist_ok=True)
+            args.json.write_text(json.dumps(payload, indent=2, default=float) + '\n')
+        except OSError as exc:
+            print(f'{prog}: cannot write --json {args.json}: {exc.strerror}', file=sys.stderr)
+            return 2
+        print(f'json: {args.json}')
+    return 0
+
+
+def experiment_main(argv: list[str] | None = None) -> int:
+    return _main('experiment', argv)
+
+
+def bench_main(argv: list[str] | None = None) -> int:
+    return _main('bench', argv)
+
+
+if __name__ == '__main__':  # pragma: no cover
+    sys.exit(experiment_main())

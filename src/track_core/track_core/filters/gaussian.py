@@ -1,0 +1,62 @@
+"""Gaussian helpers: covariance checks, symmetrisation and Mahalanobis distances.
+
+Every layer that receives a covariance from outside (a message, a parameter, a file) asks
+``covariance_problem`` for a reason string instead of letting a Cholesky fail deep inside a
+filter. Arrays may carry leading batch dimensions: ``(..., n, n)``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+# Relative tolerances: a covariance read from float64 messages is symmetric only to rounding.
+SYMMETRY_RTOL = 1e-9
+PSD_RTOL = 1e-9
+
+
+class CovarianceError(ValueError):
+    """A covariance is not finite, not square, not symmetric or not positive semi-definite."""
+
+
+def symmetrize(P: np.ndarray) -> np.ndarray:
+    """Return ½(P + Pᵀ) over the last two axes; removes rounding asymmetry after updates."""
+    P = np.asarray(P, dtype=float)
+    return 0.5 * (P + np.swapaxes(P, -1, -2))
+
+
+def covariance_problem(P: np.ndarray, *, definite: bool = False) -> str | None:
+    """Return why ``P`` is not a valid covariance, or ``None`` when it is.
+
+    Checks, in order: shape (square), finite entries, symmetry (relative to the largest
+    entry), and the smallest eigenvalue (≥ −tol·max|P|, or > tol·max|P| when ``definite``).
+    """
+    P = np.asarray(P, dtype=float)
+    if P.ndim < 2 or P.shape[-1] != P.shape[-2]:
+        return f'covariance must be square, got shape {P.shape}'
+    if not np.all(np.isfinite(P)):
+        return 'covariance has non-finite entries'
+    scale = max(float(np.max(np.abs(P))) if P.size else 0.0, np.finfo(float).tiny)
+    asym = float(np.max(np.abs(P - np.swapaxes(P, -1, -2)))) if P.size else 0.0
+    if asym > SYMMETRY_RTOL * scale:
+        return f'covariance is not symmetric (max |P-Pᵀ| = {asym:.3g})'
+    eig_min = float(np.min(np.linalg.eigvalsh(symmetrize(P)))) if P.size else 0.0
+    if definite and eig_min <= PSD_RTOL * scale:
+        return f'covariance is not positive definite (smallest eigenvalue {eig_min:.3g})'
+    if eig_min < -PSD_RTOL * scale:
+        return f'covariance is not positive semi-definite (smallest eigenvalue {eig_min:.3g})'
+    return None
+
+
+def check_covariance(P: np.ndarray, name: str = 'covariance', *, definite: bool = False) -> np.ndarray:
+    """Return ``P`` as a float array, or raise ``CovarianceError`` naming ``name`` and the reason."""
+    reason = covariance_problem(P, definite=definite)
+    if reason is not None:
+        raise CovarianceError(f'{name}: {reason}')
+    return np.asarray(P, dtype=float)
+
+
+def mahalanobis_sq(d: np.ndarray, S: np.ndarray) -> np.ndarray:
+    """dᵀ S⁻¹ d over leading batch dimensions, by a solve (never an explicit inverse)."""
+    d = np.asarray(d, dtype=float)
+    sol = np.linalg.solve(S, d[..., None])[..., 0]
+    return np.einsum('...i,...i->...', d, sol)
