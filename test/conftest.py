@@ -95,3 +95,15 @@ def repo() -> Path:
 @pytest.fixture
 def venv() -> Path:
     return VENV
+
+
+def isolated_env() -> dict[str, str]:
+    """Environment for a subprocess on a fresh ROS domain (localhost-only discovery)."""
+    return {**os.environ, 'ROS_DOMAIN_ID': str(_next_domain_id()), 'AMENT_PREFIX_PATH': str(VENV),
+            'PYTHONUNBUFFERED': '1'}
+
+
+@pytest.fixture(scope='session')
+def env_factory():
+    """Call it for a fresh isolated subprocess environment; usable from module-scoped fixtures."""
+    return isolated_env

@@ -11,6 +11,7 @@
 
 from __future__ import annotations
 
+import math
 import sys
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
@@ -66,7 +67,7 @@ class Param:
         if isinstance(value, (int, float)) and not isinstance(value, bool):
             bad_lo = self.lo is not None and not value >= self.lo
             bad_hi = self.hi is not None and not value <= self.hi
-            if bad_lo or bad_hi or value != value:  # value != value catches NaN
+            if bad_lo or bad_hi or math.isnan(value):
                 raise ParameterError(f'parameter {self.name}={value!r} is out of range: allowed {self.allowed()}')
 
 

@@ -23,16 +23,21 @@ X0 = np.array([0.0, 5.0, 0.0, 2.0])
 
 
 def run_nees(n_runs: int, n_steps: int, seed: int, T: float = 0.1, q_s: float = 0.05,
-             r: float = 2.0) -> dict:
-    """ANEES per step over ``n_runs`` vectorised runs and its 95 % χ² interval."""
+             r: float = 2.0, r_filter: float | None = None) -> dict:
+    """ANEES per step over ``n_runs`` vectorised runs and its 95 % χ² interval.
+
+    ``r_filter`` (default ``r``) is the report noise the tracker assumes; a mismatch makes the
+    filter inconsistent, which is how the tests show that the NEES check can fail.
+    """
     rng = np.random.default_rng(seed)
     R = np.diag([r**2, r**2])
+    R_filter = R if r_filter is None else np.diag([r_filter**2, r_filter**2])
     target = CVTarget(np.tile(X0, (n_runs, 1)), T=T, q_s=q_s, R=R)
     tracker = CVKalmanTracker(q_s=q_s, sigma_v0=5.0)
     anees = np.empty(n_steps)
     for k in range(n_steps):
         truth = target.step(rng)
-        x, P = tracker.update(target.t, target.report(rng), R)
+        x, P = tracker.update(target.t, target.report(rng), R_filter)
         anees[k] = mahalanobis_sq(truth - x, P).mean()
     lo, hi = chi2.ppf([0.025, 0.975], 4 * n_runs) / n_runs
     return {'anees': anees, 'lo': float(lo), 'hi': float(hi)}

@@ -13,8 +13,9 @@ class CVKalmanTracker:
     """Initialises on the first report (velocity prior ``sigma_v0``), then predict/update.
 
     Works on one track (z of shape (2,)) or on M tracks updated together (z of shape (M, 2)),
-    which is how the Monte-Carlo experiment runs. ``update`` rejects out-of-order reports (t earlier than the last one) by raising
-    ``ValueError``; the node turns that into a logged reason and keeps running.
+    which is how the Monte-Carlo experiment runs. ``update`` rejects out-of-order reports
+    (t earlier than the last one) by raising ``ValueError``; the node turns that into a logged
+    reason and keeps running.
     """
 
     def __init__(self, q_s: float = 0.05, sigma_v0: float = 5.0) -> None:
@@ -48,11 +49,11 @@ class CVKalmanTracker:
             raise ValueError(f'report must be 2 finite numbers, got {z!r}')
         R = check_covariance(R, 'report covariance', definite=True)
         if self.x is None:
-            self.x = np.zeros(z.shape[:-1] + (4,))
+            self.x = np.zeros((*z.shape[:-1], 4))
             self.x[..., [0, 2]] = z
             P0 = np.diag([R[0, 0], self.sigma_v0**2, R[1, 1], self.sigma_v0**2])
             P0[0, 2] = P0[2, 0] = R[0, 1]
-            self.P = np.broadcast_to(P0, z.shape[:-1] + (4, 4)).copy()
+            self.P = np.broadcast_to(P0, (*z.shape[:-1], 4, 4)).copy()
         else:
             x_pred, P_pred = self.predict(t)
             self.x, self.P, _, _ = kf_update(x_pred, P_pred, z, H_POS, R)

@@ -1,0 +1,261 @@
+"""Launcher: ``python -m track_nodes.launch SCENARIO [--record [NAME]] [--duration S] [--processes]
+[--params FILE] [--rate R]``.
+
+Reads ``config/SCENARIO.yaml`` (see ``track_nodes.scenario``) and runs its nodes, either all in
+this process on one MultiThreadedExecutor (default) or one process per node (``--processes``).
+
+Time: with ``--rate R > 0`` (default: the scenario's ``rate``) every node gets
+``use_sim_time:=true`` and this launcher publishes ``/clock``, starting at 0 and advancing R
+times faster than the wall clock, so a scenario runs faster than real time; ``--rate 0`` runs on
+wall time. Before the clock starts, the launcher waits until every node is up and, when
+recording, until the recorder has subscribed to every recordable topic, then lets discovery
+settle: nothing published at t = 0 is lost. The clock stops exactly at ``--duration``, the
+launcher waits a short grace period for messages in flight, then stops every node (the
+recorder closes its bag). Ctrl-C stops everything the same way.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import signal
+import subprocess
+import sys
+import threading
+import time
+from datetime import datetime
+from pathlib import Path
+
+import rclpy
+from rclpy.context import Context
+from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rosgraph_msgs.msg import Clock
+
+from track_msgs_py.convert import sec_to_stamp
+from track_msgs_py.qos import CLOCK_QOS
+from track_msgs_py.topics import CLOCK
+from track_nodes.node_util import EXIT_BAD_INPUT
+from track_nodes.scenario import Scenario, ScenarioError, load_scenario
+
+CLOCK_TICK = 0.01  # wall seconds between /clock messages
+SETTLE = 1.0  # wall seconds for discovery to settle before the clock starts
+GRACE = 1.0  # wall seconds for messages in flight after the clock stops
+READY_TIMEOUT = 30.0
+IGNORED_TOPICS = ('/rosout', '/parameter_events', CLOCK)
+
+
+class LaunchError(RuntimeError):
+    """The scenario could not be started; the message is one line."""
+
+
+class LauncherNode(Node):
+    """Publishes /clock and watches the graph. Always on wall time."""
+
+    def __init__(self, context: Context) -> None:
+        super().__init__('track_launcher', context=context, start_parameter_services=False)
+        self.clock_pub = self.create_publisher(Clock, CLOCK, CLOCK_QOS)
+
+    def publish_clock(self, t: float) -> None:
+        self.clock_pub.publish(Clock(clock=sec_to_stamp(t)))
+
+    def nodes_missing(self, names: list[str]) -> list[str]:
+        present = set(self.get_node_names())
+        return [n for n in names if n not in present]
+
+    def topics_unrecorded(self, regex: str, recorder: str) -> list[str]:
+        pattern = re.compile(regex)
+        missing = []
+        for topic, _ in self.get_topic_names_and_types():
+            if topic in IGNORED_TOPICS or not pattern.search(topic) or not self.count_publishers(topic):
+                continue
+            subs = {info.node_name for info in self.get_subscriptions_info_by_topic(topic)}
+            if recorder not in subs:
+                missing.append(topic)
+        return missing
+
+
+def _parse(argv: list[str] | None) -> argparse.Namespace:
+    ap = argparse.ArgumentParser(prog='python -m track_nodes.launch', description=__doc__.split('\n\n')[1])
+    ap.add_argument('scenario', help='scenario name (config/<name>.yaml) or a path to a .yaml file')
+    ap.add_argument('--record', nargs='?', const='', default=None, metavar='NAME',
+                    help='record to bags/NAME/ (default NAME: <scenario>-<timestamp>)')
+    ap.add_argument('--duration', type=float, default=None, help='run length in node time [s]')
+    ap.add_argument('--processes', action='store_true', help='one process per node')
+    ap.add_argument('--params', type=Path, default=None, metavar='FILE', help='extra params file on top')
+    ap.add_argument('--rate', type=float, default=None,
+                    help='drive /clock at R x real time; 0 = wall time (default: the scenario)')
+    return ap.parse_args(argv)
+
+
+class Launch:
+    def __init__(self, scenario: Scenario, args: argparse.Namespace) -> None:
+        self.sc = scenario
+        opts = scenario.options
+        self.rate = float(args.rate if args.rate is not None else opts.get('rate', 0.0))
+        self.duration = args.duration if args.duration is not None else opts.get('duration')
+        if not self.rate >= 0:
+            raise LaunchError(f'--rate must be >= 0, got {self.rate}')
+        if self.duration is not None and not float(self.duration) > 0:
+            raise LaunchError(f'--duration must be > 0, got {self.duration}')
+        self.sim = self.rate > 0
+        self.params_files = [str(scenario.path)]
+        if args.params is not None:
+            if not args.params.is_file():
+                raise LaunchError(f'--params {args.params}: no such file')
+            self.params_files.append(str(args.params.resolve()))
+        self.bag: Path | None = None
+        if args.record is not None:
+            name = args.record or f'{scenario.name}-{datetime.now():%Y%m%d-%H%M%S}'
+            self.bag = Path(name) if '/' in name else Path('bags') / name
+            if self.bag.exists():
+                raise LaunchError(f'{self.bag}: bag exists already, not overwriting (choose another --record NAME)')
+            self.bag.parent.mkdir(parents=True, exist_ok=True)
+        self.record_regex = str(opts.get('record_regex', '.*'))
+        self.stop = threading.Event()
+
+    # -- the two ways of running the nodes ------------------------------------------------
+    def run(self, processes: bool) -> int:
+        context = Context()
+        ros_args = ['--ros-args', *[a for f in self.params_files for a in ('--params-file', f)]]
+        rclpy.init(args=ros_args if not processes else None, context=context)
+        launcher = LauncherNode(context)
+        executor = MultiThreadedExecutor(context=context)
+        executor.add_node(launcher)
+        nodes, children = [], []
+        try:
+            if processes:
+                children = self._spawn_all()
+            else:
+                nodes = self._create_all(context)
+                for node in nodes:
+                    executor.add_node(node)
+            spinner = threading.Thread(target=self._spin, args=(executor,), daemon=True)
+            spinner.start()
+            self._wait_ready(launcher, children)
+            self._drive(launcher, context, children)
+        finally:
+            time.sleep(GRACE)  # messages in flight reach the recorder
+            self._stop_children(children)
+            executor.shutdown(timeout_sec=2.0)
+            for node in nodes:
+                node.destroy_node()  # the recorder closes its bag here
+            launcher.destroy_node()
+            context.try_shutdown()
+        failed = [c for c in children if c.returncode not in (0, -signal.SIGINT, None)]
+        return EXIT_BAD_INPUT if failed else 0
+
+    def _spin(self, executor: MultiThreadedExecutor) -> None:
+        try:
+            executor.spin()
+        except (ExternalShutdownException, KeyboardInterrupt):
+            pass
+        finally:
+            self.stop.set()
+
+    def _overrides(self) -> list[Parameter]:
+        return [Parameter('use_sim_time', value=self.sim)]
+
+    def _create_all(self, context: Context) -> list[Node]:
+        nodes = []
+        for spec in self.sc.nodes:
+            cls = spec.node_class()
+            try:
+                nodes.append(cls(node_name=spec.name, context=context, parameter_overrides=self._overrides()))
+            except ValueError as exc:
+                for node in nodes:
+                    node.destroy_node()
+                raise LaunchError(f'{spec.name}: {exc}') from None
+        if self.bag is not None:
+            from track_nodes.recorder import RecorderNode
+
+            nodes.append(RecorderNode(context=context, parameter_overrides=[
+                *self._overrides(), Parameter('bag', value=str(self.bag)),
+                Parameter('regex', value=self.record_regex)]))
+        return nodes
+
+    def _spawn_all(self) -> list[subprocess.Popen]:
+        files = [a for f in self.params_files for a in ('--params-file', f)]
+        sim = f'use_sim_time:={str(self.sim).lower()}'
+        cmds = [[sys.executable, '-m', spec.module, '--ros-args', '-r', f'__node:={spec.name}', *files, '-p', sim]
+                for spec in self.sc.nodes]
+        if self.bag is not None:
+            cmds.append([sys.executable, '-m', 'track_nodes.recorder', '--ros-args', '-p', sim,
+                         '-p', f'bag:={self.bag}', '-p', f'regex:={self.record_regex}'])
+        # Own process group each, so a terminal Ctrl-C reaches only the launcher, which stops them in order.
+        return [subprocess.Popen(cmd, start_new_session=True) for cmd in cmds]
+
+    # -- start, clock, stop ---------------------------------------------------------------
+    def _wait_ready(self, launcher: LauncherNode, children: list[subprocess.Popen]) -> None:
+        names = [s.name for s in self.sc.nodes] + (['recorder'] if self.bag is not None else [])
+        deadline = time.monotonic() + READY_TIMEOUT
+        while True:
+            for child in children:
+                if child.poll() is not None:
+                    raise LaunchError(f'{" ".join(child.args[2:3])} exited with code {child.returncode} at start')
+            missing = launcher.nodes_missing(names)
+            if not missing and self.bag is not None:
+                missing = [f'recorder subscription to {t}' for t in
+                           launcher.topics_unrecorded(self.record_regex, 'recorder')]
+            if not missing:
+                break
+            if time.monotonic() > deadline or self.stop.is_set():
+                raise LaunchError(f'not ready after {READY_TIMEOUT:.0f} s: waiting for {", ".join(missing)}')
+            time.sleep(0.05)
+        time.sleep(SETTLE)
+
+    def _drive(self, launcher: LauncherNode, context: Context, children: list[subprocess.Popen]) -> None:
+        duration = None if self.duration is None else float(self.duration)
+        t0 = time.monotonic()
+        while not self.stop.is_set() and context.ok():
+            elapsed = time.monotonic() - t0
+            node_time = elapsed * self.rate if self.sim else elapsed
+            if duration is not None:
+                node_time = min(node_time, duration)
+            if self.sim:
+                launcher.publish_clock(node_time)
+            if duration is not None and node_time >= duration:
+                return
+            if any(c.poll() is not None for c in children):
+                return
+            time.sleep(CLOCK_TICK)
+
+    def _stop_children(self, children: list[subprocess.Popen]) -> None:
+        for child in children:
+            if child.poll() is None:
+                child.send_signal(signal.SIGINT)
+        for child in children:
+            try:
+                child.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                child.kill()
+                child.wait()
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parse(argv)
+    os.environ.setdefault('AMENT_PREFIX_PATH', sys.prefix)
+    try:
+        scenario = load_scenario(args.scenario)
+        launch = Launch(scenario, args)
+        print(f'scenario {scenario.name}: {", ".join(s.name for s in scenario.nodes)}'
+              f' ({"processes" if args.processes else "one process"}, '
+              f'{f"/clock at {launch.rate:g}x" if launch.sim else "wall time"}'
+              f'{f", {launch.duration:g} s" if launch.duration else ""})', flush=True)
+        code = launch.run(args.processes)
+    except (ScenarioError, LaunchError) as exc:
+        print(f'track_nodes.launch: {exc}', file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        code = 0
+    if launch.bag is not None and (launch.bag / 'metadata.yaml').exists():
+        from track_nodes.summary import print_summary
+
+        print_summary(launch.bag, scenario.options.get('summary'))
+    return code
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())

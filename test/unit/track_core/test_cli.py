@@ -1,0 +1,60 @@
+import json
+import subprocess
+import sys
+
+import pytest
+
+from track_core.cli import RunConfig, bench_main, experiment_main, format_table, registry
+
+
+def test_registries_hold_the_foundation_entries():
+    assert 'demo-kf' in registry('experiment')
+    assert {'kalman', 'recorder'} <= set(registry('bench'))
+
+
+def test_experiment_quick_writes_json(tmp_path, capsys):
+    out = tmp_path / 'r.json'
+    code = experiment_main(['demo-kf', '--quick', '--seed', '3', '--runs', '20', '--json', str(out),
+                            '--out', str(tmp_path), '--no-progress'])
+    assert code == 0
+    data = json.loads(out.read_text())
+    assert data['name'] == 'demo-kf' and data['seed'] == 3 and data['runs'] == 20
+    assert 2.0 < data['mean_anees'] < 6.0
+    assert (tmp_path / 'demo-kf-anees.png').stat().st_size > 1000
+    assert 'mean ANEES' in capsys.readouterr().out
+
+
+def test_same_seed_same_result(tmp_path):
+    args = ['demo-kf', '--quick', '--runs', '10', '--out', str(tmp_path), '--no-progress', '--json']
+    experiment_main([*args, str(tmp_path / 'a.json')])
+    experiment_main([*args, str(tmp_path / 'b.json')])
+    assert json.loads((tmp_path / 'a.json').read_text()) == json.loads((tmp_path / 'b.json').read_text())
+
+
+def test_bench_reports_a_ratio(tmp_path):
+    out = tmp_path / 'b.json'
+    assert bench_main(['kalman', '--quick', '--json', str(out)]) == 0
+    data = json.loads(out.read_text())['kalman']
+    assert all(v['speedup'] > 0 for v in data.values())
+
+
+@pytest.mark.parametrize(('argv', 'words'), [
+    (['no-such-entry'], 'unknown entry'),
+    (['demo-kf', '--runs', '0'], '--runs must be >= 1'),
+])
+def test_bad_arguments_give_one_line_and_exit_2(argv, words):
+    proc = subprocess.run([sys.executable, '-m', 'track_core.cli', *argv], capture_output=True, text=True)
+    assert proc.returncode == 2
+    assert words in proc.stderr and len(proc.stderr.strip().splitlines()) == 1
+    assert 'Traceback' not in proc.stderr
+
+
+def test_help_lists_entries():
+    proc = subprocess.run([sys.executable, '-m', 'track_core.cli', '--help'], capture_output=True, text=True)
+    assert proc.returncode == 0 and 'demo-kf' in proc.stdout and '--quick' in proc.stdout
+
+
+def test_run_config_counts_and_table():
+    assert RunConfig(quick=True).n_runs(100, 5) == 5
+    assert RunConfig(runs=7, quick=True).n_runs(100, 5) == 7
+    assert format_table(['a', 'b'], [[1, 0.123456]]).splitlines()[2].split() == ['1', '0.1235']
