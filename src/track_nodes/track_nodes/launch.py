@@ -17,19 +17,19 @@ recorder closes its bag). Ctrl-C stops everything the same way.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import re
 import signal
 import subprocess
 import sys
-import threading
 import time
 from datetime import datetime
 from pathlib import Path
 
 import rclpy
 from rclpy.context import Context
-from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
@@ -114,11 +114,10 @@ class Launch:
                 raise LaunchError(f'{self.bag}: bag exists already, not overwriting (choose another --record NAME)')
             self.bag.parent.mkdir(parents=True, exist_ok=True)
         self.record_regex = str(opts.get('record_regex', '.*'))
-        self.stop = threading.Event()
 
     # -- the two ways of running the nodes ------------------------------------------------
     def run(self, processes: bool) -> int:
-        context = Context()
+        self.context = context = Context()
         ros_args = ['--ros-args', *[a for f in self.params_files for a in ('--params-file', f)]]
         rclpy.init(args=ros_args if not processes else None, context=context)
         launcher = LauncherNode(context)
@@ -132,14 +131,20 @@ class Launch:
                 nodes = self._create_all(context)
                 for node in nodes:
                     executor.add_node(node)
-            spinner = threading.Thread(target=self._spin, args=(executor,), daemon=True)
-            spinner.start()
-            self._wait_ready(launcher, children)
-            self._drive(launcher, context, children)
+            self._wait_ready(launcher, executor, children)
+            self._drive(launcher, executor, children)
+        except KeyboardInterrupt:
+            pass
         finally:
-            time.sleep(GRACE)  # messages in flight reach the recorder
+            with contextlib.suppress(KeyboardInterrupt):
+                self._pump(executor, time.monotonic() + GRACE)  # messages in flight reach the recorder
             self._stop_children(children)
-            executor.shutdown(timeout_sec=2.0)
+            # The main thread is the only one that hands work to the pool; drain the pool before
+            # shutting the executor down (rclpy 7.1's shutdown does not wait for running callbacks).
+            pool = getattr(executor, '_executor', None)
+            if pool is not None:
+                pool.shutdown(wait=True)
+            executor.shutdown(timeout_sec=5.0)
             for node in nodes:
                 node.destroy_node()  # the recorder closes its bag here
             launcher.destroy_node()
@@ -147,13 +152,13 @@ class Launch:
         failed = [c for c in children if c.returncode not in (0, -signal.SIGINT, None)]
         return EXIT_BAD_INPUT if failed else 0
 
-    def _spin(self, executor: MultiThreadedExecutor) -> None:
-        try:
-            executor.spin()
-        except (ExternalShutdownException, KeyboardInterrupt):
-            pass
-        finally:
-            self.stop.set()
+    def _pump(self, executor: MultiThreadedExecutor, deadline: float) -> None:
+        """Hand ready callbacks to the executor's threads until ``deadline`` (monotonic s)."""
+        while self.context.ok():
+            left = deadline - time.monotonic()
+            if left <= 0:
+                return
+            executor.spin_once(timeout_sec=min(left, 0.005))
 
     def _overrides(self) -> list[Parameter]:
         return [Parameter('use_sim_time', value=self.sim)]
@@ -188,7 +193,8 @@ class Launch:
         return [subprocess.Popen(cmd, start_new_session=True) for cmd in cmds]
 
     # -- start, clock, stop ---------------------------------------------------------------
-    def _wait_ready(self, launcher: LauncherNode, children: list[subprocess.Popen]) -> None:
+    def _wait_ready(self, launcher: LauncherNode, executor: MultiThreadedExecutor,
+                    children: list[subprocess.Popen]) -> None:
         names = [s.name for s in self.sc.nodes] + (['recorder'] if self.bag is not None else [])
         deadline = time.monotonic() + READY_TIMEOUT
         while True:
@@ -201,15 +207,16 @@ class Launch:
                            launcher.topics_unrecorded(self.record_regex, 'recorder')]
             if not missing:
                 break
-            if time.monotonic() > deadline or self.stop.is_set():
+            if time.monotonic() > deadline or not self.context.ok():
                 raise LaunchError(f'not ready after {READY_TIMEOUT:.0f} s: waiting for {", ".join(missing)}')
-            time.sleep(0.05)
-        time.sleep(SETTLE)
+            self._pump(executor, time.monotonic() + 0.05)
+        self._pump(executor, time.monotonic() + SETTLE)
 
-    def _drive(self, launcher: LauncherNode, context: Context, children: list[subprocess.Popen]) -> None:
+    def _drive(self, launcher: LauncherNode, executor: MultiThreadedExecutor,
+               children: list[subprocess.Popen]) -> None:
         duration = None if self.duration is None else float(self.duration)
         t0 = time.monotonic()
-        while not self.stop.is_set() and context.ok():
+        while self.context.ok():
             elapsed = time.monotonic() - t0
             node_time = elapsed * self.rate if self.sim else elapsed
             if duration is not None:
@@ -220,7 +227,7 @@ class Launch:
                 return
             if any(c.poll() is not None for c in children):
                 return
-            time.sleep(CLOCK_TICK)
+            self._pump(executor, time.monotonic() + CLOCK_TICK)
 
     def _stop_children(self, children: list[subprocess.Popen]) -> None:
         for child in children:

@@ -1,0 +1,303 @@
+"""Conversions between numpy (float seconds, arrays) and standard ROS 2 messages.
+
+Nodes call these in callbacks (``from_msg → core step → to_msg``), so no Node is needed and
+nothing here validates incoming data: ``*_to_*`` readers only extract numbers (even NaNs);
+``track_msgs_py.validate`` says whether a message is usable.
+
+The one mapping table (row-major 6×6 covariances: index ``6*i + j``, order x, y, z, rot x,
+rot y, rot z; the x/y block is entries 0, 1, 6, 7):
+
+=========================  ==========================================  ===============================================
+data                       message type                                fields
+=========================  ==========================================  ===============================================
+time ``t`` [s], t ≥ 0      builtin_interfaces/Time                     ``sec``, ``nanosec`` (rounded to 1 ns)
+CV state ``x=[x,ẋ,y,ẏ]``,  nav_msgs/Odometry                           ``header.stamp``, ``header.frame_id`` (``map``),
+``P`` (4×4)                                                            ``child_frame_id`` (track id);
+                                                                       ``pose.pose.position.x/y`` ← x, y (z = 0);
+                                                                       ``pose.pose.orientation`` = identity;
+                                                                       ``twist.twist.linear.x/y`` ← ẋ, ẏ (angular 0);
+                                                                       ``pose.covariance`` x/y block ← P[[0,2],[0,2]];
+                                                                       ``twist.covariance`` x/y block ← P[[1,3],[1,3]];
+                                                                       other diagonal entries = ``UNUSED_VARIANCE``
+position report ``z`` (2,)  geometry_msgs/PoseWithCovarianceStamped     ``pose.pose.position.x/y`` ← z (z = 0),
+and ``R`` (2×2)                                                        orientation identity, ``pose.covariance`` x/y
+                                                                       block ← R, other diagonal ``UNUSED_VARIANCE``
+table of named columns     sensor_msgs/PointCloud2                     one ``FLOAT32`` PointField per column (dict
+(each (n,))                                                            order, offset 4·i, count 1), height 1, width n,
+                                                                       little-endian, ``point_step`` 4·k, ``is_dense``
+                                                                       = all values finite; ``data`` = packed rows
+2σ ellipse of (μ, R)       visualization_msgs/Marker (LINE_STRIP)      ``points`` (closed loop), ``scale.x`` = width,
+                                                                       ``color``, ``pose`` identity, ``lifetime``
+health / named values      diagnostic_msgs/DiagnosticStatus            ``level``, ``name``, ``message``,
+                                                                       ``hardware_id``, ``values`` (KeyValue, str)
+=========================  ==========================================  ===============================================
+
+Deliberate deviations and losses:
+
+- Odometry twist is expressed in ``child_frame_id`` (REP-105). Our tracks carry no heading, so
+  the child frame is defined axis-aligned with ``map`` (orientation identity) and the twist is
+  the map-frame velocity: ``twist.twist.linear.x`` is the east velocity, not a forward speed.
+- Odometry has no slot for position–velocity cross-covariances: they are dropped on the way
+  out, and ``odometry_to_cv_state`` returns ``P`` with zero cross blocks.
+- Quantities a 2-D track does not estimate (z, roll, pitch, yaw; vertical and angular
+  velocity) get variance ``UNUSED_VARIANCE`` (the diff_drive_controller convention: "not
+  estimated, do not trust"), zero off-diagonals. Validation checks only the x/y blocks.
+- PointCloud2 columns are float32: values lose precision beyond ~7 significant digits.
+"""
+
+from __future__ import annotations
+
+import array
+import math
+from collections.abc import Mapping, Sequence
+from fractions import Fraction
+
+import numpy as np
+from builtin_interfaces.msg import Duration, Time
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import Point, PoseWithCovarianceStamped
+from nav_msgs.msg import Odometry
+from sensor_msgs.msg import PointCloud2, PointField
+from std_msgs.msg import ColorRGBA, Header
+from visualization_msgs.msg import Marker
+
+from track_core.filters.gaussian import covariance_problem, symmetrize
+from track_msgs_py.topics import FRAME_MAP
+
+#: Variance written on the diagonal for quantities a 2-D track does not estimate.
+UNUSED_VARIANCE = 1e6
+
+_NS_PER_S = 1_000_000_000
+_INT32_MAX = 2**31 - 1
+_POS = [0, 2]  # indices of x, y in the CV state [x, ẋ, y, ẏ]
+_VEL = [1, 3]  # indices of ẋ, ẏ
+
+
+# --- time -----------------------------------------------------------------------------------
+
+def sec_to_stamp(t: float) -> Time:
+    """Float seconds → ``builtin_interfaces/Time``, rounded to the nearest nanosecond.
+
+    Rounds the float's exact value (``Fraction``), so it is exact for integer nanoseconds:
+    ``sec_to_stamp(stamp_to_sec(s)) == s`` for every stamp below 2²² s (≈ 48 days, where a float
+    still resolves 1 ns), and ``stamp_to_sec(sec_to_stamp(t)) == t`` for every ``t`` that is the
+    float nearest to a whole number of nanoseconds there (1.5, 0.1, 12.375), and for every float
+    from 2²³ s on (wall-clock epoch times). Finer fractions are rounded to 1 ns. Negative,
+    non-finite or beyond-int32 seconds raise ``ValueError``.
+    """
+    t = float(t)
+    if not math.isfinite(t) or t < 0.0:
+        raise ValueError(f'stamp must be finite and >= 0 s, got {t!r}')
+    sec, nanosec = divmod(round(Fraction(t) * _NS_PER_S), _NS_PER_S)
+    if sec > _INT32_MAX:
+        raise ValueError(f'stamp {t!r} s does not fit builtin_interfaces/Time.sec (int32)')
+    return Time(sec=int(sec), nanosec=int(nanosec))
+
+
+def stamp_to_ns(stamp) -> int:
+    """``Time``/``Duration`` (anything with ``sec`` and ``nanosec``) → integer nanoseconds (bag time)."""
+    return int(stamp.sec) * _NS_PER_S + int(stamp.nanosec)
+
+
+def stamp_to_sec(stamp) -> float:
+    """``Time``/``Duration`` → float seconds, correctly rounded (integer true division)."""
+    return stamp_to_ns(stamp) / _NS_PER_S
+
+
+def _header(t: float, frame_id: str) -> Header:
+    return Header(stamp=sec_to_stamp(t), frame_id=frame_id)
+
+
+# --- covariance blocks ----------------------------------------------------------------------
+
+def _embed_xy(C: np.ndarray) -> np.ndarray:
+    """2×2 x/y block → 36 row-major entries, unused diagonal = ``UNUSED_VARIANCE``."""
+    full = np.diag([0.0, 0.0] + [UNUSED_VARIANCE] * 4)
+    full[:2, :2] = C
+    return full.reshape(36)
+
+
+def xy_block(covariance) -> np.ndarray:
+    """The x/y 2×2 block of a 36-entry row-major covariance (a copy, float64)."""
+    return np.asarray(covariance, dtype=float).reshape(6, 6)[:2, :2].copy()
+
+
+def _as_shape(a, shape: tuple[int, ...], name: str) -> np.ndarray:
+    a = np.asarray(a, dtype=float)
+    if a.shape != shape:
+        raise ValueError(f'{name} must have shape {shape}, got {a.shape}')
+    return a
+
+
+# --- CV state ⇄ Odometry --------------------------------------------------------------------
+
+def cv_state_to_odometry(t: float, x: np.ndarray, P: np.ndarray, frame_id: str = FRAME_MAP,
+                         child_frame_id: str = '') -> Odometry:
+    """CV state ``x=[x, ẋ, y, ẏ]`` with covariance ``P`` (4×4) at ``t`` → ``nav_msgs/Odometry``.
+
+    See the module table; position–velocity cross-covariances are dropped.
+    """
+    x = _as_shape(x, (4,), 'x')
+    P = _as_shape(P, (4, 4), 'P')
+    msg = Odometry(header=_header(t, frame_id), child_frame_id=child_frame_id)
+    msg.pose.pose.position.x, msg.pose.pose.position.y = float(x[0]), float(x[2])
+    msg.pose.pose.orientation.w = 1.0
+    msg.twist.twist.linear.x, msg.twist.twist.linear.y = float(x[1]), float(x[3])
+    msg.pose.covariance = _embed_xy(P[np.ix_(_POS, _POS)])
+    msg.twist.covariance = _embed_xy(P[np.ix_(_VEL, _VEL)])
+    return msg
+
+
+def odometry_to_cv_state(msg: Odometry) -> tuple[float, np.ndarray, np.ndarray]:
+    """``nav_msgs/Odometry`` → ``(t, x=[x, ẋ, y, ẏ], P)``; P's position–velocity blocks are zero."""
+    p, v = msg.pose.pose.position, msg.twist.twist.linear
+    x = np.array([p.x, v.x, p.y, v.y], dtype=float)
+    P = np.zeros((4, 4))
+    P[np.ix_(_POS, _POS)] = xy_block(msg.pose.covariance)
+    P[np.ix_(_VEL, _VEL)] = xy_block(msg.twist.covariance)
+    return stamp_to_sec(msg.header.stamp), x, P
+
+
+# --- position report ⇄ PoseWithCovarianceStamped --------------------------------------------
+
+def position_to_pose_cov(t: float, z: np.ndarray, R: np.ndarray,
+                         frame_id: str = FRAME_MAP) -> PoseWithCovarianceStamped:
+    """Position ``z`` (2,) with covariance ``R`` (2×2) → ``geometry_msgs/PoseWithCovarianceStamped``."""
+    z = _as_shape(z, (2,), 'z')
+    R = _as_shape(R, (2, 2), 'R')
+    msg = PoseWithCovarianceStamped(header=_header(t, frame_id))
+    msg.pose.pose.position.x, msg.pose.pose.position.y = float(z[0]), float(z[1])
+    msg.pose.pose.orientation.w = 1.0
+    msg.pose.covariance = _embed_xy(R)
+    return msg
+
+
+def pose_cov_to_position(msg: PoseWithCovarianceStamped) -> tuple[float, np.ndarray, np.ndarray]:
+    """``geometry_msgs/PoseWithCovarianceStamped`` → ``(t, z (2,), R (2×2))``."""
+    p = msg.pose.pose.position
+    return stamp_to_sec(msg.header.stamp), np.array([p.x, p.y], dtype=float), xy_block(msg.pose.covariance)
+
+
+# --- table ⇄ PointCloud2 --------------------------------------------------------------------
+
+_FLOAT32 = np.dtype('<f4')
+_POINTFIELD_DTYPES = {
+    PointField.INT8: 'i1', PointField.UINT8: 'u1', PointField.INT16: 'i2', PointField.UINT16: 'u2',
+    PointField.INT32: 'i4', PointField.UINT32: 'u4', PointField.FLOAT32: 'f4', PointField.FLOAT64: 'f8',
+}
+
+
+def table_to_pointcloud2(t: float, frame_id: str, fields: Mapping[str, np.ndarray]) -> PointCloud2:
+    """Named columns of equal length n → ``PointCloud2`` with one float32 field per column, one point per row.
+
+    Packed through a numpy structured array (no loop over points). A table may have 0 rows.
+    """
+    if not fields:
+        raise ValueError('a PointCloud2 table needs at least one field')
+    cols = {str(name): np.asarray(col) for name, col in fields.items()}
+    shapes = {name: col.shape for name, col in cols.items()}
+    if any(len(s) != 1 for s in shapes.values()) or len({s[0] for s in shapes.values()}) != 1:
+        raise ValueError(f'fields must be 1-D columns of one length, got shapes {shapes}')
+    n = next(iter(shapes.values()))[0]
+    table = np.empty(n, dtype=np.dtype([(name, _FLOAT32) for name in cols]))
+    for name, col in cols.items():  # loop over columns, not points
+        table[name] = col
+    step = _FLOAT32.itemsize * len(cols)
+    msg = PointCloud2(
+        header=_header(t, frame_id), height=1, width=n, is_bigendian=False, point_step=step, row_step=step * n,
+        fields=[PointField(name=name, offset=_FLOAT32.itemsize * i, datatype=PointField.FLOAT32, count=1)
+                for i, name in enumerate(cols)],
+        is_dense=bool(all(np.isfinite(table[name]).all() for name in cols)),
+    )
+    msg.data = array.array('B', table.tobytes())  # array.array: rclpy skips its per-byte check
+    return msg
+
+
+def pointcloud2_to_table(msg: PointCloud2) -> dict[str, np.ndarray]:
+    """``PointCloud2`` → ``{field name: float64 array}`` (shape (n,), or (n, count) when count > 1).
+
+    Honours each field's datatype, offset and count, ``is_bigendian``, ``point_step`` and
+    row padding (``row_step``), so clouds from other producers read too. float64 holds every
+    PointField datatype exactly.
+    """
+    if not msg.fields:
+        return {}
+    endian = '>' if msg.is_bigendian else '<'
+    names, formats, offsets = [], [], []
+    for f in msg.fields:
+        if f.datatype not in _POINTFIELD_DTYPES:
+            raise ValueError(f'field {f.name!r}: unknown PointField datatype {f.datatype}')
+        base = endian + _POINTFIELD_DTYPES[f.datatype]
+        names.append(f.name)
+        formats.append(base if f.count == 1 else (base, (f.count,)))
+        offsets.append(f.offset)
+    dtype = np.dtype({'names': names, 'formats': formats, 'offsets': offsets, 'itemsize': msg.point_step})
+    height, width, row_step = int(msg.height), int(msg.width), int(msg.row_step)
+    raw = np.frombuffer(msg.data, dtype=np.uint8)
+    if width * msg.point_step > row_step or raw.size < height * row_step:
+        raise ValueError(f'PointCloud2 data too short: {raw.size} bytes for {height}x{width} points '
+                         f'(point_step {msg.point_step}, row_step {row_step})')
+    rows = np.ascontiguousarray(raw[:height * row_step].reshape(height, row_step)[:, :width * msg.point_step])
+    points = rows.view(dtype).reshape(height * width)
+    return {name: points[name].astype(np.float64) for name in names}
+
+
+# --- visualisation and diagnostics ----------------------------------------------------------
+
+def ellipse_points(mean: np.ndarray, cov: np.ndarray, n_sigma: float = 2.0, n_points: int = 72) -> np.ndarray:
+    """Closed loop (n_points + 1, 2) on {p: (p−μ)ᵀ R⁻¹ (p−μ) = n_sigma²}, last point = first.
+
+    Uses the eigen-decomposition R = V Λ Vᵀ, p = μ + n_sigma V Λ^½ [cos θ, sin θ], so a
+    singular (PSD) R still draws (as a segment).
+    """
+    mean = _as_shape(mean, (2,), 'mean')
+    cov = _as_shape(cov, (2, 2), 'cov')
+    reason = covariance_problem(cov)
+    if reason is not None:
+        raise ValueError(f'cov: {reason}')
+    w, V = np.linalg.eigh(symmetrize(cov))
+    theta = np.linspace(0.0, 2.0 * np.pi, n_points + 1)
+    unit = np.column_stack([np.cos(theta), np.sin(theta)])
+    pts = mean + n_sigma * unit @ (V * np.sqrt(np.clip(w, 0.0, None))).T
+    pts[-1] = pts[0]
+    return pts
+
+
+def covariance_ellipse_marker(t: float, mean: np.ndarray, cov: np.ndarray, frame_id: str = FRAME_MAP, *,
+                              ns: str = 'covariance', marker_id: int = 0, n_sigma: float = 2.0,
+                              n_points: int = 72, z: float = 0.0, line_width: float = 0.05,
+                              color: Sequence[float] = (1.0, 0.5, 0.0, 1.0), lifetime: float = 0.0) -> Marker:
+    """LINE_STRIP ``Marker`` of the n_sigma (default 2σ) ellipse of N(mean, cov) in the x/y plane at height z.
+
+    ``lifetime`` 0 keeps the marker until replaced (same ns/id) or deleted.
+    """
+    pts = ellipse_points(mean, cov, n_sigma, n_points)
+    life = sec_to_stamp(lifetime)
+    r, g, b, a = (float(c) for c in color)
+    msg = Marker(header=_header(t, frame_id), ns=ns, id=int(marker_id), type=Marker.LINE_STRIP,
+                 action=Marker.ADD, color=ColorRGBA(r=r, g=g, b=b, a=a),
+                 lifetime=Duration(sec=life.sec, nanosec=life.nanosec))
+    msg.pose.orientation.w = 1.0
+    msg.scale.x = float(line_width)
+    msg.points = [Point(x=px, y=py, z=float(z)) for px, py in pts.tolist()]  # message needs Point objects
+    return msg
+
+
+#: DiagnosticStatus levels as ints (the message stores them as one byte).
+DIAG_OK, DIAG_WARN, DIAG_ERROR, DIAG_STALE = 0, 1, 2, 3
+
+
+def diagnostic_status(name: str, level: int | bytes, message: str, values: Mapping[str, object],
+                      hardware_id: str = '') -> DiagnosticStatus:
+    """``diagnostic_msgs/DiagnosticStatus``; ``level`` 0..3 (OK, WARN, ERROR, STALE) as int or the
+    message's byte constant; each value is written with ``str()`` (floats round-trip)."""
+    lvl = level[0] if isinstance(level, bytes | bytearray) and len(level) == 1 else level
+    if not isinstance(lvl, int) or not DIAG_OK <= lvl <= DIAG_STALE:
+        raise ValueError(f'diagnostic level must be 0..3 (OK, WARN, ERROR, STALE), got {level!r}')
+    return DiagnosticStatus(level=bytes([lvl]), name=name, message=message, hardware_id=hardware_id,
+                            values=[KeyValue(key=str(k), value=str(v)) for k, v in values.items()])
+
+
+def diagnostic_array(t: float, statuses: Sequence[DiagnosticStatus]) -> DiagnosticArray:
+    """Statuses stamped at ``t`` into the ``diagnostic_msgs/DiagnosticArray`` published on /diagnostics."""
+    return DiagnosticArray(header=_header(t, ''), status=list(statuses))

@@ -1,0 +1,47 @@
+"""QoS profiles of the package set, and the profile for a topic from ``topics.TOPICS``.
+
+Why these profiles (DESIGN.md): sensor-like streams are best effort (a late report is worth
+less than the next one), estimates are reliable (a dropped estimate breaks a trajectory),
+static data (sensor layout, map) is transient-local so a late joiner still gets it.
+
+Compatibility: a best-effort subscription accepts a reliable or best-effort publisher; a
+reliable subscription does NOT match a best-effort publisher. A volatile subscription matches
+a transient-local publisher (and then gets no history). The recorder should subscribe with
+``qos_for_topic`` so it matches what the publisher offers.
+
+The profiles are shared module-level objects: do not mutate them; ``qos_for_topic`` returns
+a copy.
+"""
+
+from __future__ import annotations
+
+import copy
+
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+from track_msgs_py.topics import TOPICS
+
+SENSOR_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5,
+                        reliability=ReliabilityPolicy.BEST_EFFORT, durability=DurabilityPolicy.VOLATILE)
+ESTIMATE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
+                          reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
+STATIC_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
+                        reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+# rclpy's TimeSource (use_sim_time) subscribes to /clock with
+# QoSProfile(depth=1, reliability=BEST_EFFORT) (volatile), like rclcpp::ClockQoS. Publishing
+# with the same profile matches it; only the newest time matters, so depth 1.
+CLOCK_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
+                       reliability=ReliabilityPolicy.BEST_EFFORT, durability=DurabilityPolicy.VOLATILE)
+
+QOS_BY_KIND: dict[str, QoSProfile] = {
+    'sensor': SENSOR_QOS,
+    'estimate': ESTIMATE_QOS,
+    'static': STATIC_QOS,
+    'clock': CLOCK_QOS,
+}
+
+
+def qos_for_topic(topic: str) -> QoSProfile:
+    """A copy of the profile of ``topic``'s QoS kind in ``TOPICS``; ``ESTIMATE_QOS`` for unknown topics."""
+    spec = TOPICS.get(topic)
+    return copy.copy(QOS_BY_KIND[spec.qos] if spec is not None else ESTIMATE_QOS)

@@ -1,0 +1,261 @@
+"""Round trips between numpy and the standard messages, also through CDR (rclpy.serialization)."""
+
+import math
+
+import numpy as np
+import pytest
+from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from geometry_msgs.msg import PoseWithCovarianceStamped
+from nav_msgs.msg import Odometry
+from rclpy.serialization import deserialize_message, serialize_message
+from sensor_msgs.msg import PointCloud2, PointField
+from visualization_msgs.msg import Marker
+
+from track_msgs_py.convert import (
+    UNUSED_VARIANCE,
+    covariance_ellipse_marker,
+    cv_state_to_odometry,
+    diagnostic_array,
+    diagnostic_status,
+    ellipse_points,
+    odometry_to_cv_state,
+    pointcloud2_to_table,
+    pose_cov_to_position,
+    position_to_pose_cov,
+    sec_to_stamp,
+    stamp_to_ns,
+    stamp_to_sec,
+    table_to_pointcloud2,
+)
+
+
+def cdr(msg):
+    """Serialise and deserialise: what a subscriber or a bag reader gets."""
+    return deserialize_message(serialize_message(msg), type(msg))
+
+
+# --- time -----------------------------------------------------------------------------------
+
+@pytest.mark.parametrize(('t', 'sec', 'nanosec'), [
+    (0.0, 0, 0),
+    (1.5, 1, 500_000_000),
+    (0.123456789, 0, 123_456_789),
+    (1e-9, 0, 1),
+    (0.9999999999, 1, 0),  # rounds up into the next second
+    (4194303.999999999, 4194303, 999_999_999),
+    (1_700_000_000.25, 1_700_000_000, 250_000_000),
+    (float(2**31 - 1), 2**31 - 1, 0),
+])
+def test_sec_to_stamp_fixed_values(t, sec, nanosec):
+    s = sec_to_stamp(t)
+    assert (s.sec, s.nanosec) == (sec, nanosec)
+    assert stamp_to_ns(s) == sec * 10**9 + nanosec
+
+
+def test_float_stamp_float_is_exact_for_integer_nanoseconds_and_large_values():
+    rng = np.random.default_rng(7)
+    whole_ns = rng.integers(0, 2**22 * 10**9, 500) / 1e9  # floats nearest to integer nanoseconds
+    epoch = rng.uniform(1.6e9, 1.8e9, 500)  # every float from 2**23 s on
+    for t in [*whole_ns, *epoch, 0.1, 0.3, 1e-9, 12.375, 2.0**31 - 1]:
+        assert stamp_to_sec(sec_to_stamp(t)) == t
+
+
+def test_sub_nanosecond_fractions_are_rounded():
+    assert stamp_to_ns(sec_to_stamp(62.5095466604667)) == 62_509_546_660
+    assert stamp_to_ns(sec_to_stamp(2.0000000015)) == 2_000_000_002  # 1.5 ns (float just above) rounds up
+
+
+def test_stamp_float_stamp_is_exact_for_integer_nanoseconds():
+    rng = np.random.default_rng(8)
+    secs = rng.integers(0, 2**22, 500)
+    nsecs = rng.integers(0, 10**9, 500)
+    for sec, ns in zip(secs, nsecs, strict=True):
+        s = Time(sec=int(sec), nanosec=int(ns))
+        back = sec_to_stamp(stamp_to_sec(s))
+        assert (back.sec, back.nanosec) == (s.sec, s.nanosec)
+    # beyond 2**22 s a float cannot hold every nanosecond: within 1 ulp, and stamp_to_ns stays exact
+    big = Time(sec=1_700_000_000, nanosec=123_456_789)
+    assert abs(stamp_to_ns(sec_to_stamp(stamp_to_sec(big))) - stamp_to_ns(big)) <= 240
+    assert stamp_to_ns(cdr(big)) == 1_700_000_000_123_456_789
+
+
+@pytest.mark.parametrize('t', [-1e-9, -1.0, math.nan, math.inf, 2.0**31])
+def test_sec_to_stamp_rejects_negative_non_finite_and_overflow(t):
+    with pytest.raises(ValueError, match='stamp'):
+        sec_to_stamp(t)
+
+
+# --- odometry -------------------------------------------------------------------------------
+
+X = np.array([3.0, -1.25, -7.5, 0.5])
+P = np.array([
+    [4.0, 0.6, 0.3, 0.1],
+    [0.6, 0.9, 0.05, 0.02],
+    [0.3, 0.05, 2.5, -0.4],
+    [0.1, 0.02, -0.4, 0.7],
+])
+
+
+@pytest.mark.parametrize('through_cdr', [False, True])
+def test_odometry_round_trip_keeps_blocks_and_drops_cross_covariance(through_cdr):
+    msg = cv_state_to_odometry(12.375, X, P, 'map', 'track_7')
+    if through_cdr:
+        msg = cdr(msg)
+    assert msg.header.frame_id == 'map' and msg.child_frame_id == 'track_7'
+    t, x, P2 = odometry_to_cv_state(msg)
+    assert t == 12.375
+    np.testing.assert_array_equal(x, X)
+    pos, vel = np.ix_([0, 2], [0, 2]), np.ix_([1, 3], [1, 3])
+    np.testing.assert_array_equal(P2[pos], P[pos])
+    np.testing.assert_array_equal(P2[vel], P[vel])
+    expected = np.zeros((4, 4))
+    expected[pos], expected[vel] = P[pos], P[vel]
+    np.testing.assert_array_equal(P2, expected)  # position–velocity cross blocks are zero
+
+
+def test_odometry_field_layout():
+    msg = cv_state_to_odometry(1.0, X, P)
+    assert msg.header.frame_id == 'map' and msg.child_frame_id == ''
+    assert (msg.pose.pose.position.x, msg.pose.pose.position.y, msg.pose.pose.position.z) == (3.0, -7.5, 0.0)
+    q = msg.pose.pose.orientation
+    assert (q.x, q.y, q.z, q.w) == (0.0, 0.0, 0.0, 1.0)
+    assert (msg.twist.twist.linear.x, msg.twist.twist.linear.y) == (-1.25, 0.5)
+    pose_cov = np.asarray(msg.pose.covariance).reshape(6, 6)
+    twist_cov = np.asarray(msg.twist.covariance).reshape(6, 6)
+    np.testing.assert_array_equal(pose_cov[:2, :2], [[4.0, 0.3], [0.3, 2.5]])
+    np.testing.assert_array_equal(twist_cov[:2, :2], [[0.9, 0.02], [0.02, 0.7]])
+    for cov in (pose_cov, twist_cov):
+        np.testing.assert_array_equal(np.diag(cov)[2:], UNUSED_VARIANCE)
+        off = cov - np.diag(np.diag(cov))
+        off[:2, :2] = 0.0
+        assert not off.any()
+
+
+def test_odometry_rejects_wrong_shapes():
+    with pytest.raises(ValueError, match='x must have shape'):
+        cv_state_to_odometry(0.0, X[:3], P)
+    with pytest.raises(ValueError, match='P must have shape'):
+        cv_state_to_odometry(0.0, X, P[:2, :2])
+
+
+# --- pose with covariance -------------------------------------------------------------------
+
+@pytest.mark.parametrize('through_cdr', [False, True])
+def test_pose_cov_round_trip(through_cdr):
+    z, R = np.array([101.5, -0.25]), np.array([[2.0, -0.7], [-0.7, 1.0]])
+    msg = position_to_pose_cov(1_700_000_000.5, z, R, 'map')
+    assert isinstance(msg, PoseWithCovarianceStamped)
+    if through_cdr:
+        msg = cdr(msg)
+    t, z2, R2 = pose_cov_to_position(msg)
+    assert t == 1_700_000_000.5 and msg.header.frame_id == 'map'
+    np.testing.assert_array_equal(z2, z)
+    np.testing.assert_array_equal(R2, R)
+    assert msg.pose.pose.position.z == 0.0 and msg.pose.pose.orientation.w == 1.0
+    np.testing.assert_array_equal(np.diag(np.asarray(msg.pose.covariance).reshape(6, 6))[2:], UNUSED_VARIANCE)
+
+
+# --- PointCloud2 tables ---------------------------------------------------------------------
+
+@pytest.mark.parametrize('n', [0, 1, 7, 20_000])
+@pytest.mark.parametrize('through_cdr', [False, True])
+def test_pointcloud2_round_trip(n, through_cdr):
+    rng = np.random.default_rng(n)
+    table = {'x': rng.normal(size=n), 'y': rng.normal(size=n) * 1e3, 'phase': rng.uniform(-np.pi, np.pi, n),
+             'weight': rng.uniform(size=n)}
+    msg = table_to_pointcloud2(4.5, 'map', table)
+    assert (msg.height, msg.width, msg.point_step, msg.row_step) == (1, n, 16, 16 * n)
+    assert [(f.name, f.offset, f.datatype, f.count) for f in msg.fields] == [
+        ('x', 0, PointField.FLOAT32, 1), ('y', 4, PointField.FLOAT32, 1),
+        ('phase', 8, PointField.FLOAT32, 1), ('weight', 12, PointField.FLOAT32, 1)]
+    assert len(msg.data) == 16 * n and msg.is_dense and not msg.is_bigendian
+    if through_cdr:
+        msg = cdr(msg)
+    assert stamp_to_sec(msg.header.stamp) == 4.5
+    back = pointcloud2_to_table(msg)
+    assert list(back) == list(table)
+    for name, col in table.items():
+        assert back[name].dtype == np.float64 and back[name].shape == (n,)
+        np.testing.assert_array_equal(back[name], col.astype(np.float32))
+
+
+def test_pointcloud2_marks_non_finite_values_not_dense():
+    msg = table_to_pointcloud2(0.0, 'map', {'a': np.array([1.0, np.nan]), 'b': np.array([0.0, 1.0])})
+    assert not msg.is_dense
+    assert np.isnan(pointcloud2_to_table(msg)['a'][1])
+
+
+@pytest.mark.parametrize('fields', [{}, {'a': np.zeros(3), 'b': np.zeros(4)}, {'a': np.zeros((3, 2))}])
+def test_pointcloud2_rejects_bad_tables(fields):
+    with pytest.raises(ValueError, match='field'):
+        table_to_pointcloud2(0.0, 'map', fields)
+
+
+def test_pointcloud2_reads_foreign_layout():
+    """Another producer: float64 + uint16 fields, big-endian, padded points and rows, height 2."""
+    dtype = np.dtype({'names': ['range', 'id'], 'formats': ['>f8', '>u2'], 'offsets': [0, 8], 'itemsize': 12})
+    pts = np.zeros((2, 3), dtype)
+    pts['range'] = [[1.5, 2.5, 3.5], [4.5, 5.5, 6.5]]
+    pts['id'] = [[1, 2, 3], [4, 5, 6]]
+    rows = np.zeros((2, 40), np.uint8)  # row_step 40 > width * point_step = 36
+    rows[:, :36] = pts.view(np.uint8).reshape(2, 36)
+    msg = PointCloud2(height=2, width=3, is_bigendian=True, point_step=12, row_step=40,
+                      fields=[PointField(name='range', offset=0, datatype=PointField.FLOAT64, count=1),
+                              PointField(name='id', offset=8, datatype=PointField.UINT16, count=1)])
+    msg.data = rows.tobytes()
+    back = pointcloud2_to_table(cdr(msg))
+    np.testing.assert_array_equal(back['range'], [1.5, 2.5, 3.5, 4.5, 5.5, 6.5])
+    np.testing.assert_array_equal(back['id'], [1, 2, 3, 4, 5, 6])
+
+
+def test_pointcloud2_too_short_data_is_an_error():
+    msg = table_to_pointcloud2(0.0, 'map', {'a': np.arange(4.0)})
+    msg.data = msg.data[:-4]
+    with pytest.raises(ValueError, match='too short'):
+        pointcloud2_to_table(msg)
+
+
+# --- markers and diagnostics ----------------------------------------------------------------
+
+@pytest.mark.parametrize('R', [
+    np.array([[4.0, 0.0], [0.0, 1.0]]),
+    np.array([[2.0, 1.2], [1.2, 1.0]]),
+    np.array([[1e-4, -3e-5], [-3e-5, 2e-4]]),
+])
+def test_ellipse_marker_points_lie_on_the_two_sigma_contour(R):
+    mu = np.array([10.0, -3.0])
+    msg = covariance_ellipse_marker(2.0, mu, R, 'map', marker_id=3, n_points=50)
+    assert msg.type == Marker.LINE_STRIP and msg.action == Marker.ADD and msg.id == 3
+    pts = np.array([[p.x, p.y] for p in cdr(msg).points])
+    assert pts.shape == (51, 2)
+    np.testing.assert_array_equal(pts[0], pts[-1])  # closed loop
+    d = pts - mu
+    q = np.einsum('ni,ij,nj->n', d, np.linalg.inv(R), d)
+    np.testing.assert_allclose(q, 4.0, rtol=0, atol=1e-9)
+    # the points go round the whole ellipse, not one arc
+    ang = np.unwrap(np.arctan2(d[:, 1], d[:, 0]))
+    assert abs(abs(ang[-1] - ang[0]) - 2 * np.pi) < 1e-9
+
+
+def test_ellipse_points_scale_with_n_sigma_and_reject_bad_covariance():
+    R = np.array([[2.0, 0.5], [0.5, 1.0]])
+    np.testing.assert_allclose(ellipse_points(np.zeros(2), R, 3.0), 1.5 * ellipse_points(np.zeros(2), R, 2.0))
+    with pytest.raises(ValueError, match='positive semi-definite'):
+        ellipse_points(np.zeros(2), np.array([[1.0, 2.0], [2.0, 1.0]]))
+
+
+def test_diagnostic_status_and_array():
+    st = diagnostic_status('demo_tracker', 1, 'dropped reports', {'rejected': 3, 'nees': 4.25}, hardware_id='hw')
+    st2 = cdr(st)
+    assert st2.level == DiagnosticStatus.WARN and st2.name == 'demo_tracker' and st2.hardware_id == 'hw'
+    assert [(kv.key, kv.value) for kv in st2.values] == [('rejected', '3'), ('nees', '4.25')]
+    assert diagnostic_status('x', DiagnosticStatus.ERROR, '', {}).level == DiagnosticStatus.ERROR
+    arr = cdr(diagnostic_array(3.0, [st]))
+    assert isinstance(arr, DiagnosticArray) and stamp_to_sec(arr.header.stamp) == 3.0 and len(arr.status) == 1
+    with pytest.raises(ValueError, match='level'):
+        diagnostic_status('x', 4, '', {})
+
+
+def test_odometry_type_is_the_standard_one():
+    assert isinstance(cv_state_to_odometry(0.0, X, P), Odometry)

@@ -1,0 +1,127 @@
+"""Validation returns a one-line reason naming the field, or None for a usable message."""
+
+import numpy as np
+import pytest
+from rclpy.serialization import deserialize_message, serialize_message
+
+from track_msgs_py.convert import cv_state_to_odometry, position_to_pose_cov
+from track_msgs_py.topics import KNOWN_FRAMES
+from track_msgs_py.validate import StampMonotonic, odometry_problem, pose_cov_problem
+
+X = np.array([1.0, 0.5, -2.0, 0.25])
+P = np.diag([4.0, 1.0, 9.0, 0.5])
+Z = np.array([1.0, 2.0])
+R = np.array([[2.0, 0.3], [0.3, 1.0]])
+
+
+def odom():
+    return cv_state_to_odometry(5.0, X, P, 'map', 'track_1')
+
+
+def pose_cov():
+    return position_to_pose_cov(5.0, Z, R, 'map')
+
+
+def set_cov(msg_cov_owner, entries):
+    cov = np.array(msg_cov_owner.covariance)
+    for i, v in entries.items():
+        cov[i] = v
+    msg_cov_owner.covariance = cov
+
+
+def test_valid_messages_are_accepted_also_after_cdr():
+    assert odometry_problem(odom(), KNOWN_FRAMES) is None
+    assert pose_cov_problem(pose_cov(), KNOWN_FRAMES) is None
+    o = deserialize_message(serialize_message(odom()), type(odom()))
+    assert odometry_problem(o, KNOWN_FRAMES) is None
+
+
+def test_unused_diagonal_entries_still_validate():
+    """The 6×6 covariances carry a large value on unused diagonals and zero x/y variance for truth."""
+    truth = cv_state_to_odometry(0.0, X, np.zeros((4, 4)), 'map', 'truth')
+    assert odometry_problem(truth, KNOWN_FRAMES) is None
+    msg = pose_cov()
+    set_cov(msg.pose, {14: 0.0, 21: 1e12, 35: 1e-12})  # another producer's choice for unused entries
+    assert pose_cov_problem(msg, KNOWN_FRAMES) is None
+
+
+def test_nan_position():
+    msg = odom()
+    msg.pose.pose.position.y = float('nan')
+    reason = odometry_problem(msg, KNOWN_FRAMES)
+    assert reason == 'pose.pose.position: non-finite y=nan'
+    msg = pose_cov()
+    msg.pose.pose.position.x = float('nan')
+    assert pose_cov_problem(msg, KNOWN_FRAMES) == 'pose.pose.position: non-finite x=nan'
+
+
+def test_inf_velocity():
+    msg = odom()
+    msg.twist.twist.linear.x = float('inf')
+    assert odometry_problem(msg, KNOWN_FRAMES) == 'twist.twist.linear: non-finite x=inf'
+
+
+@pytest.mark.parametrize(('index', 'field'), [(7, 'pose.covariance'), (35, 'pose.covariance')])
+def test_inf_covariance_in_pose_cov(index, field):
+    msg = pose_cov()
+    set_cov(msg.pose, {index: float('inf')})
+    reason = pose_cov_problem(msg, KNOWN_FRAMES)
+    assert reason.startswith(f'{field}: ') and 'non-finite' in reason and f'index {index}' in reason
+
+
+def test_inf_covariance_in_odometry_twist():
+    msg = odom()
+    set_cov(msg.twist, {0: float('inf')})
+    reason = odometry_problem(msg, KNOWN_FRAMES)
+    assert reason.startswith('twist.covariance: ') and 'non-finite' in reason
+
+
+def test_non_symmetric_covariance():
+    msg = pose_cov()
+    set_cov(msg.pose, {1: 0.3, 6: 0.5})
+    reason = pose_cov_problem(msg, KNOWN_FRAMES)
+    assert reason.startswith('pose.covariance: ') and 'not symmetric' in reason
+
+
+def test_negative_eigenvalue_covariance():
+    msg = odom()
+    set_cov(msg.pose, {0: 1.0, 1: 2.0, 6: 2.0, 7: 1.0})  # eigenvalues 3 and -1
+    reason = odometry_problem(msg, KNOWN_FRAMES)
+    assert reason == 'pose.covariance: covariance is not positive semi-definite (smallest eigenvalue -1)'
+    msg = pose_cov()
+    set_cov(msg.pose, {0: -3.0, 1: 0.0, 6: 0.0})
+    assert 'not positive semi-definite (smallest eigenvalue -3)' in pose_cov_problem(msg, KNOWN_FRAMES)
+
+
+def test_unknown_frame():
+    msg = position_to_pose_cov(1.0, Z, R, 'odom')
+    reason = pose_cov_problem(msg, KNOWN_FRAMES)
+    assert reason == "header.frame_id: unknown frame 'odom' (known: map)"
+    assert pose_cov_problem(msg, {'map', 'odom'}) is None
+    assert odometry_problem(cv_state_to_odometry(0.0, X, P, ''), KNOWN_FRAMES).startswith('header.frame_id')
+
+
+def test_first_problem_wins_frame_before_values():
+    msg = position_to_pose_cov(1.0, Z, R, 'odom')
+    msg.pose.pose.position.x = float('nan')
+    assert pose_cov_problem(msg, KNOWN_FRAMES).startswith('header.frame_id')
+
+
+def test_stamps_equal_accepted_decreasing_rejected_per_key():
+    s = StampMonotonic()
+    assert s.problem('/demo/reports', 1.0) is None
+    assert s.problem('/demo/reports', 1.0) is None  # equal stamp accepted
+    assert s.problem('/demo/reports', 2.5) is None
+    reason = s.problem('/demo/reports', 2.0)
+    assert reason is not None and reason.startswith('header.stamp:') and 'before' in reason and '2.5' in reason
+    assert s.last('/demo/reports') == 2.5  # the rejected stamp is not remembered
+    assert s.problem('track_2', 0.5) is None  # other keys are independent
+    assert 'non-finite' in s.problem('/demo/reports', float('nan'))
+    s.reset('/demo/reports')
+    assert s.problem('/demo/reports', 0.0) is None
+
+
+def test_stamp_monotonic_reads_message_header():
+    s = StampMonotonic()
+    assert s.msg_problem('a', odom()) is None
+    assert s.msg_problem('a', cv_state_to_odometry(4.999, X, P)) is not None
