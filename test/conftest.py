@@ -87,12 +87,12 @@ def ros():
         harness.close()
 
 
-@pytest.fixture
+@pytest.fixture(scope='session')
 def repo() -> Path:
     return REPO
 
 
-@pytest.fixture
+@pytest.fixture(scope='session')
 def venv() -> Path:
     return VENV
 

@@ -5,13 +5,19 @@ Reads ``config/SCENARIO.yaml`` (see ``track_nodes.scenario``) and runs its nodes
 this process on one MultiThreadedExecutor (default) or one process per node (``--processes``).
 
 Time: with ``--rate R > 0`` (default: the scenario's ``rate``) every node gets
-``use_sim_time:=true`` and this launcher publishes ``/clock``, starting at 0 and advancing R
-times faster than the wall clock, so a scenario runs faster than real time; ``--rate 0`` runs on
-wall time. Before the clock starts, the launcher waits until every node is up and, when
-recording, until the recorder has subscribed to every recordable topic, then lets discovery
-settle: nothing published at t = 0 is lost. The clock stops exactly at ``--duration``, the
-launcher waits a short grace period for messages in flight, then stops every node (the
-recorder closes its bag). Ctrl-C stops everything the same way.
+``use_sim_time:=true`` and this launcher publishes ``/clock``, starting at 0, in steps of
+min(R·CLOCK_TICK, MAX_CLOCK_STEP) seconds, at most R times faster than the wall clock. In one
+process the clock runs in lock-step: after each step the launcher runs every callback that became ready
+(inline, in order) until the graph is idle, and only then advances the clock. A slow machine
+therefore runs slower than R×, never differently: a seed reproduces every payload. With
+``--processes`` the other processes cannot be observed, so the clock is only paced by R.
+``--rate 0`` runs on wall time, callbacks on the MultiThreadedExecutor's threads.
+
+Before the clock starts, the launcher waits until every node is up and, when recording, until
+the recorder has subscribed to every recordable topic, then lets discovery settle: nothing
+published at t = 0 is lost. The clock stops exactly at ``--duration``, the launcher waits a
+short grace period for messages in flight, then stops every node (the recorder closes its
+bag). Ctrl-C stops everything the same way.
 """
 
 from __future__ import annotations
@@ -29,7 +35,12 @@ from pathlib import Path
 
 import rclpy
 from rclpy.context import Context
-from rclpy.executors import MultiThreadedExecutor
+from rclpy.executors import (
+    ExternalShutdownException,
+    MultiThreadedExecutor,
+    ShutdownException,
+    TimeoutException,
+)
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
@@ -40,7 +51,9 @@ from track_msgs_py.topics import CLOCK
 from track_nodes.node_util import EXIT_BAD_INPUT
 from track_nodes.scenario import Scenario, ScenarioError, load_scenario
 
-CLOCK_TICK = 0.01  # wall seconds between /clock messages
+CLOCK_TICK = 0.01  # wall seconds per /clock step at the nominal rate ...
+MAX_CLOCK_STEP = 0.05  # ... but never more than this many node seconds per step (bounded bursts)
+IDLE_POLL = 0.001  # wall seconds without a ready callback that count as idle (lock-step)
 SETTLE = 1.0  # wall seconds for discovery to settle before the clock starts
 GRACE = 1.0  # wall seconds for messages in flight after the clock stops
 READY_TIMEOUT = 30.0
@@ -160,6 +173,22 @@ class Launch:
                 return
             executor.spin_once(timeout_sec=min(left, 0.005))
 
+    def _run_until_idle(self, executor: MultiThreadedExecutor) -> None:
+        """Lock-step: run ready callbacks inline, in order, until none is ready twice in a row."""
+        idle = 0
+        while idle < 2 and self.context.ok():
+            try:
+                handler, _, _ = executor.wait_for_ready_callbacks(timeout_sec=IDLE_POLL)
+            except TimeoutException:
+                idle += 1
+                continue
+            except (ShutdownException, ExternalShutdownException):
+                return
+            idle = 0
+            handler()
+            if handler.exception() is not None:
+                raise handler.exception()
+
     def _overrides(self) -> list[Parameter]:
         return [Parameter('use_sim_time', value=self.sim)]
 
@@ -215,19 +244,27 @@ class Launch:
     def _drive(self, launcher: LauncherNode, executor: MultiThreadedExecutor,
                children: list[subprocess.Popen]) -> None:
         duration = None if self.duration is None else float(self.duration)
-        t0 = time.monotonic()
+        lockstep = self.sim and not children
+        step = min(self.rate * CLOCK_TICK, MAX_CLOCK_STEP)
+        wall_step = step / self.rate if self.sim else CLOCK_TICK
+        t0, k = time.monotonic(), 0
         while self.context.ok():
-            elapsed = time.monotonic() - t0
-            node_time = elapsed * self.rate if self.sim else elapsed
-            if duration is not None:
-                node_time = min(node_time, duration)
-            if self.sim:
-                launcher.publish_clock(node_time)
-            if duration is not None and node_time >= duration:
-                return
             if any(c.poll() is not None for c in children):
                 return
-            self._pump(executor, time.monotonic() + CLOCK_TICK)
+            if not self.sim:
+                if duration is not None and time.monotonic() - t0 >= duration:
+                    return
+                self._pump(executor, time.monotonic() + CLOCK_TICK)
+                continue
+            node_time = k * step if duration is None else min(k * step, duration)
+            launcher.publish_clock(node_time)
+            if lockstep:
+                self._run_until_idle(executor)
+            # Never faster than R x real time: wait for the wall time of the next step.
+            self._pump(executor, t0 + (k + 1) * wall_step)
+            if duration is not None and node_time >= duration:
+                return
+            k += 1
 
     def _stop_children(self, children: list[subprocess.Popen]) -> None:
         for child in children:

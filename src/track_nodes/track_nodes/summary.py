@@ -6,7 +6,6 @@ scenario's ``track_launch`` entry): metrics against truth, computed by track_cor
 
 from __future__ import annotations
 
-import importlib
 from collections import defaultdict
 from pathlib import Path
 
@@ -17,12 +16,7 @@ from rosbags.rosbag2 import Reader
 from track_core.metrics import match_stamps, mean_nees, rms
 from track_msgs_py.convert import odometry_to_cv_state
 from track_msgs_py.topics import DEMO_TRACK, DEMO_TRUTH
-
-
-def msg_class(msgtype: str):
-    """``nav_msgs/msg/Odometry`` → the rclpy message class, by importlib."""
-    pkg, _, name = msgtype.rpartition('/')
-    return getattr(importlib.import_module(pkg.replace('/', '.')), name)
+from track_nodes.bag_io import msg_class
 
 
 def read_topics(bag: Path, topics: set[str] | None = None) -> dict[str, list]:

@@ -1,0 +1,241 @@
+"""The recorder: in-process recording, regex discovery, refusal to overwrite, signals, SIGKILL recovery."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+from pathlib import Path
+
+import pytest
+import rclpy
+from geometry_msgs.msg import PoseWithCovarianceStamped
+from nav_msgs.msg import Odometry
+from rclpy.duration import Duration
+from rclpy.parameter import Parameter
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.serialization import deserialize_message, serialize_message
+from rosbags.interfaces import QosDurability, QosReliability
+from rosbags.rosbag2 import Reader
+from rosbags.typesys import Stores, get_typestore
+
+from track_nodes.bag_recover import read_broken_mcap
+from track_nodes.recorder import RecorderNode
+
+pytestmark = pytest.mark.integration
+
+N = 20
+RELIABLE = QoSProfile(depth=100)
+BEST_EFFORT = QoSProfile(depth=100, reliability=ReliabilityPolicy.BEST_EFFORT)
+LATCHED = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+def odom(i: int) -> Odometry:
+    m = Odometry()
+    m.header.frame_id = 'map'
+    m.child_frame_id = f'msg{i}'
+    m.pose.pose.position.x = float(i)
+    m.pose.covariance[0] = 0.5 * i
+    return m
+
+
+def pose(i: int) -> PoseWithCovarianceStamped:
+    m = PoseWithCovarianceStamped()
+    m.header.frame_id = f'pose{i}'
+    m.pose.pose.position.y = -float(i)
+    return m
+
+
+def read_bag(bag: Path) -> tuple[dict[str, list[bytes]], dict]:
+    """Payloads per topic (in bag order) and the connections per topic."""
+    out: dict[str, list[bytes]] = {}
+    with Reader(bag) as reader:
+        conns = {c.topic: c for c in reader.connections}
+        for conn, _, raw in reader.messages():
+            out.setdefault(conn.topic, []).append(bytes(raw))
+    return out, conns
+
+
+def make_recorder(ros, bag: Path, **params) -> RecorderNode:
+    overrides = [Parameter('bag', value=str(bag)), Parameter('flush_period', value=0.2)]
+    overrides += [Parameter(k, value=v) for k, v in params.items()]
+    return ros.add(RecorderNode(context=ros.context, parameter_overrides=overrides))
+
+
+def close_node(ros, node) -> None:
+    """Destroy ``node`` now (the recorder closes its bag) instead of at teardown."""
+    ros.executor.remove_node(node)
+    ros.nodes.remove(node)
+    node.destroy_node()
+
+
+def publish_all(ros, pub, msgs) -> list[bytes]:
+    """Publish ``msgs`` once ``pub`` has a subscriber; return their serialized payloads."""
+    assert ros.spin_until(lambda: pub.get_subscription_count() > 0, 10.0), 'recorder never subscribed'
+    ros.spin_for(0.1)
+    for m in msgs:
+        pub.publish(m)
+        ros.spin_for(0.005)
+    return [serialize_message(m) for m in msgs]
+
+
+def test_records_topics_with_their_qos_in_process(ros, tmp_path):
+    node = ros.add(rclpy.create_node('pub', context=ros.context))
+    pub_odom = node.create_publisher(Odometry, '/r/odom', RELIABLE)
+    pub_pose = node.create_publisher(PoseWithCovarianceStamped, '/r/pose', BEST_EFFORT)
+    pub_static = node.create_publisher(Odometry, '/r/static', LATCHED)
+    pub_static.publish(odom(99))  # before the recorder exists: arrives through transient-local
+    bag = tmp_path / 'bags' / 'inproc'
+    rec = make_recorder(ros, bag, topics=['/r/odom', 'r/pose', '/r/static'])
+    assert ros.spin_until(lambda: len(rec.subscriptions_by_topic) == 3, 10.0)
+    sent_odom = publish_all(ros, pub_odom, [odom(i) for i in range(N)])
+    sent_pose = publish_all(ros, pub_pose, [pose(i) for i in range(N)])
+    want = {'/r/odom': N, '/r/pose': N, '/r/static': 1}
+    assert ros.spin_until(lambda: rec.message_counts() == want, 10.0), rec.message_counts()
+    close_node(ros, rec)
+
+    assert (bag / 'metadata.yaml').is_file()
+    got, conns = read_bag(bag)
+    assert got['/r/odom'] == sent_odom
+    assert got['/r/pose'] == sent_pose
+    assert got['/r/static'] == [serialize_message(odom(99))]
+    assert conns['/r/pose'].ext.offered_qos_profiles[0].reliability == QosReliability.BEST_EFFORT
+    assert conns['/r/odom'].ext.offered_qos_profiles[0].reliability == QosReliability.RELIABLE
+    assert conns['/r/static'].ext.offered_qos_profiles[0].durability == QosDurability.TRANSIENT_LOCAL
+    # Three decoders agree: rosbags' typestore, rclpy, and mcap with the embedded schemas.
+    ts = get_typestore(Stores.ROS2_JAZZY)
+    assert [ts.deserialize_cdr(r, 'nav_msgs/msg/Odometry').child_frame_id for r in got['/r/odom']] == \
+        [f'msg{i}' for i in range(N)]
+    assert deserialize_message(got['/r/pose'][3], PoseWithCovarianceStamped) == pose(3)
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    (mcap_file,) = bag.glob('*.mcap')
+    with mcap_file.open('rb') as f:
+        xs = [m.pose.pose.position.x for _, ch, _, m in
+              make_reader(f, decoder_factories=[DecoderFactory()]).iter_decoded_messages() if ch.topic == '/r/odom']
+    assert xs == [float(i) for i in range(N)]
+
+
+def test_regex_discovers_a_topic_that_appears_later(ros, tmp_path):
+    bag = tmp_path / 'bags' / 'late'
+    rec = make_recorder(ros, bag, regex='^/late/')
+    node = ros.add(rclpy.create_node('late_pub', context=ros.context))
+    ros.spin_for(0.3)  # the recorder has polled the graph a few times, with nothing to record
+    assert rec.message_counts() == {}
+    pub_late = node.create_publisher(Odometry, '/late/odom', RELIABLE)
+    pub_other = node.create_publisher(Odometry, '/other/odom', RELIABLE)
+    sent = publish_all(ros, pub_late, [odom(i) for i in range(N)])
+    for i in range(5):
+        pub_other.publish(odom(i))
+    assert ros.spin_until(lambda: rec.message_counts().get('/late/odom') == N, 10.0), rec.message_counts()
+    ros.spin_for(0.3)
+    close_node(ros, rec)
+    got, _ = read_bag(bag)
+    assert set(got) == {'/late/odom'}  # neither /other/odom nor /rosout, /parameter_events
+    assert got['/late/odom'] == sent
+
+
+def test_use_sim_time_discovers_before_clock_and_stamps_with_sim_time(ros, tmp_path):
+    from rosgraph_msgs.msg import Clock
+
+    bag = tmp_path / 'bags' / 'sim'
+    rec = make_recorder(ros, bag, topics=['/sim/odom'], use_sim_time=True)
+    node = ros.add(rclpy.create_node('sim_pub', context=ros.context))
+    pub = node.create_publisher(Odometry, '/sim/odom', RELIABLE)
+    # No /clock yet: discovery must still run (a launcher starts the clock only after this).
+    assert ros.spin_until(lambda: '/sim/odom' in rec.subscriptions_by_topic, 10.0)
+    clock_pub = node.create_publisher(Clock, '/clock', RELIABLE)
+    sim_ns = 42 * 10**9 + 5
+
+    def clock_reached() -> bool:
+        clock_pub.publish(Clock(clock=rclpy.time.Time(nanoseconds=sim_ns).to_msg()))
+        return rec.get_clock().now().nanoseconds == sim_ns
+
+    assert ros.spin_until(clock_reached, 10.0)
+    sent = publish_all(ros, pub, [odom(i) for i in range(5)])
+    assert ros.spin_until(lambda: rec.message_counts() == {'/sim/odom': 5}, 10.0)
+    close_node(ros, rec)
+    with Reader(bag) as reader:
+        got = [(t, bytes(raw)) for _, t, raw in reader.messages()]
+    assert got == [(sim_ns, raw) for raw in sent]
+
+
+def test_refuses_to_overwrite_an_existing_bag(ros, tmp_path, venv):
+    (tmp_path / 'bags' / 'taken').mkdir(parents=True)
+    proc = subprocess.run([venv / 'lib/track_nodes/recorder', 'taken', '-t', '/x'], cwd=tmp_path, env=ros.env,
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1, proc.stderr
+    assert 'bags/taken' in lines[0] and 'exists' in lines[0]
+    assert list((tmp_path / 'bags' / 'taken').iterdir()) == []
+
+
+def start_recorder(ros, tmp_path: Path, venv: Path, name: str, *extra: str) -> subprocess.Popen:
+    return subprocess.Popen([venv / 'lib/track_nodes/recorder', name, '-t', '/sig/odom', *extra], cwd=tmp_path,
+                            env=ros.env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def publish_acked(ros, pub, msgs) -> list[bytes]:
+    sent = publish_all(ros, pub, msgs)
+    assert pub.wait_for_all_acked(Duration(seconds=10)), 'recorder did not acknowledge every message'
+    return sent
+
+
+@pytest.mark.parametrize('sig', [signal.SIGTERM, signal.SIGINT], ids=['SIGTERM', 'SIGINT'])
+def test_signal_closes_a_complete_bag(ros, tmp_path, venv, sig):
+    node = ros.add(rclpy.create_node('sig_pub', context=ros.context))
+    pub = node.create_publisher(Odometry, '/sig/odom', RELIABLE)
+    proc = start_recorder(ros, tmp_path, venv, 'sig')
+    try:
+        sent = publish_acked(ros, pub, [odom(i) for i in range(N)])
+        proc.send_signal(sig)
+        _, err = proc.communicate(timeout=30)
+    finally:
+        proc.kill()
+    assert proc.returncode == 0, err
+    bag = tmp_path / 'bags' / 'sig'
+    assert (bag / 'metadata.yaml').is_file(), err
+    got, _ = read_bag(bag)
+    assert got['/sig/odom'] == sent
+    assert f'recorded {N} messages' in err and '/sig/odom' in err
+
+
+def test_sigkill_leaves_a_recoverable_mcap(ros, tmp_path, venv):
+    node = ros.add(rclpy.create_node('kill_pub', context=ros.context))
+    pub = node.create_publisher(Odometry, '/sig/odom', RELIABLE)
+    proc = start_recorder(ros, tmp_path, venv, 'killed', '--flush-period', '0.2')
+    bag = tmp_path / 'bags' / 'killed'
+    try:
+        sent = publish_acked(ros, pub, [odom(i) for i in range(N)])
+        # Wait (polling the file, not the clock) until a flush has put all of them in the file.
+        assert ros.spin_until(lambda: len(read_broken_mcap(next(bag.glob('*.mcap'))).messages) >= N, 15.0)
+        sent += publish_acked(ros, pub, [odom(i) for i in range(N, N + 5)])  # maybe not flushed yet
+        proc.kill()
+        proc.communicate(timeout=30)
+    finally:
+        proc.kill()
+    assert not (bag / 'metadata.yaml').exists()
+    # rosbags itself refuses the broken bag:
+    with pytest.raises(FileNotFoundError):
+        Reader(bag)
+
+    rec = subprocess.run([venv / 'bin/track-bag-recover', str(bag)], cwd=tmp_path, env=ros.env,
+                         capture_output=True, text=True, timeout=60)
+    assert rec.returncode == 0, rec.stderr
+    out = tmp_path / 'bags' / 'killed-recovered'
+    assert 'messages recovered' in rec.stdout and str(out) in rec.stdout
+    got, _ = read_bag(out)
+    recovered = got['/sig/odom']
+    assert N <= len(recovered) <= len(sent)
+    assert recovered == sent[:len(recovered)]
+    assert [deserialize_message(r, Odometry).child_frame_id for r in recovered] == \
+        [f'msg{i}' for i in range(len(recovered))]
+
+
+def test_bag_recover_bad_path_is_one_line(ros, tmp_path, venv):
+    proc = subprocess.run([venv / 'bin/track-bag-recover', str(tmp_path / 'nope')], env=ros.env,
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 2
+    assert len(proc.stderr.strip().splitlines()) == 1 and str(tmp_path / 'nope') in proc.stderr
+    assert 'Traceback' not in proc.stderr
