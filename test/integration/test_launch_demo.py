@@ -168,5 +168,5 @@ def test_player_replays_the_demo_bag_in_order(demo_bags, ros, venv):
     finally:
         _, err = player.communicate(timeout=30)
     assert player.returncode == 0, err
-    for topic in got:
-        assert got[topic] == expected[topic], topic
+    for topic, received in got.items():
+        assert received == expected[topic], topic
