@@ -170,3 +170,9 @@ def test_player_replays_the_demo_bag_in_order(demo_bags, ros, venv):
     assert player.returncode == 0, err
     for topic, received in got.items():
         assert received == expected[topic], topic
+
+
+def test_tracked_sample_bag_is_readable(repo):
+    """bags/sample-demo (used by the README) still decodes and holds 100 messages per topic."""
+    counts = {t: len(v) for t, v in payloads(repo / 'bags/sample-demo').items()}
+    assert counts == dict.fromkeys(TOPICS, 100)
