@@ -26,6 +26,12 @@ DEMO_REPORTS = '/demo/reports'
 DEMO_TRACK = '/demo/track'
 CLOCK = '/clock'
 
+# Track-to-track fusion (geofeasibility paper). Input track topics are parameters of the node.
+FUSION_SCORES = '/fusion/scores'
+FUSION_ASSOCIATIONS = '/fusion/associations'
+FUSION_FUSED = '/fusion/fused'
+FUSION_MARKERS = '/fusion/markers'
+
 
 class TopicSpec(NamedTuple):
     """What travels on a topic: full type name (``pkg/msg/Type``), QoS kind, one-line description."""
@@ -43,4 +49,13 @@ TOPICS: dict[str, TopicSpec] = {
                             'noisy position report of the demo target with its measurement covariance R'),
     DEMO_TRACK: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
                           'Kalman estimate of the demo target; child_frame_id = track id'),
+    FUSION_SCORES: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'estimate',
+                             'one status per track pair: name "A | B", values score, combined, instants, '
+                             'associated, method'),
+    FUSION_ASSOCIATIONS: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'estimate',
+                                   'the associated pairs only (combined score >= threshold), same layout'),
+    FUSION_FUSED: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
+                            'covariance-intersection fusion of an associated pair; child_frame_id = "A+B"'),
+    FUSION_MARKERS: TopicSpec('visualization_msgs/msg/MarkerArray', 'estimate',
+                              '2σ ellipses of the live tracks and pair links coloured by score'),
 }

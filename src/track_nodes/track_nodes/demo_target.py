@@ -3,15 +3,11 @@
 Publishes the true state (``/demo/truth``, nav_msgs/Odometry) and a position report with its
 covariance (``/demo/reports``, PoseWithCovarianceStamped) every ``T`` seconds of node time.
 
-Determinism: stamps are ``origin + k·T`` from the step counter, and a late timer catches up
-step by step, so a seed and a ``/clock`` reproduce every payload whatever the executor timing.
-Under ``use_sim_time`` the origin is 0 (the launcher's clock starts there); on wall time it is
-the whole second at start.
+Determinism: ``node_util.FixedRateSteps`` stamps step k at ``origin + k·T`` and catches up a
+late timer step by step, so a seed and a ``/clock`` reproduce every payload.
 """
 
 from __future__ import annotations
-
-import math
 
 import numpy as np
 from geometry_msgs.msg import PoseWithCovarianceStamped
@@ -22,7 +18,7 @@ from track_core.demo import CVTarget
 from track_msgs_py.convert import cv_state_to_odometry, position_to_pose_cov
 from track_msgs_py.qos import ESTIMATE_QOS, SENSOR_QOS
 from track_msgs_py.topics import DEMO_REPORTS, DEMO_TRUTH, FRAME_MAP
-from track_nodes.node_util import Param, declare_params, run_node
+from track_nodes.node_util import FixedRateSteps, Param, declare_params, run_node
 
 PARAMS = (
     Param('seed', 0, 'seed of the numpy Generator driving truth and report noise', 0, 2**31 - 1),
@@ -49,28 +45,12 @@ class DemoTargetNode(Node):
         self.p = p
         self.rng = np.random.default_rng(p.seed)
         self.target = CVTarget(x0, T=p.period, q_s=p.q_s, R=np.eye(2) * p.sigma_r**2)
-        self.origin: float | None = None
         self.pub_truth = self.create_publisher(Odometry, DEMO_TRUTH, ESTIMATE_QOS)
         self.pub_report = self.create_publisher(PoseWithCovarianceStamped, DEMO_REPORTS, SENSOR_QOS)
-        self.timer = self.create_timer(p.period, self._tick)
+        self.steps = FixedRateSteps(self, p.period, self._step, p.max_time)
 
-    def _now(self) -> float:
-        return self.get_clock().now().nanoseconds * 1e-9
-
-    def _tick(self) -> None:
-        now = self._now()
-        if self.origin is None:
-            sim = self.get_parameter('use_sim_time').value
-            self.origin = 0.0 if sim else float(math.floor(now))
-        # Catch up: one step per elapsed period, so stamps never depend on timer jitter.
-        while self.origin + (self.target.k + 1) * self.p.period <= now + 1e-9:
-            if self.p.max_time > 0 and (self.target.k + 1) * self.p.period > self.p.max_time + 1e-9:
-                return
-            self._step()
-
-    def _step(self) -> None:
+    def _step(self, t: float) -> None:
         x = self.target.step(self.rng)
-        t = self.origin + self.target.t
         z = self.target.report(self.rng)
         self.pub_truth.publish(cv_state_to_odometry(t, x, np.zeros((4, 4)), FRAME_MAP, self.p.track_id))
         self.pub_report.publish(position_to_pose_cov(t, z, self.target.R, FRAME_MAP))

@@ -38,7 +38,9 @@ class NodeSpec:
         """The ``NODE_CLASS`` of ``track_nodes.<executable>``."""
         try:
             mod = importlib.import_module(self.module)
-        except ModuleNotFoundError:
+        except ModuleNotFoundError as exc:
+            if exc.name != self.module:
+                raise  # the node exists but one of its imports is missing: a real bug, keep the trace
             raise ScenarioError(f'unknown node executable {self.executable!r} (no module {self.module})') from None
         if not hasattr(mod, 'NODE_CLASS'):
             raise ScenarioError(f'{self.module} defines no NODE_CLASS')
