@@ -23,9 +23,12 @@ setup(
         # Registries: other packages add entries to these groups in their setup.py.
         'track.experiments': [
             'demo-kf = track_core.demo.experiment:nees_experiment',
+            'sonar-table2 = track_core.sonar.experiments:table2',
+            'smart-target = track_core.sonar.experiments:smart_target',
         ],
         'track.benchmarks': [
             'kalman = track_core.demo.experiment:kalman_benchmark',
+            'sonar = track_core.sonar.bench:sonar_benchmark',
         ],
     },
 )

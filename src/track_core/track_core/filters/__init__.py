@@ -21,3 +21,34 @@ __all__ = [
     'mahalanobis_sq',
     'symmetrize',
 ]
+
+# Particle-filter and unscented blocks (added with the sonar system; shared by every system).
+from track_core.filters.angles import circular_mean, wrap_angle
+from track_core.filters.densities import cholesky_jitter, gaussian_logpdf
+from track_core.filters.particles import weighted_mean_cov
+from track_core.filters.resampling import (
+    effective_sample_size,
+    normalize_log_weights,
+    systematic_resample,
+)
+from track_core.filters.unscented import (
+    UnscentedWeights,
+    sigma_points,
+    unscented_update,
+    unscented_weights,
+)
+
+__all__ += [
+    'UnscentedWeights',
+    'cholesky_jitter',
+    'circular_mean',
+    'effective_sample_size',
+    'gaussian_logpdf',
+    'normalize_log_weights',
+    'sigma_points',
+    'systematic_resample',
+    'unscented_update',
+    'unscented_weights',
+    'weighted_mean_cov',
+    'wrap_angle',
+]

@@ -1,0 +1,38 @@
+"""Sonar system: smart-target tracking with passive/active sonar (Liu, Ji, Zhang & Hao 2009).
+
+- ``models``: CV target (eqs. 1–4), passive/active sonar (eqs. 5–6), ``SonarParams`` (Table 1).
+- ``sspf``: RB-UKF proposal (Algorithm 2, vectorised), ``SSPF`` (Algorithm 3), PaPF/AcPF.
+- ``scheduler``: covariance control (eq. 7), the P_D interpretation.
+- ``scenario``: the Section 5 observer trajectory, truth, prior, one Monte-Carlo run.
+- ``smart_target``: a target that hears pings (range-dependent) and evades.
+- ``experiments``/``bench``: ``sonar-table2``, ``smart-target`` and ``track-bench sonar``.
+"""
+
+from track_core.sonar.models import SensorMode, SonarParams, bearing, measure, residual, simulate_measurement
+from track_core.sonar.scenario import ObserverTrajectory, RunResult, Scenario, run_once
+from track_core.sonar.scheduler import DEFAULT_P_D, CovarianceScheduler, FixedScheduler, desired_covariance
+from track_core.sonar.smart_target import SmartTarget, SmartTargetParams
+from track_core.sonar.sspf import SSPF, SonarEstimate, make_tracker, rb_ukf
+
+__all__ = [
+    'DEFAULT_P_D',
+    'SSPF',
+    'CovarianceScheduler',
+    'FixedScheduler',
+    'ObserverTrajectory',
+    'RunResult',
+    'Scenario',
+    'SensorMode',
+    'SmartTarget',
+    'SmartTargetParams',
+    'SonarEstimate',
+    'SonarParams',
+    'bearing',
+    'desired_covariance',
+    'make_tracker',
+    'measure',
+    'rb_ukf',
+    'residual',
+    'run_once',
+    'simulate_measurement',
+]

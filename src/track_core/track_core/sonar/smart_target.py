@@ -1,0 +1,129 @@
+"""A target that hears active pings and evades (beyond the paper, whose target never reacts).
+
+Ping detection. Each active ping emitted by the observer is heard with probability
+
+    P_det(r) = p_max / (1 + exp((r − r_50) / w))
+
+(a logistic fall-off in range r between observer and target: ≈ p_max close in, p_max/2 at
+r = r_50, → 0 beyond r_50 + 4w). Defaults p_max = 0.9, r_50 = 600 m, w = 100 m, so the
+≈ 400–600 m ranges of the Section 5 scenario give P_det ≈ 0.5–0.8 per ping.
+
+Evasion. After a detected ping the target enters EVADE: it steers towards the heading pointing
+directly away from the observer (the bearing observer → target) and speeds up to
+``evade_speed``, with the turn rate bounded by ``max_turn_rate`` (rad/s) and the speed change by
+``max_accel`` (m/s²) per step. After ``quiet_period`` s without a detected ping it returns to
+CRUISE: it holds its current heading and slows back to its cruise speed (the speed at start),
+again with bounded acceleration. Defaults: evade_speed 22 m/s (cruise 17.3 m/s), max_turn_rate
+3°/s, max_accel 1 m/s², quiet_period 10 s. On top of the commanded motion it receives the CV process
+noise of eq. 4 (q_s), so in ``naive`` mode it is exactly the paper's eq. 1 target.
+Headings are clockwise from north, like the bearings.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from track_core.sonar.models import SonarParams
+
+
+@dataclass(frozen=True)
+class SmartTargetParams:
+    p_max: float = 0.9
+    r_50: float = 600.0
+    width: float = 100.0
+    evade_speed: float = 22.0
+    max_turn_rate: float = math.radians(3.0)
+    max_accel: float = 1.0
+    quiet_period: float = 10.0
+    naive: bool = False
+
+    def __post_init__(self) -> None:
+        checks = [
+            ('p_max', 0.0 <= self.p_max <= 1.0, 'in [0, 1]'),
+            ('r_50', math.isfinite(self.r_50) and self.r_50 > 0, '> 0 (m)'),
+            ('width', math.isfinite(self.width) and self.width > 0, '> 0 (m)'),
+            ('evade_speed', math.isfinite(self.evade_speed) and self.evade_speed >= 0, '>= 0 (m/s)'),
+            ('max_turn_rate', math.isfinite(self.max_turn_rate) and self.max_turn_rate >= 0, '>= 0 (rad/s)'),
+            ('max_accel', math.isfinite(self.max_accel) and self.max_accel >= 0, '>= 0 (m/s^2)'),
+            ('quiet_period', math.isfinite(self.quiet_period) and self.quiet_period >= 0, '>= 0 (s)'),
+        ]
+        for name, ok, allowed in checks:
+            if not ok:
+                raise ValueError(f'{name} must be {allowed}, got {getattr(self, name)!r}')
+
+    def detection_probability(self, r: float | np.ndarray) -> np.ndarray:
+        """P_det(r), the probability that one ping at range r (m) is heard."""
+        return self.p_max / (1.0 + np.exp((np.asarray(r, dtype=float) - self.r_50) / self.width))
+
+
+@dataclass
+class SmartTarget:
+    """Truth simulator with explicit state; ``step(rng, pinged, observer_xy)`` advances one period T."""
+
+    x: np.ndarray
+    sonar: SonarParams = field(default_factory=SonarParams)
+    params: SmartTargetParams = field(default_factory=SmartTargetParams)
+    t: float = 0.0
+    evading: bool = False
+    last_detection_t: float | None = None
+    first_detection_t: float | None = None
+    detections: int = 0
+    pings: int = 0
+
+    def __post_init__(self) -> None:
+        self.x = np.asarray(self.x, dtype=float).copy()
+        if self.x.shape != (4,) or not np.all(np.isfinite(self.x)):
+            raise ValueError(f'target state must be 4 finite numbers [x, vx, y, vy], got {self.x!r}')
+        self.cruise_speed = float(math.hypot(self.x[1], self.x[3]))
+        self._F = self.sonar.F
+        self._L_Q = np.linalg.cholesky(self.sonar.Q)
+
+    @property
+    def mode(self) -> str:
+        return 'naive' if self.params.naive else ('evade' if self.evading else 'cruise')
+
+    def hear(self, rng: np.random.Generator, observer_xy: np.ndarray) -> bool:
+        """One ping at the current state: draw whether the target detects it (and count it)."""
+        self.pings += 1
+        r = math.hypot(self.x[0] - observer_xy[0], self.x[2] - observer_xy[1])
+        heard = bool(rng.random() < self.params.detection_probability(r))
+        if heard:
+            self.detections += 1
+            self.last_detection_t = self.t
+            if self.first_detection_t is None:
+                self.first_detection_t = self.t
+        return heard
+
+    def step(self, rng: np.random.Generator, pinged: bool, observer_xy: np.ndarray) -> np.ndarray:
+        """Hear (or not) a ping at the current time, react, and move to t + T. Returns the new state."""
+        obs = np.asarray(observer_xy, dtype=float)[:2]
+        if pinged:
+            self.hear(rng, obs)
+        T, p = self.sonar.T, self.params
+        if p.naive:
+            x_det = self._F @ self.x
+        else:
+            if self.last_detection_t is not None and self.t - self.last_detection_t < p.quiet_period:
+                self.evading = True
+            elif self.evading:
+                self.evading = False
+            vx, vy = self.x[1], self.x[3]
+            speed = math.hypot(vx, vy)
+            heading = math.atan2(vx, vy)
+            if self.evading:
+                want_h = math.atan2(self.x[0] - obs[0], self.x[2] - obs[1])  # away from the observer
+                want_v = p.evade_speed
+            else:
+                want_h, want_v = heading, self.cruise_speed
+            dh = (want_h - heading + math.pi) % (2 * math.pi) - math.pi
+            heading += float(np.clip(dh, -p.max_turn_rate * T, p.max_turn_rate * T))
+            speed += float(np.clip(want_v - speed, -p.max_accel * T, p.max_accel * T))
+            v_new = np.array([speed * math.sin(heading), speed * math.cos(heading)])
+            pos = np.array([self.x[0], self.x[2]]) + 0.5 * T * (np.array([vx, vy]) + v_new)
+            x_det = np.array([pos[0], v_new[0], pos[1], v_new[1]])
+        self.x = x_det + self._L_Q @ rng.standard_normal(4)
+        self.t += T
+        return self.x.copy()
