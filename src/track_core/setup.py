@@ -23,11 +23,15 @@ setup(
         # Registries: other packages add entries to these groups in their setup.py.
         'track.experiments': [
             'demo-kf = track_core.demo.experiment:nees_experiment',
+            'geo-fig2 = track_core.geofeasibility.experiments:fig2',
+            'geo-fig5 = track_core.geofeasibility.experiments:fig5',
+            'geo-fig6 = track_core.geofeasibility.experiments:fig6',
             'sonar-table2 = track_core.sonar.experiments:table2',
             'smart-target = track_core.sonar.experiments:smart_target',
         ],
         'track.benchmarks': [
             'kalman = track_core.demo.experiment:kalman_benchmark',
+            'geofeasibility = track_core.geofeasibility.benchmark:bench',
             'sonar = track_core.sonar.bench:sonar_benchmark',
         ],
     },

@@ -38,3 +38,16 @@ def test_unknown_executable(tmp_path):
     f.write_text('track_launch:\n  ros__parameters:\n    nodes: [nope]\n')
     with pytest.raises(ScenarioError, match='unknown node executable'):
         load_scenario(str(f)).nodes[0].node_class()
+
+
+def test_every_scenario_file_is_a_valid_params_file(ros, repo):
+    """rcl's own YAML parser accepts each config (e.g. unquoted 'exe:name' in a flow list breaks it)."""
+    from rclpy.node import Node
+
+    configs = sorted((repo / 'config').glob('*.yaml'))
+    assert configs
+    for cfg in configs:
+        node = Node('track_launch', context=ros.context, cli_args=['--ros-args', '--params-file', str(cfg)],
+                    automatically_declare_parameters_from_overrides=True)
+        assert node.get_parameter('nodes').value, cfg.name
+        node.destroy_node()

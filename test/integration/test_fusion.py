@@ -1,0 +1,96 @@
+"""The fusion scenario's nodes in-process: true pairs associated, the decoy never."""
+
+from __future__ import annotations
+
+import numpy as np
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import PoseWithCovarianceStamped
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+
+from track_msgs_py.convert import position_to_pose_cov
+from track_msgs_py.qos import ESTIMATE_QOS
+from track_msgs_py.topics import FUSION_SCORES
+from track_nodes.fusion import FusionNode
+from track_nodes.report_source import ReportSourceNode
+
+FAST = {'radar': {'period': 0.05}, 'patrol': {'period': 0.1},
+        'fusion': {'rate': 20.0, 'stale_after': 0.4, 'window': 10}}
+
+
+def _scenario_nodes(ros, repo, extra_fusion=None):
+    nodes = {}
+    for name, cls in (('radar', ReportSourceNode), ('patrol', ReportSourceNode), ('fusion', FusionNode)):
+        over = {**FAST[name], **((extra_fusion or {}) if name == 'fusion' else {})}
+        nodes[name] = ros.add(cls(node_name=name, context=ros.context,
+                                  cli_args=['--ros-args', '--params-file', str(repo / 'config/fusion.yaml')],
+                                  parameter_overrides=[Parameter(k, value=v) for k, v in over.items()]))
+    return nodes
+
+
+def _collect_scores(ros):
+    latest: dict[tuple[str, str], dict] = {}
+    decoy_ever_associated = []
+
+    def on_scores(msg: DiagnosticArray) -> None:
+        for st in msg.status:
+            v = {kv.key: kv.value for kv in st.values}
+            pair = tuple(st.name.split(' | '))
+            latest[pair] = v
+            if '/radar/t2' in pair and v['associated'] == 'true':
+                decoy_ever_associated.append(pair)
+
+    sink = ros.add(Node('sink', context=ros.context))
+    sink.create_subscription(DiagnosticArray, FUSION_SCORES, on_scores, ESTIMATE_QOS)
+    return latest, decoy_ever_associated
+
+
+def test_true_pairs_associated_and_decoy_rejected(ros, repo):
+    _scenario_nodes(ros, repo)
+    latest, decoy = _collect_scores(ros)
+    true_pairs = [('/radar/t0', '/patrol/t0'), ('/radar/t1', '/patrol/t1')]
+
+    def settled() -> bool:
+        return all(p in latest and int(latest[p]['instants']) >= 10 for p in true_pairs)
+
+    assert ros.spin_until(settled, timeout=30), f'scores seen: {sorted(latest)}'
+    ros.spin_for(1.0)
+    for pair in true_pairs:
+        assert latest[pair]['associated'] == 'true', (pair, latest[pair])
+    wrong = [p for p, v in latest.items() if p not in true_pairs and v['associated'] == 'true']
+    assert not wrong, wrong
+    assert not decoy
+    assert ('/radar/t2', '/patrol/t0') in latest or ('/patrol/t0', '/radar/t2') in latest  # the decoy was scored
+
+
+def test_bad_covariances_are_dropped_and_the_node_keeps_running(ros, repo):
+    nodes = _scenario_nodes(ros, repo)
+    latest, _ = _collect_scores(ros)
+    bad = ros.add(Node('bad_source', context=ros.context))
+    pub = bad.create_publisher(PoseWithCovarianceStamped, '/radar/t0', ESTIMATE_QOS)
+    msg = position_to_pose_cov(1e9, np.zeros(2), np.eye(2), 'map')
+    cov = np.array(msg.pose.covariance).reshape(6, 6)
+    cov[0, 0] = -5.0  # not PSD
+    msg.pose.covariance = cov.ravel().tolist()
+    assert ros.spin_until(lambda: len(latest) > 0, timeout=30)
+    for _ in range(20):
+        pub.publish(msg)
+        ros.spin_for(0.02)
+    ros.spin_for(0.5)
+    fusion = nodes['fusion']
+    assert fusion.dropped.get('/radar/t0', 0) >= 10
+    n_before = len(latest)
+    latest.clear()
+    assert ros.spin_until(lambda: len(latest) >= n_before, timeout=10)  # still scoring
+
+
+def test_no_topics_is_a_clear_error(ros):
+    import pytest
+
+    from track_nodes.node_util import ParameterError
+
+    with pytest.raises(ValueError, match='nothing to fuse'):
+        FusionNode(context=ros.context)
+    with pytest.raises(ParameterError, match='method'):
+        FusionNode(context=ros.context, parameter_overrides=[Parameter('method', value='bogus'),
+                                                             Parameter('pose_topics', value=['/a'])])
