@@ -55,7 +55,7 @@ from fractions import Fraction
 import numpy as np
 from builtin_interfaces.msg import Duration, Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from geometry_msgs.msg import Point, PoseWithCovarianceStamped
+from geometry_msgs.msg import Point, Pose, PoseArray, PoseWithCovarianceStamped
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import PointCloud2, PointField
 from std_msgs.msg import ColorRGBA, Header
@@ -185,6 +185,29 @@ _POINTFIELD_DTYPES = {
     PointField.INT8: 'i1', PointField.UINT8: 'u1', PointField.INT16: 'i2', PointField.UINT16: 'u2',
     PointField.INT32: 'i4', PointField.UINT32: 'u4', PointField.FLOAT32: 'f4', PointField.FLOAT64: 'f8',
 }
+
+
+def positions_to_pose_array(t: float, xy: np.ndarray, frame_id: str = FRAME_MAP,
+                            headings: np.ndarray | None = None) -> PoseArray:
+    """(N, 2) particle positions (and optional headings, rad from +x) → PoseArray (z = 0).
+
+    Particle clouds are for display, so weights are not carried: publish after resampling.
+    """
+    xy = np.asarray(xy, dtype=float)
+    msg = PoseArray()
+    msg.header = _header(t, frame_id)
+    half = np.zeros(len(xy)) if headings is None else 0.5 * np.asarray(headings, dtype=float)
+    msg.poses = [Pose(position=Point(x=px, y=py)) for px, py in xy.tolist()]
+    for pose, qz, qw in zip(msg.poses, np.sin(half).tolist(), np.cos(half).tolist(), strict=True):
+        pose.orientation.z, pose.orientation.w = qz, qw
+    return msg
+
+
+def pose_array_to_positions(msg: PoseArray) -> tuple[np.ndarray, np.ndarray]:
+    """Inverse of :func:`positions_to_pose_array`: ((N, 2) positions, (N,) headings)."""
+    xy = np.array([(p.position.x, p.position.y) for p in msg.poses], dtype=float).reshape(-1, 2)
+    q = np.array([(p.orientation.z, p.orientation.w) for p in msg.poses], dtype=float).reshape(-1, 2)
+    return xy, 2.0 * np.arctan2(q[:, 0], q[:, 1])
 
 
 def table_to_pointcloud2(t: float, frame_id: str, fields: Mapping[str, np.ndarray]) -> PointCloud2:

@@ -59,3 +59,38 @@ TOPICS: dict[str, TopicSpec] = {
     FUSION_MARKERS: TopicSpec('visualization_msgs/msg/MarkerArray', 'estimate',
                               '2σ ellipses of the live tracks and pair links coloured by score'),
 }
+
+# Sonar observer vs smart target (smart-target sensor-scheduling paper, issue 3).
+SONAR_TRUTH = '/sonar/target/truth'
+SONAR_TARGET_STATUS = '/sonar/target/status'
+SONAR_OBSERVER = '/sonar/observer/odom'
+SONAR_ESTIMATE = '/sonar/estimate'
+SONAR_PARTICLES = '/sonar/particles'
+SONAR_MODE = '/sonar/mode'
+SONAR_PING = '/sonar/ping'
+SONAR_MARKERS = '/sonar/markers'
+
+TOPICS.update({
+    SONAR_TRUTH: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
+                           'true state of the smart target (zero covariance), stamped t_k = k·T; '
+                           'child_frame_id = target id'),
+    SONAR_TARGET_STATUS: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'estimate',
+                                   'smart target after step k: one status "<target id>", values mode '
+                                   '(naive|cruise|evade), heard (a ping at t_{k-1} was detected: true|false), '
+                                   'pings, detections (totals so far)'),
+    SONAR_OBSERVER: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
+                              'observer AUV state at t_k (zero covariance); published last in its step, so it '
+                              'also marks "observer step k done" for the smart target'),
+    SONAR_ESTIMATE: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
+                              'SS-PF/PaPF/AcPF estimate of the target with its particle covariance; '
+                              'child_frame_id = track id'),
+    SONAR_PARTICLES: TopicSpec('geometry_msgs/msg/PoseArray', 'sensor',
+                               'selected particles after step k (positions, identity orientation, equal weights)'),
+    SONAR_MODE: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'estimate',
+                          'sensor schedule: one status "<node>/sensor_mode", message = mode used at t_k, values '
+                          'mode, next_mode (eq. 7 choice for t_{k+1}), step, ess, distance (‖P_D − Cov‖, ss-pf)'),
+    SONAR_PING: TopicSpec('geometry_msgs/msg/PointStamped', 'estimate',
+                          'active-ping event: the observer pinged at header.stamp from point (x, y, 0)'),
+    SONAR_MARKERS: TopicSpec('visualization_msgs/msg/MarkerArray', 'estimate',
+                             '2σ position ellipse of the sonar estimate (ns "sonar_estimate", id 0)'),
+})

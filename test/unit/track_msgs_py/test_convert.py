@@ -259,3 +259,17 @@ def test_diagnostic_status_and_array():
 
 def test_odometry_type_is_the_standard_one():
     assert isinstance(cv_state_to_odometry(0.0, X, P), Odometry)
+
+
+def test_pose_array_round_trip():
+    from track_msgs_py.convert import pose_array_to_positions, positions_to_pose_array
+
+    rng = np.random.default_rng(0)
+    xy, th = rng.normal(size=(50, 2)), rng.uniform(-3.1, 3.1, 50)
+    msg = positions_to_pose_array(2.5, xy, headings=th)
+    assert len(msg.poses) == 50 and msg.header.stamp.sec == 2
+    xy2, th2 = pose_array_to_positions(msg)
+    np.testing.assert_allclose(xy2, xy, atol=1e-12)
+    np.testing.assert_allclose(th2, th, atol=1e-12)
+    _, th0 = pose_array_to_positions(positions_to_pose_array(0.0, xy))
+    assert np.all(th0 == 0.0)
