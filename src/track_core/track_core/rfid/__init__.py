@@ -1,0 +1,47 @@
+"""Handheld UHF RFID reader guiding a person to a tag with a particle filter on phase differences
+(Raptopoulos, Yioultsis & Dimitriou).
+
+- ``phase``: the phase model (eqs. 3–6, 11): λ from the carrier, wrap period π or 2π, s_θ.
+- ``signal``: one MOVE's stream of wrapped reads → unwrapped, smoothed dφ, with outliers and "signal lost".
+- ``pf``: the particle filter (eqs. 15–24), vectorised over particles, plus the per-particle loop baseline.
+- ``protocol``: ``Command`` (TURN/MOVE/DONE) and ``StepResult``, and the rule that rejects bad results.
+- ``guidance``: ``RfidGuidance``: step results in, next command out (the ``rfid_guidance`` node's core).
+- ``world``: ``SimReader``: simulated world, user and reader (the ``rfid_reader`` node's core).
+- ``search``: one search, start to end; ``experiments``/``bench``: ``rfid-table1`` and ``track-bench rfid``.
+"""
+
+from track_core.rfid.guidance import GuidanceReply, RfidGuidance
+from track_core.rfid.pf import PFParams, RfidParticleFilter, UpdateInfo, guarded_inverse_square, suggested_turn
+from track_core.rfid.phase import PhaseModel
+from track_core.rfid.protocol import Command, CommandKind, StepResult, step_result_problem
+from track_core.rfid.search import SearchOutcome, run_search
+from track_core.rfid.signal import DphiEstimate, PhaseStream, StreamStatus, UnwrapConfig, process_move
+from track_core.rfid.world import ReaderOutput, Rect, SimReader, WorldParams, office_obstacles, read_mask
+
+__all__ = [
+    'Command',
+    'CommandKind',
+    'DphiEstimate',
+    'GuidanceReply',
+    'PFParams',
+    'PhaseModel',
+    'PhaseStream',
+    'ReaderOutput',
+    'Rect',
+    'RfidGuidance',
+    'RfidParticleFilter',
+    'SearchOutcome',
+    'SimReader',
+    'StepResult',
+    'StreamStatus',
+    'UnwrapConfig',
+    'UpdateInfo',
+    'WorldParams',
+    'guarded_inverse_square',
+    'office_obstacles',
+    'process_move',
+    'read_mask',
+    'run_search',
+    'step_result_problem',
+    'suggested_turn',
+]

@@ -1,0 +1,119 @@
+"""The step-by-step API a node pair drives: commands, results, bad input."""
+
+import logging
+import math
+
+import numpy as np
+import pytest
+
+from track_core.rfid.guidance import RfidGuidance
+from track_core.rfid.pf import PFParams
+from track_core.rfid.protocol import Command, CommandKind, StepResult, step_result_problem
+
+
+def guidance(**kw):
+    return RfidGuidance(PFParams(n_particles=200), rng=np.random.default_rng(0), **kw)
+
+
+def move(cmd, dphi=-15.0, n_reads=150, **kw):
+    return StepResult(CommandKind.MOVE, cmd.seq, dphi=dphi, n_reads=n_reads, **kw)
+
+
+def test_sequence_move_turn_move():
+    g = guidance()
+    c1 = g.start()
+    assert c1.kind is CommandKind.MOVE and c1.seq == 1 and not c1.repeat
+    r = g.on_step(move(c1))
+    assert r.accepted and r.command.kind is CommandKind.TURN and r.update_s is not None
+    assert r.command.angle == pytest.approx(g.pf.suggested_turn())
+    r2 = g.on_step(StepResult(CommandKind.TURN, r.command.seq, turn=0.7))
+    assert r2.accepted and r2.command.kind is CommandKind.MOVE and g.pending_turn == pytest.approx(0.7)
+    d, b = g.tag_estimate()
+    assert math.isfinite(d) and math.isfinite(b)
+    r3 = g.on_step(move(r2.command, dphi=-10.0))
+    assert r3.accepted and g.pending_turn == 0.0 and g.pf.n_updates == 2
+
+
+def test_turns_are_summed_until_the_next_move(monkeypatch):
+    g = guidance()
+    r = g.on_step(move(g.start()))
+    seen = {}
+    orig = g.pf.update
+    monkeypatch.setattr(g.pf, 'update', lambda dphi, turn: seen.setdefault('turn', turn) or orig(dphi, turn))
+    r = g.on_step(StepResult(CommandKind.TURN, r.command.seq, turn=0.5))
+    # a second TURN result for a TURN the user asked for is not possible: the guidance wants a MOVE now
+    bad = g.on_step(StepResult(CommandKind.TURN, r.command.seq, turn=0.25))
+    assert not bad.accepted and 'pending command' in bad.warning
+    g.on_step(move(bad.command))
+    assert seen['turn'] == pytest.approx(0.5)
+
+
+@pytest.mark.parametrize('result_kw, needle', [
+    ({'dphi': math.nan}, 'nan'),
+    ({'n_reads': 0}, 'empty phase stream'),
+    ({'ok': False, 'reason': 'signal lost: no reads during the step'}, 'signal lost'),
+])
+def test_bad_move_result_warns_keeps_state_and_repeats(result_kw, needle, caplog):
+    g = guidance()
+    r = g.on_step(move(g.start()))
+    r = g.on_step(StepResult(CommandKind.TURN, r.command.seq, turn=0.3))
+    before = g.pf.snapshot()
+    kw = {'dphi': -12.0, 'n_reads': 150, **result_kw}
+    with caplog.at_level(logging.WARNING, logger='track_core.rfid.guidance'):
+        rep = g.on_step(StepResult(CommandKind.MOVE, r.command.seq, **kw))
+    assert not rep.accepted and needle in rep.warning.lower()
+    assert rep.command.kind is CommandKind.MOVE and rep.command.repeat and 'repeat the step' in rep.command.reason
+    assert rep.command.seq == r.command.seq + 1
+    assert any('repeat the step' in m for m in caplog.messages)
+    after = g.pf.snapshot()
+    np.testing.assert_array_equal(before[0], after[0])
+    np.testing.assert_array_equal(before[1], after[1])
+    assert before[2:] == after[2:]
+    assert g.pending_turn == pytest.approx(0.3)
+    ok = g.on_step(move(rep.command))               # the repeated step is used normally
+    assert ok.accepted and g.pf.n_updates == 2
+
+
+def test_nan_turn_is_rejected():
+    g = guidance()
+    r = g.on_step(move(g.start()))
+    rep = g.on_step(StepResult(CommandKind.TURN, r.command.seq, turn=math.nan))
+    assert not rep.accepted and rep.command.kind is CommandKind.TURN and rep.command.repeat
+    assert rep.command.angle == r.command.angle and g.pending_turn == 0.0
+
+
+def test_stale_result_is_rejected():
+    g = guidance()
+    c = g.start()
+    rep = g.on_step(StepResult(CommandKind.MOVE, c.seq + 5, dphi=-10.0, n_reads=100))
+    assert not rep.accepted and 'does not answer' in rep.warning and not g.pf.initialized
+
+
+def test_repeated_loss_asks_for_a_half_turn():
+    g = guidance(max_repeats=2, log_warnings=False)
+    c = g.start()
+    r1 = g.on_step(move(c, n_reads=0, dphi=math.nan))
+    assert r1.command.kind is CommandKind.MOVE
+    r2 = g.on_step(move(r1.command, n_reads=0, dphi=math.nan))
+    assert r2.command.kind is CommandKind.TURN and r2.command.angle == pytest.approx(math.pi)
+    assert 'turn around' in r2.command.reason and not g.pf.initialized
+
+
+def test_found_ends_the_search():
+    g = guidance()
+    r = g.on_step(move(g.start(), found=True))
+    assert r.found and r.command.kind is CommandKind.DONE and g.found
+    again = g.on_step(move(r.command))
+    assert not again.accepted and 'already ended' in again.warning
+
+
+def test_on_step_before_start():
+    with pytest.raises(RuntimeError):
+        guidance().on_step(StepResult(CommandKind.MOVE))
+
+
+def test_problem_rule_directly():
+    c = Command(CommandKind.MOVE, seq=3)
+    assert step_result_problem(StepResult(CommandKind.MOVE, 3, dphi=1.0, n_reads=10), c) is None
+    assert 'TURN' in step_result_problem(StepResult(CommandKind.TURN, 3), c)
+    assert str(Command(CommandKind.TURN, math.radians(30), 4, True)) == '#4 TURN +30.0° (repeat)'
