@@ -1,0 +1,145 @@
+"""Handoff package of Table 1 step 5, ``(t + 1, p(x⁽ᵗ⁺¹⁾|z̄⁽ᵗ⁺¹⁾))``, its wire format and its validation.
+
+Wire format (little-endian, our choice; the paper only says the sparse belief is handed off):
+
+    header  '<4sBxHHIdddHHI'  = 46 bytes
+            magic b'IDSQ', version 1, pad, sender u16, receiver u16, step u32,
+            grid x0 f64, y0 f64, cell f64, nx u16, ny u16, n_cells u32
+    body    n × u32 flat cell index, then n × f32 mass
+
+so a handoff costs ``HEADER_BYTES + 8·n`` bytes (``payload_bytes``): this is the communication
+cost per step we report. The sender is the receiver's *previous leader* (triplet rule).
+
+``validate_handoff`` returns ``None`` or a one-line reason (never raises) so that a node can
+refuse a malformed package with a warning and let the sender re-select; ``decode_handoff``
+raises ``ValueError`` with the same kind of one-line reason for undecodable bytes.
+"""
+
+from __future__ import annotations
+
+import struct
+from dataclasses import dataclass
+
+import numpy as np
+
+from track_core.idsq.grid import GridSpec, SparseBelief
+
+MAGIC = b'IDSQ'
+VERSION = 1
+_HEADER = struct.Struct('<4sBxHHIdddHHI')
+HEADER_BYTES = _HEADER.size
+MASS_TOL = 1e-3  # |Σ mass − 1| allowed (float32 body)
+
+
+@dataclass(frozen=True)
+class Handoff:
+    """One handoff: step number, sender (= receiver's previous leader), receiver, sparse belief."""
+
+    step: int
+    sender: int
+    receiver: int
+    grid: GridSpec
+    idx: np.ndarray
+    mass: np.ndarray
+
+    @classmethod
+    def from_belief(cls, step: int, sender: int, receiver: int, belief: SparseBelief) -> Handoff:
+        return cls(step, sender, receiver, belief.grid, belief.idx, belief.mass)
+
+    def belief(self) -> SparseBelief:
+        """The carried belief in float64, renormalised (call only after ``validate_handoff``)."""
+        m = np.asarray(self.mass, dtype=float)
+        return SparseBelief(self.grid, np.asarray(self.idx, dtype=np.int64), m / m.sum())
+
+
+def payload_bytes(n_cells: int) -> int:
+    """Bytes on the wire for a belief of ``n_cells`` stored cells (header + 8 bytes per cell)."""
+    return HEADER_BYTES + 8 * int(n_cells)
+
+
+def _header_problem(h: Handoff, grid: GridSpec, n_sensors: int | None, receiver: int | None) -> str | None:
+    if h.grid != grid:
+        return f'wrong grid: got {h.grid}, expected {grid}'
+    if not isinstance(h.step, (int, np.integer)) or h.step < 0:
+        return f'step={h.step} must be an integer >= 0'
+    if n_sensors is not None:
+        bad = [f'{k}={v} outside [0, {n_sensors - 1}]' for k, v in (('sender', h.sender), ('receiver', h.receiver))
+               if not 0 <= v < n_sensors]
+        if bad:
+            return bad[0]
+    if receiver is not None and h.receiver != receiver:
+        return f'addressed to sensor {h.receiver}, not {receiver}'
+    return None
+
+
+def _index_problem(idx: np.ndarray, mass: np.ndarray, grid: GridSpec) -> str | None:
+    if idx.ndim != 1 or mass.shape != idx.shape:
+        return f'index shape {idx.shape} and mass shape {mass.shape} must be equal 1-D'
+    if idx.size == 0:
+        return 'empty belief'
+    if not np.issubdtype(idx.dtype, np.integer):
+        return f'cell indices have dtype {idx.dtype}, expected integers'
+    if idx.min() < 0 or idx.max() >= grid.n_cells:
+        return f'cell index outside [0, {grid.n_cells - 1}]'
+    if np.any(np.diff(idx) <= 0):
+        return 'cell indices not strictly increasing (duplicate or unsorted)'
+    return None
+
+
+def _mass_problem(mass: np.ndarray) -> str | None:
+    if not np.all(np.isfinite(mass)):
+        return f'belief has {int(np.sum(~np.isfinite(mass)))} non-finite mass value(s)'
+    if np.any(mass < 0):
+        return f'belief has negative mass (min {float(mass.min()):.3g})'
+    total = float(np.sum(mass, dtype=float))
+    if abs(total - 1.0) > MASS_TOL:
+        return f'belief mass sums to {total:.6g}, expected 1 ± {MASS_TOL}'
+    return None
+
+
+def validate_handoff(h: Handoff, grid: GridSpec, n_sensors: int | None = None,
+                     receiver: int | None = None) -> str | None:
+    """``None`` if ``h`` is usable by ``receiver`` on ``grid``, else a one-line reason."""
+    idx, mass = np.asarray(h.idx), np.asarray(h.mass)
+    return (_header_problem(h, grid, n_sensors, receiver) or _index_problem(idx, mass, grid)
+            or _mass_problem(mass))
+
+
+def encode_handoff(h: Handoff, check: bool = True) -> bytes:
+    """Pack ``h`` (see the module docstring); ``check`` refuses a package ``validate_handoff`` rejects."""
+    if check:
+        why = validate_handoff(h, h.grid)
+        if why is not None:
+            raise ValueError(f'refusing to encode handoff: {why}')
+    g = h.grid
+    head = _HEADER.pack(MAGIC, VERSION, h.sender, h.receiver, h.step, g.x0, g.y0, g.cell, g.nx, g.ny, len(h.idx))
+    return (head + np.asarray(h.idx, dtype='<u4').tobytes() + np.asarray(h.mass, dtype='<f4').tobytes())
+
+
+def decode_handoff(data: bytes) -> Handoff:
+    """Unpack bytes from ``encode_handoff``; ``ValueError`` with a one-line reason if undecodable."""
+    if len(data) < HEADER_BYTES:
+        raise ValueError(f'handoff of {len(data)} bytes is shorter than the {HEADER_BYTES}-byte header')
+    magic, ver, sender, receiver, step, x0, y0, cell, nx, ny, n = _HEADER.unpack_from(data)
+    if magic != MAGIC or ver != VERSION:
+        raise ValueError(f'bad handoff magic/version {magic!r}/{ver}, expected {MAGIC!r}/{VERSION}')
+    if len(data) != payload_bytes(n):
+        raise ValueError(f'handoff length {len(data)} != {payload_bytes(n)} for {n} cells')
+    try:
+        grid = GridSpec(x0, y0, cell, nx, ny)
+    except ValueError as exc:
+        raise ValueError(f'bad grid in handoff: {exc}') from None
+    body = np.frombuffer(data, offset=HEADER_BYTES, dtype='<u4', count=n).astype(np.int64)
+    mass = np.frombuffer(data, offset=HEADER_BYTES + 4 * n, dtype='<f4', count=n).astype(float)
+    return Handoff(step, sender, receiver, grid, body, mass)
+
+
+def receive_handoff(data: bytes, grid: GridSpec, n_sensors: int | None = None,
+                    receiver: int | None = None) -> tuple[Handoff | None, str | None]:
+    """Decode and validate: ``(handoff, None)`` if usable, else ``(None, one-line reason)``."""
+    try:
+        h = decode_handoff(data)
+    except ValueError as exc:
+        return None, str(exc)
+    why = validate_handoff(h, grid, n_sensors, receiver)
+    return (None, why) if why is not None else (h, None)

@@ -1,0 +1,120 @@
+"""One leader's step of the IDSQ tracker (Table 1) and the centralized baseline (§2.2, eq. 4).
+
+``leader_step`` is what a sensor node runs when a handoff arrives: it takes the handed-off
+belief, the leader's own measurement and the layout, and returns the posterior, the estimate,
+the chosen next leader and the encoded handoff payload. It is pure (no state kept between
+calls); the node keeps the step number and the previous leader (from the handoff).
+
+Interpretations:
+
+- Table 1 step 4 scores I(x⁽ᵗ⁺²⁾; z_k⁽ᵗ⁺²⁾|z̄⁽ᵗ⁺¹⁾): the posterior is diffused once more (Table 3
+  step 1) before the MI of each candidate is computed; the *posterior* (not the diffused
+  belief) is handed off, and the receiver diffuses it (Table 1 steps 0-1).
+- A measurement whose likelihood is 0 on the whole support (an outlier outside every
+  crater) would empty the belief; the update is then skipped (prior kept) with a warning.
+- Baselines: ``selection='nearest'`` picks the candidate nearest to the predicted MMSE estimate
+  of the target (the classic closest-sensor heuristic; nearest to the *leader* would ignore the
+  target); ``'random'`` picks a candidate uniformly with the given Generator.
+- Centralized (§2.2): every sensor's measurement is fused each step, with the product of
+  likelihoods (eq. 4) on the same sparse grid.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+
+from track_core.idsq.grid import Estimate, SparseBelief, diffuse, estimate, sparsify
+from track_core.idsq.handoff import Handoff, encode_handoff
+from track_core.idsq.mi import DZ_PER_SIGMA, neighbour_mi
+from track_core.idsq.models import TrackerParams, likelihood
+from track_core.idsq.network import SensorLayout, candidates
+
+log = logging.getLogger(__name__)
+
+SELECTIONS = ('mi', 'nearest', 'random')
+
+
+@dataclass(frozen=True)
+class LeaderStepResult:
+    """Output of one leader step: posterior, estimate, next leader and the handoff bytes."""
+
+    belief: SparseBelief
+    estimate: Estimate
+    next_leader: int
+    payload: bytes
+    candidates: np.ndarray
+    scores: np.ndarray
+    neighbourhood_size: int
+    updated: bool
+
+
+def update(belief: SparseBelief, z: float, sensor: np.ndarray, is_doa: bool,
+           p: TrackerParams) -> tuple[SparseBelief, bool]:
+    """Eq. 3 / Table 1 step 3: posterior ∝ p(z|x)·prior on the support, re-sparsified; (belief, applied)."""
+    if not np.isfinite(z):
+        raise ValueError(f'measurement z={z} must be finite')
+    post = belief.mass * likelihood(z, belief.centers(), sensor, is_doa, p)
+    if not (np.all(np.isfinite(post)) and post.max() > 0.0):
+        log.warning('measurement z=%.4g has zero likelihood on the whole belief; update skipped', z)
+        return belief, False
+    return sparsify(belief.grid, belief.idx, post, p.sparsity), True
+
+
+def select_next(posterior: SparseBelief, layout: SensorLayout, leader: int, previous: int | None,
+                p: TrackerParams, selection: str = 'mi', rng: np.random.Generator | None = None,
+                dz_per_sigma: float = DZ_PER_SIGMA) -> tuple[int, np.ndarray, np.ndarray]:
+    """Table 1 step 4 / eq. 15: (next leader, candidates, scores) among the leader's neighbours."""
+    if selection not in SELECTIONS:
+        raise ValueError(f'selection={selection!r} must be one of {SELECTIONS}')
+    cands = candidates(layout, leader, previous)
+    if selection == 'random':
+        if rng is None:
+            raise ValueError('rng=None: random selection needs a numpy Generator')
+        scores = np.zeros(cands.size)
+        return int(cands[rng.integers(cands.size)]), cands, scores
+    pred = diffuse(posterior, p.radius, p.sparsity)
+    if selection == 'nearest':
+        centre = estimate(pred).mean
+        scores = -np.linalg.norm(layout.positions[cands] - centre, axis=1)
+    else:
+        scores = neighbour_mi(pred, layout.positions, layout.is_doa, cands, p, dz_per_sigma)
+    return int(cands[int(np.argmax(scores))]), cands, scores
+
+
+def leader_step(belief: SparseBelief, z: float, leader: int, layout: SensorLayout, p: TrackerParams, *,
+                step: int, previous: int | None = None, selection: str = 'mi',
+                rng: np.random.Generator | None = None) -> LeaderStepResult:
+    """Table 1 steps 1-5 for sensor ``leader`` holding the handed-off ``belief`` and its own ``z``.
+
+    ``step`` is the time index of this measurement; the payload carries it to the next leader.
+    """
+    if not 0 <= leader < layout.n:
+        raise ValueError(f'leader={leader} must be in [0, {layout.n - 1}]')
+    prior = diffuse(belief, p.radius, p.sparsity)                                                 # step 1
+    post, ok = update(prior, z, layout.positions[leader], bool(layout.is_doa[leader]), p)  # steps 2-3
+    nxt, cands, scores = select_next(post, layout, leader, previous, p, selection, rng)    # step 4
+    payload = encode_handoff(Handoff.from_belief(step, leader, nxt, post))            # step 5
+    return LeaderStepResult(post, estimate(post), nxt, payload, cands, scores,
+                            int(layout.neighbours[leader].size), ok)
+
+
+def centralized_step(belief: SparseBelief, zs: np.ndarray, layout: SensorLayout,
+                     p: TrackerParams) -> tuple[SparseBelief, Estimate]:
+    """§2.2: diffuse, then fuse all K measurements ``zs`` (eq. 4, log-likelihoods summed per cell)."""
+    zs = np.asarray(zs, dtype=float)
+    if zs.shape != (layout.n,):
+        raise ValueError(f'zs shape={zs.shape} must be ({layout.n},)')
+    prior = diffuse(belief, p.radius, p.sparsity)
+    xy = prior.centers()
+    with np.errstate(divide='ignore'):
+        logl = np.log(prior.mass)
+        for k in range(layout.n):  # K sensors; each term vectorised over cells
+            logl = logl + np.log(likelihood(zs[k], xy, layout.positions[k], bool(layout.is_doa[k]), p))
+    if not np.isfinite(logl.max()):
+        log.warning('centralized measurements have zero joint likelihood on the belief; update skipped')
+        return prior, estimate(prior)
+    post = sparsify(prior.grid, prior.idx, np.exp(logl - logl.max()), p.sparsity)
+    return post, estimate(post)

@@ -1,0 +1,64 @@
+import dataclasses
+
+import numpy as np
+import pytest
+
+from track_core.idsq.grid import GridSpec, uniform_belief
+from track_core.idsq.handoff import (
+    HEADER_BYTES,
+    Handoff,
+    decode_handoff,
+    encode_handoff,
+    payload_bytes,
+    receive_handoff,
+    validate_handoff,
+)
+
+GRID = GridSpec.for_field()
+
+
+def _handoff(**kw) -> Handoff:
+    b = uniform_belief(GRID)
+    h = Handoff.from_belief(7, 3, 5, type(b)(GRID, b.idx[:100], np.full(100, 0.01)))
+    return dataclasses.replace(h, **kw)
+
+
+def test_roundtrip_and_size():
+    h = _handoff()
+    data = encode_handoff(h)
+    assert len(data) == payload_bytes(100) == HEADER_BYTES + 800
+    g, why = receive_handoff(data, GRID, n_sensors=10, receiver=5)
+    assert why is None
+    assert (g.step, g.sender, g.receiver, g.grid) == (7, 3, 5, GRID)
+    np.testing.assert_array_equal(g.idx, h.idx)
+    np.testing.assert_allclose(g.belief().mass, h.mass, rtol=1e-6)
+    assert np.isclose(g.belief().mass.sum(), 1.0)
+
+
+@pytest.mark.parametrize(('change', 'reason'), [
+    ({'mass': np.r_[np.nan, np.full(99, 0.01)]}, 'non-finite'),
+    ({'mass': np.r_[-0.01, 0.02, np.full(98, 0.01)]}, 'negative mass'),
+    ({'grid': GridSpec(0.0, 0.0, 10.0, 15, 25)}, 'wrong grid'),
+    ({'mass': np.full(100, 0.02)}, 'sums to'),
+    ({'idx': np.r_[np.arange(99), 98]}, 'strictly increasing'),
+    ({'idx': np.arange(1450, 1550)}, 'outside'),
+    ({'receiver': 6}, 'addressed'),
+])
+def test_malformed_handoff_is_refused_with_one_line_reason(change, reason):
+    h = _handoff(**change)
+    why = validate_handoff(h, GRID, n_sensors=10, receiver=5)
+    assert why is not None and reason in why and '\n' not in why
+    g, why2 = receive_handoff(encode_handoff(h, check=False), GRID, n_sensors=10, receiver=5)
+    assert g is None and reason in why2
+    if reason not in ('wrong grid', 'addressed'):  # the sender cannot know the receiver's grid/id check
+        with pytest.raises(ValueError, match='refusing'):
+            encode_handoff(h)
+
+
+def test_undecodable_bytes_are_refused():
+    data = encode_handoff(_handoff())
+    for bad, reason in [(data[:20], 'shorter'), (data[:-4], 'length'), (b'XXXX' + data[4:], 'magic')]:
+        g, why = receive_handoff(bad, GRID)
+        assert g is None and reason in why and '\n' not in why
+    with pytest.raises(ValueError, match='shorter'):
+        decode_handoff(b'')

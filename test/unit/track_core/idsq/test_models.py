@@ -1,0 +1,73 @@
+import numpy as np
+import pytest
+from scipy.integrate import quad
+from scipy.stats import norm
+
+from track_core.idsq.models import (
+    DEG,
+    SimNoise,
+    TrackerParams,
+    acoustic_likelihood,
+    bearings,
+    doa_likelihood,
+    doa_sigma,
+    simulate_measurement,
+)
+
+P = TrackerParams()
+
+
+@pytest.mark.parametrize(('z', 'r'), [(1.0, 30.0), (0.5, 100.0), (3.0, 10.0), (0.05, 60.0)])
+def test_eq6_closed_form_matches_the_integral_over_amplitude(z, r):
+    def integrand(a):
+        return norm.pdf(z, loc=a / r, scale=P.sigma_a) / (P.a_hi - P.a_lo)
+
+    ref, _ = quad(integrand, P.a_lo, P.a_hi, points=[r * z], limit=200)
+    assert np.isclose(float(acoustic_likelihood(z, r, P)), ref, rtol=1e-6, atol=1e-12)
+
+
+def test_eq6_is_a_density_in_z():
+    z = np.linspace(-1, 10, 20001)
+    for r in (10.0, 40.0, 120.0):
+        assert np.isclose(np.trapezoid(acoustic_likelihood(z, r, P), z), 1.0, atol=1e-3)
+
+
+def test_bearing_convention_is_from_north_clockwise():
+    s = np.array([10.0, 10.0])
+    pts = np.array([[10, 20], [20, 10], [10, 0], [0, 10], [20, 20]], float)
+    np.testing.assert_allclose(bearings(pts, s), [0, np.pi / 2, np.pi, -np.pi / 2, np.pi / 4], atol=1e-12)
+
+
+def test_doa_likelihood_wraps_across_pi():
+    th, r = np.pi - 1 * DEG, 50.0
+    z = -np.pi + 1 * DEG  # 2° away across the cut
+    assert np.isclose(doa_likelihood(z, th, r, P), doa_likelihood(th + 2 * DEG, th, r, P))
+    assert doa_likelihood(z, th, r, P) > 0.9 * doa_likelihood(th, th, r, P)
+
+
+def test_fig6_sigma_flat_in_working_range_and_growing_outside():
+    s = doa_sigma(np.array([0.0, 10.0, 20.0, 60.0, 100.0, 150.0, 1e4]), P)
+    np.testing.assert_allclose(s[2:5], 10 * DEG)
+    assert s[0] > s[1] > s[2] and s[5] > s[4]
+    np.testing.assert_allclose(s[0], 10 * DEG + 20 * P.near_slope)
+    np.testing.assert_allclose(s[5], 10 * DEG + 50 * P.far_slope)
+    assert s[-1] == P.sigma_doa_max
+
+
+def test_simulated_measurements_have_the_paper_noise():
+    rng = np.random.default_rng(0)
+    n, noise = 4000, SimNoise()
+    truth, s = np.array([75.0, 100.0]), np.array([75.0, 60.0])
+    za = np.array([simulate_measurement(truth, s, False, noise, e) for e in rng.standard_normal(n)])
+    zd = np.array([simulate_measurement(truth, s, True, noise, e) for e in rng.standard_normal(n)])
+    tol = 4 / np.sqrt(n)  # 4 standard errors
+    assert abs(za.mean() - 1.0) < tol * 0.05 and abs(za.std() / 0.05 - 1) < 4 / np.sqrt(2 * n)
+    assert abs(zd.mean()) < tol * 3 * DEG and abs(zd.std() / (3 * DEG) - 1) < 4 / np.sqrt(2 * n)
+
+
+@pytest.mark.parametrize(('kw', 'name'), [({'v_max': -1.0}, 'v_max'), ({'a_hi': 0.0}, 'a_lo'),
+                                          ({'r_far': 10.0}, 'r_near'), ({'sparsity': 1.5}, 'sparsity')])
+def test_bad_parameters_raise_one_line(kw, name):
+    with pytest.raises(ValueError, match=name) as ei:
+        TrackerParams(**kw)
+    assert '\n' not in str(ei.value)

@@ -1,0 +1,41 @@
+import numpy as np
+import pytest
+
+from track_core.idsq.network import SensorLayout, build_neighbours, candidates, start_leader
+
+
+def test_neighbours_within_range_or_two_nearest():
+    pos = np.array([[0, 0], [30, 0], [0, 35], [100, 0], [150, 0], [300, 300]], float)
+    nb = build_neighbours(pos, 40.0, 2)
+    np.testing.assert_array_equal(nb[0], [1, 2])          # two in range
+    np.testing.assert_array_equal(nb[1], [0, 2])          # 0 at 30 m, 2 at 46 m > 40: fewer than 2 → two nearest
+    np.testing.assert_array_equal(nb[3], [1, 4])          # none in range → two nearest (70 m, 50 m)
+    np.testing.assert_array_equal(nb[5], [3, 4])
+    assert all(k not in nb[k] for k in range(len(pos)))
+
+
+def test_many_in_range_are_all_kept():
+    pos = np.array([[0, 0], [10, 0], [0, 10], [-10, 0], [0, -10]], float)
+    assert build_neighbours(pos)[0].size == 4
+
+
+def test_triplet_rule_excludes_previous_leader():
+    lay = SensorLayout(np.array([[0, 0], [30, 0], [0, 30], [20, 20]], float), np.zeros(4, bool))
+    assert 1 in lay.neighbours[0]
+    c = candidates(lay, 0, previous=1)
+    assert 1 not in c and c.size == lay.neighbours[0].size - 1
+    np.testing.assert_array_equal(candidates(lay, 0, None), lay.neighbours[0])
+
+
+def test_start_leader_is_loudest_acoustic_sensor():
+    lay = SensorLayout(np.zeros((4, 2)) + np.arange(4)[:, None], np.array([True, False, False, True]))
+    assert start_leader(lay, np.array([9.0, 1.0, 2.0, 8.0])) == 2   # DOA sensors 0, 3 are skipped
+    all_doa = SensorLayout(lay.positions, np.ones(4, bool))
+    assert start_leader(all_doa, np.array([9.0, 1.0, 2.0, 8.0])) == 0
+
+
+def test_bad_layout_raises():
+    with pytest.raises(ValueError, match='positions'):
+        SensorLayout(np.zeros((3, 3)), np.zeros(3, bool))
+    with pytest.raises(ValueError, match='comm_range'):
+        SensorLayout(np.zeros((3, 2)), np.zeros(3, bool), comm_range=-1.0)
