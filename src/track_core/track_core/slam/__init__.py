@@ -1,0 +1,19 @@
+"""Hybrid SLAM: Compressed EKF that switches to particle-filter localisation (Masson, Guivant & Nebot).
+
+- ``models``: ACFR vehicle model (state at the laser) and eq. 5 range–bearing observation.
+- ``association``: gated nearest neighbour, ambiguity test, failure detector (§3.1).
+- ``cekf``: EKF-SLAM and the Compressed EKF (ref. [9]) in one class, ``CekfSlam``.
+- ``pf``: re-referenced, de-correlated map (eqs. 10–11), helix initialisation (eqs. 12–13),
+  association-free likelihood (eq. 9) and SIR localisation.
+- ``hybrid``: ``HybridSlam``, the switching architecture, driven one input / one scan at a time.
+- ``sim``: the Fig. 1 loop-closure world; ``victoria``: the real-data loader and GPS evaluation.
+- ``experiments``: ``slam-loop``, ``victoria-park`` and ``track-bench cekf``.
+"""
+
+from track_core.slam.cekf import CekfSlam, SlamParams
+from track_core.slam.hybrid import Event, HybridParams, HybridSlam
+from track_core.slam.models import VehicleParams
+from track_core.slam.pf import ParticleLocaliser, PFParams
+
+__all__ = ['CekfSlam', 'Event', 'HybridParams', 'HybridSlam', 'PFParams', 'ParticleLocaliser', 'SlamParams',
+           'VehicleParams']

@@ -1,0 +1,296 @@
+"""``track-experiment`` entries ``slam-loop`` and ``victoria-park``, and ``track-bench cekf``.
+
+slam-loop: M runs of the Fig. 1 world (``sim.LoopWorld``), plain EKF-SLAM with nearest neighbour
+against the hybrid, on the same truth and the same input/sensor noise. A run *fails* when the
+final position error exceeds ``FAIL_M`` (3 m; the landmark separation is 8 m, so a wrong
+association leaves a multi-metre error). ``error_before_m`` is the mean error of the CEKF at the
+scan that triggered PF mode, ``error_after_m`` the mean error of the PF estimate at convergence
+(paper: 2.2 → 0.5 m); ``pf_scans_median`` the median number of scans spent in PF mode.
+The sim uses ``trigger_on_ambiguity=True`` (the world is designed for it); Victoria Park uses the
+uncertainty rule only.
+
+victoria-park: the whole real run (``--quick``: the first 120 s) with the hybrid CEKF; GPS RMSE
+after rigid alignment (``victoria.gps_rmse``).
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+
+import numpy as np
+
+from track_core.cli import Outcome, RunConfig, best_time, format_table
+from track_core.slam import victoria
+from track_core.slam.cekf import CekfSlam, SlamParams
+from track_core.slam.hybrid import HybridParams, HybridSlam
+from track_core.slam.models import observe, vehicle_step
+from track_core.slam.pf import PFParams
+from track_core.slam.sim import LoopWorld, simulate
+
+log = logging.getLogger(__name__)
+FAIL_M = 3.0
+
+
+def loop_params(w: LoopWorld) -> tuple[SlamParams, PFParams]:
+    sp = SlamParams(sigma_v=w.sigma_v, sigma_steer=w.sigma_steer, sigma_r=w.sigma_r, sigma_b=w.sigma_b,
+                    max_range=w.max_range, init_max_range=w.max_range, local_radius=60.0, local_exit=20.0)
+    pp = PFParams(sigma_v=w.sigma_v, sigma_steer=w.sigma_steer, sigma_r=w.sigma_r, sigma_b=w.sigma_b)
+    return sp, pp
+
+
+def run_loop_once(w: LoopWorld, run, hybrid: bool, rng: np.random.Generator) -> dict:
+    """One filter over one simulated run; per-scan error and σ history, PF details."""
+    sp, pp = loop_params(w)
+    h = HybridSlam(w.start(), np.diag([1e-6] * 3), rng, sp, pp,
+                   HybridParams(enabled=hybrid, trigger_on_ambiguity=True))
+    si, hist, before, after, clouds = 0, [], [], [], {}
+    for k in range(len(run.t)):
+        h.process_input(run.t[k], *run.u_meas[k])
+        while si < len(run.scans) and run.scans[si][0] <= run.t[k] + w.dt + 1e-9:
+            ts, z, _ = run.scans[si]
+            kk = round(ts / w.dt)
+            truth = run.truth[kk]
+            pre_err = np.linalg.norm(h.pose[:2] - truth[:2])
+            n_ev = len(h.events)
+            h.process_scan(ts, z)
+            si += 1
+            for ev in h.events[n_ev:]:
+                if ev.kind == 'to_pf':
+                    before.append(pre_err)
+                    clouds.setdefault('init', h.ctx.init_particles if h.ctx else None)
+                    if h.ctx is not None:
+                        clouds.setdefault('init_global', h._pf_global(h.ctx.init_particles))
+                else:
+                    last = h.last_pf
+                    after.append(np.linalg.norm(h._pf_global(last.pf._last[0][None], last)[0, :2] - truth[:2]))
+                    clouds.setdefault('converged', h._pf_global(last.pf.particles, last))
+            hist.append((ts, *truth[:2], *h.pose[:2], np.sqrt(h.pose_cov[0, 0]), np.sqrt(h.pose_cov[1, 1]),
+                         h.mode == 'PF'))
+    H = np.array(hist)
+    pf_scans = [e.scans for e in h.events if e.kind in ('to_cekf', 'pf_timeout')]
+    return {'hist': H, 'final_err': float(np.hypot(*(H[-1, 3:5] - H[-1, 1:3]))), 'before': before, 'after': after,
+            'pf_scans': pf_scans, 'clouds': clouds, 'landmarks': h.landmarks(), 'events': h.events}
+
+
+def slam_loop(cfg: RunConfig) -> Outcome:
+    n_runs = cfg.n_runs(full=50, quick=4)
+    w = LoopWorld()
+    res = {'ekf': [], 'hybrid': []}
+    for child in cfg.progress(np.random.SeedSequence(cfg.seed).spawn(n_runs), desc='slam-loop', total=n_runs):
+        s_truth, s_e, s_h = child.spawn(3)
+        run = simulate(w, np.random.default_rng(s_truth))
+        res['ekf'].append(run_loop_once(w, run, False, np.random.default_rng(s_e)))
+        res['hybrid'].append(run_loop_once(w, run, True, np.random.default_rng(s_h)))
+        if len(res['hybrid']) == 1:
+            run0 = run
+    ekf_fail = float(np.mean([r['final_err'] > FAIL_M for r in res['ekf']]))
+    hyb_ok = float(np.mean([r['final_err'] <= FAIL_M for r in res['hybrid']]))
+    pf_scans = [s for r in res['hybrid'] for s in r['pf_scans'][:1]]
+    before = [b for r in res['hybrid'] for b in r['before'][:1]]
+    after = [a for r in res['hybrid'] for a in r['after'][:1]]
+    data = {'ekf_failure_rate': ekf_fail, 'hybrid_success_rate': hyb_ok,
+            'pf_scans_median': float(np.median(pf_scans)) if pf_scans else float('nan'),
+            'error_before_m': float(np.mean(before)) if before else float('nan'),
+            'error_after_m': float(np.mean(after)) if after else float('nan')}
+    table = format_table(['quantity', 'ours', 'paper / target'], [
+        ['runs', n_runs, 50], ['EKF failure rate', ekf_fail, '>= 0.5'], ['hybrid success rate', hyb_ok, '>= 0.9'],
+        ['PF scans (median)', data['pf_scans_median'], '1 (<= 3)'],
+        ['error before PF [m]', data['error_before_m'], 2.2],
+        ['error after PF [m]', data['error_after_m'], 0.5]])
+    figs = _plot_loop(cfg, w, run0, res)
+    return Outcome(table, data, figs)
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _plot_loop(cfg: RunConfig, w: LoopWorld, run0, res) -> list:
+    plt = _plt()
+    cfg.out.mkdir(parents=True, exist_ok=True)
+    figs = []
+    # Fig. 4: paths (truth, EKF, hybrid mean over runs of run 0)
+    fig, ax = plt.subplots(figsize=(7, 5))
+    lm = w.landmarks()
+    ax.plot(lm[:, 0], lm[:, 1], 'k*', ms=5, label='landmarks')
+    ax.plot(run0.truth[:, 0], run0.truth[:, 1], 'k:', lw=1, label='truth (GPS)')
+    for key, st in (('ekf', 'r-'), ('hybrid', 'b-')):
+        H = res[key][0]['hist']
+        ax.plot(H[:, 3], H[:, 4], st, lw=0.8, label=f'{key} (run 0)')
+    ax.set_aspect('equal')
+    ax.legend(fontsize=7)
+    ax.set_title('slam-loop: paths (Fig. 4)')
+    figs.append(cfg.out / 'slam-loop-fig4-paths.png')
+    fig.savefig(figs[-1], dpi=100)
+    plt.close(fig)
+    # Fig. 5: particle clouds at initialisation and at convergence
+    r = next((r for r in res['hybrid'] if 'init_global' in r['clouds'] and 'converged' in r['clouds']), None)
+    fig, axs = plt.subplots(1, 2, figsize=(10, 4.5))
+    for ax, key in zip(axs, ('init_global', 'converged'), strict=True):
+        ax.plot(lm[:, 0], lm[:, 1], 'k*', ms=5)
+        if r is not None:
+            p = r['clouds'][key]
+            ax.plot(p[:, 0], p[:, 1], '.', ms=1, alpha=0.4)
+        ax.plot(run0.truth[:, 0], run0.truth[:, 1], 'k:', lw=0.8)
+        ax.set_xlim(-50, 60)
+        ax.set_ylim(-40, 60)
+        ax.set_aspect('equal')
+        ax.set_title('PF ' + ('initialisation (helix)' if key == 'init_global' else 'after convergence'))
+    figs.append(cfg.out / 'slam-loop-fig5-particles.png')
+    fig.savefig(figs[-1], dpi=100)
+    plt.close(fig)
+    # Fig. 6: error and σ history averaged over runs
+    fig, ax = plt.subplots(figsize=(8, 3.5))
+    for key, c in (('ekf', 'r'), ('hybrid', 'b')):
+        n = min(len(r['hist']) for r in res[key])
+        Hs = np.stack([r['hist'][:n] for r in res[key]])
+        err = np.hypot(Hs[..., 3] - Hs[..., 1], Hs[..., 4] - Hs[..., 2]).mean(0)
+        sig = np.hypot(Hs[..., 5], Hs[..., 6]).mean(0)
+        ax.plot(Hs[0, :, 0], err, c + '-', lw=1, label=f'{key} |error|')
+        ax.plot(Hs[0, :, 0], sig, c + '--', lw=0.8, label=f'{key} σ')
+    ax.set_xlabel('t [s]')
+    ax.set_ylabel('[m]')
+    ax.legend(fontsize=7)
+    figs.append(cfg.out / 'slam-loop-fig6-error.png')
+    fig.tight_layout()
+    fig.savefig(figs[-1], dpi=100)
+    plt.close(fig)
+    return figs
+
+
+VP_SLAM = SlamParams(sigma_v=0.5, sigma_steer=np.deg2rad(3.0), sigma_r=0.5, sigma_b=np.deg2rad(1.0),
+                     max_range=30.0, init_max_range=30.0, local_radius=60.0, local_exit=20.0, min_separation=3.0)
+VP_PF = PFParams(sigma_r=0.5, sigma_b=np.deg2rad(1.0))
+
+
+def run_victoria(vp: victoria.VictoriaPark, rng: np.random.Generator, progress=iter) -> dict:
+    h = HybridSlam(np.zeros(3), np.diag([1e-6] * 3), rng, VP_SLAM, VP_PF, HybridParams())
+    T, X, cost = [], [], []
+    t0 = time.perf_counter()
+    for ev in progress(victoria.events(vp)):
+        if ev[0] == 'input':
+            h.process_input(ev[1], ev[2], ev[3])
+        else:
+            ts = time.perf_counter()
+            h.process_scan(ev[1], ev[2])
+            cost.append(time.perf_counter() - ts)
+            T.append(ev[1])
+            X.append(h.pose[:2])
+    runtime = time.perf_counter() - t0
+    T, X = np.array(T), np.array(X)
+    rmse, (R, t), g = victoria.gps_rmse(T, X, vp.gps)
+    return {'t': T, 'xy': X, 'cost': np.array(cost), 'runtime': runtime, 'rmse': rmse, 'R': R, 'tr': t,
+            'gps': g, 'landmarks': h.landmarks(), 'events': h.events}
+
+
+def victoria_park(cfg: RunConfig) -> Outcome:
+    vp = victoria.load(t_max=120.0 if cfg.quick else None)
+    r = run_victoria(vp, np.random.default_rng(cfg.seed),
+                     progress=lambda it: cfg.progress(it, desc='victoria-park', mininterval=1.0))
+    n_sw = sum(e.kind == 'to_pf' for e in r['events'])
+    data = {'gps_rmse_m': r['rmse'], 'landmarks': len(r['landmarks']), 'pf_switches': n_sw,
+            'runtime_s': r['runtime'], 'duration_s': vp.duration}
+    table = format_table(['quantity', 'ours', 'target'], [
+        ['GPS RMSE (aligned) [m]', r['rmse'], '<= 5'], ['landmarks', data['landmarks'], ''],
+        ['PF switches', n_sw, ''], ['runtime [s]', r['runtime'], f'<= {vp.duration / 10:.1f}'],
+        ['duration [s]', vp.duration, '']])
+    plt = _plt()
+    cfg.out.mkdir(parents=True, exist_ok=True)
+    fig, axs = plt.subplots(1, 2, figsize=(12, 5), gridspec_kw={'width_ratios': [2, 1]})
+    ax = axs[0]
+    xy = r['xy'] @ r['R'].T + r['tr']
+    lm = r['landmarks'] @ r['R'].T + r['tr']
+    ax.plot(r['gps'][:, 1], r['gps'][:, 2], 'g.', ms=2, label='GPS (jumps removed)')
+    ax.plot(xy[:, 0], xy[:, 1], 'b-', lw=0.7, label='hybrid CEKF path (aligned)')
+    ax.plot(lm[:, 0], lm[:, 1], 'k*', ms=3, label='map')
+    ax.set_aspect('equal')
+    ax.legend(fontsize=7)
+    ax.set_title(f'Victoria Park: RMSE {r["rmse"]:.2f} m')
+    axs[1].plot(r['t'], 1e3 * r['cost'], '.', ms=1)
+    axs[1].set_xlabel('t [s]')
+    axs[1].set_ylabel('scan update [ms]')
+    fig.tight_layout()
+    path = cfg.out / 'victoria-park.png'
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return Outcome(table, data, [path])
+
+
+# ---------------------------------------------------------------------------- benchmark
+def _random_map_filters(n_lm: int, rng: np.random.Generator, steps: int):
+    """EKF and CEKF over the same run with n_lm landmarks known a priori (scattered on a square)."""
+    side = np.sqrt(n_lm) * 10.0
+    lm = rng.uniform(-side / 2, side / 2, (n_lm, 2))
+    sp = SlamParams(max_range=30.0, local_radius=60.0, local_exit=20.0, sigma_v=0.3, sigma_steer=0.02,
+                    sigma_r=0.3, sigma_b=0.01)
+    pose = np.zeros(3)
+    # both filters start from the same prior map (landmarks added with one observation each)
+    filters = [CekfSlam(pose, np.diag([1e-4] * 3), sp, compressed=c) for c in (False, True)]
+    z0 = observe(pose, lm)
+    for f in filters:
+        f.add_landmarks(z0)
+        f.global_update()
+    return lm, sp, filters
+
+
+def cekf_bench(cfg: RunConfig) -> Outcome:
+    rng = np.random.default_rng(cfg.seed)
+    rows, out = [], []
+    for n_lm in ([50, 200] if cfg.quick else [50, 200, 1000]):
+        lm, _, (ekf, cekf) = _random_map_filters(n_lm, rng, 0)
+        j = (int(cekf.a_idx[3]) - 3) // 2          # the first active landmark of the CEKF
+        z = observe(ekf.pose, lm[j]) + np.array([0.1, 0.0])
+        idx_e = np.array([j])
+        idx_c = np.array([0])
+        Pe = ekf.Paa.copy()
+
+        def upd_e(ekf=ekf, z=z, idx=idx_e, Pe=Pe):
+            ekf.Paa[...] = Pe
+            ekf.update_known(z, idx)
+
+        def upd_c(cekf=cekf, z=z, idx=idx_c):
+            cekf.update_known(z, idx)
+
+        te, tc = best_time(upd_e, repeat=3), best_time(upd_c, repeat=3)
+        rows.append([n_lm, te * 1e3, tc * 1e3, te / tc, cekf.n_active_landmarks])
+        out.append({'landmarks': n_lm, 'ekf_update_ms': te * 1e3, 'cekf_update_ms': tc * 1e3, 'speedup': te / tc})
+    diff = cekf_equivalence(200, 200 if cfg.quick else 1000, cfg.seed)
+    table = format_table(['landmarks', 'EKF update ms', 'CEKF local ms', 'speed-up', 'active lm'], rows)
+    table += f'\nmax |CEKF − EKF| after {200 if cfg.quick else 1000} steps, 200 landmarks: {diff:.3g}'
+    return Outcome(table, {'rows': out, 'max_abs_diff': diff})
+
+
+def cekf_equivalence(n_lm: int, steps: int, seed: int) -> float:
+    """Largest |x| or |P| difference between CEKF (after its global update) and the full EKF."""
+    rng = np.random.default_rng(seed)
+    side = np.sqrt(n_lm) * 10.0
+    lm = rng.uniform(-side / 2, side / 2, (n_lm, 2))
+    sp = SlamParams(max_range=30.0, local_radius=60.0, local_exit=20.0, sigma_v=0.3, sigma_steer=0.02,
+                    sigma_r=0.3, sigma_b=0.01)
+    pose = np.zeros(3)
+    ekf = CekfSlam(pose, np.diag([1e-4] * 3), sp, compressed=False)
+    cekf = CekfSlam(pose, np.diag([1e-4] * 3), sp, compressed=True)
+    for k in range(steps):
+        u = np.array([3.0, 0.15 * np.sin(k / 60.0)])
+        pose = vehicle_step(pose, u, 0.1)
+        um = u + rng.normal(0.0, [0.3, 0.02])
+        ekf.predict(um, 0.1)
+        cekf.predict(um, 0.1)
+        zz = observe(pose, lm)
+        vis = np.flatnonzero((zz[:, 0] < 30.0) & (zz[:, 1] >= 0) & (zz[:, 1] <= np.pi))
+        z = zz[vis] + rng.normal(0.0, [0.3, 0.01], (vis.size, 2))
+        a = ekf.update(z)
+        # the CEKF gets exactly the same association (its own, checked in the tests, agrees)
+        cekf.update(z)
+        del a
+    xe, Pe = ekf.mean_cov()
+    xc, Pc = cekf.mean_cov()
+    if xe.shape != xc.shape:
+        return float('inf')
+    return float(max(np.abs(xe - xc).max(), np.abs(Pe - Pc).max()))

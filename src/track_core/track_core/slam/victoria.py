@@ -1,0 +1,111 @@
+"""Victoria Park loader (read at run time from ``../shared/data/victoria_park``) and GPS evaluation.
+
+Files (data README): ``inputs.dat`` (t, encoder speed, steering), ``measurements.dat`` (t, range,
+bearing in the eq. 5 convention, tree diameter; equal t = one scan), ``gps.dat`` (t, x, y).
+
+Interpretations:
+- The laser range hits the trunk surface; the landmark is the trunk centre, so the loader returns
+  ``range + diameter / 2`` (``add_radius=True``, the usual ACFR practice).
+- Bearings are used unchanged: the data's convention (0 = right, π/2 ahead) *is* eq. 5's.
+- GPS evaluation: the GPS frame is a rotated/shifted east–north frame and the SLAM frame starts
+  at the origin heading 0, so the estimate (interpolated at the GPS times) is aligned to the GPS
+  by one least-squares rigid transform (rotation + translation, no scale; Kabsch/Umeyama).
+  GPS jumps are excluded: a fix whose implied speed from the previous kept fix exceeds
+  ``max_gps_speed`` (8 m/s; the vehicle is slower) is dropped, as are fixes outside the run.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from track_core.data import data_dir as shared_data_dir
+
+
+def data_dir() -> Path:
+    """``$TRACK_VICTORIA_PARK`` if set, else ``victoria_park`` under :func:`track_core.data.data_root`."""
+    env = os.environ.get('TRACK_VICTORIA_PARK')
+    return Path(env) if env else shared_data_dir('victoria_park')
+
+
+@dataclass
+class VictoriaPark:
+    inputs: np.ndarray        # (K, 3) t, speed, steering
+    scan_t: np.ndarray        # (S,) scan times
+    scans: list               # S arrays (n, 2): range (to the trunk centre), bearing
+    diameters: list           # S arrays (n,)
+    gps: np.ndarray           # (G, 3) t, x, y
+
+    @property
+    def duration(self) -> float:
+        return float(max(self.inputs[-1, 0], self.scan_t[-1]) - min(self.inputs[0, 0], self.scan_t[0]))
+
+
+def load(path: Path | None = None, *, t_max: float | None = None, add_radius: bool = True) -> VictoriaPark:
+    """Read the three files; ``t_max`` keeps only the data up to that time (the ``--quick`` prefix)."""
+    p = Path(path) if path is not None else data_dir()
+    if not p.is_dir():
+        raise OSError(f'Victoria Park data folder not found: {p}')
+    inputs = np.loadtxt(p / 'inputs.dat', ndmin=2)
+    meas = np.loadtxt(p / 'measurements.dat', ndmin=2)
+    gps = np.loadtxt(p / 'gps.dat', ndmin=2)
+    if t_max is not None:
+        inputs, meas, gps = inputs[inputs[:, 0] <= t_max], meas[meas[:, 0] <= t_max], gps[gps[:, 0] <= t_max]
+    t_u, start = np.unique(meas[:, 0], return_index=True)
+    r = meas[:, 1] + (0.5 * meas[:, 3] if add_radius else 0.0)
+    z = np.stack([r, meas[:, 2]], axis=1)
+    scans = np.split(z, start[1:])
+    diam = np.split(meas[:, 3], start[1:])
+    return VictoriaPark(inputs, t_u, scans, diam, gps)
+
+
+def events(vp: VictoriaPark) -> Iterator[tuple]:
+    """Time-ordered ('input', t, speed, steer) and ('scan', t, z); a scan precedes an input at equal t."""
+    ti, ts = vp.inputs[:, 0], vp.scan_t
+    order = np.argsort(np.concatenate([ti + 1e-9, ts]), kind='stable')
+    k = ti.size
+    for j in order:
+        if j < k:
+            yield ('input', float(ti[j]), float(vp.inputs[j, 1]), float(vp.inputs[j, 2]))
+        else:
+            yield ('scan', float(ts[j - k]), vp.scans[j - k])
+
+
+def rigid_align(src: np.ndarray, dst: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Least-squares rotation R and translation t with R·src + t ≈ dst (2-D Kabsch)."""
+    ms, md = src.mean(0), dst.mean(0)
+    U, _, Vt = np.linalg.svd((src - ms).T @ (dst - md))
+    d = np.sign(np.linalg.det(Vt.T @ U.T))
+    R = Vt.T @ np.diag([1.0, d]) @ U.T
+    return R, md - R @ ms
+
+
+def gps_mask(gps: np.ndarray, max_gps_speed: float = 8.0) -> np.ndarray:
+    """Fixes kept for evaluation: implied speed from the previous kept fix ≤ ``max_gps_speed``."""
+    keep = np.zeros(gps.shape[0], bool)
+    if gps.shape[0] == 0:
+        return keep
+    keep[0] = True
+    last = 0
+    for i in range(1, gps.shape[0]):  # sequential by nature (depends on the last kept fix)
+        dt = max(gps[i, 0] - gps[last, 0], 1e-3)
+        if np.hypot(*(gps[i, 1:] - gps[last, 1:])) / dt <= max_gps_speed:
+            keep[i] = True
+            last = i
+    return keep
+
+
+def gps_rmse(t_est: np.ndarray, xy_est: np.ndarray, gps: np.ndarray, max_gps_speed: float = 8.0):
+    """RMSE [m] of the estimate against GPS after rigid alignment; returns (rmse, aligned xy, kept gps)."""
+    g = gps[gps_mask(gps, max_gps_speed)]
+    g = g[(g[:, 0] >= t_est[0]) & (g[:, 0] <= t_est[-1])]
+    if g.shape[0] < 3:
+        raise ValueError(f'gps: {g.shape[0]} usable fixes inside the run, need >= 3')
+    est = np.stack([np.interp(g[:, 0], t_est, xy_est[:, 0]), np.interp(g[:, 0], t_est, xy_est[:, 1])], 1)
+    R, t = rigid_align(est, g[:, 1:])
+    err = est @ R.T + t - g[:, 1:]
+    return float(np.sqrt(np.mean(np.sum(err**2, 1)))), (R, t), g
