@@ -2,9 +2,13 @@
 
 sonar-table2: Table 2 (δ ∈ {5, 10, 50, 100}, M runs of 40 steps) plus the PaPF and AcPF
 baselines on the same truths and the same noise draws (common random numbers), Figure 2
-(RMS_k, eq. 8) and Figure 4 (one run's schedule), and the particle-filter consistency (average
-NEES per step against its two-sided 95 % χ²(4M)/M band), written to
-``sonar-table2-consistency.json`` beside the figures.
+(RMS_k, eq. 8) and Figure 4 (one run's schedule), and the particle-filter consistency, written to
+``sonar-table2-consistency.json`` beside the figures: the average NEES over the M runs at each
+step against its two-sided 95 % band χ²(4M)/M (full state; χ²(2M)/M for the position block), the
+fraction of the 40 steps inside it, and the mean over steps. It also reports the posterior
+Cramér–Rao bound with the active sonar at every step: its smallest largest position eigenvalue
+bounds ‖P_D − Cov‖₂ from below for any consistent Cov (Weyl), which is why δ = 5 and 10 keep the
+active sonar on (see ``scheduler``).
 
 smart-target: the closed loop with a ``SmartTarget`` that evades when it hears pings, M runs
 per tracker; SS-PF uses ``CLOSED_LOOP_DELTA`` (see its comment).
@@ -21,7 +25,8 @@ from scipy.stats import chi2
 
 from track_core.cli import Outcome, RunConfig, format_table
 from track_core.sonar.models import SensorMode, measure, residual
-from track_core.sonar.scenario import Scenario, run_once
+from track_core.sonar.scenario import Scenario, pcrlb, run_once
+from track_core.sonar.scheduler import DEFAULT_P_D
 from track_core.sonar.smart_target import SmartTarget, SmartTargetParams
 from track_core.sonar.sspf import make_tracker
 
@@ -34,22 +39,28 @@ PAPER_TABLE2 = {5.0: (13.0, 8.08), 10.0: (11.5, 9.06), 50.0: (7.0, 9.11), 100.0:
 CLOSED_LOOP_DELTA = 50.0
 
 
-def _configs() -> list[tuple[str, str, float]]:
-    return [(f'ss-pf d={d:g}', 'ss-pf', d) for d in DELTAS] + [('papf', 'papf', 0.0), ('acpf', 'acpf', 0.0)]
+def _configs(deltas: tuple[float, ...] = DELTAS) -> list[tuple[str, str, float]]:
+    return [(f'ss-pf d={d:g}', 'ss-pf', d) for d in deltas] + [('papf', 'papf', 0.0), ('acpf', 'acpf', 0.0)]
 
 
-def run_table2(n_runs: int, seed: int, scenario: Scenario | None = None, progress=iter) -> dict:
-    """All trackers on the same M truths: squared position errors, active flags, NEES, run 0 details."""
+def run_table2(n_runs: int, seed: int, scenario: Scenario | None = None, progress=iter,
+               deltas: tuple[float, ...] = DELTAS) -> dict:
+    """All trackers on the same M truths: squared position errors, active flags, NEES, run 0 details.
+
+    ``deltas``: the SS-PF thresholds (Table 2's by default; e.g. a finer sweep for the README).
+    """
     sc = scenario or Scenario()
     K = sc.n_steps
-    configs = _configs()
+    configs = _configs(tuple(deltas))
+    truths = np.empty((n_runs, K + 1, 4))
     out = {name: {'err2': np.empty((n_runs, K)), 'active': np.empty((n_runs, K), bool),
-                  'nees': np.empty((n_runs, K))} for name, _, _ in configs}
+                  'nees': np.empty((n_runs, K)), 'nees_pos': np.empty((n_runs, K))} for name, _, _ in configs}
     runs0 = {}
     for i, child in enumerate(progress(np.random.SeedSequence(seed).spawn(n_runs))):
         streams = child.spawn(2 + len(configs))
         r_truth, r_noise = np.random.default_rng(streams[0]), np.random.default_rng(streams[1])
         truth = sc.simulate_truth(r_truth)
+        truths[i] = truth
         prior_mean = sc.draw_prior_mean(r_truth, truth[0])
         noise = r_noise.standard_normal((K, 2))
         for j, (name, kind, delta) in enumerate(configs):
@@ -58,10 +69,30 @@ def run_table2(n_runs: int, seed: int, scenario: Scenario | None = None, progres
             out[name]['err2'][i] = res.pos_err_sq
             out[name]['active'][i] = res.active
             out[name]['nees'][i] = res.nees
+            out[name]['nees_pos'][i] = res.nees_pos
             if i == 0:
                 runs0[name] = res
     lo, hi = chi2.ppf([0.025, 0.975], 4 * n_runs) / n_runs
-    return {'scenario': sc, 'results': out, 'run0': runs0, 'band': (float(lo), float(hi)), 'runs': n_runs}
+    return {'scenario': sc, 'results': out, 'run0': runs0, 'band': (float(lo), float(hi)), 'runs': n_runs,
+            'truths': truths}
+
+
+def pcrlb_floor(sc: Scenario, truths: np.ndarray, P_D: np.ndarray = DEFAULT_P_D) -> dict:
+    """Smallest λmax of the all-active PCRLB position block over the steps, and the floor it puts on eq. 7.
+
+    For a consistent Cov ≥ PCRLB, ‖P_D − Cov‖₂ ≥ λmax(Cov) − λmax(P_D) ≥ λmax(PCRLB_pos) − λmax(P_D)
+    (Weyl); no schedule does better than always active.
+    """
+    B = pcrlb(sc, truths)
+    lam = np.linalg.eigvalsh(B[:, [0, 2]][:, :, [0, 2]])[:, -1]
+    pd_max = float(np.linalg.eigvalsh(P_D)[-1])
+    return {'lambda_max_pos_m2': lam.tolist(), 'min_lambda_max_pos_m2': float(lam.min()),
+            'eq7_distance_floor': float(lam.min()) - pd_max}
+
+
+def _anees(nees: np.ndarray, lo: float, hi: float) -> tuple[np.ndarray, float]:
+    a = nees.mean(0)
+    return a, float(np.mean((a >= lo) & (a <= hi)))
 
 
 def _rtams(err2: np.ndarray) -> float:
@@ -85,19 +116,32 @@ def table2(cfg: RunConfig) -> Outcome:
     table_rows += [['PaPF', f'0/{sc.n_steps}', base['papf']['rtams_m'], '0/40', '-'],
                    ['AcPF', f'{sc.n_steps}/{sc.n_steps}', base['acpf']['rtams_m'], '40/40', '-']]
     lo, hi = res['band']
+    plo, phi = (float(v) for v in chi2.ppf([0.025, 0.975], 2 * n_runs) / n_runs)
     cons, cons_rows = {}, []
     for name in ('ss-pf d=5', 'ss-pf d=50', 'acpf', 'papf'):
-        anees = r[name]['nees'].mean(0)
-        inside = float(np.mean((anees >= lo) & (anees <= hi)))
+        anees, inside = _anees(r[name]['nees'], lo, hi)
+        apos, inside_pos = _anees(r[name]['nees_pos'], plo, phi)
         cons[name] = {'anees_per_step': anees.tolist(), 'mean_anees': float(anees.mean()),
-                      'median_anees': float(np.median(anees)), 'fraction_inside': inside}
-        cons_rows.append([name, float(anees.mean()), float(np.median(anees)), f'{100 * inside:.0f}%'])
+                      'median_anees': float(np.median(anees)), 'fraction_inside': inside,
+                      'anees_pos_per_step': apos.tolist(), 'mean_anees_pos': float(apos.mean()),
+                      'fraction_inside_pos': inside_pos}
+        cons_rows.append([name, float(anees.mean()), float(np.median(anees)), f'{100 * inside:.0f}%',
+                          float(apos.mean()), f'{100 * inside_pos:.0f}%'])
+    floor = pcrlb_floor(sc, res['truths'])
     cfg.out.mkdir(parents=True, exist_ok=True)
     cons_path = cfg.out / 'sonar-table2-consistency.json'
-    cons_path.write_text(json.dumps({'runs': n_runs, 'band_95': [lo, hi], 'trackers': cons}, indent=2) + '\n')
+    cons_path.write_text(json.dumps({'runs': n_runs, 'band_95': [lo, hi], 'band_95_pos': [plo, phi],
+                                     'band_kind': 'per-step average NEES over the runs, chi2(dof*M)/M',
+                                     'trackers': cons, 'pcrlb_all_active': floor}, indent=2) + '\n')
     table = (format_table(['tracker', 'active/steps', 'RTAMS m', 'paper active', 'paper RTAMS m'], table_rows)
-             + f'\n\nPF consistency over {n_runs} runs: ANEES per step vs 95% band [{lo:.2f}, {hi:.2f}] (4 states)\n'
-             + format_table(['tracker', 'mean ANEES', 'median ANEES', 'steps inside'], cons_rows))
+             + f'\n\nPF consistency over {n_runs} runs: average NEES per step vs its 95% band, '
+             f'[{lo:.2f}, {hi:.2f}] (4 states), [{plo:.2f}, {phi:.2f}] (position)\n'
+             + format_table(['tracker', 'mean ANEES', 'median ANEES', 'steps inside', 'mean ANEES pos',
+                             'steps inside pos'], cons_rows)
+             + '\n\nPCRLB, active sonar at every step: min_k λmax(position) = '
+             f'{floor["min_lambda_max_pos_m2"]:.1f} m², '
+             f'so ‖P_D − Cov‖₂ ≥ {floor["eq7_distance_floor"]:.1f} for any consistent Cov: δ ∈ '
+             f'{{{", ".join(f"{d:g}" for d in DELTAS if d < floor["eq7_distance_floor"])}}} keep the active sonar on')
     figs = [_fig2(res, cfg.out / 'sonar-fig2-rms.png'), _fig4(res, cfg.out / 'sonar-fig4-schedule.png'),
             _fig13(res, cfg.out / 'sonar-fig1-3-trajectories.png')]
     return Outcome(table, {'rows': rows, 'baselines': base}, figs)

@@ -140,6 +140,50 @@ class RunResult:
 
         return mahalanobis_sq(self.truth[1:] - self.mean, self.cov)
 
+    @property
+    def nees_pos(self) -> np.ndarray:
+        """NEES of the position block [x, y] alone (2 degrees of freedom)."""
+        from track_core.filters import mahalanobis_sq
+
+        pos = [0, 2]
+        return mahalanobis_sq((self.truth[1:] - self.mean)[:, pos], self.cov[:, pos][:, :, pos])
+
+
+def measurement_jacobian(x: np.ndarray, observer_xy: np.ndarray, mode: SensorMode | str) -> np.ndarray:
+    """∂h/∂x of eq. 5 (passive, (..., 1, 4)) or eq. 6 (active, (..., 2, 4)) at states ``x`` (..., 4)."""
+    x = np.asarray(x, dtype=float)
+    dx, dy = x[..., 0] - observer_xy[0], x[..., 2] - observer_xy[1]
+    r2 = dx * dx + dy * dy
+    r = np.sqrt(r2)
+    zero = np.zeros_like(dx)
+    rows = [np.stack([dy / r2, zero, -dx / r2, zero], axis=-1)]  # d atan2(dx, dy)
+    if SensorMode.parse(mode) is SensorMode.ACTIVE:
+        rows.append(np.stack([dx / r, zero, dy / r, zero], axis=-1))
+    return np.stack(rows, axis=-2)
+
+
+def pcrlb(scenario: Scenario, truths: np.ndarray, active: np.ndarray | None = None) -> np.ndarray:
+    """Posterior Cramér–Rao bound (Tichavský et al. 1998) of the state at steps 1…K: (K, 4, 4).
+
+    Linear-Gaussian dynamics (eq. 1) give J_{k+1} = (Q + F J_k⁻¹ Fᵀ)⁻¹ + E[Hᵀ R⁻¹ H], with the
+    expectation over the Monte-Carlo ``truths`` (M, K+1, 4) and J₀ = P₀⁻¹. ``active`` (K,) is the
+    schedule (default: active at every step, the best any schedule can do). Any estimator's error
+    covariance is ≥ the bound, so a consistent filter's covariance is too.
+    """
+    p, K = scenario.params, scenario.n_steps
+    act = np.ones(K, bool) if active is None else np.asarray(active, bool)
+    obs = scenario.observer_positions()
+    F, Q = p.F, p.Q
+    J = np.linalg.inv(scenario.prior_cov)
+    out = np.empty((K, 4, 4))
+    for k in range(K):
+        mode = SensorMode.ACTIVE if act[k] else SensorMode.PASSIVE
+        H = measurement_jacobian(truths[:, k + 1], obs[k], mode)
+        info = np.mean(np.swapaxes(H, -1, -2) @ np.linalg.inv(p.R(mode)) @ H, axis=0)
+        J = np.linalg.inv(Q + F @ np.linalg.inv(J) @ F.T) + info
+        out[k] = np.linalg.inv(J)
+    return out
+
 
 def run_once(scenario: Scenario, tracker, truth: np.ndarray, prior_mean: np.ndarray,
              noise: np.ndarray) -> RunResult:

@@ -1,8 +1,20 @@
 import numpy as np
 import pytest
+from scipy.stats import multivariate_normal
 
 from track_core.filters import kf_predict, kf_update
-from track_core.sonar import SSPF, Scenario, SensorMode, SonarParams, make_tracker, rb_ukf, run_once
+from track_core.sonar import (
+    SSPF,
+    FixedScheduler,
+    Scenario,
+    SensorMode,
+    SonarParams,
+    make_tracker,
+    measure,
+    rb_ukf,
+    residual,
+    run_once,
+)
 
 
 def test_rb_ukf_batch_matches_single_and_is_vectorised():
@@ -75,3 +87,57 @@ def test_step_interface_and_errors():
         make_tracker('ss-pf', delta=-1.0)
     with pytest.raises(ValueError, match=r'^n_particles must be'):
         SonarParams(n_particles=0)
+
+
+@pytest.mark.parametrize(('alpha', 'beta', 'kappa'), [(1.0, 2.0, 0.0), (0.5, 2.0, 1.0)])
+def test_rb_ukf_with_linear_measurement_is_the_kalman_filter(alpha, beta, kappa):
+    # Algorithm 2 with a linear h: prediction + unscented update == kf_predict + kf_update to 1e-9
+    p = SonarParams(ukf_alpha=alpha, ukf_beta=beta, ukf_kappa=kappa)
+    rng = np.random.default_rng(11)
+    x = np.array([300.0, 12.0, 300.0, -12.0]) + rng.normal(size=(20, 4))
+    A = rng.normal(size=(20, 4, 4))
+    P = A @ np.swapaxes(A, -1, -2) + np.diag([25.0, 1, 25, 1])
+    H = np.array([[1.0, 0.3, 0, 0], [0, 0, 1.0, -0.2]])
+    R = np.array([[4.0, 0.5], [0.5, 9.0]])
+    z = np.array([305.0, 290.0])
+    xu, Pu = rb_ukf(x, P, z, 'active', np.zeros(2), p, h=lambda s: s @ H.T, R=R)
+    xp, Pp = kf_predict(x, P, p.F, p.Q)
+    xk, Pk, _, _ = kf_update(xp, Pp, np.broadcast_to(z, (20, 2)), H, R)
+    np.testing.assert_allclose(xu, xk, atol=1e-9, rtol=0)
+    np.testing.assert_allclose(Pu, Pk, atol=1e-9, rtol=0)
+    with pytest.raises(ValueError, match='needs its noise covariance R'):
+        rb_ukf(x, P, z, 'active', np.zeros(2), p, h=lambda s: s @ H.T)
+
+
+@pytest.mark.parametrize('proposal', ['transition', 'propagated'])
+def test_importance_weights_equal_brute_force_densities(proposal):
+    """Algorithm 3's w ∝ w_prev · p(z|x) p(x|x_prev) / q(x), each density evaluated by scipy."""
+    p = SonarParams(n_particles=64)
+    obs = np.array([10.0, -20.0])
+    m0, P0 = np.array([300.0, 12.25, 300.0, -12.25]), np.diag([400.0, 4, 400, 4])
+    # a tiny resample threshold carries the weights, so they can be read back after each step
+    f = SSPF(p, FixedScheduler('active'), np.random.default_rng(7), proposal=proposal, resample_threshold=1e-9)
+    f.initialize(m0, P0)
+    mvn = multivariate_normal.logpdf
+
+    def check(log_prior_w, x_prev, P_prev, z, mode):
+        f.step(z, mode, obs)
+        x = f.particles
+        R = p.R(mode)
+        log_lik = np.array([mvn(residual(z, measure(xi, obs, mode)), np.zeros(len(z)), R) for xi in x])
+        if x_prev is None:  # first step: the exact predicted prior and one UKF on the prior
+            xt, Pt = rb_ukf(m0[None], P0[None], z, mode, obs, p)
+            log_tr = np.array([mvn(xi, p.F @ m0, p.F @ P0 @ p.F.T + p.Q) for xi in x])
+            log_q = np.array([mvn(xi, xt[0], Pt[0]) for xi in x])
+        else:
+            xt, Pt = rb_ukf(x_prev, P_prev, z, mode, obs, p)
+            log_tr = np.array([mvn(xi, p.F @ xp, p.Q) for xi, xp in zip(x, x_prev, strict=True)])
+            log_q = np.array([mvn(xi, m, C) for xi, m, C in zip(x, xt, Pt, strict=True)])
+        lw = log_prior_w + log_lik + log_tr - log_q
+        w = np.exp(lw - lw.max())
+        np.testing.assert_allclose(f.weights, w / w.sum(), rtol=1e-8, atol=1e-14)
+        assert 1.0 < f.estimate.ess < 64.0
+
+    check(np.zeros(64), None, None, np.array([0.80, 420.0]), 'active')
+    w1, x1, P1 = np.log(f.weights), f.particles.copy(), f.P.copy()
+    check(w1, x1, P1, np.array([0.81]), 'passive')
