@@ -1,0 +1,11 @@
+"""ros2 launch track_nodes rfid.launch.py [use_sim_time:=true] [record:=NAME]
+
+Same nodes and parameters as ``python -m track_nodes.launch rfid`` (config/rfid.yaml): the
+simulated user with the handheld RFID reader and the particle-filter guidance.
+"""
+
+from track_nodes.ros2_launch import scenario_launch_description
+
+
+def generate_launch_description():
+    return scenario_launch_description('rfid')
