@@ -12,6 +12,9 @@ Conventions and interpretations:
   not given. Ours: near field σ grows linearly as r falls, +1.5°/m (σ(0) = 40°); far field
   +0.2°/m beyond r_far (σ(200 m) = 30°); capped at 90° (beyond that a bearing says nothing and
   the wrapped Gaussian is no longer a density on the circle to any useful accuracy).
+  The slopes matter little in the §5.1 runs: with a 4°/m near slope (σ(0) = 90°, "no evidence"
+  at the sensor) the error is 22.3 / 14.2 / 10.1 m at K = 24 / 40 / 64 and 6.3 m all-DOA
+  (20 runs, seed 0), against 22.0 / 13.9 / 9.9 and 5.8 m with 1.5°/m.
 - Eq. 6 is the density of z given the range r (a ~ U[a_lo, a_hi], w ~ N(0, σ²)). Φ is the
   standard normal CDF (``scipy.stats.norm.cdf``). r = 0 gives 0 (the limit of eq. 6).
 - Simulation (§5.1): acoustic z = A/‖x − ζ‖ + N(0, 0.05²); DOA z = θ + N(0, (3°)²), wrapped.

@@ -3,11 +3,20 @@
 Interpretations:
 
 - "K/4 rows and four columns, evenly covering the field": sensor (row i, column j) sits at the
-  centre of its block, ((j + ½)·W/4, (i + ½)·H/(K/4)), then N(0, 25) (variance 25 m², σ = 5 m)
-  is added to each coordinate; positions are not clipped to the field. K must be a multiple of 4.
+  centre of its block, ((j + ½)·W/4, (i + ½)·H/(K/4)), then N(0, 25) is added to each
+  coordinate; positions are not clipped to the field. K must be a multiple of 4.
+  N(0, 25) is read as *variance* 25 m² (σ = 5 m): the paper writes the acoustic noise as
+  N(0, 0.05²), i.e. N(mean, variance). The neighbourhood column of Table 4 agrees: with σ = 5 m
+  our leaders' mean |N| is 2.06 / 3.09 / 5.81 at K = 24 / 40 / 64 (paper 2.0 / 3.0 / 6.0);
+  with σ = 25 m it is 2.33 / 3.23 / 5.92 and the layout is no longer a grid.
 - DOA fraction f: round(f·K) sensors, chosen uniformly without replacement, are DOA.
 - Vehicle: x = W/2, entering at the south edge y = 0 at t = 0 and moving north at 7 m/s; one
   tracker step per Δt = 0.5 s while the vehicle is in the field (72 steps for H = 250 m).
+- Table 4 statistics ("averaged over all tracking steps and twenty runs"; Fig. 9: per-run means
+  over the steps, then the mean over runs — the same number, every run having 72 steps):
+  ‖x̂_MMSE − x‖ of the posterior of every step including the first (uniform start, so the
+  first steps of the "discovery" phase are counted, as the paper says it counts all steps),
+  the weighted spread, the stored cell count, and |N| after the triplet rule.
 - Every run draws one standard normal per sensor and step; each tracker (IDSQ with any
   selection rule, centralized) uses the same draws (common random numbers), so baselines are
   compared on the same runs. The t = 0 amplitude reading of every sensor (start-leader rule) uses

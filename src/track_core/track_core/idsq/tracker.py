@@ -12,6 +12,9 @@ Interpretations:
   belief) is handed off, and the receiver diffuses it (Table 1 steps 0-1).
 - A measurement whose likelihood is 0 on the whole support (an outlier outside every
   crater) would empty the belief; the update is then skipped (prior kept) with a warning.
+- Candidates are the leader's neighbourhood after the triplet rule (``network.candidates``:
+  within 40 m or else the two nearest, among the sensors other than the previous leader);
+  ``neighbourhood_size`` is their number, Table 4's "avg. neigh. size".
 - Baselines: ``selection='nearest'`` picks the candidate nearest to the predicted MMSE estimate
   of the target (the classic closest-sensor heuristic; nearest to the *leader* would ignore the
   target); ``'random'`` picks a candidate uniformly with the given Generator.
@@ -47,7 +50,7 @@ class LeaderStepResult:
     payload: bytes
     candidates: np.ndarray
     scores: np.ndarray
-    neighbourhood_size: int
+    neighbourhood_size: int  # |candidates| after the triplet rule (Table 4's "neigh. size")
     updated: bool
 
 
@@ -98,7 +101,7 @@ def leader_step(belief: SparseBelief, z: float, leader: int, layout: SensorLayou
     nxt, cands, scores = select_next(post, layout, leader, previous, p, selection, rng)    # step 4
     payload = encode_handoff(Handoff.from_belief(step, leader, nxt, post))            # step 5
     return LeaderStepResult(post, estimate(post), nxt, payload, cands, scores,
-                            int(layout.neighbours[leader].size), ok)
+                            int(cands.size), ok)
 
 
 def centralized_step(belief: SparseBelief, zs: np.ndarray, layout: SensorLayout,

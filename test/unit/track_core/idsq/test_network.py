@@ -2,6 +2,7 @@ import numpy as np
 import pytest
 
 from track_core.idsq.network import SensorLayout, build_neighbours, candidates, start_leader
+from track_core.idsq.simulation import Scenario
 
 
 def test_neighbours_within_range_or_two_nearest():
@@ -25,6 +26,34 @@ def test_triplet_rule_excludes_previous_leader():
     c = candidates(lay, 0, previous=1)
     assert 1 not in c and c.size == lay.neighbours[0].size - 1
     np.testing.assert_array_equal(candidates(lay, 0, None), lay.neighbours[0])
+
+
+def test_triplet_rule_then_two_nearest():
+    # sensor 0 has exactly two sensors in range (1 and 2); 3 is the next nearest (45 m).
+    pos = np.array([[0, 0], [30, 0], [0, 35], [45, 0], [200, 200]], float)
+    lay = SensorLayout(pos, np.zeros(5, bool))
+    np.testing.assert_array_equal(lay.neighbours[0], [1, 2])
+    # previous leader 1 excluded first, then "fewer than two in range → the two nearest" of the rest
+    np.testing.assert_array_equal(candidates(lay, 0, previous=1), [2, 3])
+    np.testing.assert_array_equal(candidates(lay, 0, previous=2), [1, 3])
+    # a sensor with none in range: the two nearest other than the previous leader
+    np.testing.assert_array_equal(candidates(lay, 4, previous=3), [1, 2])
+
+
+def test_triplet_rule_with_only_the_previous_leader_left_allows_it_back():
+    lay = SensorLayout(np.array([[0, 0], [10, 0]], float), np.zeros(2, bool), min_neighbours=1)
+    np.testing.assert_array_equal(candidates(lay, 0, previous=1), [1])
+
+
+def test_sparse_field_leaders_keep_a_choice():
+    """K = 24 without jitter: every sensor has exactly two neighbours, and after the triplet rule
+    a leader still chooses between two (Table 4: avg. neigh. size 2.0 at K = 24)."""
+    lay = Scenario(n_sensors=24, jitter_var=0.0).layout(np.random.default_rng(0))
+    assert all(nb.size == 2 for nb in lay.neighbours)
+    for k in range(lay.n):
+        for prev in lay.neighbours[k]:
+            c = candidates(lay, k, int(prev))
+            assert c.size == 2 and prev not in c and k not in c
 
 
 def test_start_leader_is_loudest_acoustic_sensor():

@@ -51,7 +51,8 @@ def test_triplet_rule_in_leader_step():
     nb = LAYOUT.neighbours[1]
     for prev in nb:
         res = leader_step(uniform_belief(GRID), _z(1), 1, LAYOUT, P, step=0, previous=int(prev))
-        assert res.next_leader != prev
+        assert res.next_leader != prev and prev not in res.candidates
+        assert res.neighbourhood_size == res.candidates.size >= 2  # Table 4's |N|, after the rule
 
 
 def test_selection_rules():
