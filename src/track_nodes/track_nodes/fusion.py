@@ -3,8 +3,13 @@
 Subscribes to the track topics listed in ``odometry_topics`` (nav_msgs/Odometry; the track id
 is ``<topic>/<child_frame_id>``, so one topic may carry several tracks of one source) and
 ``pose_topics`` (PoseWithCovarianceStamped; one track per topic, and the topic's namespace is
-its source: ``/radar/t0`` and ``/radar/t1`` are two tracks of ``/radar``). Pairs within one
-source are not scored unless ``same_source_pairs`` (a source does not report a ship twice).
+its source: ``/radar/t0`` and ``/radar/t1`` are two tracks of ``/radar``) and
+``pose_track_topics`` (PoseWithCovarianceStamped carrying many tracks of one source, the source
+being the topic: the local track id travels in ``header.frame_id`` as ``"<frame>#<local id>"``,
+``track_msgs_py.topics.track_frame_id``, and the track id is ``<topic>/<local id>``; these
+subscriptions keep ``TRACKS_QOS_DEPTH`` messages, so a source may publish all its ships at one
+instant). Pairs within one source are not scored unless ``same_source_pairs`` (a source does
+not report a ship twice).
 Every incoming message is validated (finite, symmetric PSD covariance, known frame,
 non-decreasing stamp per track); a bad one is dropped with at most one warning per topic
 every ``warn_period`` seconds, and the node keeps running.
@@ -56,16 +61,23 @@ from track_msgs_py.topics import (
     FUSION_MARKERS,
     FUSION_SCORES,
     KNOWN_FRAMES,
+    split_track_frame_id,
 )
-from track_msgs_py.validate import StampMonotonic, odometry_problem, pose_cov_problem
+from track_msgs_py.validate import StampMonotonic, frame_problem, odometry_problem, pose_cov_problem
 from track_nodes.node_util import Param, declare_params, run_node
 
 # Best effort accepts both reliable and best-effort publishers; depth covers a few rate periods.
 TRACK_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=50, reliability=ReliabilityPolicy.BEST_EFFORT)
+# Topics carrying many tracks (pose_track_topics): one burst per instant holds every ship of a source.
+TRACKS_QOS_DEPTH = 1000
+TRACKS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=TRACKS_QOS_DEPTH,
+                        reliability=ReliabilityPolicy.BEST_EFFORT)
 
 PARAMS = (
     Param('odometry_topics', [''], 'nav_msgs/Odometry track topics (track id = topic/child_frame_id)'),
     Param('pose_topics', [''], 'PoseWithCovarianceStamped track topics (one track per topic)'),
+    Param('pose_track_topics', [''], 'PoseWithCovarianceStamped topics of many tracks of one source '
+          '(header.frame_id = "<frame>#<local id>", track id = topic/<local id>)'),
     Param('rate', 2.0, 'scoring rate [Hz]', 0.01, 100.0),
     Param('method', 'exact', 'geofeasibility score', choices=('exact', 'glr', 'glr_thresholded', 'mc')),
     Param('n_samples', 500, 'Monte-Carlo samples per pair (method mc)', 10, 1_000_000),
@@ -91,8 +103,10 @@ class FusionNode(Node):
         self.p = p = declare_params(self, PARAMS)
         odo = [t for t in p.odometry_topics if t]
         pose = [t for t in p.pose_topics if t]
-        if not odo and not pose:
-            raise ValueError('parameters odometry_topics and pose_topics are both empty: nothing to fuse')
+        multi = [t for t in p.pose_track_topics if t]
+        if not odo and not pose and not multi:
+            raise ValueError('parameters odometry_topics, pose_topics and pose_track_topics are all empty: '
+                             'nothing to fuse')
         self.rng = np.random.default_rng(p.seed)
         self.table = TrackTable(p.stale_after, p.max_prediction, p.q_s)
         self.source: dict[str, str] = {}
@@ -105,6 +119,8 @@ class FusionNode(Node):
                      for t in odo]
         self.subs += [self.create_subscription(PoseWithCovarianceStamped, t, lambda m, t=t: self._on_pose(t, m),
                                                TRACK_QOS) for t in pose]
+        self.subs += [self.create_subscription(PoseWithCovarianceStamped, t,
+                                               lambda m, t=t: self._on_pose_track(t, m), TRACKS_QOS) for t in multi]
         self.pub_scores = self.create_publisher(DiagnosticArray, FUSION_SCORES, ESTIMATE_QOS)
         self.pub_assoc = self.create_publisher(DiagnosticArray, FUSION_ASSOCIATIONS, ESTIMATE_QOS)
         self.pub_fused = self.create_publisher(Odometry, FUSION_FUSED, ESTIMATE_QOS)
@@ -140,6 +156,21 @@ class FusionNode(Node):
         t, z, R = pose_cov_to_position(msg)
         # One track per topic; a source publishes its tracks under one namespace (<source>/<track>).
         self._store(topic.rsplit('/', 1)[0] or topic, topic, TrackReport(t, z, R))
+
+    def _on_pose_track(self, topic: str, msg: PoseWithCovarianceStamped) -> None:
+        frame, local = split_track_frame_id(msg.header.frame_id)
+        if not local:
+            self._drop(topic, f'header.frame_id: {msg.header.frame_id!r} carries no track id '
+                              '(expected "<frame>#<local id>")')
+            return
+        track_id = f'{topic}/{local}'
+        reason = (frame_problem(frame, KNOWN_FRAMES) or pose_cov_problem(msg, None)
+                  or self.stamps.msg_problem(track_id, msg))
+        if reason:
+            self._drop(topic, reason)
+            return
+        t, z, R = pose_cov_to_position(msg)
+        self._store(topic, track_id, TrackReport(t, z, R))  # the topic is the source
 
     def _store(self, source: str, track_id: str, report: TrackReport) -> None:
         self.source[track_id] = source

@@ -1,0 +1,88 @@
+"""Latitude/longitude ↔ local east/north metres: the tangent plane at the data centroid (WGS-84).
+
+Projection (:class:`LocalTangentPlane`): a geodetic point (φ, λ) on the WGS-84 ellipsoid
+(height 0: ships are at sea level) goes to Earth-centred Earth-fixed (ECEF) coordinates and is
+then expressed in the east/north/up (ENU) axes of the origin (φ0, λ0):
+
+    N(φ) = a / √(1 − e² sin²φ)
+    X = N cos φ cos λ,  Y = N cos φ sin λ,  Z = N (1 − e²) sin φ
+    east  = −sin λ0 ΔX + cos λ0 ΔY
+    north = −sin φ0 cos λ0 ΔX − sin φ0 sin λ0 ΔY + cos φ0 ΔZ
+
+with a = 6 378 137 m, f = 1/298.257223563, e² = f (2 − f), Δ = P − P0. ``up`` is dropped: the
+map is the orthographic projection of the ellipsoid onto its tangent plane at the origin, x
+east and y north in metres (the ``map`` frame, ENU, REP-103). The inverse is exact: the point
+of the plane is moved along the origin's normal back onto the ellipsoid (a quadratic in the
+normal offset), and the geodetic latitude of a point on the surface is
+atan(Z / ((1 − e²) √(X² + Y²))).
+
+Accuracy. Distances in the plane are shortened radially by about cos(ρ/R) (ρ the distance
+from the origin, R ≈ 6371 km) and are nearly exact tangentially, so the local scale error is
+≈ ρ²/(2R²): 1.1·10⁻⁵ at 30 km. Over the Solent data (50.52–50.88° N, 1.39–0.73° W, i.e.
+within ~35 km of the centroid) any point-to-point distance is within 2·10⁻⁵ of the
+ellipsoidal distance and within 0.35 m absolute (measured on random pairs by the unit test,
+which checks < 2·10⁻⁵ and < 0.5 m). AIS positions themselves are good to a few metres and the
+simulated sources' errors are tens of metres, so the projection error is negligible. (An
+equirectangular projection x = N(φ0) cos φ0 Δλ, y = M(φ0) Δφ would be off by ~0.4 % in
+scale at ±0.2° of latitude from the origin, i.e. ~100 m at 30 km.)
+
+The origin is the data centroid: by default the median latitude and longitude of the valid
+reports (:func:`track_core.ais.reader.read_ais`), robust to stray positions.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+WGS84_A = 6_378_137.0                    # semi-major axis [m]
+WGS84_F = 1.0 / 298.257223563            # flattening
+WGS84_E2 = WGS84_F * (2.0 - WGS84_F)     # first eccentricity squared
+WGS84_B = WGS84_A * (1.0 - WGS84_F)      # semi-minor axis [m]
+
+
+def geodetic_to_ecef(lat_deg, lon_deg) -> np.ndarray:
+    """(…,) latitudes/longitudes in degrees at height 0 → (…, 3) ECEF metres."""
+    phi, lam = np.radians(np.asarray(lat_deg, float)), np.radians(np.asarray(lon_deg, float))
+    s = np.sin(phi)
+    n = WGS84_A / np.sqrt(1.0 - WGS84_E2 * s * s)
+    return np.stack([n * np.cos(phi) * np.cos(lam), n * np.cos(phi) * np.sin(lam), n * (1.0 - WGS84_E2) * s], -1)
+
+
+def ecef_surface_to_geodetic(p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(…, 3) ECEF points *on the ellipsoid* → (lat, lon) in degrees (exact for height 0)."""
+    p = np.asarray(p, float)
+    horiz = np.hypot(p[..., 0], p[..., 1])
+    lat = np.degrees(np.arctan2(p[..., 2], (1.0 - WGS84_E2) * horiz))
+    lon = np.degrees(np.arctan2(p[..., 1], p[..., 0]))
+    return lat, lon
+
+
+class LocalTangentPlane:
+    """East/north metres in the tangent plane of WGS-84 at (lat0, lon0); see the module docstring."""
+
+    def __init__(self, lat0: float, lon0: float) -> None:
+        if not (np.isfinite(lat0) and np.isfinite(lon0) and -90.0 < lat0 < 90.0 and -180.0 <= lon0 <= 180.0):
+            raise ValueError(f'origin must be a finite latitude in (-90, 90) and longitude in [-180, 180], '
+                             f'got ({lat0}, {lon0})')
+        self.lat0, self.lon0 = float(lat0), float(lon0)
+        phi, lam = np.radians(self.lat0), np.radians(self.lon0)
+        self.p0 = geodetic_to_ecef(self.lat0, self.lon0)
+        self.east = np.array([-np.sin(lam), np.cos(lam), 0.0])
+        self.north = np.array([-np.sin(phi) * np.cos(lam), -np.sin(phi) * np.sin(lam), np.cos(phi)])
+        self.up = np.array([np.cos(phi) * np.cos(lam), np.cos(phi) * np.sin(lam), np.sin(phi)])
+
+    def forward(self, lat_deg, lon_deg) -> np.ndarray:
+        """(…,) degrees → (…, 2) east/north metres."""
+        d = geodetic_to_ecef(lat_deg, lon_deg) - self.p0
+        return np.stack([d @ self.east, d @ self.north], -1)
+
+    def inverse(self, en) -> tuple[np.ndarray, np.ndarray]:
+        """(…, 2) east/north metres → (lat, lon) degrees on the ellipsoid (exact inverse of ``forward``)."""
+        en = np.asarray(en, float)
+        q = self.p0 + en[..., :1] * self.east + en[..., 1:2] * self.north      # point in the plane
+        w = np.array([1.0 / WGS84_A**2, 1.0 / WGS84_A**2, 1.0 / WGS84_B**2])
+        A = float(np.sum(w * self.up * self.up))
+        B = np.sum(w * q * self.up, -1)
+        C = np.sum(w * q * q, -1) - 1.0
+        u = -C / (B + np.sqrt(B * B - A * C))          # the root near 0, written without cancellation
+        return ecef_surface_to_geodetic(q + u[..., None] * self.up)

@@ -1,0 +1,191 @@
+"""AIS scenario (issue 8, part 2): two ais_source nodes and the fusion node in-process on /clock.
+
+A short stretch of the real Solent data (150 s, the patrol every 10 s instead of 30 s so that each
+pair gets 15 common instants) with the scenario's parameters otherwise:
+
+- the fusion node scores exactly the pair-instants of the core (``track_core.ais.PairTable``) with
+  the same numbers, and its per-instant verdicts give the core's same-ship decisions;
+- the same ship is associated across the two sources (high recall and precision after one-to-one);
+- reports carry local track ids only (``map#r017``); the MMSI is only on the truth topics;
+- the recorded bag's summary (``summary.ais_metrics``) reports the core's precision/recall/F1;
+- fusion drops multi-track reports without a track id or with an unknown frame, and keeps going.
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import PoseWithCovarianceStamped
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rosgraph_msgs.msg import Clock
+
+from track_core.ais import PairTable, default_path, evaluate
+from track_msgs_py.convert import position_to_pose_cov, sec_to_stamp, stamp_to_sec
+from track_msgs_py.qos import CLOCK_QOS, ESTIMATE_QOS, STATIC_QOS
+from track_msgs_py.topics import CLOCK, FUSION_SCORES, ais_reports_topic, ais_truth_topic
+from track_nodes.ais_source import AisSourceNode
+from track_nodes.fusion import FusionNode
+
+pytestmark = pytest.mark.skipif(not default_path().is_file(), reason='shared AIS data not found')
+
+DURATION = 150.0
+OVERRIDES = {'radar': {'duration': DURATION}, 'patrol': {'duration': DURATION, 'period': 10.0}, 'fusion': {}}
+
+
+def _node(ros, repo, cls, name):
+    params = [Parameter('use_sim_time', value=True), *[Parameter(k, value=v) for k, v in OVERRIDES[name].items()]]
+    return ros.add(cls(node_name=name, context=ros.context, parameter_overrides=params,
+                       cli_args=['--ros-args', '--params-file', str(repo / 'config/ais.yaml')]))
+
+
+@pytest.fixture
+def ais_run(ros, repo, tmp_path):
+    from track_nodes.recorder import RecorderNode
+
+    radar = _node(ros, repo, AisSourceNode, 'radar')
+    patrol = _node(ros, repo, AisSourceNode, 'patrol')
+    fusion = _node(ros, repo, FusionNode, 'fusion')
+    received = {'n': 0}
+    on_pose_track = fusion._on_pose_track
+
+    def counting(topic, msg):
+        received['n'] += 1
+        on_pose_track(topic, msg)
+
+    fusion._on_pose_track = counting  # the subscriptions look the method up at call time
+    sink = ros.add(Node('ais_sink', context=ros.context))
+    got = {'scores': [], 'truth': {}}
+    sink.create_subscription(DiagnosticArray, FUSION_SCORES, got['scores'].append, ESTIMATE_QOS)
+    for src in (radar, patrol):
+        sink.create_subscription(DiagnosticArray, ais_truth_topic(src.p.prefix),
+                                 lambda m: got['truth'].update({s.name: s for s in m.status}), STATIC_QOS)
+    bag = tmp_path / 'ais_bag'
+    recorder = ros.add(RecorderNode(context=ros.context, parameter_overrides=[
+        Parameter('use_sim_time', value=True), Parameter('bag', value=str(bag)),
+        Parameter('regex', value='^/(ais|fusion)/')]))
+    clock = ros.add(Node('test_clock', context=ros.context)).create_publisher(Clock, CLOCK, CLOCK_QOS)
+    topics = {radar.topic, patrol.topic, ais_truth_topic('/ais/radar'), ais_truth_topic('/ais/patrol'), FUSION_SCORES}
+    assert ros.spin_until(lambda: topics <= set(recorder.subscriptions_by_topic)
+                          and radar.pub.get_subscription_count() >= 2 and len(got['truth']) > 0, timeout=15)
+
+    def recorded(topic):
+        return recorder.message_counts().get(topic, 0)
+
+    # /clock visits every report stamp and every fusion tick (5 s); the timers catch up in between
+    events = np.unique(np.round(np.concatenate([radar.stamps, patrol.stamps, np.arange(5.0, DURATION + 1e-9, 5.0)]),
+                                6))
+    n_ticks = 0
+    for t in events.tolist():
+        clock.publish(Clock(clock=sec_to_stamp(t)))
+        want = {s: int(np.searchsorted(s.stamps, t + 1e-9, side='right')) for s in (radar, patrol)}
+        # a fusion tick (every 5 s) with patrol reports 0.5 s before it publishes one scores message
+        if abs(t / 5.0 - round(t / 5.0)) < 1e-9 and np.any(np.abs(patrol.stamps - (t - 0.5)) < 1e-9):
+            n_ticks += 1
+
+        def done(want=want, n_ticks=n_ticks):
+            pub = sum(want.values())
+            return (all(s.next == n for s, n in want.items()) and received['n'] == pub
+                    and recorded(radar.topic) + recorded(patrol.topic) == pub and len(got['scores']) == n_ticks
+                    and recorded(FUSION_SCORES) == n_ticks)
+
+        assert ros.spin_until(done, timeout=20), f'step t={t} not completed'
+    recorder.close()
+    return radar, patrol, fusion, got, bag
+
+
+def _node_scores(got, radar, patrol):
+    """{(radar local index, patrol local index, report time): (score, associated)} from /fusion/scores."""
+    r_idx = {f'{radar.topic}/{i}': k for k, i in enumerate(radar.reports.ids)}
+    p_idx = {f'{patrol.topic}/{i}': k for k, i in enumerate(patrol.reports.ids)}
+    out = {}
+    for arr in got['scores']:
+        t_report = round(stamp_to_sec(arr.header.stamp) - 0.5, 6)
+        for st in arr.status:
+            a, b = st.name.split(' | ')
+            if a in p_idx:
+                a, b = b, a
+            v = {kv.key: kv.value for kv in st.values}
+            out[(r_idx[a], p_idx[b], t_report)] = (float(v['score']), v['associated'] == 'true')
+    return out
+
+
+def test_sources_and_fusion_in_process(ais_run):
+    """One run (it takes ~15 s), three checks: the core's numbers, local ids only, the recorded summary."""
+    from track_nodes.summary import SCENARIO_METRICS, read_topics, summarize
+
+    radar, patrol, fusion, got, bag = ais_run
+    a, b = radar.reports, patrol.reports
+    table = PairTable(a, b)
+    g, _ = table.score('exact')
+
+    # 1. the fusion node scores exactly the core's pair-instants, with the core's numbers and verdicts
+    core = {(int(a.track[i]), int(b.track[j]), round(float(a.t[i]) - radar.p.start, 6)): float(s)
+            for i, j, s in zip(table.pi.ia, table.pi.ib, g, strict=True)}
+    node = _node_scores(got, radar, patrol)
+    assert set(node) == set(core) and len(node) > 10_000
+    np.testing.assert_allclose([node[k][0] for k in core], list(core.values()), rtol=0, atol=6e-7)  # 6 decimals
+    assert all(node[k][1] == (core[k] >= 0.5) for k in core)      # window 1: the instant verdict
+    assert not fusion.dropped
+    # the same ship is associated across the sources (the core's decisions on these scores)
+    m = evaluate(a, b, table.decide(g, window=1, threshold=0.5, one_to_one=True))
+    print(f'{len(a.ids)} radar / {len(b.ids)} patrol tracks: precision {m.precision:.3f} recall {m.recall:.3f} '
+          f'F1 {m.f1:.3f}')
+    assert m.recall >= 0.85 and m.precision >= 0.85
+
+    # 2. reports carry local track ids only; the MMSI travels on the evaluation-only truth topics
+    reports = read_topics(bag, {radar.topic, patrol.topic})
+    frames = {m.header.frame_id for msgs in reports.values() for m in msgs}
+    assert sum(map(len, reports.values())) == len(a) + len(b)
+    assert all(re.fullmatch(r'map#[rp]\d{3}', f) for f in frames)
+    assert len(frames) == len(a.ids) + len(b.ids)
+    names = {f'{s.topic}/{i}' for s in (radar, patrol) for i in s.reports.ids}
+    assert set(got['truth']) == names                              # named like the fusion track ids
+    mmsi = {int(next(kv.value for kv in st.values if kv.key == 'mmsi')) for st in got['truth'].values()}
+    assert mmsi == set(a.mmsi) | set(b.mmsi)
+
+    # 3. the summary of the recorded bag reports the core's precision/recall/F1
+    lines = SCENARIO_METRICS['ais'](bag)
+    print('\n'.join(lines))
+    assert lines[0].startswith('ais: method exact')
+    one = next(line for line in lines if 'one-to-one' in line)
+    assert f'F1 {m.f1:.3f}' in one and f'TP {m.tp}, FP {m.fp}, FN {m.fn}' in one
+    assert any('/ais/radar/reports' in line for line in summarize(bag, 'ais'))
+
+
+def test_reports_without_a_track_id_or_with_a_bad_frame_are_dropped(ros, repo):
+    fusion = ros.add(FusionNode(node_name='fusion', context=ros.context,
+                                cli_args=['--ros-args', '--params-file', str(repo / 'config/ais.yaml')],
+                                parameter_overrides=[Parameter('rate', value=20.0),
+                                                     Parameter('stale_after', value=5.0)]))
+    node = ros.add(Node('bad_source', context=ros.context))
+    pubs = {s: node.create_publisher(PoseWithCovarianceStamped, ais_reports_topic(s), ESTIMATE_QOS)
+            for s in ('/ais/radar', '/ais/patrol')}
+    assert ros.spin_until(lambda: all(p.get_subscription_count() > 0 for p in pubs.values()))
+    t = node.get_clock().now().nanoseconds * 1e-9
+    R = np.diag([100.0, 25.0])
+    for frame in ('map', 'odom#r001', 'map#'):
+        pubs['/ais/radar'].publish(position_to_pose_cov(t, np.zeros(2), R, frame))
+    pubs['/ais/radar'].publish(position_to_pose_cov(t, np.zeros(2), R, 'map#r001'))
+    pubs['/ais/patrol'].publish(position_to_pose_cov(t, np.array([5.0, 0.0]), R, 'map#p001'))
+    assert ros.spin_until(lambda: fusion.dropped.get('/ais/radar/reports', 0) == 3
+                          and {'/ais/radar/reports/r001', '/ais/patrol/reports/p001'} <= set(fusion.table.latest))
+    assert fusion.source['/ais/radar/reports/r001'] == '/ais/radar/reports'
+    assert ros.spin_until(lambda: ('/ais/radar/reports/r001', '/ais/patrol/reports/p001') in fusion.history
+                          or ('/ais/patrol/reports/p001', '/ais/radar/reports/r001') in fusion.history)
+
+
+@pytest.mark.parametrize(('over', 'match'), [
+    ({'file': '/nonexistent/ais.csv'}, 'AIS file not found'),
+    ({'start': 1e6}, 'after the end of the data'),
+    ({'site': [95.0, 0.0]}, 'parameter site'),
+    ({'sigma_major': 5.0, 'sigma_minor': 10.0}, 'sigma_minor'),
+    ({'id_prefix': 'r#'}, 'id_prefix'),
+])
+def test_bad_source_parameters_stop_the_node_with_one_line(ros, over, match):
+    with pytest.raises((ValueError, OSError), match=match):
+        AisSourceNode(node_name='radar', context=ros.context,
+                      parameter_overrides=[Parameter(k, value=v) for k, v in over.items()])

@@ -1,0 +1,109 @@
+"""Ground truth from AIS and the simulated sources: interpolation, gaps, noise statistics, ids, geometry."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from track_core.ais import PATROL, RADAR, LocalTangentPlane, ShipTruth, SourceModel, report_times, simulate_source
+from track_core.geofeasibility import gaussian_to_ellipse
+
+LAT0, LON0 = 50.8, -1.1
+
+
+@pytest.fixture
+def two_ships(synthetic):
+    # ship 1 sails 0.01° east in 100 s (≈ 703 m), then is silent for 1000 s, then one more report;
+    # ship 2 is moored 1 km north of ship 1's start
+    data = synthetic({111: [(0.0, LAT0, LON0), (100.0, LAT0, LON0 + 0.01), (1100.0, LAT0, LON0 + 0.01)],
+                      222: [(0.0, LAT0 + 0.009, LON0), (180.0, LAT0 + 0.009, LON0), (360.0, LAT0 + 0.009, LON0)]})
+    return ShipTruth(data, LocalTangentPlane(LAT0, LON0), max_gap=400.0)
+
+
+def test_truth_interpolates_and_respects_gaps(two_ships):
+    tr = two_ships
+    p = tr.positions([0.0, 50.0, 100.0, 600.0, 1100.0, 1101.0])
+    assert list(tr.mmsi) == [111, 222]
+    np.testing.assert_allclose(p[0, 0], [0.0, 0.0], atol=1e-6)
+    np.testing.assert_allclose(p[0, 1], 0.5 * p[0, 2], atol=1e-6)         # halfway
+    assert 700 < p[0, 2, 0] < 707
+    assert np.all(np.isnan(p[0, 3])) and np.all(np.isfinite(p[0, 4]))     # 1000 s gap > max_gap; report itself
+    assert np.all(np.isnan(p[0, 5]))                                        # after the last report
+    assert np.all(np.isfinite(p[1, :3])) and np.all(np.isnan(p[1, 3:]))    # 180 s gaps are bridged; ends at 360
+    assert 995 < p[1, 0, 1] < 1005
+
+
+def test_report_grid():
+    m = SourceModel(period=5.0, offset=4.5)
+    np.testing.assert_allclose(report_times(m, 100.0, 120.0), [104.5, 109.5, 114.5, 119.5])
+    assert report_times(m, 0.0, 4.0).size == 0
+
+
+@pytest.mark.parametrize('model', [RADAR, PATROL, replace(RADAR, orientation='fixed', bearing_deg=30.0)])
+def test_noise_is_consistent_with_the_reported_ellipse(solent, model):
+    """Whitened errors are N(0, I): mean 0, identity covariance, NEES 2, 86.5 % inside the 2σ ellipse."""
+    tr = ShipTruth(solent)
+    rep = simulate_source(tr, replace(model, dropout=0.0), np.random.default_rng(3), 0.0, 3000.0)
+    n = len(rep)
+    assert n > 5000
+    L = np.linalg.cholesky(rep.R)
+    w = np.linalg.solve(L, (rep.mu - rep.truth)[..., None])[..., 0]       # whitened errors
+    assert np.all(np.abs(w.mean(0)) < 4 / np.sqrt(n))
+    np.testing.assert_allclose(np.cov(w.T), np.eye(2), atol=6 / np.sqrt(n))
+    nees = np.sum(w * w, axis=1)
+    assert abs(nees.mean() - 2.0) < 6 * 2 / np.sqrt(n)
+    inside = np.mean(nees <= 4.0)
+    assert abs(inside - (1 - np.exp(-2.0))) < 4 * np.sqrt(0.135 * 0.865 / n)
+    _, _, rx, ry, phi = gaussian_to_ellipse(rep.mu, rep.R)                 # 2σ semi-axes of the reports
+    np.testing.assert_allclose(rx, 2 * model.sigma_major)
+    np.testing.assert_allclose(ry, 2 * model.sigma_minor)
+    if model.orientation == 'fixed':
+        np.testing.assert_allclose(phi, np.radians(30.0))
+    elif model.orientation == 'radial':                                    # major axis ⟂ line of sight
+        los = rep.truth - tr.plane.forward(*model.site)
+        axis = np.stack([np.sin(phi), np.cos(phi)], 1)
+        cosang = np.abs(np.sum(axis * los, 1)) / np.linalg.norm(los, axis=1)
+        assert np.all(cosang < 1e-9)
+    else:                                                                  # uniform bearings
+        assert np.histogram(phi, bins=6, range=(0, np.pi))[0].min() > n / 6 * 0.8
+
+
+def test_rate_dropout_and_local_ids(solent):
+    tr = ShipTruth(solent)
+    rep = simulate_source(tr, replace(PATROL, dropout=0.25), np.random.default_rng(4), 600.0, 1800.0)
+    grid = report_times(PATROL, 600.0, 1800.0)
+    assert set(np.unique(rep.t)) <= set(grid) and np.all(np.diff(rep.t) >= 0)
+    visible = np.all(np.isfinite(tr.positions(grid)), -1).sum()
+    assert abs(len(rep) / visible - 0.75) < 4 * np.sqrt(0.25 * 0.75 / visible)
+    assert len(set(rep.ids)) == len(rep.ids) and all(i.startswith('p') and len(i) == 4 for i in rep.ids)
+    assert sorted(rep.mmsi.tolist()) == sorted(set(rep.mmsi.tolist()))    # one track per ship
+    assert not set(rep.ids) & {str(m) for m in rep.mmsi}                    # ids say nothing of the MMSI
+    # local ids are shuffled: the id order is not the MMSI order
+    assert list(rep.mmsi) != sorted(rep.mmsi)
+    # every report's truth is the ship's interpolated position at that time
+    for k in np.random.default_rng(0).choice(len(rep), 50, replace=False):
+        s = int(np.flatnonzero(tr.mmsi == rep.mmsi[rep.track[k]])[0])
+        np.testing.assert_allclose(tr.positions([rep.t[k]])[s, 0], rep.truth[k])
+
+
+def test_max_range_and_bad_models(solent):
+    tr = ShipTruth(solent)
+    m = replace(RADAR, max_range=5000.0, dropout=0.0)
+    rep = simulate_source(tr, m, np.random.default_rng(5), 0.0, 600.0)
+    assert len(rep) > 0
+    assert np.all(np.linalg.norm(rep.truth - tr.plane.forward(*m.site), axis=1) <= 5000.0)
+    with pytest.raises(ValueError, match='sigma_minor'):
+        SourceModel(sigma_major=5.0, sigma_minor=10.0)
+    with pytest.raises(ValueError, match='orientation'):
+        SourceModel(orientation='sideways')
+    with pytest.raises(ValueError, match='dropout'):
+        SourceModel(dropout=1.0)
+    assert RADAR.scaled(2.0).sigma_major == 30.0 and RADAR.scaled(2.0).sigma_minor == 16.0
+
+
+def test_same_seed_same_reports(solent):
+    tr = ShipTruth(solent)
+    a = simulate_source(tr, RADAR, np.random.default_rng(9), 0.0, 300.0)
+    b = simulate_source(tr, RADAR, np.random.default_rng(9), 0.0, 300.0)
+    np.testing.assert_array_equal(a.mu, b.mu)
+    assert a.ids == b.ids
