@@ -1,0 +1,299 @@
+"""Hybrid SLAM nodes (issue 7): ``slam`` on the converted Victoria Park bag, bad input, the ``slam_sim``
+and ``victoria_park`` scenarios through the launcher, and the converter's one-line error.
+
+- A short stretch of the real run (``track-dataset victoria-park --t-max``), replayed with the player
+  into ``slam``: it publishes a pose per scan and the map, the path stays near the GPS after the
+  rigid alignment, and it equals the core's offline run (``victoria.events`` into ``HybridSlam``) on
+  the same (float32) observations: the node adds no maths and processes in the offline order.
+- Bad input: negative range, NaN and out-of-range bearings are dropped with one throttled warning,
+  backwards stamps are refused without touching the filter, and the node keeps running.
+
+Skipped, with the reason, when the Victoria Park data folder is missing.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import PointStamped, TwistStamped
+from nav_msgs.msg import Odometry
+from rcl_interfaces.msg import Log
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.serialization import deserialize_message
+from rosbags.rosbag2 import Reader
+from sensor_msgs.msg import PointCloud2
+from visualization_msgs.msg import MarkerArray
+
+from track_core.slam import HybridParams, HybridSlam, victoria
+from track_core.slam.experiments import VP_PF, VP_SLAM
+from track_msgs_py.convert import stamp_to_ns, stamp_to_sec, table_to_pointcloud2
+from track_msgs_py.qos import ESTIMATE_QOS, STATIC_QOS
+from track_msgs_py.topics import SLAM_EVENTS, SLAM_GPS, SLAM_INPUTS, SLAM_MAP, SLAM_MODE, SLAM_POSE, SLAM_SCAN
+from track_nodes.bag_io import msg_class
+from track_nodes.node_util import ParameterError
+from track_nodes.player import PlayerNode
+from track_nodes.slam import SlamNode, inputs_to_twist, odometry_to_pose, scan_to_pointcloud2
+from track_nodes.slam_sim import SlamSimNode
+
+T_MAX = 40.0  # the stretch of the real run [s]
+DEEP = QoSProfile(depth=100_000, reliability=ReliabilityPolicy.RELIABLE)
+
+
+def _data_or_skip() -> Path:
+    path = victoria.data_dir()
+    if not (path / 'measurements.dat').is_file():
+        pytest.skip(f'Victoria Park data not found at {path} (set TRACK_VICTORIA_PARK or TRACK_DATA_DIR)')
+    return path
+
+
+def _convert(out: Path, t_max: float, env: dict) -> None:
+    # the module behind the track-dataset console script (also works from a source tree on PYTHONPATH)
+    proc = subprocess.run([sys.executable, '-m', 'track_nodes.dataset', 'victoria-park', '--out', str(out),
+                           '--t-max', str(t_max)], capture_output=True, text=True, timeout=120, env=env)
+    assert proc.returncode == 0, proc.stderr
+    assert f'{out}:' in proc.stdout
+
+
+@pytest.fixture(scope='module')
+def vp_bag(tmp_path_factory, env_factory) -> Path:
+    """The first T_MAX seconds of Victoria Park, converted by the console command."""
+    _data_or_skip()
+    out = tmp_path_factory.mktemp('vp') / 'victoria_park'
+    _convert(out, T_MAX, env_factory())
+    return out
+
+
+class Sink:
+    def __init__(self, ros) -> None:
+        self.node = ros.add(Node('slam_sink', context=ros.context))
+        self.msgs: dict[str, list] = {}
+        for topic, cls, qos in ((SLAM_POSE, Odometry, DEEP), (SLAM_MODE, DiagnosticArray, DEEP),
+                                (SLAM_EVENTS, DiagnosticArray, DEEP), (SLAM_GPS, PointStamped, DEEP),
+                                (SLAM_MAP, MarkerArray, STATIC_QOS), ('/rosout', Log, DEEP)):
+            self.msgs[topic] = []
+            self.node.create_subscription(cls, topic, self.msgs[topic].append, qos)
+
+    def logs(self, node: str, text: str) -> list[str]:
+        return [m.msg for m in self.msgs['/rosout'] if m.name == node and text in m.msg]
+
+
+def _offline_reference(t_max: float):
+    """The core alone, fed like ``experiments.run_victoria``, on the observations as the bag carries them
+    (float32 fields, the node's range + diameter/2 and bearing clip): poses after each scan, final map."""
+    vp = victoria.load(t_max=t_max, add_radius=False)
+    scans = []
+    for z, d in zip(vp.scans, vp.diameters, strict=True):
+        r, b, dd = (np.asarray(c, dtype=np.float32).astype(float) for c in (z[:, 0], z[:, 1], d))
+        scans.append(np.stack([r + 0.5 * dd, np.clip(b, 0.0, np.pi)], axis=1))
+    vp.scans = scans
+    h = HybridSlam(np.zeros(3), np.diag([1e-6] * 3), np.random.default_rng(0), VP_SLAM, VP_PF, HybridParams())
+    t, poses = [], []
+    for ev in victoria.events(vp):
+        if ev[0] == 'input':
+            h.process_input(*ev[1:])
+        else:
+            h.process_scan(ev[1], ev[2])
+            t.append(ev[1])
+            poses.append(h.pose.copy())
+    return np.array(t), np.array(poses), h, vp
+
+
+def test_slam_node_on_a_victoria_park_stretch(ros, vp_bag):
+    slam = ros.add(SlamNode(context=ros.context))
+    sink = Sink(ros)
+    n_scans = len(victoria.load(t_max=T_MAX).scans)
+    player = ros.add(PlayerNode(context=ros.context, parameter_overrides=[
+        Parameter('bag', value=str(vp_bag)), Parameter('rate', value=20.0)]))
+    assert ros.spin_until(lambda: player.done.is_set() and slam.n_scans == n_scans and not slam._heap
+                          and len(sink.msgs[SLAM_POSE]) == n_scans, timeout=90), \
+        f'processed {slam.n_scans}/{n_scans} scans, {len(sink.msgs[SLAM_POSE])} poses received'
+    assert player.exit_code == 0
+    assert ros.spin_until(lambda: sink.msgs[SLAM_MAP] and stamp_to_ns(sink.msgs[SLAM_MAP][-1].markers[0].header.stamp)
+                          == slam.processed_ns, timeout=10)  # the final map, published once the input went idle
+    assert slam.n_refused == 0 and slam.n_dropped_obs == 0
+    # a pose per scan, in order, and the map
+    est = [odometry_to_pose(m) for m in sink.msgs[SLAM_POSE]]
+    t_est = np.array([e[0] for e in est])
+    x_est = np.array([e[1] for e in est])
+    assert np.all(np.diff(t_est) > 0)
+    assert all(np.all(np.linalg.eigvalsh(P) > 0) for _, _, P in est)
+    mode = {kv.key: kv.value for kv in sink.msgs[SLAM_MODE][-1].status[0].values}
+    assert int(mode['scans']) == n_scans and int(mode['landmarks']) >= 20
+    last_map = sink.msgs[SLAM_MAP][-1].markers
+    means = next(m for m in last_map if m.ns == 'slam_landmarks')
+    assert len(means.points) == int(mode['landmarks'])
+    assert sum(m.ns == 'slam_ellipses' for m in last_map) == len(means.points)
+    # near the GPS after the rigid alignment (the core reaches ~0.8 m on the first 60 s)
+    gps = np.array([[stamp_to_sec(m.header.stamp), m.point.x, m.point.y] for m in sink.msgs[SLAM_GPS]])
+    rmse, _, used = victoria.gps_rmse(t_est, x_est[:, :2], gps)
+    print(f'GPS RMSE {rmse:.3f} m over {len(used)} fixes, {int(mode["landmarks"])} landmarks')
+    assert len(used) > 100 and rmse < 2.0
+    # the same as the core run offline on the same observations, in the same order
+    t_ref, x_ref, h, _ = _offline_reference(T_MAX)
+    np.testing.assert_array_equal(t_est, t_ref)
+    np.testing.assert_allclose(x_est, x_ref, atol=1e-6)
+    ref_lm = h.landmarks()
+    got_lm = np.array([(p.x, p.y) for p in means.points])
+    assert got_lm.shape == ref_lm.shape
+    np.testing.assert_allclose(got_lm, ref_lm, atol=1e-6)
+
+
+# --- bad input ---------------------------------------------------------------------------------------------
+
+def _state(slam: SlamNode):
+    s = slam.slam
+    x, P = copy.deepcopy(s.cekf).mean_cov()
+    return s.t, s.u.copy(), s.mode, x, P
+
+
+def _bad_input_rig(ros):
+    """A slam node, a sink and publishers of inputs and scans in the test's context, matched."""
+    slam = ros.add(SlamNode(context=ros.context, parameter_overrides=[Parameter('warn_throttle', value=60.0)]))
+    sink = Sink(ros)
+    pub = ros.add(Node('slam_test_source', context=ros.context))
+    inputs = pub.create_publisher(TwistStamped, SLAM_INPUTS, ESTIMATE_QOS)
+    scans = pub.create_publisher(PointCloud2, SLAM_SCAN, ESTIMATE_QOS)
+    assert ros.spin_until(lambda: inputs.get_subscription_count() > 0 and scans.get_subscription_count() > 0
+                          and slam.pub_pose.get_subscription_count() > 0)
+    return slam, sink, inputs, scans
+
+
+def test_bad_observations_are_dropped_and_backwards_stamps_refused(ros):
+    slam, sink, inputs, scans = _bad_input_rig(ros)
+    trees = np.array([[10.0, 1.0], [12.0, 2.0], [15.0, 1.5]])
+
+    def scan(t, z, d=None):
+        scans.publish(scan_to_pointcloud2(t, z, np.full(len(z), 0.3) if d is None else d))
+
+    inputs.publish(inputs_to_twist(1.0, 1.0, 0.0))
+    scan(1.05, trees)
+    inputs.publish(inputs_to_twist(1.1, 1.0, 0.0))
+    assert ros.spin_until(lambda: slam.n_scans == 1 and len(sink.msgs[SLAM_POSE]) == 1)
+    # negative range, NaN range, NaN bearing, bearing beyond π, negative bearing: dropped; the good rows stay
+    bad = np.array([[-3.0, 1.0], [np.nan, 1.2], [11.0, np.nan], [11.0, 4.0], [11.0, -0.5]])
+    scan(1.2, np.vstack([trees, bad]))
+    inputs.publish(inputs_to_twist(1.3, 1.0, 0.0))
+    assert ros.spin_until(lambda: slam.n_scans == 2 and len(sink.msgs[SLAM_POSE]) == 2)
+    assert slam.n_dropped_obs == 5
+    scan(1.35, np.vstack([trees, bad[:2]]))  # a second bad scan soon after: counted, not logged again
+    inputs.publish(inputs_to_twist(1.4, 1.0, 0.0))
+    assert ros.spin_until(lambda: slam.n_scans == 3)
+    assert slam.n_dropped_obs == 7
+    inputs.publish(inputs_to_twist(1.45, math.nan, 0.0))  # a non-finite input: dropped
+    scans.publish(table_to_pointcloud2(1.45, 'laser', {'r': np.ones(2)}))  # no range/bearing fields: dropped
+    assert ros.spin_until(lambda: slam.n_bad_inputs == 1 and slam.n_bad_scans == 1)
+    ros.spin_for(0.8)  # past flush_idle: the held input of 1.4 s is processed
+    assert slam.processed_ns == 1_400_000_000
+
+    before = _state(slam)
+    pose_msgs = len(sink.msgs[SLAM_POSE])
+    inputs.publish(inputs_to_twist(0.5, 9.0, 0.4))  # backwards on the input topic (last 1.4)
+    scan(1.1, trees)                                # backwards on the scan topic (last 1.35)
+    assert ros.spin_until(lambda: slam.n_refused == 2)
+    ros.spin_for(0.8)  # past flush_idle: anything buffered would now be processed
+    after = _state(slam)
+    assert (before[0], before[2]) == (after[0], after[2]) and slam.processed_ns == 1_400_000_000
+    np.testing.assert_array_equal(before[1], after[1])
+    np.testing.assert_array_equal(before[3], after[3])
+    np.testing.assert_array_equal(before[4], after[4])
+    assert len(sink.msgs[SLAM_POSE]) == pose_msgs
+    # ... and the node keeps running
+    scan(1.6, trees)
+    inputs.publish(inputs_to_twist(1.7, 1.0, 0.0))
+    assert ros.spin_until(lambda: slam.n_scans == 4 and len(sink.msgs[SLAM_POSE]) == pose_msgs + 1
+                          and len(sink.msgs[SLAM_MODE]) == 4)
+    assert odometry_to_pose(sink.msgs[SLAM_POSE][-1])[0] == 1.6
+    mode = {kv.key: kv.value for kv in sink.msgs[SLAM_MODE][-1].status[0].values}
+    assert (mode['dropped_observations'], mode['refused_messages'], mode['bad_inputs']) == ('7', '2', '1')
+    # one warning per kind: throttled
+    assert ros.spin_until(lambda: len(sink.logs('slam', 'refused')) >= 1, timeout=5)
+    assert len(sink.logs('slam', 'observations dropped')) == 1, sink.logs('slam', '')
+    assert len(sink.logs('slam', 'refused')) == 1
+    assert len(sink.logs('slam', 'input dropped')) == 1
+    assert len(sink.logs('slam', 'scan dropped')) == 1
+    assert 'range -3' in sink.logs('slam', 'observations dropped')[0]
+
+
+# --- scenarios through the launcher ---------------------------------------------------------------------------
+
+def _bag_counts(bag: Path) -> dict[str, int]:
+    with Reader(bag) as reader:
+        return {c.topic: c.msgcount for c in reader.connections}
+
+
+def test_slam_sim_scenario_short_run(tmp_path, repo, env_factory):
+    cmd = [sys.executable, '-m', 'track_nodes.launch', str(repo / 'config/slam_sim.yaml'), '--record', 'sim',
+           '--duration', '6', '--rate', '50']
+    proc = subprocess.run(cmd, cwd=tmp_path, env=env_factory(), capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    counts = _bag_counts(tmp_path / 'bags/sim')
+    assert counts['/slam/truth'] >= 55 and counts['/slam/inputs'] >= 55  # t = 0 .. 6 s every 0.1 s
+    assert counts[SLAM_POSE] >= 25 and counts[SLAM_MODE] == counts[SLAM_POSE] and counts[SLAM_MAP] >= 2
+    m = re.search(r'final position error ([\d.]+) m', proc.stdout)
+    assert m, proc.stdout
+    assert float(m.group(1)) < 1.0  # 6 s into the start area: well mapped, no loop closed yet
+    assert 'PF switches 0' in proc.stdout
+
+
+def test_victoria_park_scenario_replays_the_bag_into_slam(tmp_path, repo, env_factory):
+    _data_or_skip()
+    env = env_factory()
+    _convert(tmp_path / 'bags/victoria_park', 10.0, env)  # the scenario's bag name, relative to the cwd
+    fast = tmp_path / 'fast.yaml'
+    fast.write_text('player:\n  ros__parameters:\n    rate: 20.0\n')
+    cmd = [sys.executable, '-m', 'track_nodes.launch', str(repo / 'config/victoria_park.yaml'), '--record', 'vp',
+           '--duration', '5', '--params', str(fast)]
+    proc = subprocess.run(cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    counts = _bag_counts(tmp_path / 'bags/vp')
+    n_scans = len(victoria.load(t_max=10.0).scans)
+    assert counts[SLAM_POSE] == n_scans and counts[SLAM_GPS] > 20 and counts[SLAM_MAP] >= 1
+    assert SLAM_INPUTS not in counts  # the replayed inputs and scans are not recorded again
+    m = re.search(r'vs GPS: RMSE ([\d.]+) m', proc.stdout)
+    assert m and float(m.group(1)) < 2.0, proc.stdout
+
+
+def test_converter_wrong_path_is_one_line(tmp_path, env_factory):
+    out = tmp_path / 'out'
+    proc = subprocess.run([sys.executable, '-m', 'track_nodes.dataset', 'victoria-park', '--data',
+                           str(tmp_path / 'nope'), '--out', str(out)],
+                          capture_output=True, text=True, timeout=60, env=env_factory())
+    assert proc.returncode == 2
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and 'Traceback' not in proc.stderr, proc.stderr
+    assert str(tmp_path / 'nope') in lines[0] and 'not found' in lines[0]
+    assert not out.exists()
+
+
+def test_converted_bag_decodes_by_type_name(vp_bag):
+    """The converted bag reads with rclpy's deserialiser by type name (what the player relies on)."""
+    with Reader(vp_bag) as reader:
+        conn = next(c for c in reader.connections if c.topic == SLAM_SCAN)
+        _, t, raw = next(iter(reader.messages(connections=[conn])))
+    msg = deserialize_message(raw, msg_class(conn.msgtype))
+    assert [f.name for f in msg.fields] == ['range', 'bearing', 'diameter'] and msg.width > 0
+    assert t == msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+
+
+@pytest.mark.parametrize(('cls', 'name', 'value', 'words'), [
+    (SlamNode, 'cekf.sigma_r', -1.0, ['cekf.sigma_r', '-1', '> 0']),
+    (SlamNode, 'profile', 'nope', ['profile', 'victoria_park']),
+    (SlamNode, 'pose0', [1.0, 2.0], ['pose0', '3 finite']),
+    (SlamNode, 'hybrid.bearing_limits', [1.0, 0.5], ['hybrid.bearing_limits', 'low < high']),
+    (SlamSimNode, 'world.dt', -1.0, ['world.dt', '-1', 'allowed']),
+])
+def test_bad_parameters_are_one_line(ros, cls, name, value, words):
+    with pytest.raises(ParameterError) as exc:
+        cls(context=ros.context, parameter_overrides=[Parameter(name, value=value)])
+    text = str(exc.value)
+    assert '\n' not in text and all(w in text for w in words), text
