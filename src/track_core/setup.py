@@ -34,6 +34,7 @@ setup(
             'idsq-selection = track_core.idsq.experiments:selection',
             'slam-loop = track_core.slam.experiments:slam_loop',
             'victoria-park = track_core.slam.experiments:victoria_park',
+            'ais-association = track_core.ais.experiments:ais_association',
         ],
         'track.benchmarks': [
             'kalman = track_core.demo.experiment:kalman_benchmark',

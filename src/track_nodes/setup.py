@@ -32,6 +32,7 @@ setup(
             'track-record = track_nodes.recorder:main',
             'track-play = track_nodes.player:main',
             'track-bag-recover = track_nodes.bag_recover:main',
+            'track-dataset = track_nodes.dataset:main',
         ],
         'track.benchmarks': [
             'recorder = track_nodes.bench_recorder:recorder_benchmark',

@@ -94,3 +94,213 @@ TOPICS.update({
     SONAR_MARKERS: TopicSpec('visualization_msgs/msg/MarkerArray', 'estimate',
                              '2σ position ellipse of the sonar estimate (ns "sonar_estimate", id 0)'),
 })
+
+# Handheld UHF RFID reader guidance (Raptopoulos, Yioultsis & Dimitriou; issue 5). A command/response
+# loop: rfid_guidance publishes a command, rfid_reader (the simulated user + reader) performs it and
+# answers with one step result carrying the command's seq. Both are diagnostic_msgs/DiagnosticArray with
+# one status whose values are strings (floats written with repr, so they round-trip; 'nan' is NaN).
+# Frames: the particles live in the filter's own frame (the tag at the origin; its rotation is a free
+# gauge, fixed by the first step's quadrant, see track_core/rfid/pf.py), not in ``map``; the tag estimate
+# is in the user's body frame (x along the facing direction, y to the left, REP-103). The truth pose is in
+# ``map`` with the tag at the origin.
+RFID_FRAME_PF = 'rfid_pf'
+RFID_FRAME_USER = 'rfid_user'
+RFID_COMMAND = '/rfid/command'
+RFID_STEP = '/rfid/step'
+RFID_PHASE = '/rfid/phase'
+RFID_USER_POSE = '/rfid/user/pose'
+RFID_USER_STATUS = '/rfid/user/status'
+RFID_PARTICLES = '/rfid/particles'
+RFID_TAG_ESTIMATE = '/rfid/tag_estimate'
+RFID_FOUND = '/rfid/found'
+
+TOPICS.update({
+    RFID_COMMAND: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'estimate',
+                            'next action for the user: one status "<guidance node>/command", message = the command '
+                            'in words, level WARN when it repeats a step; values seq (int, +1 per new command), kind '
+                            '(turn|move|done), angle (TURN: suggested turn, rad, + = left), angle_deg, repeat '
+                            '(true|false), reason (why repeated / why done). Re-sent unchanged (same seq) until '
+                            'answered'),
+    RFID_STEP: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'estimate',
+                         'answer to one command: one status "<reader node>/step", level OK or WARN (unusable); '
+                         'values seq (of the command answered), kind (turn|move|done), dphi (MOVE: eq. 6 phase '
+                         'difference, rad; nan when unusable), turn (TURN: turn the user made and reports, rad, '
+                         '+ = left), n_reads, n_outliers, ok (true|false), reason (signal processing), found '
+                         '(true|false), duration (s of the action). Exactly one answer per seq; a repeated '
+                         'command gets the same answer again'),
+    RFID_PHASE: TopicSpec('sensor_msgs/msg/PointCloud2', 'estimate',
+                          'raw wrapped phase reads of one MOVE (height 1, one point per read, float32 fields t = s '
+                          'since the step started, phase = wrapped rad in (0, P], rssi = dBm); header.stamp equals '
+                          'the stamp of the step result it belongs to; frame_id = reader node name'),
+    RFID_USER_POSE: TopicSpec('geometry_msgs/msg/PoseStamped', 'estimate',
+                              'evaluation only: true user pose in map (tag at the origin), orientation = facing '
+                              'direction (yaw), after each action'),
+    RFID_USER_STATUS: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'estimate',
+                                'evaluation only: one status "<reader node>/user" after each action; values seq, '
+                                'steps (MOVEs walked), turns (rotations made), distance_m (walked), repeats (steps '
+                                'undone), distance_to_tag_m, found (true|false), x, y, heading'),
+    RFID_PARTICLES: TopicSpec('geometry_msgs/msg/PoseArray', 'sensor',
+                              'particles (x, y, a) after each filter update, in frame rfid_pf (tag at the origin), '
+                              'orientation = particle heading a; weights not carried'),
+    RFID_TAG_ESTIMATE: TopicSpec('geometry_msgs/msg/PointStamped', 'estimate',
+                                 'estimated tag position relative to the user, frame rfid_user (x forward along the '
+                                 'facing direction, y left): distance · (cos b, sin b), b = suggested bearing '
+                                 'including the turns made since the last MOVE'),
+    RFID_FOUND: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'estimate',
+                          'event, published once when the search ends with the tag found: one status "<guidance '
+                          'node>/found", values seq, moves, turns, updates'),
+})
+
+# Leader-based IDSQ acoustic/DOA sensor network (issue 6). Besides the fixed topics below, every
+# sensor k has two topics of its own (not in TOPICS, one pair per sensor; names from the helpers):
+#   /idsq/sensor_<k>/handoff  std_msgs/msg/UInt8MultiArray, QoS static (transient-local, depth 4):
+#                             data = track_core.idsq.encode_handoff bytes (header + sparse belief)
+#   /idsq/sensor_<k>/ack      diagnostic_msgs/msg/DiagnosticArray, QoS static: one status per reply
+#                             to a handoff k sent, values step, sender, receiver, result (ack|nack)
+IDSQ_TRUTH = '/idsq/vehicle/truth'
+IDSQ_LAYOUT = '/idsq/layout'
+IDSQ_ESTIMATE = '/idsq/estimate'
+IDSQ_BELIEF = '/idsq/belief'
+IDSQ_MARKERS = '/idsq/markers'
+IDSQ_LEADER = '/idsq/leader'
+IDSQ_HANDOFF_REGEX = r'^/idsq/sensor_(\d+)/handoff$'
+
+
+def idsq_handoff_topic(sensor: int) -> str:
+    """Handoff topic of sensor ``sensor`` (its leader-to-be inbox)."""
+    return f'/idsq/sensor_{int(sensor)}/handoff'
+
+
+def idsq_ack_topic(sensor: int) -> str:
+    """Ack/nack topic of sensor ``sensor`` (replies to the handoffs it sent)."""
+    return f'/idsq/sensor_{int(sensor)}/ack'
+
+
+TOPICS.update({
+    IDSQ_TRUTH: TopicSpec('nav_msgs/msg/Odometry', 'static',
+                          'vehicle truth at tracker step s, stamped (s + 1)·Δt (zero covariance); transient-local '
+                          'with depth 256, so a late sensor still gets step 0 (start rule) and a busy leader loses '
+                          'no step; child_frame_id = vehicle id'),
+    IDSQ_LAYOUT: TopicSpec('sensor_msgs/msg/PointCloud2', 'static',
+                           'sensor layout, one point per sensor: FLOAT64 fields id, x, y, type (0 acoustic, '
+                           '1 DOA), published once by vehicle_sim'),
+    IDSQ_ESTIMATE: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
+                             'MMSE estimate of the leader at step s (eq. 2) with the belief covariance as the '
+                             'x/y pose covariance; velocity not estimated (variance 1e6); child_frame_id = track id'),
+    IDSQ_BELIEF: TopicSpec('sensor_msgs/msg/PointCloud2', 'sensor',
+                           'posterior sparse grid belief of the leader: FLOAT32 fields x, y (cell centre), p (mass)'),
+    IDSQ_MARKERS: TopicSpec('visualization_msgs/msg/MarkerArray', 'estimate',
+                            'sensors (acoustic / DOA colours), the leader highlighted, the link to the next leader '
+                            'and the 2σ ellipse of the estimate'),
+    IDSQ_LEADER: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'estimate',
+                           'one status per leader event, name "sensor_<k>": values event (step|reselect|self), '
+                           'step, leader, previous, next, handoff_bytes, belief_size, spread_m2, candidates, mi_bits'),
+})
+
+# Hybrid CEKF/PF SLAM (hybrid-cekf-pf-slam paper, issue 7). Inputs, scans and GPS come from the
+# Victoria Park bag (``track-dataset victoria-park``) or from ``slam_sim``; the rest from ``slam``.
+#
+# Vehicle inputs travel as geometry_msgs/TwistStamped (no Ackermann type in common_interfaces):
+# ``twist.linear.x`` = encoder speed v_e [m/s] (the rear-left wheel of the data set),
+# ``twist.angular.z`` = steering angle α [rad] (an ANGLE, not a yaw rate: the "steering angle in
+# angular.z" convention of car-like robots, e.g. teb_local_planner's cmd_angle_instead_rotvel);
+# every other field 0; ``header.frame_id`` = ``base_link``. The input holds from its stamp until
+# the next one (zero-order hold, track_core.slam.hybrid).
+# Scans: sensor_msgs/PointCloud2 (track_msgs_py.convert.table_to_pointcloud2), one point per
+# detected tree, float32 fields ``range`` [m, to the trunk surface as measured], ``bearing`` [rad,
+# eq. 5 convention: 0 = vehicle's right, π/2 ahead, π left], ``diameter`` [m] (0 for point
+# landmarks); ``slam_sim`` adds ``landmark`` (true landmark index, evaluation only);
+# ``header.frame_id`` = ``laser``. An empty scan (width 0) is allowed.
+FRAME_BASE = 'base_link'   # the vehicle (inputs)
+FRAME_LASER = 'laser'      # the laser; the SLAM state (x, y, φ) is the pose of this frame in map
+FRAME_GPS = 'gps'          # Victoria Park GPS: local east/north frame, rotated and shifted from map
+
+SLAM_INPUTS = '/slam/inputs'
+SLAM_SCAN = '/slam/scan'
+SLAM_GPS = '/slam/gps'
+SLAM_TRUTH = '/slam/truth'
+SLAM_POSE = '/slam/pose'
+SLAM_MAP = '/slam/map'
+SLAM_MODE = '/slam/mode'
+SLAM_EVENTS = '/slam/events'
+SLAM_PARTICLES = '/slam/particles'
+
+TOPICS.update({
+    # Inputs and scans are 'estimate' (reliable), not 'sensor': SLAM integrates every input and a
+    # dropped input is a dead-reckoning error that no later message repairs.
+    SLAM_INPUTS: TopicSpec('geometry_msgs/msg/TwistStamped', 'estimate',
+                           'vehicle inputs: twist.linear.x = encoder speed [m/s], twist.angular.z = steering '
+                           'ANGLE [rad] (not a rate); frame base_link'),
+    SLAM_SCAN: TopicSpec('sensor_msgs/msg/PointCloud2', 'estimate',
+                         'one laser scan of tree detections: float32 fields range [m], bearing [rad, 0 = right, '
+                         'π/2 ahead], diameter [m] (slam_sim: + landmark id); frame laser'),
+    SLAM_GPS: TopicSpec('geometry_msgs/msg/PointStamped', 'estimate',
+                        'GPS fix (x, y) in the gps frame (east/north, rotated and shifted from map); evaluation '
+                        'only, has jumps'),
+    SLAM_TRUTH: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
+                          'slam_sim: true laser pose (x, y, yaw φ) in map, zero covariance; evaluation only'),
+    SLAM_POSE: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
+                         'SLAM laser pose after each scan: position x, y, orientation yaw φ; pose.covariance '
+                         'x/y/yaw entries (0, 1, 5 of 6) from the filter, z/roll/pitch and twist unused (1e6); '
+                         'child_frame_id laser'),
+    SLAM_MAP: TopicSpec('visualization_msgs/msg/MarkerArray', 'static',
+                        'landmark map at a modest rate: DELETEALL, one SPHERE_LIST of the means (ns slam_landmarks, '
+                        'id 0) and one 2σ ellipse per landmark (ns slam_ellipses, id = landmark index)'),
+    SLAM_MODE: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'estimate',
+                         'after each scan: one status "<node>/mode", message CEKF|PF, values mode, scans, inputs, '
+                         'landmarks, pf_switches, pf_scans, dropped_observations, refused_messages, bad_inputs, '
+                         'bad_scans'),
+    SLAM_EVENTS: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'estimate',
+                           'one message per mode switch: status "<node>/mode_switch", message "CEKF -> PF" | '
+                           '"PF -> CEKF", values event (to_pf|to_cekf|pf_timeout), t, pf_scans, x, y, yaw'),
+    SLAM_PARTICLES: TopicSpec('geometry_msgs/msg/PoseArray', 'sensor',
+                              'PF mode only: the particle cloud after each scan (global frame, heading in the '
+                              'orientation; at most max_particles_published); an empty array on leaving PF'),
+})
+
+# Recognised maritime picture on real AIS ships (issue 8, part 2). Each ``ais_source`` node is one
+# simulated surveillance source with a topic prefix (``/ais/radar``, ``/ais/patrol``):
+#   <prefix>/reports  geometry_msgs/PoseWithCovarianceStamped, one message per ship report, all the
+#                     source's ships on one topic; the local track id travels in header.frame_id as
+#                     "<frame>#<local id>" (``track_frame_id``), e.g. "map#r017". The fusion node lists
+#                     such topics in ``pose_track_topics`` (track id = "<topic>/<local id>").
+#   <prefix>/truth    diagnostic_msgs/DiagnosticArray (static QoS), evaluation only: one status per
+#                     local track, name = the fusion track id "<prefix>/reports/<local id>", value mmsi.
+# One topic per source, not one per ship: a topic per ship (~90 per source) makes every executor
+# wait cost ~100 ms and the lock-step clock unusable.
+TRACK_FRAME_SEP = '#'
+AIS_RADAR = '/ais/radar'
+AIS_PATROL = '/ais/patrol'
+
+
+def track_frame_id(frame: str, track_id: str) -> str:
+    """``header.frame_id`` of a report that carries its local track id: ``"<frame>#<track id>"``."""
+    return f'{frame}{TRACK_FRAME_SEP}{track_id}'
+
+
+def split_track_frame_id(frame_id: str) -> tuple[str, str]:
+    """``"map#r017"`` → ``("map", "r017")``; the id is ``""`` when there is none."""
+    frame, _, track_id = frame_id.partition(TRACK_FRAME_SEP)
+    return frame, track_id
+
+
+def ais_reports_topic(prefix: str) -> str:
+    return f'{prefix.rstrip("/")}/reports'
+
+
+def ais_truth_topic(prefix: str) -> str:
+    return f'{prefix.rstrip("/")}/truth'
+
+
+for _prefix, _what in ((AIS_RADAR, 'coastal radar'), (AIS_PATROL, 'patrol')):
+    TOPICS.update({
+        ais_reports_topic(_prefix): TopicSpec(
+            'geometry_msgs/msg/PoseWithCovarianceStamped', 'estimate',
+            f'{_what} reports of real AIS ships, one message per ship and instant, all ships on this topic: '
+            'position + 2σ-ellipse covariance; header.frame_id = "map#<local track id>" (no MMSI)'),
+        ais_truth_topic(_prefix): TopicSpec(
+            'diagnostic_msgs/msg/DiagnosticArray', 'static',
+            f'evaluation only: the {_what}\'s local tracks, one status per track, name "<reports topic>/<local '
+            'id>" (the fusion track id), values mmsi, reports'),
+    })
+del _prefix, _what
