@@ -8,12 +8,17 @@
 - ``hybrid``: ``HybridSlam``, the switching architecture, driven one input / one scan at a time.
 - ``sim``: the Fig. 1 loop-closure world; ``victoria``: the real-data loader and GPS evaluation.
 - ``experiments``: ``slam-loop``, ``victoria-park`` and ``track-bench cekf``.
+- ``blas``: ``single_threaded_blas``, the context the experiments run the filter in.
+
+Bad input (for a node): ``hybrid.valid_observations`` / ``filter_observations`` are the core's
+rule for unusable observation rows; ``HybridSlam.process_input``/``process_scan`` return ``False``
+and leave the state untouched for a time stamp earlier than the last one.
 """
 
 from track_core.slam.cekf import CekfSlam, SlamParams
-from track_core.slam.hybrid import Event, HybridParams, HybridSlam
+from track_core.slam.hybrid import Event, HybridParams, HybridSlam, filter_observations, valid_observations
 from track_core.slam.models import VehicleParams
 from track_core.slam.pf import ParticleLocaliser, PFParams
 
 __all__ = ['CekfSlam', 'Event', 'HybridParams', 'HybridSlam', 'PFParams', 'ParticleLocaliser', 'SlamParams',
-           'VehicleParams']
+           'VehicleParams', 'filter_observations', 'valid_observations']

@@ -2,6 +2,11 @@
 
 Vectorised over (observation × landmark) pairs; no Python loop over landmarks.
 
+- Range: observations farther than ``max_range`` (the usable sensor range) are ignored: neither
+  associated nor mapped. The failure detector below watches the landmarks predicted within
+  ``max_range``, so every landmark association may use is watched (on Victoria Park, where the
+  laser reports trunks up to 75 m, an unwatched long-range association would otherwise be
+  possible while the heading error times the range exceeds the trunk spacing).
 - Gate: a pair (i, j) is compatible when νᵢⱼᵀ Sⱼ⁻¹ νᵢⱼ < ``gate`` (χ²₂, default 99 %: 9.21).
   ``Sⱼ = Hⱼ P Hⱼᵀ + R`` is the innovation covariance of landmark j (it does not depend on the
   observation, so it is computed once per landmark).
@@ -14,11 +19,15 @@ Vectorised over (observation × landmark) pairs; no Python loop over landmarks.
 - Failure detector (§3.1, "monitoring the estimated error in vehicle and local map states"):
   the paper gives no formula; our documented rule compares the state-driven part of the
   innovation covariance of every landmark predicted in view, ``Sⱼ − R`` turned into metres by
-  ``D = diag(1, r̂ⱼ)``, with the distance ``dⱼ`` to its nearest other landmark:
-  ``risk ⇔ n_sigma · √λmax(D (Sⱼ − R) D) > sep_fraction · dⱼ`` for some j with
-  ``dⱼ ≥ min_separation`` (pairs closer than that are treated as one feature/clutter). With
-  n_sigma = 3 and sep_fraction = 0.5 the 3σ regions of neighbouring landmarks start to overlap,
-  so nearest neighbour can no longer be trusted (Fig. 1: 10 m error, 8 m separation).
+  ``D = diag(1, r̂ⱼ)``, with the distance ``dⱼ`` to its nearest other landmark. Landmark j is
+  *at risk* when ``n_sigma · √λmax(D (Sⱼ − R) D) > sep_fraction · dⱼ`` and ``dⱼ ≥
+  min_separation`` (pairs closer than that are treated as one feature/clutter; they are not
+  *eligible*). With n_sigma = 3 and sep_fraction = 0.5 the 3σ regions of neighbouring landmarks
+  start to overlap, so nearest neighbour can no longer be trusted (Fig. 1: 10 m error, 8 m
+  separation). The detector fires when at least one landmark is at risk and at least
+  ``risk_fraction`` of the eligible in-view landmarks are (0 = any single one, the default).
+  A fraction > 0 keeps one tight cluster of trunks from firing the detector while the vehicle is
+  well localised; a loop closure with a large vehicle error puts nearly all of them at risk.
 """
 
 from __future__ import annotations
@@ -54,19 +63,22 @@ def innovation_covariances(Hv: np.ndarray, Hm: np.ndarray, Pvv: np.ndarray, Pvm:
 def associate(z: np.ndarray, zhat: np.ndarray, S_state: np.ndarray, R: np.ndarray, lm_xy: np.ndarray,
               *, gate: float = 9.21, new_gate: float = 18.42, init_max_range: float = np.inf,
               max_range: float = np.inf, n_sigma: float = 3.0, sep_fraction: float = 0.5,
-              min_separation: float = 1.5) -> Association:
+              min_separation: float = 1.5, risk_fraction: float = 0.0) -> Association:
     """Associate observations ``z`` (n, 2) with predicted ``zhat`` (M, 2), see module docstring."""
     z = np.asarray(z, dtype=float).reshape(-1, 2)
     n, M = z.shape[0], zhat.shape[0]
+    usable = z[:, 0] <= max_range
     if M == 0:
-        new = np.flatnonzero(z[:, 0] < init_max_range)
+        new = np.flatnonzero((z[:, 0] < init_max_range) & usable)
         e = np.zeros(0, dtype=int)
         return Association(e, e, new, np.zeros(n, int), np.zeros((n, 0)), False, False)
     S = S_state + R
     nu = z[:, None, :] - zhat[None, :, :]
     nu[..., 1] = wrap_angle(nu[..., 1])
-    Sinv = np.linalg.inv(S)
-    d2 = np.einsum('ijk,jkl,ijl->ij', nu, Sinv, nu)
+    s00, s01, s11 = S[:, 0, 0], 0.5 * (S[:, 0, 1] + S[:, 1, 0]), S[:, 1, 1]
+    det = s00 * s11 - s01 * s01
+    d2 = (s11 * nu[..., 0] ** 2 - 2.0 * s01 * nu[..., 0] * nu[..., 1] + s00 * nu[..., 1] ** 2) / det
+    d2[~usable] = np.inf
     inside = d2 < gate
     n_cand = inside.sum(axis=1)
     best = np.argmin(d2, axis=1)
@@ -77,7 +89,7 @@ def associate(z: np.ndarray, zhat: np.ndarray, S_state: np.ndarray, R: np.ndarra
     order = order[ok[order]]
     _, first = np.unique(best[order], return_index=True)
     keep = np.sort(order[first])
-    new = np.flatnonzero((dmin > new_gate) & (z[:, 0] < init_max_range))
+    new = np.flatnonzero((dmin > new_gate) & (z[:, 0] < init_max_range) & usable)
     # landmark separations (to the nearest other landmark), only for those predicted in view
     view = np.flatnonzero(zhat[:, 0] <= max_range)
     ambiguous = False
@@ -89,8 +101,13 @@ def associate(z: np.ndarray, zhat: np.ndarray, S_state: np.ndarray, R: np.ndarra
         D = np.ones((view.size, 2))
         D[:, 1] = zhat[view, 0]
         Sm = S_state[view] * D[:, :, None] * D[:, None, :]
-        sig = np.sqrt(np.maximum(np.linalg.eigvalsh(Sm)[:, -1], 0.0))
-        risk = bool(np.any((n_sigma * sig > sep_fraction * dnn) & (dnn >= min_separation)))
+        a, b, c = Sm[:, 0, 0], 0.5 * (Sm[:, 0, 1] + Sm[:, 1, 0]), Sm[:, 1, 1]
+        lmax = 0.5 * (a + c) + np.sqrt(0.25 * (a - c) ** 2 + b * b)      # λmax of a 2×2 symmetric
+        sig = np.sqrt(np.maximum(lmax, 0.0))
+        eligible = dnn >= min_separation
+        at_risk = (n_sigma * sig > sep_fraction * dnn) & eligible
+        n_risk = int(at_risk.sum())
+        risk = n_risk > 0 and n_risk >= risk_fraction * int(eligible.sum())
         multi = np.flatnonzero(n_cand > 1)
         if multi.size:
             # distinct landmarks: candidates farther apart than min_separation

@@ -22,10 +22,13 @@ Interpretations:
   small additive pose noise ``q_pose`` per second (model error); the paper gives no values.
 
 Everything is vectorised over leading axes: poses ``(..., 3)``, landmarks ``(..., 2)``.
+``vehicle_step_scalar`` is the same step and Jacobians for one pose in plain floats (the CEKF's
+per-input hot path: 40 inputs/s on the real run; tested equal to the array version).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -92,6 +95,39 @@ def vehicle_jacobians(pose: np.ndarray, u: np.ndarray, dt: float,
     F = np.broadcast_to(np.eye(3), (*f_phi.shape[:-1], 3, 3)).copy()
     F[..., :, 2] += dt * f_phi
     return F, dt * f_u
+
+
+def vehicle_step_scalar(x: float, y: float, phi: float, ve: float, al: float, dt: float,
+                        vp: VehicleParams) -> tuple[float, ...]:
+    """``vehicle_step`` + ``vehicle_jacobians`` for one pose in plain floats (the per-input hot path).
+
+    Returns ``(x⁺, y⁺, φ⁺, F02, F12, G00, G01, G10, G11, G20, G21)``: the Euler step (heading
+    wrapped to (−π, π]), the two non-trivial entries of F = ∂x⁺/∂x (F = I except F[0,2], F[1,2])
+    and G = ∂x⁺/∂u row by row. Same arithmetic as the array version (tested against it); about
+    20× faster than numpy for a single 3-vector, which matters at 40 inputs per second.
+    """
+    t = math.tan(al)
+    hl = vp.H / vp.L
+    den = 1.0 - t * hl
+    vc = ve / den
+    k = vc * t / vp.L
+    c, s = math.cos(phi), math.sin(phi)
+    ax = vp.a * s + vp.b * c
+    ay = vp.a * c - vp.b * s
+    fx, fy = vc * c - k * ax, vc * s + k * ay
+    vc_ve = 1.0 / den
+    k_ve = vc_ve * t / vp.L
+    t_al = 1.0 + t * t
+    vc_al = ve * hl * t_al / (den * den)
+    k_al = (vc_al * t + vc * t_al) / vp.L
+    ph = phi + dt * k
+    if not -math.pi < ph <= math.pi:
+        ph = math.pi - (math.pi - ph) % (2.0 * math.pi)  # = wrap_angle (Python % ≡ np.mod)
+    return (x + dt * fx, y + dt * fy, ph,
+            dt * (-vc * s - k * ay), dt * (vc * c - k * ax),
+            dt * (vc_ve * c - k_ve * ax), dt * (vc_al * c - k_al * ax),
+            dt * (vc_ve * s + k_ve * ay), dt * (vc_al * s + k_al * ay),
+            dt * k_ve, dt * k_al)
 
 
 def process_noise(pose: np.ndarray, u: np.ndarray, dt: float, sigma_u: tuple[float, float],

@@ -12,11 +12,19 @@ blocks an element-wise |·| is not a guaranteed bound, so we read |kᵢⱼ Cᵢ�
 We use kᵢⱼ = 1.
 
 Likelihood (eq. 9, documented approximation). The integral over the landmark position is
-evaluated in closed form for a Gaussian landmark N(m̂ⱼ, p̃ⱼ) linearised at m̂ⱼ (observation
-covariance Hₘ p̃ⱼ Hₘᵀ + R), and, being association-free, summed over all landmarks of the map
-(the paper's sum-of-Gaussians map) plus a uniform clutter density for spurious returns:
-p(z|x) = Πₒ [c + Σⱼ N(zₒ; h(x, m̂ⱼ), Hₘp̃ⱼHₘᵀ + R)]. Landmarks predicted in view but not
-observed carry no (negative) information.
+evaluated in closed form for a Gaussian landmark N(m̂ⱼ, p̃ⱼ) and, being association-free, summed
+over the landmarks of the map (the paper's sum-of-Gaussians map) plus a uniform clutter
+density c for spurious returns: p(z|x) = Πₒ [c + Σⱼ pⱼ(zₒ | x)]. Landmarks predicted in view but
+not observed carry no (negative) information. Two linearisations, equal to first order:
+
+- ``log_likelihood`` (used): in the map plane. The observation is turned into the point
+  wₒ(x) = p + zᵣ (cos θ, sin θ), θ = φ + z_β − π/2, with sensor covariance J R Jᵀ
+  (J = ∂w/∂z, |det J| = zᵣ), so pⱼ = zᵣ · N(wₒ; m̂ⱼ, p̃ⱼ + J R Jᵀ) is a density in (r, β) like
+  the measurement-space form. Only landmarks within ``n_sigma`` standard deviations of wₒ (at
+  most ``k_max`` nearest, found with a k-d tree built once per map) are summed; the rest add
+  less than exp(−n_sigma²/2) of a peak each. Cost O(N·o·k_max·log c) instead of O(N·o·c).
+- ``log_likelihood_dense`` (reference, tested against the above): in measurement space,
+  pⱼ = N(zₒ; h(x, m̂ⱼ), Hₘp̃ⱼHₘᵀ + R), over every landmark.
 
 Helix (eqs. 12–13). Family Cᵢ per (observation, landmark) pair: x = xᵢ + z_r cos τ,
 y = yᵢ + z_r sin τ, φ = τ − z_β − π/2, with z_r, z_β, xᵢ, yᵢ perturbed by their noises (eq. 13).
@@ -34,6 +42,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from track_core.filters import (
     circular_mean,
@@ -101,6 +110,24 @@ def to_global(pose_l: np.ndarray, b1: np.ndarray, b2: np.ndarray):
     Gl = np.eye(3)
     Gl[:2, :2] = R
     return np.array([p[0], p[1], wrap_angle(pose_l[2] + g)]), Gb, Gl
+
+
+def base_frame_pose(pose: np.ndarray, b1: np.ndarray, b2: np.ndarray):
+    """Global pose → pose in the base frame (eq. 10), with Jacobians wrt the pose (3×3) and [b₁, b₂] (3×4)."""
+    d = b2 - b1
+    g = float(np.arctan2(d[1], d[0]))
+    Rt = _rot(g).T
+    loc = Rt @ (pose[:2] - b1)
+    dg = np.array([-d[1], d[0]]) / (d @ d)          # ∂γ/∂b₂ (= −∂γ/∂b₁)
+    dl_dg = np.array([loc[1], -loc[0]])
+    Jv = np.eye(3)
+    Jv[:2, :2] = Rt
+    Jb = np.zeros((3, 4))
+    Jb[:2, :2] = -Rt - np.outer(dl_dg, dg)
+    Jb[:2, 2:] = np.outer(dl_dg, dg)
+    Jb[2, :2] = dg
+    Jb[2, 2:] = -dg
+    return np.array([loc[0], loc[1], wrap_angle(pose[2] - g)]), Jv, Jb
 
 
 def decorrelate_blocks(P_map: np.ndarray, k: np.ndarray | None = None) -> np.ndarray:
@@ -192,8 +219,52 @@ def helix_particles(z: np.ndarray, lm: np.ndarray, lm_cov: np.ndarray, prior_mea
 
 
 def log_likelihood(particles: np.ndarray, z: np.ndarray, lm: np.ndarray, lm_cov: np.ndarray,
-                   params: PFParams = PFParams()) -> np.ndarray:
-    """Association-free log p(z | m, x) per particle (eq. 9 approximation, module docstring)."""
+                   params: PFParams = PFParams(), *, tree: cKDTree | None = None, k_max: int = 8,
+                   n_sigma: float = 5.0) -> np.ndarray:
+    """Association-free log p(z | m, x) per particle, map-plane form (eq. 9, module docstring).
+
+    ``lm_cov`` (c, 2, 2) or (2, 2); ``tree`` an optional ``cKDTree(lm)`` (built here if omitted).
+    """
+    z = np.asarray(z, dtype=float).reshape(-1, 2)
+    lm = np.asarray(lm, dtype=float).reshape(-1, 2)
+    n, o, c = particles.shape[0], z.shape[0], lm.shape[0]
+    if o == 0 or c == 0:
+        return np.zeros(n)
+    lm_cov = np.broadcast_to(lm_cov, (c, 2, 2))
+    th = particles[:, 2, None] + (z[None, :, 1] - np.pi / 2)            # (N, o)
+    ct, st = np.cos(th), np.sin(th)
+    r = z[:, 0]
+    wx = (particles[:, 0, None] + r * ct).ravel()
+    wy = (particles[:, 1, None] + r * st).ravel()
+    vr = params.sigma_r**2
+    vb = (r * params.sigma_b) ** 2
+    q00 = (vr * ct * ct + vb * st * st).ravel()
+    q11 = (vr * st * st + vb * ct * ct).ravel()
+    q01 = ((vr - vb) * ct * st).ravel()
+    a, b, d = lm_cov[:, 0, 0], lm_cov[:, 0, 1], lm_cov[:, 1, 1]
+    lam = float(np.max(0.5 * (a + d) + np.sqrt(0.25 * (a - d) ** 2 + b * b)))
+    bound = n_sigma * np.sqrt(lam + max(vr, float(vb.max())))
+    k = min(k_max, c)
+    tree = cKDTree(lm) if tree is None else tree
+    _, jj = tree.query(np.stack([wx, wy], axis=1), k=k, distance_upper_bound=bound)
+    jj = jj.reshape(-1, k)
+    valid = jj < c
+    jj = np.where(valid, jj, 0)
+    ex = wx[:, None] - lm[jj, 0]
+    ey = wy[:, None] - lm[jj, 1]
+    s00 = q00[:, None] + a[jj]
+    s01 = q01[:, None] + b[jj]
+    s11 = q11[:, None] + d[jj]
+    det = s00 * s11 - s01 * s01
+    m2 = (s11 * ex * ex - 2.0 * s01 * ex * ey + s00 * ey * ey) / det
+    dens = np.where(valid, np.exp(-0.5 * m2) / (2 * np.pi * np.sqrt(det)), 0.0).sum(axis=1)
+    dens = dens.reshape(n, o) * r
+    return np.sum(np.log(params.clutter + dens), axis=1)
+
+
+def log_likelihood_dense(particles: np.ndarray, z: np.ndarray, lm: np.ndarray, lm_cov: np.ndarray,
+                         params: PFParams = PFParams()) -> np.ndarray:
+    """Reference: measurement-space form over every landmark (eq. 9 approximation, module docstring)."""
     z = np.asarray(z, dtype=float).reshape(-1, 2)
     if z.shape[0] == 0 or lm.shape[0] == 0:
         return np.zeros(particles.shape[0])
@@ -225,6 +296,7 @@ class ParticleLocaliser:
         self.particles = np.zeros((0, 3))
         self.weights = np.zeros(0)
         self.n_scans = 0
+        self.tree = cKDTree(self.lm) if self.lm.shape[0] else None
 
     def initialise(self, z: np.ndarray, prior_mean: np.ndarray, prior_cov: np.ndarray) -> None:
         """Helix initialisation from every observation of the scan and every landmark (eqs. 12–13)."""
@@ -244,7 +316,7 @@ class ParticleLocaliser:
     def update(self, z: np.ndarray) -> bool:
         """Weight (eq. 3), convergence test (§3.1), systematic resampling + roughening. True = converged."""
         self.n_scans += 1
-        ll = log_likelihood(self.particles, z, self.lm, self.lm_cov, self.params)
+        ll = log_likelihood(self.particles, z, self.lm, self.lm_cov, self.params, tree=self.tree)
         w, _ = normalize_log_weights(np.log(self.weights) + ll)
         self.weights = w
         mean, cov = self.estimate()

@@ -3,6 +3,11 @@
 Files (data README): ``inputs.dat`` (t, encoder speed, steering), ``measurements.dat`` (t, range,
 bearing in the eq. 5 convention, tree diameter; equal t = one scan), ``gps.dat`` (t, x, y).
 
+Checked against the data: bearings lie in [0, π] (0 = right, π/2 ahead), measurement rows
+with equal t are contiguous (7230 scans, ~0.214 s apart; frames without a detection are absent,
+gaps up to 0.86 s), inputs every 25 ms, all files share one time origin; ranges run 1.5–75 m and
+diameters 0.02–1.5 m.
+
 Interpretations:
 - The laser range hits the trunk surface; the landmark is the trunk centre, so the loader returns
   ``range + diameter / 2`` (``add_radius=True``, the usual ACFR practice).

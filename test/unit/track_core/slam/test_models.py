@@ -61,3 +61,27 @@ def test_observation_convention_and_jacobians():
     Gv, Gz = inverse_observe_jacobians(pose, z)
     np.testing.assert_allclose(Gv, _num_jac(lambda v: inverse_observe(v, z), pose), atol=1e-7)
     np.testing.assert_allclose(Gz, _num_jac(lambda v: inverse_observe(pose, v), z), atol=1e-7)
+
+
+def test_scalar_step_matches_array_model():
+    from track_core.slam.models import vehicle_step_scalar
+
+    rng = np.random.default_rng(5)
+    vp = VehicleParams()
+    for _ in range(50):
+        x = np.array([*rng.normal(size=2) * 10, rng.uniform(-np.pi, np.pi)])
+        u = np.array([rng.uniform(-1, 6), rng.uniform(-0.5, 0.5)])
+        dt = rng.uniform(0.001, 0.3)
+        out = vehicle_step_scalar(*x, *u, dt, vp)
+        F, G = vehicle_jacobians(x, u, dt, vp)
+        np.testing.assert_allclose(out[:3], vehicle_step(x, u, dt, vp), atol=1e-12)
+        np.testing.assert_allclose(out[3:5], F[:2, 2], atol=1e-12)
+        np.testing.assert_allclose(np.reshape(out[5:], (3, 2)), G, atol=1e-12)
+        # F is the identity except F[0, 2], F[1, 2] (what the batched CEKF prediction relies on)
+        Fi = F.copy()
+        Fi[:2, 2] = 0.0
+        np.testing.assert_array_equal(Fi, np.eye(3))
+    # heading wrapped to (−π, π] like wrap_angle
+    out = vehicle_step_scalar(0.0, 0.0, np.pi - 1e-3, 5.0, 0.3, 0.2, vp)
+    assert -np.pi < out[2] <= np.pi
+    assert out[2] == pytest.approx(vehicle_step(np.array([0.0, 0.0, np.pi - 1e-3]), np.array([5.0, 0.3]), 0.2)[2])

@@ -96,3 +96,43 @@ def test_pf_converges_on_true_pose():
     mean, _ = pf._last
     assert np.linalg.norm(mean[:2] - pose[:2]) < 1.0
     assert np.isfinite(log_likelihood(pf.particles, z, lm, pf.lm_cov, params)).all()
+
+
+def test_map_plane_likelihood_matches_measurement_space_reference():
+    from track_core.slam.pf import log_likelihood_dense
+
+    rng = np.random.default_rng(4)
+    lm = rng.uniform(-30, 30, (60, 2))
+    cov = np.array([np.diag(rng.uniform(0.02, 0.3, 2)) for _ in range(60)])
+    pose = np.array([1.0, 2.0, 0.3])
+    z = observe(pose, lm)
+    z = z[(z[:, 0] < 25) & (z[:, 1] > 0) & (z[:, 1] < np.pi)]
+    params = PFParams(sigma_r=0.3, sigma_b=0.01)
+    z = z + rng.normal(size=z.shape) * [0.3, 0.01]
+    parts = pose + rng.normal(size=(1500, 3)) * [1.5, 1.5, 0.03]
+    a = log_likelihood(parts, z, lm, cov, params)
+    b = log_likelihood_dense(parts, z, lm, cov, params)
+    assert np.corrcoef(a, b)[0, 1] > 0.999
+    # the particles each form would keep agree
+    top_a, top_b = set(np.argsort(a)[-50:]), set(np.argsort(b)[-50:])
+    assert len(top_a & top_b) >= 40
+    # no landmark near any observation point: clutter only
+    far = log_likelihood(parts[:3] + np.array([500.0, 0.0, 0.0]), z, lm, cov, params)
+    np.testing.assert_allclose(far, z.shape[0] * np.log(params.clutter))
+
+
+def test_base_frame_pose_jacobians_and_inverse():
+    from track_core.slam.pf import base_frame_pose
+
+    rng = np.random.default_rng(6)
+    for _ in range(5):
+        pose = np.array([*rng.normal(size=2) * 10, rng.uniform(-3, 3)])
+        b1, b2 = rng.normal(size=2) * 10, rng.normal(size=2) * 10
+        pl, Jv, Jb = base_frame_pose(pose, b1, b2)
+        back, _, _ = to_global(pl, b1, b2)
+        np.testing.assert_allclose(back[:2], pose[:2], atol=1e-10)
+        assert abs(np.angle(np.exp(1j * (back[2] - pose[2])))) < 1e-10
+        Jn = _num_jac(lambda v, b1=b1, b2=b2: base_frame_pose(v, b1, b2)[0], pose)
+        np.testing.assert_allclose(Jv, Jn, atol=1e-6)
+        Jn = _num_jac(lambda v, pose=pose: base_frame_pose(pose, v[:2], v[2:])[0], np.concatenate([b1, b2]))
+        np.testing.assert_allclose(Jb, Jn, atol=1e-6)
