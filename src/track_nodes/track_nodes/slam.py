@@ -85,6 +85,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from track_core.filters import symmetrize
 from track_core.slam import HybridParams, HybridSlam, PFParams, SlamParams
+from track_core.slam.blas import single_threaded_blas
 from track_msgs_py.convert import (
     DIAG_OK,
     DIAG_WARN,
@@ -569,7 +570,10 @@ NODE_CLASS = SlamNode
 
 
 def main(argv=None) -> int:
-    return run_node(SlamNode, argv)
+    # One BLAS thread for the whole process: the CEKF's small products otherwise spin OpenBLAS
+    # workers on a busy machine (track_core/slam/blas.py measures 10x and more).
+    with single_threaded_blas():
+        return run_node(SlamNode, argv)
 
 
 if __name__ == '__main__':
