@@ -14,6 +14,19 @@ Every incoming message is validated (finite, symmetric PSD covariance, known fra
 non-decreasing stamp per track); a bad one is dropped with at most one warning per topic
 every ``warn_period`` seconds, and the node keeps running.
 
+Velocities with variance ≥ ``UNUSED_VARIANCE`` (the "not estimated" convention of
+track_msgs_py.convert, e.g. the IDSQ network's estimate) are ignored: such a track is held like a
+position report instead of being predicted with a 1e6 m²/s² velocity variance.
+
+Schedule. ``schedule:=timer`` (default): score at every tick of a ``rate`` Hz timer on the node
+clock, with the reports received so far. ``schedule:=stamps``: score at the instants
+t_k = k/``rate`` of the *data* (the first one at or after the first report's stamp), and score
+t_k only once a report stamped ≥ t_k + 1/``rate`` has arrived, using the reports stamped ≤ t_k.
+The output then depends only on the reports' stamps and contents, not on when they arrive, as
+long as every report stamped ≤ t_k arrives before any report stamped ≥ t_k + 1/``rate`` (sources
+on one clock, lagging each other by less than one period): a recorded bag replayed into a fresh
+node reproduces every score. The last instant of a run is scored only when a later report comes.
+
 At ``rate`` Hz it brings every live track to the current node time (``TrackTable``: Odometry
 tracks are predicted with their velocity, position reports are held until ``stale_after``),
 scores every pair from different sources with ``method`` (paper eqs. 49–71, batched over pairs;
@@ -45,6 +58,7 @@ from track_core.fusion import TrackReport, TrackTable
 from track_core.geofeasibility import ScoreWindow, score
 from track_msgs_py.convert import (
     DIAG_OK,
+    UNUSED_VARIANCE,
     covariance_ellipse_marker,
     cv_state_to_odometry,
     diagnostic_array,
@@ -90,6 +104,8 @@ PARAMS = (
     Param('seed', 0, 'seed of the Generator used by the mc method', 0, 2**31 - 1),
     Param('same_source_pairs', False, 'also score pairs from one source (Odometry: same topic; pose: same '
           'namespace)'),
+    Param('schedule', 'timer', 'timer: score at node-clock ticks; stamps: at the data instants k/rate, '
+          'deterministic (module docstring)', choices=('timer', 'stamps')),
     Param('warn_period', 5.0, 'at most one bad-input warning per topic per this many seconds', 0.0, 1e6),
 )
 
@@ -125,7 +141,9 @@ class FusionNode(Node):
         self.pub_assoc = self.create_publisher(DiagnosticArray, FUSION_ASSOCIATIONS, ESTIMATE_QOS)
         self.pub_fused = self.create_publisher(Odometry, FUSION_FUSED, ESTIMATE_QOS)
         self.pub_markers = self.create_publisher(MarkerArray, FUSION_MARKERS, ESTIMATE_QOS)
-        self.timer = self.create_timer(1.0 / p.rate, self.tick)
+        self.pending: list[tuple[str, str, TrackReport]] = []  # schedule stamps: reports not yet applied
+        self.next_k: int | None = None  # schedule stamps: index of the next instant k/rate to score
+        self.timer = self.create_timer(1.0 / p.rate, self.tick) if p.schedule == 'timer' else None
 
     # -- input ---------------------------------------------------------------------------
     def _now(self) -> float:
@@ -145,8 +163,11 @@ class FusionNode(Node):
             self._drop(topic, reason)
             return
         t, x, P = odometry_to_cv_state(msg)
-        self._store(topic, track_id, TrackReport(t, x[[0, 2]], P[np.ix_([0, 2], [0, 2])], x[[1, 3]],
-                                                 P[np.ix_([1, 3], [1, 3])]))
+        Pv = P[np.ix_([1, 3], [1, 3])]
+        if np.any(np.diag(Pv) >= UNUSED_VARIANCE):  # velocity not estimated: hold the position
+            self._store(topic, track_id, TrackReport(t, x[[0, 2]], P[np.ix_([0, 2], [0, 2])]))
+            return
+        self._store(topic, track_id, TrackReport(t, x[[0, 2]], P[np.ix_([0, 2], [0, 2])], x[[1, 3]], Pv))
 
     def _on_pose(self, topic: str, msg: PoseWithCovarianceStamped) -> None:
         reason = pose_cov_problem(msg, KNOWN_FRAMES) or self.stamps.msg_problem(topic, msg)
@@ -173,12 +194,40 @@ class FusionNode(Node):
         self._store(topic, track_id, TrackReport(t, z, R))  # the topic is the source
 
     def _store(self, source: str, track_id: str, report: TrackReport) -> None:
+        if self.p.schedule == 'stamps':
+            self._score_due(report.t)
+            self.pending.append((source, track_id, report))
+            return
         self.source[track_id] = source
         self.table.update(track_id, report)
 
     # -- scoring -------------------------------------------------------------------------
+    def _score_due(self, t_new: float) -> None:
+        """schedule stamps: score every instant t_k with t_k + 1/rate ≤ ``t_new`` (module docstring)."""
+        rate, eps = self.p.rate, 1e-9
+        if self.next_k is None:
+            self.next_k = int(np.ceil(t_new * rate - eps))
+        if (t_new * rate - self.next_k) > 10_000:  # a jump in the data's time: skip the empty instants
+            self.next_k = int(np.ceil(t_new * rate - eps)) - 1
+        while (self.next_k + 1) / rate <= t_new + eps:
+            t_k = self.next_k / rate
+            keep = []
+            # By (stamp, track id), not arrival order: the table's order (pair names, marker ids) is then
+            # independent of which source's message came first.
+            for source, track_id, report in sorted(self.pending, key=lambda r: (r[2].t, r[1])):
+                if report.t <= t_k + eps:
+                    self.source[track_id] = source
+                    self.table.update(track_id, report)
+                else:
+                    keep.append((source, track_id, report))
+            self.pending = keep
+            self._score(t_k)
+            self.next_k += 1
+
     def tick(self) -> None:
-        t = self._now()
+        self._score(self._now())
+
+    def _score(self, t: float) -> None:
         ids, mu, R = self.table.at(t)
         if len(ids) < 2:
             return

@@ -41,6 +41,14 @@ Protocol (Table 1 of the paper, one leader at a time, all over standard messages
   Limitation: an ack arriving after its timeout is ignored (logged), so a receiver that was slow
   rather than dead would lead a forked track; the default timeout (2 s of wall time) is meant to
   be far above an ack round trip (one message each way and one callback).
+- Several sources (``truth_topics``, beyond the paper): every listed topic carries the truth of one
+  or more sources (Odometry, one ``child_frame_id`` per source); a step is sensed once each
+  topic has delivered that step, and each sensor hears the loudest source at its own position,
+  i.e. the nearest one (every source has the same amplitude A, and A/r falls with range). The
+  network therefore tracks whatever is loudest in its field. The default, ``[/idsq/vehicle/truth]``,
+  is the paper's single vehicle. The default topic is subscribed with the transient-local
+  ``TRUTH_QOS``; any other topic reliable and volatile (depth 256), so it matches an ordinary
+  reliable publisher such as ``smart_target``'s truth.
 - Asleep, a sensor only buffers the truth messages (its microphone, so to speak: a dict insert
   per step); with the start rule this is its only work until a handoff arrives.
 - Time: step s of the vehicle truth is stamped (s + 1)·Δt (``FixedRateSteps`` ticks first one
@@ -147,6 +155,7 @@ LAYOUT_FIELDS = ('id', 'x', 'y', 'type')
 MEASUREMENT_KEY, SELECTION_KEY = 3, 4
 _PEEK = struct.Struct('<4sBxHHI')  # first fields of the core's handoff header (track_core.idsq.handoff)
 MAX_TRUTH = 4096  # buffered truth steps per sensor (the §5.1 track has 72)
+SOURCE_TRUTH_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=256, reliability=ReliabilityPolicy.RELIABLE)
 
 
 # --- time, randomness, start -------------------------------------------------------------------
@@ -173,9 +182,18 @@ def selection_rng(seed: int, sensor: int, step: int) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence(int(seed), spawn_key=(SELECTION_KEY, int(sensor), int(step))))
 
 
+def loudest(sources: np.ndarray, sensor: np.ndarray) -> np.ndarray:
+    """Position of the source a sensor at ``sensor`` hears loudest: the nearest of ``sources`` (2,) or (M, 2)."""
+    src = np.asarray(sources, dtype=float).reshape(-1, 2)
+    return src[int(np.argmin(np.hypot(*(src - np.asarray(sensor, dtype=float)).T)))]
+
+
 def start_leader_of(layout: SensorLayout, truth0: np.ndarray, noise: SimNoise, seed: int) -> int:
-    """§5.1 start: argmax of the step-0 amplitude readings, as every sensor computes it."""
-    amps = np.array([amplitude_reading(truth0, layout.positions[k], noise, measurement_normal(seed, k, 0))
+    """§5.1 start: argmax of the step-0 amplitude readings, as every sensor computes it.
+
+    ``truth0``: one source (2,) or several (M, 2); each sensor hears its loudest (``loudest``)."""
+    amps = np.array([amplitude_reading(loudest(truth0, layout.positions[k]), layout.positions[k], noise,
+                                       measurement_normal(seed, k, 0))
                      for k in range(layout.n)])  # K sensors, one scalar each
     return start_leader(layout, amps)
 
@@ -312,6 +330,8 @@ def sensor_params(sensor_type: str) -> tuple[Param, ...]:
         Param('selection', 'mi', 'next-leader rule: mi (Table 1), nearest or random (baselines)', choices=SELECTIONS),
         Param('ack_timeout', 2.0, 'steady-clock wait for an ack before re-selecting [s]', 1e-3, 600.0),
         Param('track_id', 'idsq_track', 'child_frame_id of the estimate'),
+        Param('truth_topics', [IDSQ_TRUTH], 'Odometry truth topics of the sources; each sensor senses the loudest '
+              '(nearest) source (module docstring)'),
     )
 
 
@@ -360,7 +380,11 @@ class IdsqSensorNode(Node):
         self.grid = GridSpec.for_field(p.width, p.height, p.cell)
         self.layout: SensorLayout | None = None
         self.disabled = False
-        self.truth: dict[int, np.ndarray] = {}
+        self.truth: dict[int, np.ndarray] = {}  # step → (M, 2) source positions, once every topic has it
+        self.truth_topics = [t for t in p.truth_topics if t]
+        if not self.truth_topics:
+            raise ParameterError('parameter truth_topics is empty: allowed one or more Odometry topics')
+        self._sources: dict[int, dict[tuple[str, str], np.ndarray]] = {}  # step → (topic, child) → xy
         self.inbox: list[bytes] = []
         self.pending: _Pending | None = None
         self.outgoing: dict[int, _Outgoing] = {}  # step → handoff awaiting its ack (several if acks lag)
@@ -379,7 +403,9 @@ class IdsqSensorNode(Node):
         self.pub_markers = self._pub(MarkerArray, IDSQ_MARKERS, ESTIMATE_QOS)
         self.pub_leader = self._pub(DiagnosticArray, IDSQ_LEADER, ESTIMATE_QOS)
         self._sub(PointCloud2, IDSQ_LAYOUT, self._on_layout, STATIC_QOS)
-        self._sub(Odometry, IDSQ_TRUTH, self._on_truth, TRUTH_QOS)
+        for topic in self.truth_topics:
+            self._sub(Odometry, topic, lambda m, topic=topic: self._on_truth(m, topic),
+                      TRUTH_QOS if topic == IDSQ_TRUTH else SOURCE_TRUTH_QOS)
         self._sub(UInt8MultiArray, idsq_handoff_topic(self.id), self._on_handoff, HANDOFF_QOS)
         self._sub(DiagnosticArray, idsq_ack_topic(self.id), self._on_ack, HANDOFF_QOS)
 
@@ -431,19 +457,27 @@ class IdsqSensorNode(Node):
             self.ack_pubs[k] = self._pub(DiagnosticArray, idsq_ack_topic(k), HANDOFF_QOS)
         return self.ack_pubs[k]
 
-    def _on_truth(self, msg: Odometry) -> None:
+    def _on_truth(self, msg: Odometry, topic: str = IDSQ_TRUTH) -> None:
         reason = odometry_problem(msg, KNOWN_FRAMES)
         t = stamp_to_sec(msg.header.stamp)
         step = step_of_stamp(t, self.p.dt)
         if reason is None and step is None:
             reason = f'stamp {t:.9f} s is not (s + 1)·dt for dt={self.p.dt} s'
         if reason is not None:
-            self.get_logger().warning(f'{IDSQ_TRUTH}: dropped truth: {reason}')
+            self.get_logger().warning(f'{topic}: dropped truth: {reason}')
             return
         _, x, _ = odometry_to_cv_state(msg)
-        self.truth[step] = x[[0, 2]]
-        if len(self.truth) > MAX_TRUTH:
-            del self.truth[min(self.truth)]
+        if step in self.truth:
+            return  # this step was complete already: a source repeating it does not change it
+        got = self._sources.setdefault(step, {})
+        got[(topic, msg.child_frame_id)] = x[[0, 2]]
+        if {tp for tp, _ in got} >= set(self.truth_topics):  # every topic has delivered this step
+            del self._sources[step]
+            self.truth[step] = np.array([got[k] for k in sorted(got)])
+            if len(self.truth) > MAX_TRUTH:
+                del self.truth[min(self.truth)]
+        while len(self._sources) > MAX_TRUTH:
+            del self._sources[min(self._sources)]
         self._advance()
 
     def _on_handoff(self, msg: UInt8MultiArray) -> None:
@@ -522,7 +556,7 @@ class IdsqSensorNode(Node):
     def _lead(self, pend: _Pending) -> None:
         """Table 1 steps 1-5 for step ``pend.step`` (the core's ``leader_step``), then publish and hand off."""
         step, layout = pend.step, self.layout
-        z = simulate_measurement(self.truth[step], self.position, self.is_doa, self.noise,
+        z = simulate_measurement(loudest(self.truth[step], self.position), self.position, self.is_doa, self.noise,
                                  measurement_normal(self.p.seed, self.id, step))
         rng = selection_rng(self.p.seed, self.id, step) if self.p.selection == 'random' else None
         res = leader_step(pend.belief, z, self.id, layout, self.tp, step=step, previous=pend.previous,

@@ -6,6 +6,7 @@ scenario's ``track_launch`` entry): metrics against truth, computed by track_cor
 
 from __future__ import annotations
 
+import re
 from collections import defaultdict
 from pathlib import Path
 
@@ -157,12 +158,23 @@ SCENARIO_METRICS['sonar'] = sonar_metrics
 SCENARIO_METRICS['rfid'] = rfid_metrics
 
 
+# Scenarios whose many per-node topics are listed as one line: scenario → (regex, label).
+FOLDED_TOPICS: dict[str, tuple[str, str]] = {}
+
+
 def summarize(bag: Path, scenario: str | None = None) -> list[str]:
     lines = [f'bag: {bag.resolve()}']
     with Reader(bag) as reader:
         lines.append(f'duration {reader.duration * 1e-9:.1f} s, {reader.message_count} messages')
+        folded = FOLDED_TOPICS.get(scenario)
         for conn in sorted(reader.connections, key=lambda c: c.topic):
+            if folded is not None and re.match(folded[0], conn.topic):
+                continue
             lines.append(f'  {conn.topic:<28} {conn.msgtype:<44} {conn.msgcount:>7}')
+        if folded is not None:
+            per = [c for c in reader.connections if re.match(folded[0], c.topic)]
+            if per:
+                lines.append(f'  {folded[1]:<28} {f"({len(per)} topics)":<44} {sum(c.msgcount for c in per):>7}')
     if scenario in SCENARIO_METRICS:
         lines += SCENARIO_METRICS[scenario](bag)
     return lines
@@ -353,3 +365,14 @@ def ais_metrics(bag: Path) -> list[str]:
 
 
 SCENARIO_METRICS['ais'] = ais_metrics
+
+
+def maritime_metrics(bag: Path) -> list[str]:
+    """Maritime scenario (issue 8): see ``track_nodes.maritime.maritime_metrics`` (also writes picture.png)."""
+    from track_nodes.maritime import maritime_metrics as metrics
+
+    return metrics(bag)
+
+
+SCENARIO_METRICS['maritime'] = maritime_metrics
+FOLDED_TOPICS['maritime'] = (r'^/idsq/sensor_\d+/(handoff|ack)$', '/idsq/sensor_*/{handoff,ack}')

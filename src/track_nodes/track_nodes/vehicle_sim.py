@@ -13,6 +13,9 @@
   the clock origin, and the vehicle enters the field (x = W/2, y = 0) then. It stops when the
   vehicle leaves the field (``Scenario.n_steps``, 72 for §5.1) or after ``max_steps``.
 
+With ``publish_truth:=false`` it publishes only the layout: the maritime scenario's sensors hear
+other sources (``idsq_sensor``'s ``truth_topics``).
+
 The sensors are separate nodes whose ``id``/``position``/``type`` parameters must match this
 layout: ``scenario_yaml`` writes a launcher scenario with all of them from the same generator
 (``config/idsq.yaml`` was written by it).
@@ -46,6 +49,8 @@ PARAMS = (
     Param('dt', _SC.tracker.dt, 'tracker step Δt = truth period (§5.1: 0.5 s) [s]', 1e-3, 60.0),
     Param('max_steps', 0, 'stop after this many steps; 0 = when the vehicle leaves the field', 0, 10**7),
     Param('vehicle_id', 'vehicle', 'child_frame_id of the truth'),
+    Param('publish_truth', True, 'publish the §5.1 vehicle; false: only the layout (the sensors then sense '
+          'other sources, see idsq_sensor truth_topics)'),
 )
 
 
@@ -80,7 +85,7 @@ class VehicleSimNode(Node):
 
     def _step(self, t: float) -> None:
         s = self.steps.k - 1
-        if s >= self.n_steps:
+        if s >= self.n_steps or not self.p.publish_truth:
             return
         x, y = self.truth[s]
         state = np.array([x, 0.0, y, self.p.speed])
