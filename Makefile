@@ -1,5 +1,5 @@
 # Two entry points, both idempotent, no activation needed:
-#   make demo   -> create .venv, install, run the demo scenario with recording, print a summary
+#   make demo   -> create .venv, install, run the maritime scenario with recording, print a summary + picture
 #   make test   -> create .venv, install, ruff check, the whole pytest suite
 VENV    := .venv
 PY      := $(VENV)/bin/python3
@@ -22,7 +22,7 @@ install: $(VENV)/.deps-stamp
 	rm -rf $(addsuffix /build,$(PKGS)) $(addsuffix /*.egg-info,$(PKGS))
 
 demo: install
-	$(PY) -m track_nodes.launch demo --record --duration 30 --rate 10
+	$(PY) -m track_nodes.launch maritime --record
 
 lint: $(VENV)/.deps-stamp
 	$(VENV)/bin/ruff check .
