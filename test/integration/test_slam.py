@@ -35,8 +35,9 @@ from sensor_msgs.msg import PointCloud2
 from visualization_msgs.msg import MarkerArray
 
 from track_core.slam import HybridParams, HybridSlam, victoria
-from track_core.slam.experiments import VP_PF, VP_SLAM
-from track_msgs_py.convert import stamp_to_ns, stamp_to_sec, table_to_pointcloud2
+from track_core.slam.experiments import VP_PF, VP_SLAM, loop_params
+from track_core.slam.sim import LoopWorld, simulate
+from track_msgs_py.convert import pose_array_to_positions, stamp_to_ns, stamp_to_sec, table_to_pointcloud2
 from track_msgs_py.qos import ESTIMATE_QOS, STATIC_QOS
 from track_msgs_py.topics import SLAM_EVENTS, SLAM_GPS, SLAM_INPUTS, SLAM_MAP, SLAM_MODE, SLAM_POSE, SLAM_SCAN
 from track_nodes.bag_io import msg_class
@@ -297,3 +298,105 @@ def test_bad_parameters_are_one_line(ros, cls, name, value, words):
         cls(context=ros.context, parameter_overrides=[Parameter(name, value=value)])
     text = str(exc.value)
     assert '\n' not in text and all(w in text for w in words), text
+
+
+# --- map estimate and the particle cloud -----------------------------------------------------------------------
+
+def _deepcopy_map(h: HybridSlam):
+    """The map as the node used to publish it: ``mean_cov`` (a global update) on a deep copy of the CEKF."""
+    x, P = copy.deepcopy(h.cekf).mean_cov()
+    idx = 3 + 2 * np.arange((x.size - 3) // 2)
+    r2 = idx[:, None, None] + np.arange(2)[None, :, None]
+    return x[3:].reshape(-1, 2), P[r2, np.swapaxes(r2, 1, 2)]
+
+
+def _check_map_estimates(h: HybridSlam, checks: list) -> None:
+    m, C = h.map_estimate()
+    m_ref, C_ref = _deepcopy_map(h)
+    assert m.shape == m_ref.shape and C.shape == C_ref.shape
+    np.testing.assert_allclose(m, m_ref, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(C, C_ref, rtol=0, atol=1e-12)
+    checks.append((len(m), bool(h.cekf.track and h.cekf.b_idx.size)))
+
+
+def test_map_estimate_equals_the_deepcopy_path_on_victoria_park():
+    _data_or_skip()
+    vp = victoria.load(t_max=80.0)  # passive landmarks (the compressed phase) from about 60 s
+    h = HybridSlam(np.zeros(3), np.diag([1e-6] * 3), np.random.default_rng(0), VP_SLAM, VP_PF, HybridParams())
+    checks, n = [], 0
+    for ev in victoria.events(vp):
+        if ev[0] == 'input':
+            h.process_input(*ev[1:])
+            continue
+        h.process_scan(ev[1], ev[2])
+        n += 1
+        if n % 10 == 0:
+            _check_map_estimates(h, checks)
+    assert len(checks) >= 10 and checks[-1][0] >= 15
+    assert any(compressed for _, compressed in checks)  # also with passive landmarks to correct on the fly
+
+
+def test_map_estimate_equals_the_deepcopy_path_in_the_loop_world():
+    w = LoopWorld()
+    sp, pp = loop_params(w)
+    run = simulate(w, np.random.default_rng(1))
+    h = HybridSlam(w.start(), np.diag([1e-6] * 3), np.random.default_rng(2), sp, pp,
+                   HybridParams(trigger_on_ambiguity=True))
+    checks, si = [], 0
+    for k in range(len(run.t)):
+        if run.t[k] > 60.0:  # the start area and the first leg
+            break
+        h.process_input(run.t[k], *run.u_meas[k])
+        while si < len(run.scans) and run.scans[si][0] <= run.t[k] + w.dt + 1e-9:
+            h.process_scan(*run.scans[si][:2])
+            si += 1
+            if si % 25 == 0:
+                _check_map_estimates(h, checks)
+    assert len(checks) >= 10 and checks[-1][0] >= 20
+    assert any(compressed for _, compressed in checks)
+
+
+def test_slam_node_publishes_the_cloud_of_a_one_scan_pf_episode(ros):
+    """The slam_sim scenario's run (config/slam_sim.yaml seeds) replayed into ``slam``: the PF starts and
+    converges on the loop-closing scan; the node publishes that scan's cloud, then an empty array."""
+    w = LoopWorld()
+    run = simulate(w, np.random.default_rng(1))
+    slam = ros.add(SlamNode(context=ros.context, parameter_overrides=[
+        Parameter('profile', value='loop_sim'), Parameter('seed', value=2), Parameter('add_radius', value=False),
+        Parameter('map_period', value=1000.0)]))
+    clouds = []  # every PoseArray the node publishes (the topic is best effort: spy on the publisher)
+    publish = slam.pub_particles.publish
+    slam.pub_particles.publish = lambda msg: (clouds.append(msg), publish(msg))
+    pub = ros.add(Node('slam_sim_source', context=ros.context))
+    inputs = pub.create_publisher(TwistStamped, SLAM_INPUTS, DEEP)
+    scans = pub.create_publisher(PointCloud2, SLAM_SCAN, DEEP)
+    assert ros.spin_until(lambda: inputs.get_subscription_count() > 0 and scans.get_subscription_count() > 0)
+    si = 0
+    for k in range(len(run.t)):  # in stamp order, scan first at equal stamps (as slam_sim publishes)
+        while si < len(run.scans) and run.scans[si][0] <= run.t[k] + 1e-9:
+            scans.publish(scan_to_pointcloud2(run.scans[si][0], run.scans[si][1]))
+            si += 1
+        inputs.publish(inputs_to_twist(run.t[k], *run.u_meas[k]))
+    for ts, z, _ in run.scans[si:]:
+        scans.publish(scan_to_pointcloud2(ts, z))
+    assert ros.spin_until(lambda: slam.n_scans == len(run.scans) and not slam._heap, timeout=60), \
+        f'processed {slam.n_scans}/{len(run.scans)} scans'
+    h = slam.slam
+    assert [(e.kind, e.scans) for e in h.events] == [('to_pf', 0), ('to_cekf', 1)]
+    t_pf = h.events[0].t
+    assert len(clouds) == 2, [(stamp_to_sec(c.header.stamp), len(c.poses)) for c in clouds]
+    cloud, empty = clouds
+    assert stamp_to_sec(cloud.header.stamp) == pytest.approx(t_pf, abs=1e-9)
+    assert stamp_to_sec(empty.header.stamp) == pytest.approx(t_pf + w.scan_every * w.dt, abs=1e-9)  # the next scan
+    assert len(empty.poses) == 0 and cloud.header.frame_id == slam.p.frame_id
+    xy, heading = pose_array_to_positions(cloud)
+    step = h.last_particles
+    n = len(step.particles)
+    assert len(xy) == math.ceil(n / math.ceil(n / 500))  # the node's even subsample of the PF's last cloud
+    sub = step.particles[::math.ceil(n / 500)]
+    np.testing.assert_allclose(xy, sub[:, :2], atol=1e-9)
+    np.testing.assert_allclose(np.cos(heading - sub[:, 2]), 1.0, atol=1e-9)
+    truth = run.truth[round(t_pf / w.dt)]
+    err = float(np.linalg.norm(xy.mean(axis=0) - truth[:2]))
+    print(f'one-scan PF episode at t = {t_pf:.1f} s: cloud of {len(xy)} poses, mean {err:.2f} m from the truth')
+    assert err < 2.0

@@ -14,11 +14,15 @@ and publishes
 - ``/slam/mode`` (diagnostic_msgs/DiagnosticArray, after every scan): CEKF or PF and counters;
 - ``/slam/events`` (DiagnosticArray): one message per mode switch (CEKF → PF, PF → CEKF or PF timeout),
   with the pose after the scan of the switch;
-- ``/slam/particles`` (geometry_msgs/PoseArray): the particle cloud after each scan in PF mode, an
-  empty array on leaving it;
+- ``/slam/particles`` (geometry_msgs/PoseArray, with headings): the particle cloud after every scan the
+  PF ran on (``HybridSlam.last_particles``), including the one on which it converged and handed back
+  to the CEKF (so an episode that starts and converges within one scan is shown too; that last cloud
+  is in the map frame the PF used, before the hand-over update), and an empty array at the first
+  scan after the episode;
 - ``/slam/map`` (visualization_msgs/MarkerArray, transient-local): landmark means and 2σ ellipses, at
-  most every ``map_period`` seconds of data time (it needs the full map covariance: an O(n²) copy and
-  a CEKF global update on that copy, so not at every scan), and once more when the input goes idle.
+  most every ``map_period`` seconds of data time (``HybridSlam.map_estimate``: exact, without a copy
+  or a global update of the filter, but O(n_B·n_A²) in the compressed phase, so not at every scan),
+  and once more when the input goes idle.
 
 Time order. The filter must see inputs and scans in stamp order (an input predicts from its stamp,
 a scan updates at its stamp), but the two topics arrive on separate subscriptions and the executor
@@ -64,7 +68,6 @@ ambiguity trigger, as the ``slam-loop`` experiment). Invalid values stop the nod
 
 from __future__ import annotations
 
-import copy
 import dataclasses
 import heapq
 import math
@@ -263,19 +266,6 @@ def _vec(name: str, value, n: int, positive: bool = False) -> np.ndarray:
         what = 'positive' if positive else 'finite'
         raise ParameterError(f'parameter {name}={list(value)!r} is invalid: allowed {n} {what} numbers')
     return v
-
-
-def map_estimate(slam: HybridSlam) -> tuple[np.ndarray, np.ndarray]:
-    """Landmark means (L, 2) and covariances (L, 2, 2) of the full map, without touching the filter.
-
-    ``CekfSlam.mean_cov`` performs the CEKF global update (and repartitions), which would move the
-    local-phase boundaries of the running filter; it is called on a deep copy instead.
-    """
-    x, P = copy.deepcopy(slam.cekf).mean_cov()
-    n = (x.size - 3) // 2
-    idx = 3 + 2 * np.arange(n)
-    covs = P[idx[:, None, None] + np.arange(2)[None, :, None], idx[:, None, None] + np.arange(2)[None, None, :]]
-    return x[3:].reshape(-1, 2), covs
 
 
 _SCAN, _INPUT = 0, 1  # priority at equal stamps: the scan first (victoria.events)
@@ -491,8 +481,9 @@ class SlamNode(Node):
             self._publish_event(ev)
         self._n_events = len(s.events)
         self.pub_pose.publish(pose_to_odometry(t, s.pose, symmetrize(s.pose_cov), p.frame_id, p.child_frame_id))
-        if s.mode == 'PF':
-            parts = s.particles()
+        pf_step = s.last_particles
+        if pf_step is not None and pf_step.scan == s.n_scans:  # the PF ran on this scan (maybe its last)
+            parts = pf_step.particles
             step = max(1, math.ceil(len(parts) / p.max_particles_published))
             parts = parts[::step]
             self.pub_particles.publish(positions_to_pose_array(t, parts[:, :2], p.frame_id, headings=parts[:, 2]))
@@ -524,7 +515,7 @@ class SlamNode(Node):
     def _publish_map(self, t: float) -> None:
         self._map_ns = round(t * 1e9)
         self._map_dirty = False
-        lm, covs = map_estimate(self.slam)
+        lm, covs = self.slam.map_estimate()
         self.pub_map.publish(map_markers(t, lm, covs, self.p.frame_id, self.p.ellipse_points))
 
 

@@ -42,6 +42,11 @@ Switching (§3.1):
   The converged scan is then used for a normal CEKF update and the detector is muted for
   ``cooldown_scans`` scans so that the loop-closing update can shrink the map errors.
 
+Outputs: ``pose``/``pose_cov``, ``particles()`` (the live cloud, PF mode only), ``last_particles``
+(the cloud of the last PF step, kept after the hand-over so that an episode that starts and converges
+within one scan can still be shown) and ``map_estimate()`` (exact means and 2×2 covariances, the
+filter untouched).
+
 Bad input: an observation with a non-finite value, a range ≤ 0 or a bearing outside
 ``bearing_limits`` (the data set's [0, π]) is dropped with a throttled warning (the rule is the
 module function ``valid_observations``, also callable by a node); a non-finite input or time
@@ -125,6 +130,15 @@ class Event:
     scans: int = 0   # scans spent in PF mode (for 'to_cekf'/'pf_timeout')
 
 
+@dataclass(frozen=True)
+class PFStep:
+    """The particle cloud after one PF scan (``HybridSlam.last_particles``)."""
+
+    t: float                # stamp of the scan [s]
+    scan: int               # ``HybridSlam.n_scans`` after that scan (equal to it: the PF ran on the latest scan)
+    particles: np.ndarray   # (N, 3) global (x, y, φ) after resampling, read-only
+
+
 @dataclass
 class _PFContext:
     pf: ParticleLocaliser
@@ -157,6 +171,7 @@ class HybridSlam:
         self.n_dropped = 0
         self.n_held = 0
         self._last_warn = -np.inf
+        self._pf_step: PFStep | None = None
 
     # ------------------------------------------------------------------ time and input
     def _advance(self, t: float) -> bool:
@@ -267,6 +282,9 @@ class HybridSlam:
     def _pf_scan(self, t: float, z: np.ndarray) -> None:
         ctx = self.ctx
         converged = ctx.pf.update(z)
+        cloud = self._pf_global(ctx.pf.particles, ctx)   # the PF's frame: base landmarks as frozen for the episode
+        cloud.setflags(write=False)
+        self._pf_step = PFStep(float(t), self.n_scans, cloud)
         if converged or ctx.pf.n_scans >= self.params.max_pf_scans:
             mean, cov = ctx.pf._last
             if self.params.restore == 'update':
@@ -325,6 +343,19 @@ class HybridSlam:
         if self.ctx is None:
             return np.zeros((0, 3))
         return self._pf_global(self.ctx.pf.particles)
+
+    @property
+    def last_particles(self) -> PFStep | None:
+        """The cloud of the most recent PF step (None before the first one), also after the hand-over.
+
+        ``particles()`` is empty once the PF has converged, so an episode that starts and converges on
+        the same scan would never be visible; this keeps the resampled cloud of the last PF scan, its
+        stamp and scan count (``step.scan == n_scans``: the PF ran on the latest scan). The cloud is in
+        the global frame of the base landmarks as the PF used them (the map is frozen during the
+        episode), i.e. before the hand-over update moves them; it equals ``particles()`` after every
+        PF scan but the last. Read-only: nothing the caller does reaches the filter.
+        """
+        return self._pf_step
 
     def landmarks(self) -> np.ndarray:
         """Landmark means (L, 2); passive ones as of the last CEKF global update (cheap)."""

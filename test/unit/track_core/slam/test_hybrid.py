@@ -1,7 +1,9 @@
 import logging
 
 import numpy as np
+import pytest
 
+from track_core.slam.blas import single_threaded_blas
 from track_core.slam.experiments import loop_params, run_loop_once
 from track_core.slam.hybrid import HybridParams, HybridSlam
 from track_core.slam.sim import LoopWorld, simulate
@@ -85,3 +87,62 @@ def test_detector_holds_scans_too_poor_to_start_the_pf():
     # the PF was started from a scan with at least min_init_obs observations
     ts = {round(t, 6): z for t, z, _ in run.scans}
     assert all(ts[round(e.t, 6)].shape[0] >= HybridParams().min_init_obs for e in to_pf)
+
+
+def _loop_run_checking_last_particles(sim_seed: int, filter_seed: int):
+    """The slam-loop feed (``experiments.run_loop_once``) with ``last_particles`` checked after every scan."""
+    w = LoopWorld()
+    sp, pp = loop_params(w)
+    run = simulate(w, np.random.default_rng(sim_seed))
+    h = HybridSlam(w.start(), np.diag([1e-6] * 3), np.random.default_rng(filter_seed), sp, pp,
+                   HybridParams(trigger_on_ambiguity=True))
+    pf_scans, handover = [], []
+    with single_threaded_blas():
+        _feed_checking_last_particles(w, run, h, pf_scans, handover)
+    return h, pf_scans, handover
+
+
+def _feed_checking_last_particles(w, run, h, pf_scans, handover) -> None:
+    si = 0
+    for k in range(len(run.t)):
+        h.process_input(run.t[k], *run.u_meas[k])
+        while si < len(run.scans) and run.scans[si][0] <= run.t[k] + w.dt + 1e-9:
+            ts, z, _ = run.scans[si]
+            si += 1
+            was_pf, n_ev = h.mode == 'PF', len(h.events)
+            h.process_scan(ts, z)
+            step = h.last_particles
+            new = [e.kind for e in h.events[n_ev:]]
+            ran = was_pf or 'to_pf' in new   # the PF was updated with this scan
+            assert (step is not None and step.scan == h.n_scans) == ran
+            if not ran:
+                continue
+            assert step.t == ts and step.particles.shape == (h.pf_params.n_particles, 3)
+            pf_scans.append(ts)
+            if h.mode == 'PF':
+                np.testing.assert_array_equal(step.particles, h.particles())
+            else:  # the converging scan: the live cloud is gone, the last one is kept
+                assert h.particles().shape == (0, 3)
+                truth = run.truth[round(ts / w.dt)]
+                handover.append((new, float(np.linalg.norm(step.particles[:, :2].mean(0) - truth[:2]))))
+
+
+def test_last_particles_keeps_the_cloud_of_a_one_scan_pf_episode():
+    h0 = HybridSlam(np.zeros(3), np.eye(3) * 1e-4, np.random.default_rng(0))
+    assert h0.last_particles is None
+    # the slam_sim scenario's seeds (config/slam_sim.yaml): the PF starts and converges on one scan
+    h, pf_scans, handover = _loop_run_checking_last_particles(1, 2)
+    assert [(e.kind, e.scans) for e in h.events] == [('to_pf', 0), ('to_cekf', 1)]
+    assert len(pf_scans) == 1 and handover[0][0] == ['to_pf', 'to_cekf']
+    assert handover[0][1] < 2.0, handover   # the converged cloud is at the true position
+    step = h.last_particles
+    assert step.t == pf_scans[0] and step.scan < h.n_scans   # kept after the episode, stamped with its scan
+    with pytest.raises(ValueError):
+        step.particles[0, 0] = 0.0   # read-only
+
+
+def test_last_particles_follows_every_scan_of_a_longer_pf_episode():
+    h, pf_scans, handover = _loop_run_checking_last_particles(0, 11)
+    episodes = [e.scans for e in h.events if e.kind in ('to_cekf', 'pf_timeout')]
+    assert episodes == [2] and len(pf_scans) == 2 and handover[0][0] == ['to_cekf']
+    assert handover[0][1] < 2.0, handover
