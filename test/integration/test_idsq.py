@@ -43,14 +43,14 @@ from track_core.idsq import (
     simulate_measurement,
     uniform_belief,
 )
+from track_msgs_py.convert import handoff_to_uint8_array as handoff_msg
+from track_msgs_py.convert import layout_to_pointcloud2 as layout_to_cloud
 from track_msgs_py.convert import odometry_to_cv_state, sec_to_stamp, stamp_to_sec, xy_block
+from track_msgs_py.convert import pointcloud2_to_layout as cloud_to_layout
 from track_msgs_py.qos import CLOCK_QOS, ESTIMATE_QOS
 from track_msgs_py.topics import CLOCK, IDSQ_ESTIMATE, IDSQ_LEADER, idsq_ack_topic, idsq_handoff_topic
 from track_nodes.idsq_sensor import (
     HANDOFF_QOS,
-    cloud_to_layout,
-    handoff_msg,
-    layout_to_cloud,
     measurement_normal,
     start_leader_of,
     step_of_stamp,
@@ -365,7 +365,8 @@ def test_handoff_order_ranks_by_mi_then_suspects_previous_and_self():
 
 
 def test_step_stamps_draws_and_header_peek():
-    from track_nodes.idsq_sensor import peek_header, stamp_of_step
+    from track_core.idsq.handoff import peek_header
+    from track_nodes.idsq_sensor import stamp_of_step
 
     assert [step_of_stamp(stamp_of_step(s, DT), DT) for s in (0, 1, 71)] == [0, 1, 71]
     assert step_of_stamp(0.0, DT) is None and step_of_stamp(0.75, DT) is None

@@ -30,6 +30,11 @@ table of named columns     sensor_msgs/PointCloud2                     one ``FLO
                                                                        ``color``, ``pose`` identity, ``lifetime``
 health / named values      diagnostic_msgs/DiagnosticStatus            ``level``, ``name``, ``message``,
                                                                        ``hardware_id``, ``values`` (KeyValue, str)
+IDSQ sensor layout         sensor_msgs/PointCloud2 (``/idsq/layout``)  ``FLOAT64`` fields ``id``, ``x``, ``y``,
+(``SensorLayout``)                                                     ``type`` (0 acoustic, 1 DOA), offset 8·i; one
+                                                                       point per sensor (float64: positions exact)
+IDSQ handoff bytes         std_msgs/UInt8MultiArray                    ``data`` = the bytes; one ``layout.dim``:
+(``encode_handoff``)                                                   label ``idsq_handoff_v1``, size = stride = n
 =========================  ==========================================  ===============================================
 
 Deliberate deviations and losses:
@@ -43,6 +48,10 @@ Deliberate deviations and losses:
   velocity) get variance ``UNUSED_VARIANCE`` (the diff_drive_controller convention: "not
   estimated, do not trust"), zero off-diagonals. Validation checks only the x/y blocks.
 - PointCloud2 columns are float32: values lose precision beyond ~7 significant digits.
+- The IDSQ layout cloud is float64 instead: every sensor node checks its ``position`` parameter
+  against it, and builds its neighbour lists from it, so all must read the same positions.
+  ``pointcloud2_to_layout`` imports ``track_core.idsq`` only when called (it loads scipy.stats,
+  about 1 s, which the other users of this module need not pay).
 """
 
 from __future__ import annotations
@@ -51,6 +60,7 @@ import array
 import math
 from collections.abc import Mapping, Sequence
 from fractions import Fraction
+from typing import TYPE_CHECKING
 
 import numpy as np
 from builtin_interfaces.msg import Duration, Time
@@ -58,11 +68,14 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Point, Pose, PoseArray, PoseWithCovarianceStamped
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import PointCloud2, PointField
-from std_msgs.msg import ColorRGBA, Header
+from std_msgs.msg import ColorRGBA, Header, MultiArrayDimension, UInt8MultiArray
 from visualization_msgs.msg import Marker
 
 from track_core.filters.gaussian import covariance_problem, symmetrize
 from track_msgs_py.topics import FRAME_MAP
+
+if TYPE_CHECKING:
+    from track_core.idsq.network import SensorLayout
 
 #: Variance written on the diagonal for quantities a 2-D track does not estimate.
 UNUSED_VARIANCE = 1e6
@@ -324,3 +337,64 @@ def diagnostic_status(name: str, level: int | bytes, message: str, values: Mappi
 def diagnostic_array(t: float, statuses: Sequence[DiagnosticStatus]) -> DiagnosticArray:
     """Statuses stamped at ``t`` into the ``diagnostic_msgs/DiagnosticArray`` published on /diagnostics."""
     return DiagnosticArray(header=_header(t, ''), status=list(statuses))
+
+
+# --- IDSQ sensor layout ⇄ PointCloud2, handoff bytes ⇄ UInt8MultiArray ---------------------
+
+#: Fields of the ``/idsq/layout`` cloud, one FLOAT64 each, in this order (type 0 acoustic, 1 DOA).
+LAYOUT_FIELDS = ('id', 'x', 'y', 'type')
+#: ``layout.dim[0].label`` of a handoff message: ``data`` is ``track_core.idsq.encode_handoff`` bytes.
+HANDOFF_LABEL = 'idsq_handoff_v1'
+_FLOAT64 = np.dtype('<f8')
+
+
+def layout_to_pointcloud2(t: float, layout: SensorLayout, frame_id: str = FRAME_MAP) -> PointCloud2:
+    """IDSQ sensor layout → ``PointCloud2``, one point per sensor, FLOAT64 fields ``LAYOUT_FIELDS``.
+
+    float64 (not the float32 of ``table_to_pointcloud2``) so every node gets the positions exactly.
+    """
+    n = layout.n
+    table = np.empty(n, dtype=np.dtype([(f, _FLOAT64) for f in LAYOUT_FIELDS]))
+    table['id'] = np.arange(n)
+    table['x'], table['y'] = layout.positions[:, 0], layout.positions[:, 1]
+    table['type'] = layout.is_doa.astype(float)
+    step = _FLOAT64.itemsize * len(LAYOUT_FIELDS)
+    msg = PointCloud2(header=_header(t, frame_id), height=1, width=n, is_bigendian=False, point_step=step,
+                      row_step=step * n, is_dense=True,
+                      fields=[PointField(name=f, offset=_FLOAT64.itemsize * i, datatype=PointField.FLOAT64, count=1)
+                              for i, f in enumerate(LAYOUT_FIELDS)])
+    msg.data = array.array('B', table.tobytes())
+    return msg
+
+
+def pointcloud2_to_layout(msg: PointCloud2, comm_range: float) -> SensorLayout:
+    """Inverse of ``layout_to_pointcloud2`` (points in any order); ``ValueError`` with a one-line reason
+    if unusable. ``comm_range`` [m] is the receiver's neighbour rule (not carried by the message)."""
+    from track_core.idsq.network import SensorLayout  # here, not at the top: track_core.idsq loads scipy.stats
+
+    cols = pointcloud2_to_table(msg)
+    missing = [f for f in LAYOUT_FIELDS if f not in cols]
+    if missing:
+        raise ValueError(f'layout has no field(s) {", ".join(missing)}')
+    ids = cols['id']
+    order = np.argsort(ids, kind='stable')
+    if not np.array_equal(ids[order], np.arange(ids.size)):
+        raise ValueError(f'layout ids must be 0..{ids.size - 1} once each')
+    types = cols['type'][order]
+    if not np.all((types == 0) | (types == 1)):
+        raise ValueError('layout type must be 0 (acoustic) or 1 (DOA)')
+    pos = np.stack([cols['x'][order], cols['y'][order]], axis=1)
+    return SensorLayout(pos, types == 1, comm_range)
+
+
+def handoff_to_uint8_array(payload: bytes) -> UInt8MultiArray:
+    """Handoff bytes (``encode_handoff``) → ``std_msgs/UInt8MultiArray`` labelled ``HANDOFF_LABEL``."""
+    msg = UInt8MultiArray()
+    msg.layout.dim = [MultiArrayDimension(label=HANDOFF_LABEL, size=len(payload), stride=len(payload))]
+    msg.data = array.array('B', payload)
+    return msg
+
+
+def uint8_array_to_handoff(msg: UInt8MultiArray) -> bytes:
+    """``std_msgs/UInt8MultiArray`` → its ``data`` as bytes, unchecked (``receive_handoff`` validates)."""
+    return msg.data.tobytes() if hasattr(msg.data, 'tobytes') else bytes(msg.data)

@@ -2,21 +2,22 @@
 
 Each instance is one sensor (parameters ``id``, ``position``, ``type``) and reads everything
 else about the network from the layout that ``vehicle_sim`` publishes (transient-local
-``/idsq/layout``): the other sensors' positions and types, hence its neighbour list (§5.1 rule,
-``track_core.idsq.SensorLayout``). The ``id``/``position``/``type`` parameters must agree with the
-layout entry of ``id`` (checked when the layout arrives; on a mismatch the node logs one error
-line and stays passive).
+``/idsq/layout``, read by ``track_msgs_py.convert.pointcloud2_to_layout``): the other sensors'
+positions and types, hence its neighbour list (§5.1 rule, ``track_core.idsq.SensorLayout``). The
+``id``/``position``/``type`` parameters must agree with the layout entry of ``id`` (checked when
+the layout arrives; on a mismatch the node logs one error line and stays passive).
 
 Protocol (Table 1 of the paper, one leader at a time, all over standard messages):
 
 - A sensor sleeps until a handoff arrives on its own topic ``/idsq/sensor_<id>/handoff``
   (``std_msgs/UInt8MultiArray``; ``data`` = the core's ``encode_handoff`` bytes: header with step,
   sender = previous leader, receiver, grid, then the sparse belief; ``layout.dim[0]`` is labelled
-  ``idsq_handoff_v1``). It validates it with ``receive_handoff`` (NaN/negative/unnormalised mass,
-  wrong grid, wrong receiver, bad indices) and replies on the sender's ``/idsq/sensor_<j>/ack``
-  (``diagnostic_msgs/DiagnosticArray``, one status ``sensor_<id>``: level OK + ``result=ack``, or
-  level WARN + ``result=nack`` and the reason as message; values ``step``, ``sender``,
-  ``receiver``). A refused handoff is logged with one warning line.
+  ``idsq_handoff_v1``: ``track_msgs_py.convert.handoff_to_uint8_array``). It validates it with
+  ``receive_handoff`` (NaN/negative/unnormalised mass, wrong grid, wrong receiver, bad indices)
+  and replies on the sender's ``/idsq/sensor_<j>/ack`` (``diagnostic_msgs/DiagnosticArray``, one
+  status ``sensor_<id>``: level OK + ``result=ack``, or level WARN + ``result=nack`` and the
+  reason as message; values ``step``, ``sender``, ``receiver``; the core's ``peek_header`` finds
+  whom to refuse when the bytes are unusable). A refused handoff is logged with one warning line.
 - The accepted belief p(x⁽ᵗ⁾|z̄⁽ᵗ⁾) is held until the vehicle truth of step t + 1 is known, then
   the sensor leads step t + 1 with ``track_core.idsq.leader_step``: diffuse, sense (its own
   measurement simulated from the truth with its noise, see *Randomness*), update, MI of each
@@ -80,8 +81,6 @@ each 0.05 s tick of the launcher's lock-step clock would wake every sensor.
 
 from __future__ import annotations
 
-import array
-import struct
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -92,8 +91,8 @@ from rclpy.clock import Clock, ClockType
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-from sensor_msgs.msg import PointCloud2, PointField
-from std_msgs.msg import ColorRGBA, Header, MultiArrayDimension, UInt8MultiArray
+from sensor_msgs.msg import PointCloud2
+from std_msgs.msg import ColorRGBA, Header, UInt8MultiArray
 from visualization_msgs.msg import Marker, MarkerArray
 
 from track_core.idsq import (
@@ -110,8 +109,8 @@ from track_core.idsq import (
     start_leader,
     uniform_belief,
 )
-from track_core.idsq.handoff import MAGIC, VERSION
-from track_core.idsq.models import DEG, amplitude_reading
+from track_core.idsq.handoff import peek_header
+from track_core.idsq.models import DEG, amplitude_reading, ranges
 from track_core.idsq.network import candidates
 from track_core.idsq.tracker import SELECTIONS
 from track_msgs_py.convert import (
@@ -122,11 +121,13 @@ from track_msgs_py.convert import (
     cv_state_to_odometry,
     diagnostic_array,
     diagnostic_status,
+    handoff_to_uint8_array,
     odometry_to_cv_state,
-    pointcloud2_to_table,
+    pointcloud2_to_layout,
     sec_to_stamp,
     stamp_to_sec,
     table_to_pointcloud2,
+    uint8_array_to_handoff,
 )
 from track_msgs_py.qos import ESTIMATE_QOS, SENSOR_QOS, STATIC_QOS
 from track_msgs_py.topics import (
@@ -146,14 +147,11 @@ from track_msgs_py.validate import odometry_problem
 from track_nodes.node_util import Param, ParameterError, declare_params, run_node
 
 SENSOR_TYPES = ('acoustic', 'doa')
-HANDOFF_LABEL = 'idsq_handoff_v1'
 HANDOFF_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=4, reliability=ReliabilityPolicy.RELIABLE,
                          durability=DurabilityPolicy.TRANSIENT_LOCAL)
 TRUTH_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=256, reliability=ReliabilityPolicy.RELIABLE,
                        durability=DurabilityPolicy.TRANSIENT_LOCAL)
-LAYOUT_FIELDS = ('id', 'x', 'y', 'type')
 MEASUREMENT_KEY, SELECTION_KEY = 3, 4
-_PEEK = struct.Struct('<4sBxHHI')  # first fields of the core's handoff header (track_core.idsq.handoff)
 MAX_TRUTH = 4096  # buffered truth steps per sensor (the §5.1 track has 72)
 SOURCE_TRUTH_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=256, reliability=ReliabilityPolicy.RELIABLE)
 
@@ -185,7 +183,7 @@ def selection_rng(seed: int, sensor: int, step: int) -> np.random.Generator:
 def loudest(sources: np.ndarray, sensor: np.ndarray) -> np.ndarray:
     """Position of the source a sensor at ``sensor`` hears loudest: the nearest of ``sources`` (2,) or (M, 2)."""
     src = np.asarray(sources, dtype=float).reshape(-1, 2)
-    return src[int(np.argmin(np.hypot(*(src - np.asarray(sensor, dtype=float)).T)))]
+    return src[int(np.argmin(ranges(src, sensor)))]
 
 
 def start_leader_of(layout: SensorLayout, truth0: np.ndarray, noise: SimNoise, seed: int) -> int:
@@ -225,57 +223,6 @@ def handoff_order(cands: np.ndarray, scores: np.ndarray, neighbours: np.ndarray,
 
 
 # --- messages --------------------------------------------------------------------------------------
-
-def layout_to_cloud(t: float, layout: SensorLayout) -> PointCloud2:
-    """Layout → PointCloud2, one point per sensor, FLOAT64 fields id, x, y, type (0 acoustic, 1 DOA).
-
-    float64 (not the float32 of ``table_to_pointcloud2``) so every node gets the positions exactly.
-    """
-    n = layout.n
-    table = np.empty(n, dtype=np.dtype([(f, '<f8') for f in LAYOUT_FIELDS]))
-    table['id'] = np.arange(n)
-    table['x'], table['y'] = layout.positions[:, 0], layout.positions[:, 1]
-    table['type'] = layout.is_doa.astype(float)
-    step = 8 * len(LAYOUT_FIELDS)
-    msg = PointCloud2(header=Header(stamp=sec_to_stamp(t), frame_id=FRAME_MAP), height=1, width=n,
-                      is_bigendian=False, point_step=step, row_step=step * n, is_dense=True,
-                      fields=[PointField(name=f, offset=8 * i, datatype=PointField.FLOAT64, count=1)
-                              for i, f in enumerate(LAYOUT_FIELDS)])
-    msg.data = array.array('B', table.tobytes())
-    return msg
-
-
-def cloud_to_layout(msg: PointCloud2, comm_range: float) -> SensorLayout:
-    """Inverse of ``layout_to_cloud``; ``ValueError`` with a one-line reason if unusable."""
-    cols = pointcloud2_to_table(msg)
-    missing = [f for f in LAYOUT_FIELDS if f not in cols]
-    if missing:
-        raise ValueError(f'layout has no field(s) {", ".join(missing)}')
-    ids = cols['id']
-    order = np.argsort(ids, kind='stable')
-    if not np.array_equal(ids[order], np.arange(ids.size)):
-        raise ValueError(f'layout ids must be 0..{ids.size - 1} once each')
-    types = cols['type'][order]
-    if not np.all((types == 0) | (types == 1)):
-        raise ValueError('layout type must be 0 (acoustic) or 1 (DOA)')
-    pos = np.stack([cols['x'][order], cols['y'][order]], axis=1)
-    return SensorLayout(pos, types == 1, comm_range)
-
-
-def handoff_msg(payload: bytes) -> UInt8MultiArray:
-    msg = UInt8MultiArray()
-    msg.layout.dim = [MultiArrayDimension(label=HANDOFF_LABEL, size=len(payload), stride=len(payload))]
-    msg.data = array.array('B', payload)
-    return msg
-
-
-def peek_header(data: bytes) -> tuple[int, int, int] | None:
-    """(sender, receiver, step) from a handoff's header even if its body is unusable; ``None`` if no header."""
-    if len(data) < _PEEK.size:
-        return None
-    magic, version, sender, receiver, step = _PEEK.unpack_from(data)
-    return (sender, receiver, step) if (magic, version) == (MAGIC, VERSION) else None
-
 
 def sensor_markers(t: float, layout: SensorLayout, leader: int, nxt: int | None, mean: np.ndarray,
                    cov: np.ndarray) -> MarkerArray:
@@ -422,7 +369,7 @@ class IdsqSensorNode(Node):
         if self.layout is not None or self.disabled:
             return
         try:
-            layout = cloud_to_layout(msg, self.p.comm_range)
+            layout = pointcloud2_to_layout(msg, self.p.comm_range)
         except ValueError as exc:
             self.get_logger().error(f'{IDSQ_LAYOUT}: unusable layout: {exc}')
             return
@@ -481,8 +428,7 @@ class IdsqSensorNode(Node):
         self._advance()
 
     def _on_handoff(self, msg: UInt8MultiArray) -> None:
-        data = msg.data.tobytes() if hasattr(msg.data, 'tobytes') else bytes(msg.data)
-        self.inbox.append(data)
+        self.inbox.append(uint8_array_to_handoff(msg))
         self._advance()
 
     def _on_ack(self, msg: DiagnosticArray) -> None:
@@ -605,7 +551,7 @@ class IdsqSensorNode(Node):
         if why is not None:
             self._diag('reselect', out.step, k, {'failed': out.receiver, 'reason': why, 'handoff_bytes': len(payload)})
         out.receiver = k
-        self._handoff_pub(k).publish(handoff_msg(payload))
+        self._handoff_pub(k).publish(handoff_to_uint8_array(payload))
         out.timer = self.create_timer(self.p.ack_timeout, lambda: self._on_ack_timeout(out.step, k),
                                       clock=self._steady)
 

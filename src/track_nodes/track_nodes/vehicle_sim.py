@@ -5,8 +5,8 @@
   4 columns over the field, jittered by N(0, ``jitter_var``), round(``doa_fraction``·K) DOA
   sensors) and publishes it once on ``/idsq/layout`` (transient-local, so sensors started later
   still get it): ``sensor_msgs/PointCloud2``, one point per sensor, FLOAT64 fields ``id``, ``x``,
-  ``y``, ``type`` (0 acoustic, 1 DOA). The same seed gives the layout of the core experiments' run
-  with that seed.
+  ``y``, ``type`` (0 acoustic, 1 DOA; ``track_msgs_py.convert.layout_to_pointcloud2``). The same
+  seed gives the layout of the core experiments' run with that seed.
 - Every Δt of node time (``FixedRateSteps``) it publishes the vehicle truth of tracker step s on
   ``/idsq/vehicle/truth`` (``nav_msgs/Odometry``, zero covariance, velocity (0, speed),
   ``child_frame_id`` = ``vehicle_id``), stamped (s + 1)·Δt: the first tick comes one period after
@@ -30,10 +30,10 @@ from sensor_msgs.msg import PointCloud2
 
 from track_core.idsq import SensorLayout, TrackerParams
 from track_core.idsq.simulation import Scenario, draw_run
-from track_msgs_py.convert import cv_state_to_odometry
+from track_msgs_py.convert import cv_state_to_odometry, layout_to_pointcloud2
 from track_msgs_py.qos import STATIC_QOS
 from track_msgs_py.topics import FRAME_MAP, IDSQ_LAYOUT, IDSQ_TRUTH
-from track_nodes.idsq_sensor import TRUTH_QOS, layout_to_cloud
+from track_nodes.idsq_sensor import TRUTH_QOS
 from track_nodes.node_util import FixedRateSteps, Param, declare_params, run_node
 
 _SC = Scenario()
@@ -78,7 +78,7 @@ class VehicleSimNode(Node):
         self.published = 0
         self.pub_layout = self.create_publisher(PointCloud2, IDSQ_LAYOUT, STATIC_QOS)
         self.pub_truth = self.create_publisher(Odometry, IDSQ_TRUTH, TRUTH_QOS)
-        self.pub_layout.publish(layout_to_cloud(0.0, self.layout))
+        self.pub_layout.publish(layout_to_pointcloud2(0.0, self.layout))
         self.steps = FixedRateSteps(self, p.dt, self._step, n * p.dt)
         self.get_logger().info(f'{self.layout.n} sensors ({int(self.layout.is_doa.sum())} DOA), '
                                f'{n} truth steps of {p.dt:g} s')

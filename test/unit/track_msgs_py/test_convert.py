@@ -273,3 +273,57 @@ def test_pose_array_round_trip():
     np.testing.assert_allclose(th2, th, atol=1e-12)
     _, th0 = pose_array_to_positions(positions_to_pose_array(0.0, xy))
     assert np.all(th0 == 0.0)
+
+
+# --- IDSQ layout and handoff ----------------------------------------------------------------
+
+@pytest.mark.parametrize('through_cdr', [False, True])
+def test_idsq_layout_round_trip_is_exact(through_cdr):
+    from track_core.idsq import SensorLayout
+    from track_msgs_py.convert import LAYOUT_FIELDS, layout_to_pointcloud2, pointcloud2_to_layout
+
+    rng = np.random.default_rng(3)
+    layout = SensorLayout(rng.uniform(0.0, 150.0, (12, 2)) + 1e-9 * rng.standard_normal((12, 2)),
+                          rng.random(12) < 0.3, 40.0)
+    msg = layout_to_pointcloud2(1.5, layout)
+    assert [f.name for f in msg.fields] == list(LAYOUT_FIELDS)
+    assert all(f.datatype == PointField.FLOAT64 for f in msg.fields) and msg.width == 12
+    back = pointcloud2_to_layout(cdr(msg) if through_cdr else msg, 40.0)
+    np.testing.assert_array_equal(back.positions, layout.positions)  # float64: bit-exact
+    np.testing.assert_array_equal(back.is_doa, layout.is_doa)
+    assert all(np.array_equal(a, b) for a, b in zip(back.neighbours, layout.neighbours, strict=True))
+
+
+def test_idsq_layout_reader_sorts_by_id_and_refuses_bad_clouds():
+    from track_msgs_py.convert import pointcloud2_to_layout
+
+    xy = np.array([[0.0, 0.0], [10.0, 0.0], [0.0, 10.0]])
+    shuffled = table_to_pointcloud2(0.0, 'map', {'id': [2, 0, 1], 'x': xy[[2, 0, 1], 0], 'y': xy[[2, 0, 1], 1],
+                                                 'type': [1, 0, 0]})
+    back = pointcloud2_to_layout(shuffled, 40.0)
+    np.testing.assert_array_equal(back.positions, xy)
+    np.testing.assert_array_equal(back.is_doa, [False, False, True])
+    for fields, reason in [({'id': [0, 1], 'x': [0, 1], 'y': [0, 1]}, 'no field.*type'),
+                           ({'id': [0, 2], 'x': [0, 1], 'y': [0, 1], 'type': [0, 0]}, 'ids must be 0..1'),
+                           ({'id': [0, 1], 'x': [0, 1], 'y': [0, 1], 'type': [0, 2]}, 'type must be 0')]:
+        with pytest.raises(ValueError, match=reason):
+            pointcloud2_to_layout(table_to_pointcloud2(0.0, 'map', fields), 40.0)
+
+
+@pytest.mark.parametrize('through_cdr', [False, True])
+def test_idsq_handoff_message_round_trip(through_cdr):
+    from std_msgs.msg import UInt8MultiArray
+
+    from track_core.idsq import GridSpec, Handoff, encode_handoff, receive_handoff
+    from track_msgs_py.convert import HANDOFF_LABEL, handoff_to_uint8_array, uint8_array_to_handoff
+
+    grid = GridSpec.for_field()
+    payload = encode_handoff(Handoff(4, 1, 2, grid, np.array([3, 8, 40]), np.array([0.5, 0.25, 0.25])))
+    msg = handoff_to_uint8_array(payload)
+    assert isinstance(msg, UInt8MultiArray)
+    assert [(d.label, d.size, d.stride) for d in msg.layout.dim] == [(HANDOFF_LABEL, len(payload), len(payload))]
+    data = uint8_array_to_handoff(cdr(msg) if through_cdr else msg)
+    assert isinstance(data, bytes) and data == payload
+    h, why = receive_handoff(data, grid, receiver=2)
+    assert why is None and (h.step, h.sender, h.receiver) == (4, 1, 2)
+    assert uint8_array_to_handoff(handoff_to_uint8_array(b'')) == b''

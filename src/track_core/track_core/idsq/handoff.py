@@ -12,7 +12,9 @@ cost per step we report. The sender is the receiver's *previous leader* (triplet
 
 ``validate_handoff`` returns ``None`` or a one-line reason (never raises) so that a node can
 refuse a malformed package with a warning and let the sender re-select; ``decode_handoff``
-raises ``ValueError`` with the same kind of one-line reason for undecodable bytes.
+raises ``ValueError`` with the same kind of one-line reason for undecodable bytes, and
+``peek_header`` still reads who sent it (sender, receiver, step) so that the refusal can be
+answered.
 """
 
 from __future__ import annotations
@@ -26,7 +28,8 @@ from track_core.idsq.grid import GridSpec, SparseBelief
 
 MAGIC = b'IDSQ'
 VERSION = 1
-_HEADER = struct.Struct('<4sBxHHIdddHHI')
+_ADDRESS = struct.Struct('<4sBxHHI')  # the header up to the step: magic, version, sender, receiver, step
+_HEADER = struct.Struct(_ADDRESS.format + 'dddHHI')
 HEADER_BYTES = _HEADER.size
 MASS_TOL = 1e-3  # |Σ mass − 1| allowed (float32 body)
 
@@ -143,3 +146,13 @@ def receive_handoff(data: bytes, grid: GridSpec, n_sensors: int | None = None,
         return None, str(exc)
     why = validate_handoff(h, grid, n_sensors, receiver)
     return (None, why) if why is not None else (h, None)
+
+
+def peek_header(data: bytes) -> tuple[int, int, int] | None:
+    """``(sender, receiver, step)`` from the first header fields, even when the rest is unusable (short,
+    wrong grid, bad body), so that a refusal can still be answered; ``None`` without a readable
+    magic/version."""
+    if len(data) < _ADDRESS.size:
+        return None
+    magic, version, sender, receiver, step = _ADDRESS.unpack_from(data)
+    return (sender, receiver, step) if (magic, version) == (MAGIC, VERSION) else None

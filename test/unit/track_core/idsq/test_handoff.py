@@ -10,6 +10,7 @@ from track_core.idsq.handoff import (
     decode_handoff,
     encode_handoff,
     payload_bytes,
+    peek_header,
     receive_handoff,
     validate_handoff,
 )
@@ -62,3 +63,13 @@ def test_undecodable_bytes_are_refused():
         assert g is None and reason in why and '\n' not in why
     with pytest.raises(ValueError, match='shorter'):
         decode_handoff(b'')
+
+
+def test_peek_header_reads_the_address_of_unusable_bytes():
+    data = encode_handoff(_handoff())
+    assert peek_header(data) == (3, 5, 7)
+    assert peek_header(data[:14]) == (3, 5, 7)  # header cut after the step: still answerable
+    for bad in (data[:13], b'', b'XXXX' + data[4:], data[:4] + b'\x02' + data[5:], b'IDSQ' + bytes(20)):
+        assert peek_header(bad) is None
+    h, why = receive_handoff(data[:30], GRID)  # refused, yet the sender can be told
+    assert h is None and 'shorter' in why and peek_header(data[:30]) == (3, 5, 7)
