@@ -47,10 +47,9 @@ from track_msgs_py.convert import handoff_to_uint8_array as handoff_msg
 from track_msgs_py.convert import layout_to_pointcloud2 as layout_to_cloud
 from track_msgs_py.convert import odometry_to_cv_state, sec_to_stamp, stamp_to_sec, xy_block
 from track_msgs_py.convert import pointcloud2_to_layout as cloud_to_layout
-from track_msgs_py.qos import CLOCK_QOS, ESTIMATE_QOS
+from track_msgs_py.qos import CLOCK_QOS, ESTIMATE_QOS, HANDOFF_QOS
 from track_msgs_py.topics import CLOCK, IDSQ_ESTIMATE, IDSQ_LEADER, idsq_ack_topic, idsq_handoff_topic
 from track_nodes.idsq_sensor import (
-    HANDOFF_QOS,
     measurement_normal,
     start_leader_of,
     step_of_stamp,
@@ -160,7 +159,7 @@ def _scenario_file(path: Path, seed: int, n_sensors: int, **kw) -> Path:
 
 @pytest.fixture(scope='module')
 def k8_file(tmp_path_factory) -> Path:
-    return _scenario_file(tmp_path_factory.mktemp('idsq') / 'idsq8.yaml', 1, 8, duration=K8_STEPS * DT, rate=10.0)
+    return _scenario_file(tmp_path_factory.mktemp('idsq') / 'idsq8.yaml', 1, 8, duration=K8_STEPS * DT, rate=2.0)
 
 
 def _error(means: np.ndarray, n_sensors: int = 24, seed: int = 1) -> np.ndarray:

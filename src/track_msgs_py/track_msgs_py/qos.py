@@ -32,6 +32,14 @@ STATIC_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
 # with the same profile matches it; only the newest time matters, so depth 1.
 CLOCK_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
                        reliability=ReliabilityPolicy.BEST_EFFORT, durability=DurabilityPolicy.VOLATILE)
+# IDSQ handoffs and acks: reliable, and transient-local so a handoff published just before the
+# receiver matched is still delivered (depth 4: a leader can hand off again before the ack).
+HANDOFF_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=4, reliability=ReliabilityPolicy.RELIABLE,
+                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
+# Step-keyed truth that late joiners must still receive in full (a sensor that matched after
+# step 0 would otherwise never start): reliable, transient-local, deep history.
+TRUTH_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=256, reliability=ReliabilityPolicy.RELIABLE,
+                       durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
 QOS_BY_KIND: dict[str, QoSProfile] = {
     'sensor': SENSOR_QOS,

@@ -90,7 +90,7 @@ from nav_msgs.msg import Odometry
 from rclpy.clock import Clock, ClockType
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import ColorRGBA, Header, UInt8MultiArray
 from visualization_msgs.msg import Marker, MarkerArray
@@ -129,7 +129,7 @@ from track_msgs_py.convert import (
     table_to_pointcloud2,
     uint8_array_to_handoff,
 )
-from track_msgs_py.qos import ESTIMATE_QOS, SENSOR_QOS, STATIC_QOS
+from track_msgs_py.qos import ESTIMATE_QOS, HANDOFF_QOS, SENSOR_QOS, STATIC_QOS, TRUTH_QOS
 from track_msgs_py.topics import (
     CLOCK,
     FRAME_MAP,
@@ -147,10 +147,6 @@ from track_msgs_py.validate import odometry_problem
 from track_nodes.node_util import Param, ParameterError, declare_params, run_node
 
 SENSOR_TYPES = ('acoustic', 'doa')
-HANDOFF_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=4, reliability=ReliabilityPolicy.RELIABLE,
-                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
-TRUTH_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=256, reliability=ReliabilityPolicy.RELIABLE,
-                       durability=DurabilityPolicy.TRANSIENT_LOCAL)
 MEASUREMENT_KEY, SELECTION_KEY = 3, 4
 MAX_TRUTH = 4096  # buffered truth steps per sensor (the §5.1 track has 72)
 SOURCE_TRUTH_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=256, reliability=ReliabilityPolicy.RELIABLE)

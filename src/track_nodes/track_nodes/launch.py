@@ -56,6 +56,7 @@ MAX_CLOCK_STEP = 0.05  # ... but never more than this many node seconds per step
 IDLE_POLL = 0.001  # wall seconds without a ready callback that count as idle (lock-step)
 SETTLE = 1.0  # wall seconds for discovery to settle before the clock starts
 GRACE = 1.0  # wall seconds for messages in flight after the clock stops
+GRACE_PROCESSES = 3.0  # the same with one process per node: slower processes still hold queued work
 READY_TIMEOUT = 30.0
 IGNORED_TOPICS = ('/rosout', '/parameter_events', CLOCK)
 
@@ -150,7 +151,8 @@ class Launch:
             pass
         finally:
             with contextlib.suppress(KeyboardInterrupt):
-                self._pump(executor, time.monotonic() + GRACE)  # messages in flight reach the recorder
+                grace = GRACE_PROCESSES if children else GRACE
+                self._pump(executor, time.monotonic() + grace)  # messages in flight reach the recorder
             self._stop_children(children)
             # The main thread is the only one that hands work to the pool; drain the pool before
             # shutting the executor down (rclpy 7.1's shutdown does not wait for running callbacks).

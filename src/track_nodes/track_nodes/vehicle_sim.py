@@ -31,9 +31,8 @@ from sensor_msgs.msg import PointCloud2
 from track_core.idsq import SensorLayout, TrackerParams
 from track_core.idsq.simulation import Scenario, draw_run
 from track_msgs_py.convert import cv_state_to_odometry, layout_to_pointcloud2
-from track_msgs_py.qos import STATIC_QOS
+from track_msgs_py.qos import STATIC_QOS, TRUTH_QOS
 from track_msgs_py.topics import FRAME_MAP, IDSQ_LAYOUT, IDSQ_TRUTH
-from track_nodes.idsq_sensor import TRUTH_QOS
 from track_nodes.node_util import FixedRateSteps, Param, declare_params, run_node
 
 _SC = Scenario()
