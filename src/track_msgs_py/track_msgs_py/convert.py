@@ -71,7 +71,8 @@ from sensor_msgs.msg import PointCloud2, PointField
 from std_msgs.msg import ColorRGBA, Header, MultiArrayDimension, UInt8MultiArray
 from visualization_msgs.msg import Marker
 
-from track_core.filters.gaussian import covariance_problem, symmetrize
+from track_core.filters.gaussian import covariance_problem
+from track_core.filters.gaussian import ellipse_points as gaussian_ellipse_points
 from track_msgs_py.topics import FRAME_MAP
 
 if TYPE_CHECKING:
@@ -281,22 +282,18 @@ def pointcloud2_to_table(msg: PointCloud2) -> dict[str, np.ndarray]:
 # --- visualisation and diagnostics ----------------------------------------------------------
 
 def ellipse_points(mean: np.ndarray, cov: np.ndarray, n_sigma: float = 2.0, n_points: int = 72) -> np.ndarray:
-    """Closed loop (n_points + 1, 2) on {p: (p−μ)ᵀ R⁻¹ (p−μ) = n_sigma²}, last point = first.
+    """Closed loop (n_points + 1, 2) of the n_sigma ellipse of one outside Gaussian, checked first.
 
-    Uses the eigen-decomposition R = V Λ Vᵀ, p = μ + n_sigma V Λ^½ [cos θ, sin θ], so a
-    singular (PSD) R still draws (as a segment).
+    The geometry is :func:`track_core.filters.gaussian.ellipse_points` (batched; use it directly
+    for many ellipses of already-checked covariances); here a bad ``cov`` raises a ``ValueError``
+    with its reason.
     """
     mean = _as_shape(mean, (2,), 'mean')
     cov = _as_shape(cov, (2, 2), 'cov')
     reason = covariance_problem(cov)
     if reason is not None:
         raise ValueError(f'cov: {reason}')
-    w, V = np.linalg.eigh(symmetrize(cov))
-    theta = np.linspace(0.0, 2.0 * np.pi, n_points + 1)
-    unit = np.column_stack([np.cos(theta), np.sin(theta)])
-    pts = mean + n_sigma * unit @ (V * np.sqrt(np.clip(w, 0.0, None))).T
-    pts[-1] = pts[0]
-    return pts
+    return gaussian_ellipse_points(mean, cov, n_sigma, n_points)
 
 
 def covariance_ellipse_marker(t: float, mean: np.ndarray, cov: np.ndarray, frame_id: str = FRAME_MAP, *,

@@ -36,6 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
+from track_core.filters import ellipse_points
 from track_core.metrics import match_stamps, rms
 from track_msgs_py.convert import odometry_to_cv_state, pointcloud2_to_table, pose_cov_to_position, stamp_to_sec
 from track_msgs_py.topics import (
@@ -180,15 +181,6 @@ def maritime_metrics(bag: Path) -> list[str]:
 
 # --- picture --------------------------------------------------------------------------------------
 
-def ellipse_points(mu: np.ndarray, R: np.ndarray, n_sigma: float = 2.0, n: int = 48) -> np.ndarray:
-    """(m, n, 2) outlines of the n_sigma ellipses of m Gaussians (μ (m, 2), R (m, 2, 2)), vectorised."""
-    th = np.linspace(0.0, 2 * np.pi, n)
-    circle = np.stack([np.cos(th), np.sin(th)])  # (2, n)
-    w, V = np.linalg.eigh(0.5 * (R + np.swapaxes(R, -1, -2)))
-    A = V * np.sqrt(np.clip(w, 0.0, None))[:, None, :]  # (m, 2, 2): columns scaled by σ
-    return mu[:, None, :] + n_sigma * np.einsum('mij,jn->mni', A, circle)
-
-
 COLOURS = {SONAR_TRACK: 'tab:red', NETWORK_TRACK: 'tab:blue', RADAR_DECOY: 'tab:orange'}
 
 
@@ -232,7 +224,7 @@ def _map(ax, d: dict, every: float) -> None:
         c = COLOURS[track_id]
         ax.plot(x[:, 0], x[:, 1], '-', color=c, lw=0.9, alpha=0.8, label=f'{label} track')
         pick = np.flatnonzero(np.diff(np.floor(np.concatenate([[-np.inf], t]) / every)) > 0)  # one per interval
-        for pts in ellipse_points(x[pick], P[pick]):
+        for pts in ellipse_points(x[pick], P[pick], n_points=47):
             ax.plot(pts[:, 0], pts[:, 1], '-', color=c, lw=0.8)
     if d['observer'].size:
         ax.plot(d['observer'][:, 0], d['observer'][:, 1], ':', color='tab:purple', lw=1.2, label='observer AUV')

@@ -86,7 +86,7 @@ from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
-from track_core.filters import symmetrize
+from track_core.filters import ellipse_points, symmetrize
 from track_core.slam import HybridParams, HybridSlam, PFParams, SlamParams
 from track_core.slam.blas import single_threaded_blas
 from track_msgs_py.convert import (
@@ -519,18 +519,6 @@ class SlamNode(Node):
         self.pub_map.publish(map_markers(t, lm, covs, self.p.frame_id, self.p.ellipse_points))
 
 
-def ellipses(lm: np.ndarray, covs: np.ndarray, n_sigma: float = 2.0, n_points: int = 24) -> np.ndarray:
-    """Closed n_sigma ellipses (L, n_points + 1, 2) of N(lm[i], covs[i]): ``convert.ellipse_points`` for a
-    whole map at once (one batched eigh instead of L calls; negative eigenvalues clipped to 0)."""
-    w, V = np.linalg.eigh(symmetrize(covs))
-    theta = np.linspace(0.0, 2.0 * np.pi, n_points + 1)
-    unit = np.column_stack([np.cos(theta), np.sin(theta)])
-    axes = V * np.sqrt(np.clip(w, 0.0, None))[:, None, :]
-    pts = lm[:, None, :] + n_sigma * unit @ np.swapaxes(axes, -1, -2)
-    pts[:, -1] = pts[:, 0]
-    return pts
-
-
 def map_markers(t: float, lm: np.ndarray, covs: np.ndarray, frame_id: str = FRAME_MAP,
                 n_points: int = 24) -> MarkerArray:
     """The /slam/map message: DELETEALL, the means as one SPHERE_LIST (ns ``slam_landmarks``, id 0) and one
@@ -545,7 +533,7 @@ def map_markers(t: float, lm: np.ndarray, covs: np.ndarray, frame_id: str = FRAM
     means.points = [Point(x=x, y=y) for x, y in np.asarray(lm, dtype=float).reshape(-1, 2).tolist()]
     markers.append(means)
     if len(lm):
-        pts = ellipses(np.asarray(lm, dtype=float), np.asarray(covs, dtype=float), 2.0, n_points)
+        pts = ellipse_points(np.asarray(lm, dtype=float), np.asarray(covs, dtype=float), 2.0, n_points)
         color = ColorRGBA(r=0.1, g=0.4, b=1.0, a=1.0)
         for i, loop in enumerate(pts.tolist()):
             m = Marker(header=header, ns='slam_ellipses', id=i, type=Marker.LINE_STRIP, action=Marker.ADD,

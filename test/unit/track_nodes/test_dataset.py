@@ -16,7 +16,6 @@ from track_msgs_py.topics import SLAM_GPS, SLAM_INPUTS, SLAM_SCAN, TOPICS
 from track_nodes import dataset
 from track_nodes.bag_io import msg_class
 from track_nodes.slam import (
-    ellipses,
     inputs_to_twist,
     map_markers,
     odometry_to_pose,
@@ -157,6 +156,8 @@ def test_inputs_twist_round_trip():
 
 
 def test_batched_ellipses_equal_convert_ellipse_points():
+    from track_core.filters import ellipse_points as ellipses
+
     rng = np.random.default_rng(3)
     A = rng.normal(size=(5, 2, 2))
     covs = A @ np.swapaxes(A, -1, -2) + 0.01 * np.eye(2)

@@ -4,6 +4,7 @@ from track_core.filters.gaussian import (
     CovarianceError,
     check_covariance,
     covariance_problem,
+    ellipse_points,
     mahalanobis_sq,
     symmetrize,
 )
@@ -16,6 +17,7 @@ __all__ = [
     'covariance_problem',
     'cv_process_noise',
     'cv_transition',
+    'ellipse_points',
     'kf_predict',
     'kf_update',
     'mahalanobis_sq',

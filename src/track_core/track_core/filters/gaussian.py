@@ -1,4 +1,4 @@
-"""Gaussian helpers: covariance checks, symmetrisation and Mahalanobis distances.
+"""Gaussian helpers: covariance checks, symmetrisation, Mahalanobis distances and σ-ellipses.
 
 Every layer that receives a covariance from outside (a message, a parameter, a file) asks
 ``covariance_problem`` for a reason string instead of letting a Cholesky fail deep inside a
@@ -60,3 +60,20 @@ def mahalanobis_sq(d: np.ndarray, S: np.ndarray) -> np.ndarray:
     d = np.asarray(d, dtype=float)
     sol = np.linalg.solve(S, d[..., None])[..., 0]
     return np.einsum('...i,...i->...', d, sol)
+
+
+def ellipse_points(mean: np.ndarray, cov: np.ndarray, n_sigma: float = 2.0, n_points: int = 72) -> np.ndarray:
+    """Closed outlines (..., n_points + 1, 2) of {p : (p − μ)ᵀ R⁻¹ (p − μ) = n_sigma²}, last point = first.
+
+    mean (..., 2), cov (..., 2, 2): one eigen-decomposition R = V Λ Vᵀ per Gaussian, batched, and
+    p = μ + n_sigma V Λ^½ [cos θ, sin θ]; negative eigenvalues (rounding) are clipped, so a
+    singular PSD R draws as a segment. No validation: callers with outside data check first.
+    """
+    mean = np.asarray(mean, dtype=float)
+    w, V = np.linalg.eigh(symmetrize(np.asarray(cov, dtype=float)))
+    theta = np.linspace(0.0, 2.0 * np.pi, n_points + 1)
+    unit = np.stack([np.cos(theta), np.sin(theta)], axis=-1)              # (n_points + 1, 2)
+    axes = V * np.sqrt(np.clip(w, 0.0, None))[..., None, :]               # columns scaled by σ
+    pts = mean[..., None, :] + n_sigma * unit @ np.swapaxes(axes, -1, -2)
+    pts[..., -1, :] = pts[..., 0, :]
+    return pts

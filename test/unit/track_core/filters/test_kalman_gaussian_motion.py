@@ -80,3 +80,20 @@ def test_mahalanobis_and_symmetrize():
     S = np.array([[4.0, 0.0], [0.0, 1.0]])
     assert mahalanobis_sq(np.array([2.0, 1.0]), S) == pytest.approx(2.0)
     assert np.array_equal(symmetrize(np.array([[1.0, 2.0], [0.0, 1.0]])), [[1.0, 1.0], [1.0, 1.0]])
+
+
+def test_ellipse_points_lie_on_the_n_sigma_contour_batched():
+    from track_core.filters import ellipse_points, mahalanobis_sq
+
+    rng = np.random.default_rng(5)
+    A = rng.normal(size=(4, 2, 2))
+    covs = A @ np.swapaxes(A, -1, -2) + 0.1 * np.eye(2)
+    means = rng.normal(size=(4, 2))
+    pts = ellipse_points(means, covs, 2.0, 30)
+    assert pts.shape == (4, 31, 2)
+    np.testing.assert_array_equal(pts[:, 0], pts[:, -1])                 # closed
+    d = pts - means[:, None, :]
+    np.testing.assert_allclose(mahalanobis_sq(d, covs[:, None]), 4.0, rtol=1e-9)
+    np.testing.assert_allclose(ellipse_points(means[1], covs[1], 2.0, 30), pts[1], atol=1e-12)   # single = batched
+    seg = ellipse_points(np.zeros(2), np.array([[1.0, 1.0], [1.0, 1.0]]), 1.0, 8)   # singular PSD: a segment
+    assert np.all(np.isfinite(seg)) and np.allclose(seg[:, 0], seg[:, 1])
