@@ -30,15 +30,13 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from track_nodes.bag_io import _one_line
+
 EXIT_BAD_INPUT = 2
 
 
 class DatasetError(ValueError):
     """The conversion cannot be done; the message is one line."""
-
-
-def _one_line(exc: BaseException) -> str:
-    return ' '.join(str(exc).split()) or type(exc).__name__
 
 
 def load_victoria(data: Path | None, t_max: float | None):

@@ -87,7 +87,7 @@ from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
 from track_core.filters import ellipse_points, symmetrize
-from track_core.slam import HybridParams, HybridSlam, PFParams, SlamParams
+from track_core.slam import HybridParams, HybridSlam, PFParams, SlamParams, valid_observations
 from track_core.slam.blas import single_threaded_blas
 from track_msgs_py.convert import (
     DIAG_OK,
@@ -384,7 +384,7 @@ class SlamNode(Node):
             return
         lo, hi = self.hybrid_params.bearing_limits
         tol = self.p.bearing_tolerance
-        ok = np.isfinite(r) & np.isfinite(b) & (r > 0) & (b >= lo - tol) & (b <= hi + tol)
+        ok = valid_observations(np.stack([r, b], axis=1), (lo - tol, hi + tol))  # the core's rule, widened by tol
         if self.p.add_radius:
             ok &= np.isfinite(d) & (d >= 0)
         if not np.all(ok):

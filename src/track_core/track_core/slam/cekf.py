@@ -149,12 +149,15 @@ class CekfSlam:
         self._dirty = False          # anything done to A since the last repartition
         p = self.params
         self._su = (p.sigma_v**2, p.sigma_steer**2, *p.q_pose)
-        # tentative features (min_obs > 1): position, sensor covariance, count, last scan
+        self._clear_tentative()
+        self._repartition()
+
+    def _clear_tentative(self) -> None:
+        """Forget the tentative features (min_obs > 1): position, sensor covariance, count, last scan."""
         self._tent = np.zeros((0, 2))
         self._tent_cov = np.zeros((0, 2, 2))
         self._tent_n = np.zeros(0, dtype=int)
         self._tent_last = np.zeros(0, dtype=int)
-        self._repartition()
 
     # ------------------------------------------------------------------ lazily predicted arrays
     @property
@@ -592,10 +595,7 @@ class CekfSlam:
         P -= PHt_cols @ cho_solve(cf, PHt_cols.T, check_finite=False)
         P += P.T
         P *= 0.5
-        self._tent = np.zeros((0, 2))
-        self._tent_cov = np.zeros((0, 2, 2))
-        self._tent_n = np.zeros(0, dtype=int)
-        self._tent_last = np.zeros(0, dtype=int)
+        self._clear_tentative()
         self._repartition()
 
     def set_vehicle(self, pose: np.ndarray, Pvv: np.ndarray, Pvm: np.ndarray) -> None:
@@ -609,8 +609,5 @@ class CekfSlam:
         P[:3, :3] = 0.5 * (Pvv + Pvv.T)
         P[:3, 3:] = Pvm
         P[3:, :3] = Pvm.T
-        self._tent = np.zeros((0, 2))
-        self._tent_cov = np.zeros((0, 2, 2))
-        self._tent_n = np.zeros(0, dtype=int)
-        self._tent_last = np.zeros(0, dtype=int)
+        self._clear_tentative()
         self._repartition()

@@ -297,27 +297,33 @@ def _plot_victoria(cfg: RunConfig, r: dict) -> list:
 
 
 # ---------------------------------------------------------------------------- benchmark
-def _random_map_filters(n_lm: int, rng: np.random.Generator, steps: int):
-    """EKF and CEKF over the same run with n_lm landmarks known a priori (scattered on a square)."""
+# the benchmark's and the equivalence test's filter settings (landmarks scattered on a square, 10 m apart on average)
+_BENCH_SLAM = SlamParams(max_range=30.0, local_radius=60.0, local_exit=20.0, sigma_v=0.3, sigma_steer=0.02,
+                         sigma_r=0.3, sigma_b=0.01)
+
+
+def _random_landmarks(n_lm: int, rng: np.random.Generator) -> np.ndarray:
     side = np.sqrt(n_lm) * 10.0
-    lm = rng.uniform(-side / 2, side / 2, (n_lm, 2))
-    sp = SlamParams(max_range=30.0, local_radius=60.0, local_exit=20.0, sigma_v=0.3, sigma_steer=0.02,
-                    sigma_r=0.3, sigma_b=0.01)
+    return rng.uniform(-side / 2, side / 2, (n_lm, 2))
+
+
+def _random_map_filters(n_lm: int, rng: np.random.Generator):
+    """EKF and CEKF with the same n_lm landmarks known a priori (added with one observation each)."""
+    lm = _random_landmarks(n_lm, rng)
     pose = np.zeros(3)
-    # both filters start from the same prior map (landmarks added with one observation each)
-    filters = [CekfSlam(pose, np.diag([1e-4] * 3), sp, compressed=c) for c in (False, True)]
+    filters = [CekfSlam(pose, np.diag([1e-4] * 3), _BENCH_SLAM, compressed=c) for c in (False, True)]
     z0 = observe(pose, lm)
     for f in filters:
         f.add_landmarks(z0)
         f.global_update()
-    return lm, sp, filters
+    return lm, _BENCH_SLAM, filters
 
 
 def cekf_bench(cfg: RunConfig) -> Outcome:
     rng = np.random.default_rng(cfg.seed)
     rows, out = [], []
     for n_lm in ([50, 200] if cfg.quick else [50, 200, 1000]):
-        lm, _, (ekf, cekf) = _random_map_filters(n_lm, rng, 0)
+        lm, _, (ekf, cekf) = _random_map_filters(n_lm, rng)
         j = (int(cekf.a_idx[3]) - 3) // 2          # the first active landmark of the CEKF
         z = observe(ekf.pose, lm[j]) + np.array([0.1, 0.0])
         idx_e = np.array([j])
@@ -343,13 +349,10 @@ def cekf_bench(cfg: RunConfig) -> Outcome:
 def cekf_equivalence(n_lm: int, steps: int, seed: int) -> float:
     """Largest |x| or |P| difference between CEKF (after its global update) and the full EKF."""
     rng = np.random.default_rng(seed)
-    side = np.sqrt(n_lm) * 10.0
-    lm = rng.uniform(-side / 2, side / 2, (n_lm, 2))
-    sp = SlamParams(max_range=30.0, local_radius=60.0, local_exit=20.0, sigma_v=0.3, sigma_steer=0.02,
-                    sigma_r=0.3, sigma_b=0.01)
+    lm = _random_landmarks(n_lm, rng)
     pose = np.zeros(3)
-    ekf = CekfSlam(pose, np.diag([1e-4] * 3), sp, compressed=False)
-    cekf = CekfSlam(pose, np.diag([1e-4] * 3), sp, compressed=True)
+    ekf = CekfSlam(pose, np.diag([1e-4] * 3), _BENCH_SLAM, compressed=False)
+    cekf = CekfSlam(pose, np.diag([1e-4] * 3), _BENCH_SLAM, compressed=True)
     for k in range(steps):
         u = np.array([3.0, 0.15 * np.sin(k / 60.0)])
         pose = vehicle_step(pose, u, 0.1)
@@ -359,10 +362,8 @@ def cekf_equivalence(n_lm: int, steps: int, seed: int) -> float:
         zz = observe(pose, lm)
         vis = np.flatnonzero((zz[:, 0] < 30.0) & (zz[:, 1] >= 0) & (zz[:, 1] <= np.pi))
         z = zz[vis] + rng.normal(0.0, [0.3, 0.01], (vis.size, 2))
-        a = ekf.update(z)
-        # the CEKF gets exactly the same association (its own, checked in the tests, agrees)
-        cekf.update(z)
-        del a
+        ekf.update(z)
+        cekf.update(z)   # associates on its own; the tests check it agrees with the EKF's
     xe, Pe = ekf.mean_cov()
     xc, Pc = cekf.mean_cov()
     if xe.shape != xc.shape:

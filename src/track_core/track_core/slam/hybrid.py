@@ -62,7 +62,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from track_core.filters import wrap_angle
 from track_core.slam.cekf import CekfSlam, SlamParams
 from track_core.slam.models import VehicleParams
 from track_core.slam.pf import (
@@ -70,6 +69,7 @@ from track_core.slam.pf import (
     PFParams,
     base_frame_pose,
     decorrelate_blocks,
+    from_base_frame,
     rereference,
     to_global,
 )
@@ -328,15 +328,7 @@ class HybridSlam:
     def _pf_global(self, p: np.ndarray, ctx: _PFContext | None = None) -> np.ndarray:
         ctx = ctx or self.ctx
         x = self.cekf.x
-        b1, b2 = x[ctx.base[:2]], x[ctx.base[2:]]
-        d = b2 - b1
-        g = float(np.arctan2(d[1], d[0]))
-        c, s = np.cos(g), np.sin(g)
-        out = np.empty_like(p)
-        out[:, 0] = b1[0] + c * p[:, 0] - s * p[:, 1]
-        out[:, 1] = b1[1] + s * p[:, 0] + c * p[:, 1]
-        out[:, 2] = wrap_angle(p[:, 2] + g)
-        return out
+        return from_base_frame(p, x[ctx.base[:2]], x[ctx.base[2:]])
 
     def particles(self) -> np.ndarray:
         """The particle cloud in the global frame (empty outside PF mode)."""

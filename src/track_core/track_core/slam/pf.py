@@ -45,7 +45,10 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from track_core.filters import (
+    cholesky_jitter,
     circular_mean,
+    gaussian_logpdf,
+    mahalanobis_sq,
     normalize_log_weights,
     systematic_resample,
     weighted_mean_cov,
@@ -77,15 +80,14 @@ def rereference(pose: np.ndarray, lm: np.ndarray, P: np.ndarray, base: tuple[int
     dg = np.array([-d[1], d[0]]) / (d @ d)         # ∂γ/∂b₂ (= −∂γ/∂b₁)
     n = 3 + 2 * c
     J = np.zeros((n, n))
-    rows = [np.arange(2)] + [3 + 2 * k + np.arange(2) for k in range(c)]
+    own = np.concatenate([[0], 3 + 2 * np.arange(c)])[:, None] + np.arange(2)   # (1 + c, 2) state rows
     cols_b1 = 3 + 2 * i + np.arange(2)
     cols_b2 = 3 + 2 * j + np.arange(2)
-    for k, (r, lk) in enumerate(zip(rows, loc, strict=True)):
-        own = np.arange(2) if k == 0 else 3 + 2 * (k - 1) + np.arange(2)
-        dl_dg = np.array([lk[1], -lk[0]])
-        J[np.ix_(r, own)] += Rt
-        J[np.ix_(r, cols_b1)] += -Rt - np.outer(dl_dg, dg)
-        J[np.ix_(r, cols_b2)] += np.outer(dl_dg, dg)
+    G = np.stack([loc[:, 1], -loc[:, 0]], axis=1)[:, :, None] * dg               # ∂l/∂γ ⊗ ∂γ/∂b₂, (1 + c, 2, 2)
+    rr = own[:, :, None]
+    J[rr, own[:, None, :]] = Rt                    # each point's own block first (b₁'s then gains the terms below)
+    J[rr, cols_b1] += -Rt - G
+    J[rr, cols_b2] += G
     J[2, 2] = 1.0
     J[2, cols_b1] = dg
     J[2, cols_b2] = -dg
@@ -93,12 +95,26 @@ def rereference(pose: np.ndarray, lm: np.ndarray, P: np.ndarray, base: tuple[int
     return pose_l, loc[1:], J @ P @ J.T, J
 
 
+def from_base_frame(poses_l: np.ndarray, b1: np.ndarray, b2: np.ndarray) -> np.ndarray:
+    """Poses (N, 3) in the frame of base landmarks b₁, b₂ → global poses (N, 3): inverse of eq. 10."""
+    d = b2 - b1
+    g = float(np.arctan2(d[1], d[0]))
+    c, s = np.cos(g), np.sin(g)
+    out = np.empty_like(poses_l)
+    out[:, 0] = b1[0] + c * poses_l[:, 0] - s * poses_l[:, 1]
+    out[:, 1] = b1[1] + s * poses_l[:, 0] + c * poses_l[:, 1]
+    out[:, 2] = wrap_angle(poses_l[:, 2] + g)
+    return out
+
+
 def to_global(pose_l: np.ndarray, b1: np.ndarray, b2: np.ndarray):
-    """Pose in the base frame → global pose, with Jacobians wrt [b₁, b₂] (3×4) and pose_l (3×3)."""
+    """Pose in the base frame → global pose (``from_base_frame``), with Jacobians wrt [b₁, b₂] (3×4)
+    and pose_l (3×3)."""
     d = b2 - b1
     g = float(np.arctan2(d[1], d[0]))
     R = _rot(g)
-    p = b1 + R @ pose_l[:2]
+    pose = from_base_frame(np.asarray(pose_l, dtype=float)[None], b1, b2)[0]
+    p = pose[:2]
     dg = np.array([-d[1], d[0]]) / (d @ d)
     w = p - b1                                      # ∂(R l)/∂γ = [−w_y, w_x]
     dR = np.array([-w[1], w[0]])
@@ -109,7 +125,7 @@ def to_global(pose_l: np.ndarray, b1: np.ndarray, b2: np.ndarray):
     Gb[2, 2:] = dg
     Gl = np.eye(3)
     Gl[:2, :2] = R
-    return np.array([p[0], p[1], wrap_angle(pose_l[2] + g)]), Gb, Gl
+    return pose, Gb, Gl
 
 
 def base_frame_pose(pose: np.ndarray, b1: np.ndarray, b2: np.ndarray):
@@ -209,9 +225,7 @@ def helix_particles(z: np.ndarray, lm: np.ndarray, lm_cov: np.ndarray, prior_mea
         tau = rng.uniform(0.0, 2 * np.pi, m)
     parts = np.stack([mi[:, 0] + zr * np.cos(tau), mi[:, 1] + zr * np.sin(tau),
                       wrap_angle(tau - zb - np.pi / 2)], axis=1)
-    d = parts[:, :2] - prior_mean[:2]
-    d2 = np.einsum('ni,ij,nj->n', d, np.linalg.inv(prior_cov[:2, :2]), d)
-    keep = parts[d2 < params.prior_gate]
+    keep = parts[mahalanobis_sq(parts[:, :2] - prior_mean[:2], prior_cov[:2, :2]) < params.prior_gate]
     if keep.shape[0] == 0:
         return rng.multivariate_normal(prior_mean, prior_cov, size=n)
     pick = rng.choice(keep.shape[0], size=n, replace=keep.shape[0] < n)
@@ -270,16 +284,10 @@ def log_likelihood_dense(particles: np.ndarray, z: np.ndarray, lm: np.ndarray, l
         return np.zeros(particles.shape[0])
     zhat = observe(particles[:, None, :], lm[None, :, :])               # (N, c, 2)
     _, Hm = observe_jacobians(particles[:, None, :], lm[None, :, :])    # (N, c, 2, 2)
-    S = Hm @ lm_cov[None] @ np.swapaxes(Hm, -1, -2)
-    S[..., 0, 0] += params.sigma_r**2
-    S[..., 1, 1] += params.sigma_b**2
-    det = S[..., 0, 0] * S[..., 1, 1] - S[..., 0, 1] ** 2
-    inv = np.stack([np.stack([S[..., 1, 1], -S[..., 0, 1]], -1), np.stack([-S[..., 0, 1], S[..., 0, 0]], -1)], -2)
-    inv /= det[..., None, None]
+    S = Hm @ lm_cov[None] @ np.swapaxes(Hm, -1, -2) + np.diag([params.sigma_r**2, params.sigma_b**2])
     nu = z[None, :, None, :] - zhat[:, None, :, :]                       # (N, o, c, 2)
     nu[..., 1] = wrap_angle(nu[..., 1])
-    d2 = np.einsum('nocj,ncjk,nock->noc', nu, inv, nu)
-    dens = np.exp(-0.5 * d2) / (2 * np.pi * np.sqrt(det))[:, None, :]
+    dens = np.exp(gaussian_logpdf(nu, chol=cholesky_jitter(S)[:, None]))  # (N, o, c)
     return np.sum(np.log(params.clutter + dens.sum(axis=2)), axis=1)
 
 

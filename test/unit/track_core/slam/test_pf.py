@@ -49,6 +49,20 @@ def test_rereference_jacobian_and_roundtrip():
     np.testing.assert_allclose(np.hstack([Gb, Gl]), Gn, atol=1e-6)
 
 
+def test_from_base_frame_inverts_base_frame_pose_for_a_batch():
+    from track_core.slam.pf import base_frame_pose, from_base_frame
+
+    rng = np.random.default_rng(5)
+    b1, b2 = np.array([4.0, -1.0]), np.array([-3.0, 6.0])
+    poses = np.column_stack([rng.uniform(-30, 30, (20, 2)), rng.uniform(-np.pi, np.pi, 20)])
+    local = np.array([base_frame_pose(p, b1, b2)[0] for p in poses])
+    back = from_base_frame(local, b1, b2)
+    np.testing.assert_allclose(back[:, :2], poses[:, :2], atol=1e-12)
+    np.testing.assert_allclose(np.cos(back[:, 2] - poses[:, 2]), 1.0, atol=1e-12)
+    # to_global's pose is the same transform
+    np.testing.assert_array_equal(to_global(local[3], b1, b2)[0], back[3])
+
+
 def test_decorrelation_bound_is_conservative():
     rng = np.random.default_rng(1)
     for c in (2, 5, 12):
