@@ -37,13 +37,21 @@ from visualization_msgs.msg import MarkerArray
 from track_core.slam import HybridParams, HybridSlam, victoria
 from track_core.slam.experiments import VP_PF, VP_SLAM, loop_params
 from track_core.slam.sim import LoopWorld, simulate
-from track_msgs_py.convert import pose_array_to_positions, stamp_to_ns, stamp_to_sec, table_to_pointcloud2
+from track_msgs_py.convert import (
+    inputs_to_twist,
+    odometry_to_pose,
+    pose_array_to_positions,
+    scan_to_pointcloud2,
+    stamp_to_ns,
+    stamp_to_sec,
+    table_to_pointcloud2,
+)
 from track_msgs_py.qos import ESTIMATE_QOS, STATIC_QOS
 from track_msgs_py.topics import SLAM_EVENTS, SLAM_GPS, SLAM_INPUTS, SLAM_MAP, SLAM_MODE, SLAM_POSE, SLAM_SCAN
 from track_nodes.bag_io import msg_class
 from track_nodes.node_util import ParameterError
 from track_nodes.player import PlayerNode
-from track_nodes.slam import SlamNode, inputs_to_twist, odometry_to_pose, scan_to_pointcloud2
+from track_nodes.slam import SlamNode
 from track_nodes.slam_sim import SlamSimNode
 
 T_MAX = 40.0  # the stretch of the real run [s]

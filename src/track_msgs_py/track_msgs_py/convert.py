@@ -65,7 +65,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from builtin_interfaces.msg import Duration, Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from geometry_msgs.msg import Point, Pose, PoseArray, PoseWithCovarianceStamped
+from geometry_msgs.msg import Point, Pose, PoseArray, PoseWithCovarianceStamped, TwistStamped
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import PointCloud2, PointField
 from std_msgs.msg import ColorRGBA, Header, MultiArrayDimension, UInt8MultiArray
@@ -73,7 +73,7 @@ from visualization_msgs.msg import Marker
 
 from track_core.filters.gaussian import covariance_problem
 from track_core.filters.gaussian import ellipse_points as gaussian_ellipse_points
-from track_msgs_py.topics import FRAME_MAP
+from track_msgs_py.topics import FRAME_BASE, FRAME_LASER, FRAME_MAP
 
 if TYPE_CHECKING:
     from track_core.idsq.network import SensorLayout
@@ -277,6 +277,54 @@ def pointcloud2_to_table(msg: PointCloud2) -> dict[str, np.ndarray]:
     rows = np.ascontiguousarray(raw[:height * row_step].reshape(height, row_step)[:, :width * msg.point_step])
     points = rows.view(dtype).reshape(height * width)
     return {name: points[name].astype(np.float64) for name in names}
+
+
+# --- SLAM topics (hybrid CEKF/PF SLAM; the mapping table is in track_msgs_py.topics) -------------
+
+_POSE_IDX = (0, 1, 5)  # x, y, yaw in the 6×6 row-major pose covariance of Odometry
+
+
+def pose_to_odometry(t: float, pose: np.ndarray, P: np.ndarray, frame_id: str = FRAME_MAP,
+                     child_frame_id: str = FRAME_LASER) -> Odometry:
+    """Pose (x, y, φ) with covariance P (3×3) → Odometry: orientation yaw φ, covariance entries
+    (x, y, yaw) = P, z/roll/pitch and the whole twist ``UNUSED_VARIANCE`` (not estimated)."""
+    pose = np.asarray(pose, dtype=float)
+    msg = Odometry(header=_header(t, frame_id), child_frame_id=child_frame_id)
+    msg.pose.pose.position.x, msg.pose.pose.position.y = float(pose[0]), float(pose[1])
+    msg.pose.pose.orientation.z, msg.pose.pose.orientation.w = math.sin(pose[2] / 2), math.cos(pose[2] / 2)
+    cov = np.diag([0.0, 0.0, UNUSED_VARIANCE, UNUSED_VARIANCE, UNUSED_VARIANCE, 0.0])
+    cov[np.ix_(_POSE_IDX, _POSE_IDX)] = np.asarray(P, dtype=float)
+    msg.pose.covariance = cov.reshape(36)
+    msg.twist.covariance = np.diag([UNUSED_VARIANCE] * 6).reshape(36)
+    return msg
+
+
+def odometry_to_pose(msg: Odometry) -> tuple[float, np.ndarray, np.ndarray]:
+    """Inverse of :func:`pose_to_odometry`: (t, pose (x, y, yaw), P (3×3)); yaw from a z-axis rotation."""
+    p, q = msg.pose.pose.position, msg.pose.pose.orientation
+    yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+    cov = np.asarray(msg.pose.covariance, dtype=float).reshape(6, 6)[np.ix_(_POSE_IDX, _POSE_IDX)]
+    return stamp_to_sec(msg.header.stamp), np.array([p.x, p.y, yaw]), cov.copy()
+
+
+def inputs_to_twist(t: float, speed: float, steer: float, frame_id: str = FRAME_BASE) -> TwistStamped:
+    """Encoder speed [m/s] and steering angle [rad] → TwistStamped (linear.x, angular.z)."""
+    msg = TwistStamped(header=_header(t, frame_id))
+    msg.twist.linear.x, msg.twist.angular.z = float(speed), float(steer)
+    return msg
+
+
+def twist_to_inputs(msg: TwistStamped) -> tuple[float, float, float]:
+    """TwistStamped → (t, encoder speed, steering angle)."""
+    return stamp_to_sec(msg.header.stamp), float(msg.twist.linear.x), float(msg.twist.angular.z)
+
+
+def scan_to_pointcloud2(t: float, z: np.ndarray, diameter: np.ndarray | None = None, frame_id: str = FRAME_LASER,
+                        **extra: np.ndarray) -> PointCloud2:
+    """One scan, z (n, 2) of (range to the surface [m], bearing [rad]) and diameters (n,) → PointCloud2."""
+    z = np.asarray(z, dtype=float).reshape(-1, 2)
+    d = np.zeros(len(z)) if diameter is None else np.asarray(diameter, dtype=float)
+    return table_to_pointcloud2(t, frame_id, {'range': z[:, 0], 'bearing': z[:, 1], 'diameter': d, **extra})
 
 
 # --- visualisation and diagnostics ----------------------------------------------------------

@@ -65,9 +65,8 @@ def victoria_messages(vp):
     from geometry_msgs.msg import PointStamped
     from std_msgs.msg import Header
 
-    from track_msgs_py.convert import sec_to_stamp
+    from track_msgs_py.convert import inputs_to_twist, scan_to_pointcloud2, sec_to_stamp
     from track_msgs_py.topics import FRAME_GPS, SLAM_GPS, SLAM_INPUTS, SLAM_SCAN
-    from track_nodes.slam import inputs_to_twist, scan_to_pointcloud2
 
     t_in, t_sc, t_gps = vp.inputs[:, 0], np.asarray(vp.scan_t, dtype=float), vp.gps[:, 0]
     times = np.concatenate([t_sc, t_in, t_gps])

@@ -92,19 +92,16 @@ from track_core.slam.blas import single_threaded_blas
 from track_msgs_py.convert import (
     DIAG_OK,
     DIAG_WARN,
-    UNUSED_VARIANCE,
     diagnostic_array,
     diagnostic_status,
     pointcloud2_to_table,
+    pose_to_odometry,
     positions_to_pose_array,
     sec_to_stamp,
     stamp_to_ns,
-    stamp_to_sec,
-    table_to_pointcloud2,
 )
 from track_msgs_py.qos import ESTIMATE_QOS, SENSOR_QOS, STATIC_QOS
 from track_msgs_py.topics import (
-    FRAME_BASE,
     FRAME_LASER,
     FRAME_MAP,
     SLAM_EVENTS,
@@ -116,54 +113,6 @@ from track_msgs_py.topics import (
     SLAM_SCAN,
 )
 from track_nodes.node_util import Param, ParameterError, declare_params, run_node
-
-# --------------------------------------------------------------------------------------------
-# Message conversions of the SLAM topics (the mapping table is in track_msgs_py.topics).
-# --------------------------------------------------------------------------------------------
-_POSE_IDX = (0, 1, 5)  # x, y, yaw in the 6×6 row-major pose covariance of Odometry
-
-
-def pose_to_odometry(t: float, pose: np.ndarray, P: np.ndarray, frame_id: str = FRAME_MAP,
-                     child_frame_id: str = FRAME_LASER) -> Odometry:
-    """Pose (x, y, φ) with covariance P (3×3) → Odometry: orientation yaw φ, covariance entries
-    (x, y, yaw) = P, z/roll/pitch and the whole twist ``UNUSED_VARIANCE`` (not estimated)."""
-    pose = np.asarray(pose, dtype=float)
-    msg = Odometry(header=Header(stamp=sec_to_stamp(t), frame_id=frame_id), child_frame_id=child_frame_id)
-    msg.pose.pose.position.x, msg.pose.pose.position.y = float(pose[0]), float(pose[1])
-    msg.pose.pose.orientation.z, msg.pose.pose.orientation.w = math.sin(pose[2] / 2), math.cos(pose[2] / 2)
-    cov = np.diag([0.0, 0.0, UNUSED_VARIANCE, UNUSED_VARIANCE, UNUSED_VARIANCE, 0.0])
-    cov[np.ix_(_POSE_IDX, _POSE_IDX)] = np.asarray(P, dtype=float)
-    msg.pose.covariance = cov.reshape(36)
-    msg.twist.covariance = np.diag([UNUSED_VARIANCE] * 6).reshape(36)
-    return msg
-
-
-def odometry_to_pose(msg: Odometry) -> tuple[float, np.ndarray, np.ndarray]:
-    """Inverse of :func:`pose_to_odometry`: (t, pose (x, y, yaw), P (3×3)); yaw from a z-axis rotation."""
-    p, q = msg.pose.pose.position, msg.pose.pose.orientation
-    yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
-    cov = np.asarray(msg.pose.covariance, dtype=float).reshape(6, 6)[np.ix_(_POSE_IDX, _POSE_IDX)]
-    return stamp_to_sec(msg.header.stamp), np.array([p.x, p.y, yaw]), cov.copy()
-
-
-def inputs_to_twist(t: float, speed: float, steer: float, frame_id: str = FRAME_BASE) -> TwistStamped:
-    """Encoder speed [m/s] and steering angle [rad] → TwistStamped (linear.x, angular.z)."""
-    msg = TwistStamped(header=Header(stamp=sec_to_stamp(t), frame_id=frame_id))
-    msg.twist.linear.x, msg.twist.angular.z = float(speed), float(steer)
-    return msg
-
-
-def twist_to_inputs(msg: TwistStamped) -> tuple[float, float, float]:
-    """TwistStamped → (t, encoder speed, steering angle)."""
-    return stamp_to_sec(msg.header.stamp), float(msg.twist.linear.x), float(msg.twist.angular.z)
-
-
-def scan_to_pointcloud2(t: float, z: np.ndarray, diameter: np.ndarray | None = None, frame_id: str = FRAME_LASER,
-                        **extra: np.ndarray) -> PointCloud2:
-    """One scan, z (n, 2) of (range to the surface [m], bearing [rad]) and diameters (n,) → PointCloud2."""
-    z = np.asarray(z, dtype=float).reshape(-1, 2)
-    d = np.zeros(len(z)) if diameter is None else np.asarray(diameter, dtype=float)
-    return table_to_pointcloud2(t, frame_id, {'range': z[:, 0], 'bearing': z[:, 1], 'diameter': d, **extra})
 
 
 # --------------------------------------------------------------------------------------------

@@ -29,10 +29,11 @@ from rclpy.node import Node
 from sensor_msgs.msg import PointCloud2
 
 from track_core.slam.sim import LoopWorld, simulate
+from track_msgs_py.convert import inputs_to_twist, pose_to_odometry, scan_to_pointcloud2
 from track_msgs_py.qos import qos_for_topic
 from track_msgs_py.topics import FRAME_MAP, SLAM_INPUTS, SLAM_SCAN, SLAM_TRUTH
 from track_nodes.node_util import FixedRateSteps, Param, ParameterError, declare_params, run_node
-from track_nodes.slam import build_core, core_params, inputs_to_twist, pose_to_odometry, scan_to_pointcloud2
+from track_nodes.slam import build_core, core_params
 
 PARAMS = (
     Param('seed', 0, 'seed of the simulated run (truth, input and sensor noise)', 0, 2**31 - 1),
