@@ -26,6 +26,7 @@ The output then depends only on the reports' stamps and contents, not on when th
 long as every report stamped ≤ t_k arrives before any report stamped ≥ t_k + 1/``rate`` (sources
 on one clock, lagging each other by less than one period): a recorded bag replayed into a fresh
 node reproduces every score. The last instant of a run is scored only when a later report comes.
+The rule lives in ``track_core.fusion.StampSchedule``; the node applies and scores what it releases.
 
 At ``rate`` Hz it brings every live track to the current node time (``TrackTable``: Odometry
 tracks are predicted with their velocity, position reports are held until ``stale_after``),
@@ -54,7 +55,7 @@ from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
 from track_core.filters.covariance_intersection import covariance_intersection
-from track_core.fusion import TrackReport, TrackTable
+from track_core.fusion import StampSchedule, TrackReport, TrackTable
 from track_core.geofeasibility import ScoreWindow, score
 from track_msgs_py.convert import (
     DIAG_OK,
@@ -141,9 +142,13 @@ class FusionNode(Node):
         self.pub_assoc = self.create_publisher(DiagnosticArray, FUSION_ASSOCIATIONS, ESTIMATE_QOS)
         self.pub_fused = self.create_publisher(Odometry, FUSION_FUSED, ESTIMATE_QOS)
         self.pub_markers = self.create_publisher(MarkerArray, FUSION_MARKERS, ESTIMATE_QOS)
-        self.pending: list[tuple[str, str, TrackReport]] = []  # schedule stamps: reports not yet applied
-        self.next_k: int | None = None  # schedule stamps: index of the next instant k/rate to score
+        self.stamp_schedule = StampSchedule(p.rate) if p.schedule == 'stamps' else None
         self.timer = self.create_timer(1.0 / p.rate, self.tick) if p.schedule == 'timer' else None
+
+    @property
+    def next_k(self) -> int | None:
+        """schedule stamps: index of the next instant k/rate to score (None before the first report)."""
+        return None if self.stamp_schedule is None else self.stamp_schedule.next_k
 
     # -- input ---------------------------------------------------------------------------
     def _now(self) -> float:
@@ -194,36 +199,19 @@ class FusionNode(Node):
         self._store(topic, track_id, TrackReport(t, z, R))  # the topic is the source
 
     def _store(self, source: str, track_id: str, report: TrackReport) -> None:
-        if self.p.schedule == 'stamps':
-            self._score_due(report.t)
-            self.pending.append((source, track_id, report))
+        if self.stamp_schedule is None:
+            self._apply(source, track_id, report)
             return
+        for t_k, released in self.stamp_schedule.push(report.t, track_id, (source, track_id, report)):
+            for item in released:
+                self._apply(*item)
+            self._score(t_k)
+
+    def _apply(self, source: str, track_id: str, report: TrackReport) -> None:
         self.source[track_id] = source
         self.table.update(track_id, report)
 
     # -- scoring -------------------------------------------------------------------------
-    def _score_due(self, t_new: float) -> None:
-        """schedule stamps: score every instant t_k with t_k + 1/rate ≤ ``t_new`` (module docstring)."""
-        rate, eps = self.p.rate, 1e-9
-        if self.next_k is None:
-            self.next_k = int(np.ceil(t_new * rate - eps))
-        if (t_new * rate - self.next_k) > 10_000:  # a jump in the data's time: skip the empty instants
-            self.next_k = int(np.ceil(t_new * rate - eps)) - 1
-        while (self.next_k + 1) / rate <= t_new + eps:
-            t_k = self.next_k / rate
-            keep = []
-            # By (stamp, track id), not arrival order: the table's order (pair names, marker ids) is then
-            # independent of which source's message came first.
-            for source, track_id, report in sorted(self.pending, key=lambda r: (r[2].t, r[1])):
-                if report.t <= t_k + eps:
-                    self.source[track_id] = source
-                    self.table.update(track_id, report)
-                else:
-                    keep.append((source, track_id, report))
-            self.pending = keep
-            self._score(t_k)
-            self.next_k += 1
-
     def tick(self) -> None:
         self._score(self._now())
 

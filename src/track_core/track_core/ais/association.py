@@ -44,6 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from track_core.ais.sources import SourceReports
+from track_core.geofeasibility.ellipse import gaussian_to_ellipse
 from track_core.geofeasibility.scores import score
 from track_core.geofeasibility.track import MEANS
 
@@ -83,9 +84,8 @@ def pair_instants(a: SourceReports, b: SourceReports, tol: float = 1e-3) -> Pair
 
 
 def _semi_major(R: np.ndarray) -> np.ndarray:
-    """2σ semi-major axis 2√λ_max of each (n, 2, 2) covariance."""
-    a, b, c = R[:, 0, 0], R[:, 0, 1], R[:, 1, 1]
-    return 2.0 * np.sqrt(0.5 * (a + c) + np.hypot(0.5 * (a - c), b))
+    """2σ semi-major axis 2√λ_max of each (n, 2, 2) covariance (eqs. 56–59 inverted)."""
+    return gaussian_to_ellipse(np.zeros(R.shape[:-1]), R)[2]
 
 
 class PairTable:
