@@ -27,7 +27,7 @@ Protocol (Table 1 of the paper, one leader at a time, all over standard messages
   (DiagnosticArray), then sends the handoff to the chosen neighbour.
 - Start (§5.1): when the truth of step 0 arrives, every sensor computes the amplitude reading of
   every sensor (each reading is a deterministic function of the seed, the sensor id and the
-  step) and ``start_leader`` on them; the winner, the acoustic sensor with the highest reading,
+  step; the core's ``simulation.start_leader_at``); the winner, the acoustic sensor with the highest reading,
   leads step 0 from the uniform belief. Every sensor reaches the same answer without messages;
   this stands in for the election the paper does not describe.
 - Leader failure (beyond the paper): a handoff not acknowledged within ``ack_timeout`` seconds of
@@ -106,12 +106,12 @@ from track_core.idsq import (
     leader_step,
     receive_handoff,
     simulate_measurement,
-    start_leader,
     uniform_belief,
 )
 from track_core.idsq.handoff import peek_header
-from track_core.idsq.models import DEG, amplitude_reading, ranges
-from track_core.idsq.network import candidates
+from track_core.idsq.models import DEG, loudest_source
+from track_core.idsq.network import handoff_targets as core_handoff_targets
+from track_core.idsq.simulation import start_leader_at
 from track_core.idsq.tracker import SELECTIONS
 from track_msgs_py.convert import (
     DIAG_OK,
@@ -176,30 +176,19 @@ def selection_rng(seed: int, sensor: int, step: int) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence(int(seed), spawn_key=(SELECTION_KEY, int(sensor), int(step))))
 
 
-def loudest(sources: np.ndarray, sensor: np.ndarray) -> np.ndarray:
-    """Position of the source a sensor at ``sensor`` hears loudest: the nearest of ``sources`` (2,) or (M, 2)."""
-    src = np.asarray(sources, dtype=float).reshape(-1, 2)
-    return src[int(np.argmin(ranges(src, sensor)))]
+loudest = loudest_source  # (sources (2,) or (M, 2), sensor (2,)) → the nearest source: what the sensor hears
 
 
 def start_leader_of(layout: SensorLayout, truth0: np.ndarray, noise: SimNoise, seed: int) -> int:
-    """§5.1 start: argmax of the step-0 amplitude readings, as every sensor computes it.
-
-    ``truth0``: one source (2,) or several (M, 2); each sensor hears its loudest (``loudest``)."""
-    amps = np.array([amplitude_reading(loudest(truth0, layout.positions[k]), layout.positions[k], noise,
-                                       measurement_normal(seed, k, 0))
-                     for k in range(layout.n)])  # K sensors, one scalar each
-    return start_leader(layout, amps)
+    """§5.1 start as every sensor computes it: the core's ``start_leader_at`` on the step-0 readings drawn
+    with ``measurement_normal``. ``truth0``: one source (2,) or several (M, 2), each sensor hears its loudest."""
+    normals = [measurement_normal(seed, k, 0) for k in range(layout.n)]  # one seeded draw per sensor
+    return start_leader_at(layout, truth0, noise, np.array(normals))
 
 
 def handoff_targets(layout: SensorLayout, k: int) -> set[int]:
-    """Every sensor ``k`` may hand off to: its neighbours, and its triplet-rule candidates for any
-    previous leader (the core's ``candidates`` may reach beyond ``neighbours[k]``)."""
-    out = set(layout.neighbours[k].tolist())
-    for p in range(layout.n):  # K possible previous leaders
-        if p != k:
-            out.update(candidates(layout, k, p).tolist())
-    return out
+    """Every sensor ``k`` may hand off to (the core's ``network.handoff_targets``), as a set."""
+    return set(core_handoff_targets(layout, k).tolist())
 
 
 def handoff_order(cands: np.ndarray, scores: np.ndarray, neighbours: np.ndarray, previous: int | None,

@@ -34,7 +34,7 @@ def bench(cfg: RunConfig) -> Outcome:
     leader, prev = int(res.leaders[t_mid]), int(res.leaders[t_mid - 1])
     p, lay = sc.tracker, d.layout
     z = d.measurement(sc, t_mid, leader)
-    zs = np.array([d.measurement(sc, t_mid, k) for k in range(sc.n_sensors)])
+    zs = d.measurements(sc, t_mid)
     cands = candidates(lay, leader, prev)
     repeat = 3 if cfg.quick else 7
     t_step = best_time(lambda: leader_step(belief, z, leader, lay, p, step=t_mid, previous=prev), repeat)

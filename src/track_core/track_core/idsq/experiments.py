@@ -25,6 +25,7 @@ and did not fit any parameter to close it.
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable, Iterable
 from pathlib import Path
 
 import numpy as np
@@ -50,11 +51,13 @@ def _seeds(seed: int, k: int, frac: float, n_runs: int) -> list[np.random.SeedSe
     return np.random.SeedSequence((seed, k, round(100 * frac))).spawn(n_runs)
 
 
-def run_config(sc: Scenario, n_runs: int, seed: int,
-               trackers: tuple[str, ...] = ('mi',)) -> dict[str, list[TrackResult]]:
-    """All ``trackers`` ('mi', 'nearest', 'random', 'centralized') on the same M runs of ``sc``."""
+def run_config(sc: Scenario, n_runs: int, seed: int, trackers: tuple[str, ...] = ('mi',),
+               progress: Callable[[Iterable], Iterable] | None = None) -> dict[str, list[TrackResult]]:
+    """All ``trackers`` ('mi', 'nearest', 'random', 'centralized') on the same M runs of ``sc``;
+    ``progress`` wraps the runs (e.g. a progress bar)."""
     out: dict[str, list[TrackResult]] = {t: [] for t in trackers}
-    for s in _seeds(seed, sc.n_sensors, sc.doa_fraction, n_runs):
+    seeds = _seeds(seed, sc.n_sensors, sc.doa_fraction, n_runs)
+    for s in seeds if progress is None else progress(seeds):
         d = draw_run(sc, s)
         for t in trackers:
             out[t].append(run_centralized(sc, d) if t == 'centralized' else run_idsq(sc, d, t))
@@ -176,11 +179,8 @@ SELECTION_TRACKERS = ('mi', 'nearest', 'random', 'centralized')
 def selection(cfg: RunConfig) -> Outcome:
     n_runs = cfg.n_runs(full=20, quick=3)
     sc = Scenario(n_sensors=40, doa_fraction=0.3)
-    res: dict[str, list[TrackResult]] = {t: [] for t in SELECTION_TRACKERS}
-    for s in cfg.progress(_seeds(cfg.seed, 40, 0.3, n_runs), desc='idsq-selection'):
-        d = draw_run(sc, s)
-        for t in SELECTION_TRACKERS:
-            res[t].append(run_centralized(sc, d) if t == 'centralized' else run_idsq(sc, d, t))
+    res = run_config(sc, n_runs, cfg.seed, SELECTION_TRACKERS,
+                     progress=lambda it: cfg.progress(it, desc='idsq-selection'))
     rows, trows = [], []
     mi_runs = np.array([r.error.mean() for r in res['mi']])
     for t in SELECTION_TRACKERS:

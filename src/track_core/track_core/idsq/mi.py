@@ -63,8 +63,8 @@ def _reduce(belief: SparseBelief, sensor: np.ndarray, is_doa: bool, p: TrackerPa
     xy = belief.centers()
     m = belief.mass
     r = ranges(xy, sensor)
+    th = bearings(xy, sensor) if is_doa else None
     if is_doa:
-        th = bearings(xy, sensor)
         dth = THETA_BIN_PER_SIGMA * p.sigma_doa
         n_th = int(np.ceil(2 * np.pi / dth))
         kt = np.minimum(np.floor((th + np.pi) / (2 * np.pi) * n_th).astype(np.int64), n_th - 1)
@@ -76,7 +76,7 @@ def _reduce(belief: SparseBelief, sensor: np.ndarray, is_doa: bool, p: TrackerPa
     _, inv = np.unique(key, return_inverse=True)
     ms = np.bincount(inv, weights=m)
     rs = np.bincount(inv, weights=m * r) / ms
-    ts = np.bincount(inv, weights=m * bearings(xy, sensor)) / ms if is_doa else None
+    ts = np.bincount(inv, weights=m * th) / ms if is_doa else None
     return ms, rs, ts
 
 

@@ -140,3 +140,23 @@ def simulate_measurement(truth_xy: np.ndarray, sensor: np.ndarray, is_doa: bool,
 def amplitude_reading(truth_xy: np.ndarray, sensor: np.ndarray, noise: SimNoise, std_normal: float) -> float:
     """Acoustic amplitude reading A/r + noise (what any microphone, DOA arrays included, hears)."""
     return simulate_measurement(truth_xy, sensor, False, noise, std_normal)
+
+
+def loudest_source(sources: np.ndarray, sensors: np.ndarray) -> np.ndarray:
+    """Source each sensor hears loudest: the nearest (every source has amplitude A and A/r falls with r).
+
+    ``sources`` (2,) or (M, 2); ``sensors`` (2,) → (2,), or (K, 2) → (K, 2). Ties go to the first source.
+    """
+    src = np.asarray(sources, dtype=float).reshape(-1, 2)
+    sen = np.asarray(sensors, dtype=float)
+    nearest = np.argmin(ranges(src[None, :, :], sen.reshape(-1, 1, 2)), axis=1)  # (K, M) ranges
+    return src[nearest[0]] if sen.ndim == 1 else src[nearest]
+
+
+def amplitude_readings(sources: np.ndarray, sensors: np.ndarray, noise: SimNoise,
+                       std_normals: np.ndarray) -> np.ndarray:
+    """``amplitude_reading`` of every sensor (K, 2) at once, each hearing its loudest source; bit-identical
+    to the scalar version (same elementwise operations)."""
+    sen = np.asarray(sensors, dtype=float).reshape(-1, 2)
+    r = ranges(loudest_source(sources, sen), sen)
+    return noise.amplitude / np.maximum(r, 1e-6) + noise.sigma_a * np.asarray(std_normals, dtype=float)

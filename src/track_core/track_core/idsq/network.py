@@ -100,6 +100,17 @@ def candidates(layout: SensorLayout, leader: int, previous: int | None) -> np.nd
     return c if c.size else layout.neighbours[leader]
 
 
+def handoff_targets(layout: SensorLayout, leader: int) -> np.ndarray:
+    """Sorted indices of every sensor ``leader`` may hand off to: the union over all previous leaders of
+    ``candidates(layout, leader, previous)``, which may reach beyond ``neighbours[leader]``.
+
+    Excluding one sensor from "within range, or else the ``min_neighbours`` nearest" can only
+    promote the next nearest sensor, so the union is the same rule with ``min_neighbours + 1``
+    (a node opens its handoff/ack endpoints for these at layout time).
+    """
+    return in_range_or_nearest(layout.positions, leader, (), layout.comm_range, layout.min_neighbours + 1)
+
+
 def start_leader(layout: SensorLayout, amplitudes: np.ndarray) -> int:
     """§5.1: the acoustic sensor with the highest amplitude reading (any sensor if none is acoustic)."""
     amp = np.asarray(amplitudes, dtype=float)

@@ -35,7 +35,7 @@ import numpy as np
 
 from track_core.idsq.grid import GridSpec, SparseBelief, estimate, uniform_belief
 from track_core.idsq.handoff import decode_handoff
-from track_core.idsq.models import SimNoise, TrackerParams, amplitude_reading, simulate_measurement
+from track_core.idsq.models import SimNoise, TrackerParams, amplitude_readings, simulate_measurement
 from track_core.idsq.network import SensorLayout, start_leader
 from track_core.idsq.tracker import centralized_step, leader_step
 
@@ -101,6 +101,11 @@ class RunDraws:
         return simulate_measurement(self.truth[t], self.layout.positions[k], bool(self.layout.is_doa[k]),
                                     sc.noise, float(self.normals[t, k]))
 
+    def measurements(self, sc: Scenario, t: int) -> np.ndarray:
+        """(K,) every sensor's measurement of step ``t`` (the centralized input); scalar per sensor, like a
+        node's, so the values are the leader's bit for bit."""
+        return np.array([self.measurement(sc, t, k) for k in range(self.layout.n)])
+
 
 def draw_run(sc: Scenario, seed: np.random.SeedSequence) -> RunDraws:
     # derived without ``seed.spawn`` (which advances the seed's state): same seed → same run
@@ -130,11 +135,17 @@ def _empty(T: int) -> TrackResult:
                        np.full(T, -1), np.empty((T, 2)))
 
 
+def start_leader_at(layout: SensorLayout, sources: np.ndarray, noise: SimNoise, std_normals: np.ndarray) -> int:
+    """§5.1 start leader from the step-0 amplitude readings, one standard normal per sensor.
+
+    ``sources``: one source (2,) or several (M, 2); each sensor hears its loudest (nearest) one.
+    """
+    return start_leader(layout, amplitude_readings(sources, layout.positions, noise, std_normals))
+
+
 def start(sc: Scenario, d: RunDraws) -> int:
     """§5.1 start leader from the t = 0 amplitude readings."""
-    amps = np.array([amplitude_reading(d.truth[0], d.layout.positions[k], sc.noise, float(d.normals[0, k]))
-                     for k in range(sc.n_sensors)])
-    return start_leader(d.layout, amps)
+    return start_leader_at(d.layout, d.truth[0], sc.noise, d.normals[0])
 
 
 def run_idsq(sc: Scenario, d: RunDraws, selection: str = 'mi', snapshot_steps: tuple[int, ...] = ()) -> TrackResult:
@@ -163,8 +174,7 @@ def run_centralized(sc: Scenario, d: RunDraws) -> TrackResult:
     res = _empty(sc.n_steps)
     belief = uniform_belief(sc.grid)
     for t in range(sc.n_steps):
-        zs = np.array([d.measurement(sc, t, k) for k in range(sc.n_sensors)])
-        belief, e = centralized_step(belief, zs, d.layout, sc.tracker)
+        belief, e = centralized_step(belief, d.measurements(sc, t), d.layout, sc.tracker)
         res.error[t] = np.linalg.norm(e.mean - d.truth[t])
         res.spread[t], res.size[t], res.estimates[t] = e.spread, e.size, e.mean
         res.bytes[t] = sc.n_sensors * MEAS_MSG_BYTES
@@ -181,4 +191,4 @@ def summary(results: list[TrackResult]) -> dict[str, float]:
 
 
 __all__ = ['MEAS_MSG_BYTES', 'RunDraws', 'Scenario', 'TrackResult', 'draw_run', 'estimate', 'run_centralized',
-           'run_idsq', 'start', 'summary']
+           'run_idsq', 'start', 'start_leader_at', 'summary']

@@ -71,3 +71,19 @@ def test_bad_parameters_raise_one_line(kw, name):
     with pytest.raises(ValueError, match=name) as ei:
         TrackerParams(**kw)
     assert '\n' not in str(ei.value)
+
+
+def test_loudest_source_and_vectorised_amplitude_readings_match_the_scalar_rule():
+    from track_core.idsq.models import SimNoise, amplitude_reading, amplitude_readings, loudest_source
+
+    rng = np.random.default_rng(2)
+    sensors, sources, normals = rng.uniform(0, 250, (30, 2)), rng.uniform(0, 250, (3, 2)), rng.standard_normal(30)
+    loud = loudest_source(sources, sensors)
+    for k in range(30):
+        nearest = sources[np.argmin(np.hypot(*(sources - sensors[k]).T))]
+        np.testing.assert_array_equal(loud[k], nearest)
+        np.testing.assert_array_equal(loudest_source(sources, sensors[k]), nearest)
+    noise = SimNoise()
+    expected = [amplitude_reading(loud[k], sensors[k], noise, float(normals[k])) for k in range(30)]
+    np.testing.assert_array_equal(amplitude_readings(sources, sensors, noise, normals), expected)  # bit-identical
+    np.testing.assert_array_equal(loudest_source(sources[0], sensors), np.tile(sources[0], (30, 1)))

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from track_core.idsq.network import SensorLayout, build_neighbours, candidates, start_leader
+from track_core.idsq.network import SensorLayout, build_neighbours, candidates, handoff_targets, start_leader
 from track_core.idsq.simulation import Scenario
 
 
@@ -68,3 +68,19 @@ def test_bad_layout_raises():
         SensorLayout(np.zeros((3, 3)), np.zeros(3, bool))
     with pytest.raises(ValueError, match='comm_range'):
         SensorLayout(np.zeros((3, 2)), np.zeros(3, bool), comm_range=-1.0)
+
+
+def test_handoff_targets_is_the_union_of_candidates_over_every_previous_leader():
+    """The closed form (same rule with min_neighbours + 1) equals the brute-force union, ties included."""
+    rng = np.random.default_rng(5)
+    for trial in range(60):
+        k = int(rng.integers(3, 20))
+        pos = rng.uniform(0, rng.uniform(30, 200), (k, 2))
+        if trial % 3 == 0:
+            pos = np.round(pos / 20) * 20  # equal distances
+        lay = SensorLayout(pos, np.zeros(k, bool), float(rng.uniform(10, 60)), int(rng.integers(1, min(3, k - 1) + 1)))
+        for j in range(k):
+            brute = set(lay.neighbours[j].tolist())
+            for p in range(k):
+                brute.update(candidates(lay, j, p).tolist())
+            assert handoff_targets(lay, j).tolist() == sorted(brute)
