@@ -159,22 +159,23 @@ SCENARIO_METRICS['rfid'] = rfid_metrics
 
 
 # Scenarios whose many per-node topics are listed as one line: scenario → (regex, label).
-FOLDED_TOPICS: dict[str, tuple[str, str]] = {}
+FOLD_AT = 5  # topics that differ only in their numbers (per-sensor topics) list as one line from this many
 
 
 def summarize(bag: Path, scenario: str | None = None) -> list[str]:
     lines = [f'bag: {bag.resolve()}']
     with Reader(bag) as reader:
         lines.append(f'duration {reader.duration * 1e-9:.1f} s, {reader.message_count} messages')
-        folded = FOLDED_TOPICS.get(scenario)
-        for conn in sorted(reader.connections, key=lambda c: c.topic):
-            if folded is not None and re.match(folded[0], conn.topic):
+        families: dict[str, list] = {}
+        for conn in reader.connections:
+            families.setdefault(re.sub(r'\d+', '*', conn.topic), []).append(conn)
+        for key in sorted(families):
+            conns = families[key]
+            if len(conns) >= FOLD_AT:
+                lines.append(f'  {key:<28} {f"({len(conns)} topics)":<44} {sum(c.msgcount for c in conns):>7}')
                 continue
-            lines.append(f'  {conn.topic:<28} {conn.msgtype:<44} {conn.msgcount:>7}')
-        if folded is not None:
-            per = [c for c in reader.connections if re.match(folded[0], c.topic)]
-            if per:
-                lines.append(f'  {folded[1]:<28} {f"({len(per)} topics)":<44} {sum(c.msgcount for c in per):>7}')
+            for conn in sorted(conns, key=lambda c: c.topic):
+                lines.append(f'  {conn.topic:<28} {conn.msgtype:<44} {conn.msgcount:>7}')
     if scenario in SCENARIO_METRICS:
         lines += SCENARIO_METRICS[scenario](bag)
     return lines
@@ -374,4 +375,3 @@ def maritime_metrics(bag: Path) -> list[str]:
 
 
 SCENARIO_METRICS['maritime'] = maritime_metrics
-FOLDED_TOPICS['maritime'] = (r'^/idsq/sensor_\d+/(handoff|ack)$', '/idsq/sensor_*/{handoff,ack}')
