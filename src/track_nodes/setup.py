@@ -28,14 +28,14 @@ setup(
     license='BSD-3-Clause',
     entry_points={
         'console_scripts': [
-            'track-launch = track_nodes.launch:main',
-            'track-record = track_nodes.recorder:main',
-            'track-play = track_nodes.player:main',
-            'track-bag-recover = track_nodes.bag_recover:main',
-            'track-dataset = track_nodes.dataset:main',
+            'track-launch = track_nodes.launch.launcher:main',
+            'track-record = track_nodes.bag.recorder:main',
+            'track-play = track_nodes.bag.player:main',
+            'track-bag-recover = track_nodes.bag.recover:main',
+            'track-dataset = track_nodes.bag.dataset:main',
         ],
         'track.benchmarks': [
-            'recorder = track_nodes.bench_recorder:recorder_benchmark',
+            'recorder = track_nodes.bag.bench:recorder_benchmark',
         ],
     },
 )

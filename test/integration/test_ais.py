@@ -27,8 +27,8 @@ from track_core.ais import PairTable, default_path, evaluate
 from track_msgs_py.convert import position_to_pose_cov, sec_to_stamp, stamp_to_sec
 from track_msgs_py.qos import CLOCK_QOS, ESTIMATE_QOS, STATIC_QOS
 from track_msgs_py.topics import CLOCK, FUSION_SCORES, ais_reports_topic, ais_truth_topic
-from track_nodes.ais_source import AisSourceNode
-from track_nodes.fusion import FusionNode
+from track_nodes.fusion.fusion import FusionNode
+from track_nodes.sim.ais_source import AisSourceNode
 
 pytestmark = pytest.mark.skipif(not default_path().is_file(), reason='shared AIS data not found')
 
@@ -44,7 +44,7 @@ def _node(ros, repo, cls, name):
 
 @pytest.fixture
 def ais_run(ros, repo, tmp_path):
-    from track_nodes.recorder import RecorderNode
+    from track_nodes.bag.recorder import RecorderNode
 
     radar = _node(ros, repo, AisSourceNode, 'radar')
     patrol = _node(ros, repo, AisSourceNode, 'patrol')
@@ -115,7 +115,8 @@ def _node_scores(got, radar, patrol):
 
 def test_sources_and_fusion_in_process(ais_run):
     """One run (it takes ~15 s), three checks: the core's numbers, local ids only, the recorded summary."""
-    from track_nodes.summary import SCENARIO_METRICS, read_topics, summarize
+    from track_nodes.report.read import read_topics
+    from track_nodes.report.summary import SCENARIO_METRICS, summarize
 
     radar, patrol, fusion, got, bag = ais_run
     a, b = radar.reports, patrol.reports

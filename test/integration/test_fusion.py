@@ -11,8 +11,8 @@ from rclpy.parameter import Parameter
 from track_msgs_py.convert import position_to_pose_cov
 from track_msgs_py.qos import ESTIMATE_QOS
 from track_msgs_py.topics import FUSION_SCORES
-from track_nodes.fusion import FusionNode
-from track_nodes.report_source import ReportSourceNode
+from track_nodes.fusion.fusion import FusionNode
+from track_nodes.sim.report_source import ReportSourceNode
 
 FAST = {'radar': {'period': 0.05}, 'patrol': {'period': 0.1},
         'fusion': {'rate': 20.0, 'stale_after': 0.4, 'window': 10}}
@@ -100,7 +100,7 @@ def test_bad_covariances_are_dropped_and_the_node_keeps_running(ros, repo):
 def test_no_topics_is_a_clear_error(ros):
     import pytest
 
-    from track_nodes.node_util import ParameterError
+    from track_nodes.base import ParameterError
 
     with pytest.raises(ValueError, match='nothing to fuse'):
         FusionNode(context=ros.context)

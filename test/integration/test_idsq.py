@@ -43,19 +43,20 @@ from track_core.idsq import (
     simulate_measurement,
     uniform_belief,
 )
+from track_core.idsq.simulation import scenario_of
 from track_msgs_py.convert import handoff_to_uint8_array as handoff_msg
 from track_msgs_py.convert import layout_to_pointcloud2 as layout_to_cloud
 from track_msgs_py.convert import odometry_to_cv_state, sec_to_stamp, stamp_to_sec, xy_block
 from track_msgs_py.convert import pointcloud2_to_layout as cloud_to_layout
 from track_msgs_py.qos import CLOCK_QOS, ESTIMATE_QOS, HANDOFF_QOS
 from track_msgs_py.topics import CLOCK, IDSQ_ESTIMATE, IDSQ_LEADER, idsq_ack_topic, idsq_handoff_topic
-from track_nodes.idsq_sensor import (
+from track_nodes.idsq.sensor import (
     measurement_normal,
     start_leader_of,
     step_of_stamp,
 )
-from track_nodes.scenario import load_scenario
-from track_nodes.vehicle_sim import scenario_of, scenario_yaml
+from track_nodes.launch.generate import idsq_yaml as scenario_yaml
+from track_nodes.launch.scenario import load_scenario
 
 DT = 0.5
 K8_STEPS = 20  # 10 s of the K = 8 scenario
@@ -329,18 +330,18 @@ def test_a_refusing_sensor_makes_the_sender_reselect(ros, k8_file):
     ('AcousticSensorNode', {'selection': 'best'}, ['selection', 'best', 'mi']),
 ])
 def test_bad_sensor_parameters_stop_the_node_with_one_line(ros, cls_name, over, words):
-    from track_nodes import acoustic_sensor, doa_sensor
-    from track_nodes.node_util import ParameterError
+    from track_nodes.base import ParameterError
+    from track_nodes.idsq import sensor
 
-    cls = getattr(acoustic_sensor if cls_name.startswith('Acoustic') else doa_sensor, cls_name)
+    cls = getattr(sensor, cls_name)
     with pytest.raises(ParameterError) as exc:
         cls(context=ros.context, parameter_overrides=[Parameter(k, value=v) for k, v in over.items()])
     assert '\n' not in str(exc.value) and all(w in str(exc.value) for w in words), str(exc.value)
 
 
 def test_sensor_disagreeing_with_the_layout_stays_passive(ros):
-    from track_nodes.acoustic_sensor import AcousticSensorNode
-    from track_nodes.vehicle_sim import VehicleSimNode
+    from track_nodes.idsq.sensor import AcousticSensorNode
+    from track_nodes.sim.vehicle_sim import VehicleSimNode
 
     vehicle = ros.add(VehicleSimNode(context=ros.context, parameter_overrides=[Parameter('seed', value=1),
                                                                               Parameter('n_sensors', value=8)]))
@@ -355,7 +356,7 @@ def test_sensor_disagreeing_with_the_layout_stays_passive(ros):
 # --- protocol helpers (no ROS graph) ------------------------------------------------------------------
 
 def test_handoff_order_ranks_by_mi_then_suspects_previous_and_self():
-    from track_nodes.idsq_sensor import handoff_order
+    from track_nodes.idsq.sensor import handoff_order
 
     cands, scores = np.array([3, 7, 9]), np.array([0.2, 0.9, 0.5])
     assert handoff_order(cands, scores, np.array([3, 7, 9, 4]), 4, 5, first=7) == [7, 9, 3, 4, 5]
@@ -365,7 +366,7 @@ def test_handoff_order_ranks_by_mi_then_suspects_previous_and_self():
 
 def test_step_stamps_draws_and_header_peek():
     from track_core.idsq.handoff import peek_header
-    from track_nodes.idsq_sensor import stamp_of_step
+    from track_nodes.idsq.sensor import stamp_of_step
 
     assert [step_of_stamp(stamp_of_step(s, DT), DT) for s in (0, 1, 71)] == [0, 1, 71]
     assert step_of_stamp(0.0, DT) is None and step_of_stamp(0.75, DT) is None

@@ -97,7 +97,7 @@ def test_same_seed_and_clock_give_identical_payloads(demo_bags):
 
 
 def test_tracker_output_is_accurate(demo_bags):
-    from track_nodes.summary import demo_metrics
+    from track_nodes.report.demo import demo_metrics
 
     lines = demo_metrics(demo_bags[0])
     rmse = float(lines[1].split('position RMSE')[1].split()[0])

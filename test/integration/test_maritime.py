@@ -1,6 +1,6 @@
 """Maritime scenario (issue 8, part 1): a shortened launcher run, its verdicts, picture and replay.
 
-- The launcher runs a shortened ``maritime`` scenario (``scenario_yaml`` with 14 s instead of 32 s,
+- The launcher runs a shortened ``maritime`` scenario (``maritime_yaml`` with 14 s instead of 32 s,
   to keep the test short; the same seeds, so it is the first 14 s of the main job) with ``--record``: the summary has
   every tracker and pair, the picture exists, the sonar and network tracks of the smart target
   are associated at most instants after both converged, and the decoy's radar track is never
@@ -22,9 +22,10 @@ from rclpy.parameter import Parameter
 
 from track_msgs_py.qos import ESTIMATE_QOS
 from track_msgs_py.topics import FUSION_SCORES, IDSQ_ESTIMATE, SONAR_ESTIMATE
-from track_nodes import maritime
-from track_nodes.fusion import FusionNode
-from track_nodes.summary import read_topics
+from track_nodes.fusion.fusion import FusionNode
+from track_nodes.launch.generate import maritime_yaml
+from track_nodes.report import maritime
+from track_nodes.report.read import read_topics
 
 DURATION = 14.0
 SONAR_NET = tuple(sorted((maritime.SONAR_TRACK, maritime.NETWORK_TRACK)))
@@ -34,7 +35,7 @@ SONAR_NET = tuple(sorted((maritime.SONAR_TRACK, maritime.NETWORK_TRACK)))
 def maritime_run(tmp_path_factory, env_factory):
     cwd = tmp_path_factory.mktemp('maritime_launch')
     cfg = cwd / 'maritime.yaml'
-    cfg.write_text(maritime.scenario_yaml(duration=DURATION))
+    cfg.write_text(maritime_yaml(duration=DURATION))
     cmd = [sys.executable, '-m', 'track_nodes.launch', str(cfg), '--record', 'maritime']
     proc = subprocess.run(cmd, cwd=cwd, env=env_factory(), capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr[-2000:]
@@ -74,7 +75,7 @@ def test_replay_into_a_fresh_fusion_node_gives_the_same_scores(maritime_run, ros
     got: list[DiagnosticArray] = []
     sink = ros.add(Node('sink', context=ros.context))
     sink.create_subscription(DiagnosticArray, FUSION_SCORES, got.append, ESTIMATE_QOS)
-    player = subprocess.Popen([sys.executable, '-m', 'track_nodes.player', str(bag), '--rate', '5',
+    player = subprocess.Popen([sys.executable, '-m', 'track_nodes.bag.player', str(bag), '--rate', '5',
                                '--topics', SONAR_ESTIMATE, IDSQ_ESTIMATE, maritime.RADAR_DECOY],
                               env=ros.env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
@@ -87,8 +88,8 @@ def test_replay_into_a_fresh_fusion_node_gives_the_same_scores(maritime_run, ros
 
 
 def test_scenario_file_is_the_generator_output(repo: Path):
-    """config/maritime.yaml is what ``scenario_yaml()`` writes (its sensors match vehicle_sim's layout)."""
-    assert (repo / 'config/maritime.yaml').read_text() == maritime.scenario_yaml()
+    """config/maritime.yaml is what ``maritime_yaml()`` writes (its sensors match vehicle_sim's layout)."""
+    assert (repo / 'config/maritime.yaml').read_text() == maritime_yaml()
 
 
 # --- the building blocks the scenario added -------------------------------------------------------
@@ -98,8 +99,8 @@ def test_each_sensor_hears_its_loudest_source():
     import numpy as np
 
     from track_core.idsq import SimNoise
-    from track_nodes.idsq_sensor import loudest, start_leader_of
-    from track_nodes.vehicle_sim import scenario_of
+    from track_core.idsq.simulation import scenario_of
+    from track_nodes.idsq.sensor import loudest, start_leader_of
 
     sources = np.array([[75.0, 20.0], [420.0, 0.0]])
     assert loudest(sources, np.array([100.0, 0.0])).tolist() == [75.0, 20.0]

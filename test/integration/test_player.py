@@ -19,7 +19,7 @@ from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 from rosgraph_msgs.msg import Clock
 
-from track_nodes.player import PlayerNode, wall_offsets
+from track_nodes.bag.player import PlayerNode, wall_offsets
 
 pytestmark = pytest.mark.integration
 

@@ -18,8 +18,8 @@ from rosbags.interfaces import QosDurability, QosReliability
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
 
-from track_nodes.bag_recover import read_broken_mcap
-from track_nodes.recorder import RecorderNode
+from track_nodes.bag.recorder import RecorderNode
+from track_nodes.bag.recover import read_broken_mcap
 
 pytestmark = pytest.mark.integration
 

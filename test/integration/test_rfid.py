@@ -46,9 +46,9 @@ from track_msgs_py.topics import (
     RFID_USER_POSE,
     RFID_USER_STATUS,
 )
-from track_nodes.node_util import ParameterError
-from track_nodes.rfid_guidance import RfidGuidanceNode
-from track_nodes.rfid_reader import RfidReaderNode
+from track_nodes.base import ParameterError
+from track_nodes.rfid.rfid_guidance import RfidGuidanceNode
+from track_nodes.rfid.rfid_reader import RfidReaderNode
 
 TYPES = {RFID_COMMAND: DiagnosticArray, RFID_STEP: DiagnosticArray, RFID_PHASE: PointCloud2,
          RFID_USER_POSE: PoseStamped, RFID_USER_STATUS: DiagnosticArray, RFID_PARTICLES: PoseArray,
@@ -286,7 +286,7 @@ def test_zero_particles_is_a_parameter_error(ros):
 def test_bad_parameter_stops_the_node_with_one_line(tmp_path, env_factory, node, line, words):
     bad = tmp_path / 'bad.yaml'
     bad.write_text(f'{node}:\n  ros__parameters:\n    {line}\n')
-    proc = subprocess.run([sys.executable, '-m', f'track_nodes.{node}', '--ros-args', '--params-file', str(bad)],
+    proc = subprocess.run([sys.executable, '-m', 'track_nodes', node, '--ros-args', '--params-file', str(bad)],
                           capture_output=True, text=True, timeout=60, env=env_factory())
     assert proc.returncode == 2, proc.stderr
     lines = proc.stderr.strip().splitlines()

@@ -48,11 +48,11 @@ from track_msgs_py.convert import (
 )
 from track_msgs_py.qos import ESTIMATE_QOS, STATIC_QOS
 from track_msgs_py.topics import SLAM_EVENTS, SLAM_GPS, SLAM_INPUTS, SLAM_MAP, SLAM_MODE, SLAM_POSE, SLAM_SCAN
-from track_nodes.bag_io import msg_class
-from track_nodes.node_util import ParameterError
-from track_nodes.player import PlayerNode
-from track_nodes.slam import SlamNode
-from track_nodes.slam_sim import SlamSimNode
+from track_nodes.bag.api import msg_class
+from track_nodes.bag.player import PlayerNode
+from track_nodes.base import ParameterError
+from track_nodes.sim.slam_sim import SlamSimNode
+from track_nodes.slam.slam import SlamNode
 
 T_MAX = 40.0  # the stretch of the real run [s]
 DEEP = QoSProfile(depth=100_000, reliability=ReliabilityPolicy.RELIABLE)
@@ -67,7 +67,7 @@ def _data_or_skip() -> Path:
 
 def _convert(out: Path, t_max: float, env: dict) -> None:
     # the module behind the track-dataset console script (also works from a source tree on PYTHONPATH)
-    proc = subprocess.run([sys.executable, '-m', 'track_nodes.dataset', 'victoria-park', '--out', str(out),
+    proc = subprocess.run([sys.executable, '-m', 'track_nodes.bag.dataset', 'victoria-park', '--out', str(out),
                            '--t-max', str(t_max)], capture_output=True, text=True, timeout=120, env=env)
     assert proc.returncode == 0, proc.stderr
     assert f'{out}:' in proc.stdout
@@ -274,7 +274,7 @@ def test_victoria_park_scenario_replays_the_bag_into_slam(tmp_path, repo, env_fa
 
 def test_converter_wrong_path_is_one_line(tmp_path, env_factory):
     out = tmp_path / 'out'
-    proc = subprocess.run([sys.executable, '-m', 'track_nodes.dataset', 'victoria-park', '--data',
+    proc = subprocess.run([sys.executable, '-m', 'track_nodes.bag.dataset', 'victoria-park', '--data',
                            str(tmp_path / 'nope'), '--out', str(out)],
                           capture_output=True, text=True, timeout=60, env=env_factory())
     assert proc.returncode == 2

@@ -48,9 +48,9 @@ from track_msgs_py.topics import (
     SONAR_TARGET_STATUS,
     SONAR_TRUTH,
 )
-from track_nodes.node_util import ParameterError
-from track_nodes.smart_target import SmartTargetNode
-from track_nodes.sonar_observer import SonarObserverNode
+from track_nodes.base import ParameterError
+from track_nodes.sim.smart_target import SmartTargetNode
+from track_nodes.sonar.sonar_observer import SonarObserverNode
 
 STEPS = 40  # the paper's 40 s at T = 1 s
 RECORD_S = 20
@@ -175,7 +175,7 @@ def test_nodes_equal_the_core_closed_loop(in_process_run, repo):
 # --- launcher, recording and replay -------------------------------------------------------------
 
 def _bag_msgs(bag: Path) -> dict[str, list]:
-    from track_nodes.bag_io import msg_class
+    from track_nodes.bag.api import msg_class
 
     out: dict[str, list] = {}
     with Reader(bag) as reader:

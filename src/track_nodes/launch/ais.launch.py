@@ -3,7 +3,7 @@
 Same nodes and parameters as ``python -m track_nodes.launch ais`` (config/ais.yaml).
 """
 
-from track_nodes.ros2_launch import scenario_launch_description
+from track_nodes.launch.ros2_launch import scenario_launch_description
 
 
 def generate_launch_description():

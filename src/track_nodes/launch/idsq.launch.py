@@ -4,7 +4,7 @@ Same nodes and parameters as ``python -m track_nodes.launch idsq`` (config/idsq.
 and one acoustic_sensor / doa_sensor node per sensor of the §5.1 field.
 """
 
-from track_nodes.ros2_launch import scenario_launch_description
+from track_nodes.launch.ros2_launch import scenario_launch_description
 
 
 def generate_launch_description():

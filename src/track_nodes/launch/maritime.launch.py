@@ -5,7 +5,7 @@ smart target and the sonar observer, the IDSQ sensor field, the coastal radar wi
 the fusion node (track_nodes/maritime.py).
 """
 
-from track_nodes.ros2_launch import scenario_launch_description
+from track_nodes.launch.ros2_launch import scenario_launch_description
 
 
 def generate_launch_description():

@@ -4,7 +4,7 @@ Same nodes and parameters as ``python -m track_nodes.launch rfid`` (config/rfid.
 simulated user with the handheld RFID reader and the particle-filter guidance.
 """
 
-from track_nodes.ros2_launch import scenario_launch_description
+from track_nodes.launch.ros2_launch import scenario_launch_description
 
 
 def generate_launch_description():

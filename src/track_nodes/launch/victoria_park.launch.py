@@ -4,7 +4,7 @@ Same nodes and parameters as ``python -m track_nodes.launch victoria_park`` (con
 full ROS 2 install for launch/launch_ros. Without them, use the launcher module.
 """
 
-from track_nodes.ros2_launch import scenario_launch_description
+from track_nodes.launch.ros2_launch import scenario_launch_description
 
 
 def generate_launch_description():

@@ -1,6 +1,5 @@
 """The installed venv has the ament layout `ros2 run` needs (DESIGN.md, "Install and ros2 run")."""
 
-import importlib
 import os
 import subprocess
 import xml.etree.ElementTree as ET
@@ -19,18 +18,26 @@ def test_ament_index_marker_and_package_xml(venv, pkg):
     assert root.find('export/build_type').text == 'ament_python'
 
 
-def test_every_shim_runs_an_existing_module(venv):
+def test_every_shim_runs_a_registered_executable(venv):
+    from track_nodes.registry import executables, main_of
+
     shims = sorted((venv / 'lib/track_nodes').iterdir())
-    assert {s.name for s in shims} >= {'demo_target', 'demo_tracker', 'recorder', 'player', 'bag_recover'}
+    assert {s.name for s in shims} == set(executables())  # one shim per executable, none missing or stale
     for shim in shims:
         assert os.access(shim, os.X_OK), f'{shim} is not executable'
         text = shim.read_text()
-        assert text.startswith('#!/bin/sh') and f'-m track_nodes.{shim.name} ' in text
-        importlib.util.find_spec(f'track_nodes.{shim.name}')
+        assert text.startswith('#!/bin/sh') and f'-m track_nodes {shim.name} ' in text
+        assert callable(main_of(shim.name))
+
+
+def test_unknown_executable_is_one_line_and_exit_2(venv):
+    proc = subprocess.run([str(venv / 'bin/python3'), '-m', 'track_nodes', 'no_such_node'], capture_output=True,
+                          text=True, timeout=60)
+    assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1 and 'no_such_node' in proc.stderr
 
 
 def test_every_scenario_node_has_a_shim(venv):
-    from track_nodes.scenario import load_scenario
+    from track_nodes.launch.scenario import load_scenario
 
     configs = sorted((venv / 'share/track_nodes/config').glob('*.yaml'))
     assert configs, 'no scenario configs installed'

@@ -1,6 +1,6 @@
 import pytest
 
-from track_nodes.scenario import ScenarioError, load_scenario
+from track_nodes.launch.scenario import ScenarioError, load_scenario
 
 
 def test_demo_scenario_lists_its_nodes(repo):

@@ -5,7 +5,7 @@ from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 from std_msgs.msg import String
 
-from track_nodes.summary import FOLD_AT, summarize
+from track_nodes.report.summary import FOLD_AT, summarize
 
 
 def _bag(path, topics):

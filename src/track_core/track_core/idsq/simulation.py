@@ -192,3 +192,18 @@ def summary(results: list[TrackResult]) -> dict[str, float]:
 
 __all__ = ['MEAS_MSG_BYTES', 'RunDraws', 'Scenario', 'TrackResult', 'draw_run', 'estimate', 'run_centralized',
            'run_idsq', 'start', 'start_leader_at', 'summary']
+
+
+def scenario_of(seed: int = 0, n_sensors: int = 24, doa_fraction: float = 0.3, width: float | None = None,
+                height: float | None = None, jitter_var: float | None = None, speed: float | None = None,
+                dt: float | None = None) -> tuple[Scenario, SensorLayout, np.ndarray]:
+    """The §5.1 scenario, its seeded layout and the (T, 2) truth of every tracker step (``vehicle_sim``'s
+    draw: ``draw_run(Scenario(...), SeedSequence(seed))``); ``None`` keeps ``Scenario``'s default."""
+    d = Scenario()
+    sc = Scenario(n_sensors=n_sensors, doa_fraction=doa_fraction, width=d.width if width is None else width,
+                  height=d.height if height is None else height,
+                  jitter_var=d.jitter_var if jitter_var is None else jitter_var,
+                  speed=d.speed if speed is None else speed,
+                  tracker=TrackerParams(dt=d.tracker.dt if dt is None else dt))
+    run = draw_run(sc, np.random.SeedSequence(seed))
+    return sc, run.layout, run.truth

@@ -1,0 +1,166 @@
+"""Helpers shared by the recorder, the player and ``track-bag-recover``.
+
+- ``msg_class('nav_msgs/msg/Odometry')`` → the rclpy message class, by importlib.
+- ``bag_path(name)``: a bag name (→ ``bags/<name>/``) or a path containing '/'.
+- ``qos_to_rosbags`` / ``qos_is_transient_local``: offered QoS as stored in rosbag2 metadata.
+- ``open_bag_checked(path)``: open a rosbag2 bag for reading, turning every way a bag can be
+  bad (missing, not a bag, killed recorder, truncated or corrupt .mcap) into ``BagError`` with
+  one line naming the file and the problem.
+- ``flush_mcap_writer(writer)``: make a rosbags MCAP writer's pending data durable (see there).
+"""
+
+from __future__ import annotations
+
+import importlib
+from pathlib import Path
+from typing import Any
+
+from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
+
+RECOVER_HINT = 'track-bag-recover'
+
+
+class BagError(ValueError):
+    """A bag cannot be used; the message is one line naming the file and the problem."""
+
+
+def msg_class(msgtype: str) -> type:
+    """The rclpy message class of ``pkg/msg/Name`` (also accepts ``pkg/Name``)."""
+    parts = msgtype.split('/')
+    if len(parts) == 2:
+        parts = [parts[0], 'msg', parts[1]]
+    if len(parts) != 3 or not all(parts):
+        raise ValueError(f'invalid message type name {msgtype!r}')
+    pkg, iface, name = parts
+    try:
+        module = importlib.import_module(f'{pkg}.{iface}')
+        return getattr(module, name)
+    except (ImportError, AttributeError):
+        raise ValueError(f'message type {msgtype} is not installed (no module {pkg}.{iface} with {name})') from None
+
+
+def bag_path(name: str) -> Path:
+    """``bags/<name>/`` relative to the cwd, or ``name`` itself when it contains '/'."""
+    return Path(name) if '/' in name else Path('bags') / name
+
+
+def _duration_to_qos_time(d: Any) -> QosTime:
+    ns = int(d.nanoseconds)
+    return QosTime(ns // 1_000_000_000, ns % 1_000_000_000)
+
+
+def qos_to_rosbags(profile: Any) -> Qos:
+    """rclpy ``QoSProfile`` (as offered by a publisher) → rosbags ``Qos`` (same enum values)."""
+    return Qos(
+        QosHistory(int(profile.history)),
+        int(profile.depth),
+        QosReliability(int(profile.reliability)),
+        QosDurability(int(profile.durability)),
+        _duration_to_qos_time(profile.deadline),
+        _duration_to_qos_time(profile.lifespan),
+        QosLiveliness(int(profile.liveliness)),
+        _duration_to_qos_time(profile.liveliness_lease_duration),
+        bool(profile.avoid_ros_namespace_conventions),
+    )
+
+
+def qos_is_transient_local(profiles: list[Qos]) -> bool:
+    """True when the recorded offered QoS says every publisher was transient-local."""
+    return bool(profiles) and all(q.durability == QosDurability.TRANSIENT_LOCAL for q in profiles)
+
+
+def storage_files(bag: Path) -> list[Path]:
+    """The .mcap files of a bag directory (or the file itself), sorted."""
+    if bag.is_file():
+        return [bag]
+    return sorted(bag.glob('*.mcap'))
+
+
+def open_bag_checked(path: Path):
+    """Open ``path`` with rosbags' ``Reader``; every problem → ``BagError`` (one line)."""
+    from rosbags.rosbag2 import Reader, ReaderError
+
+    if not path.exists():
+        raise BagError(f'{path}: no such bag (path does not exist)')
+    if path.is_dir():
+        if not (path / 'metadata.yaml').exists():
+            mcaps = storage_files(path)
+            if mcaps:
+                raise BagError(f'{path}: metadata.yaml is missing, the recorder was probably killed; '
+                               f'recover the messages with: {RECOVER_HINT} {path}')
+            raise BagError(f'{path}: not a rosbag2 bag (no metadata.yaml and no .mcap file)')
+    elif path.suffix != '.mcap':
+        raise BagError(f'{path}: not a bag (expected a bag directory or an .mcap file)')
+    try:
+        reader = Reader(path)
+        reader.open()
+    except PermissionError as exc:
+        raise BagError(f'{exc.filename or path}: cannot read bag: permission denied') from None
+    except (ReaderError, OSError, KeyError, ValueError) as exc:
+        where = _problem_file(path)
+        hint = f'; try {RECOVER_HINT} {path}' if where.suffix == '.mcap' else ''
+        raise BagError(f'{where}: corrupt or truncated bag: {one_line(exc)}{hint}') from None
+    return reader
+
+
+def _problem_file(path: Path) -> Path:
+    if path.is_file():
+        return path
+    files = storage_files(path)
+    return files[0] if len(files) == 1 else path
+
+
+def one_line(exc: BaseException) -> str:
+    text = ' '.join(str(exc).split())
+    return text or type(exc).__name__
+
+
+def validate_messages(reader, path: Path, connections=()) -> dict[str, int]:
+    """Iterate every message once (decompressing and checking every chunk); → count per topic."""
+    from rosbags.rosbag2 import ReaderError
+
+    counts: dict[str, int] = {}
+    try:
+        for conn, _, _ in reader.messages(connections=connections):
+            counts[conn.topic] = counts.get(conn.topic, 0) + 1
+    except (ReaderError, OSError, KeyError, ValueError, EOFError) as exc:
+        raise BagError(f'{_problem_file(path)}: corrupt or truncated bag: {one_line(exc)}; '
+                       f'try {RECOVER_HINT} {path}') from None
+    return counts
+
+
+# -- SIGKILL safety of rosbags' MCAP writer -------------------------------------------------
+
+_PINNED = 'rosbags 0.11.9'
+
+
+def check_mcap_writer_internals(writer) -> None:
+    """Fail early and clearly if rosbags' private McapWriter layout is not the one we rely on."""
+    storage = getattr(writer, 'storage', None)
+    chunk = getattr(storage, 'chunk', None)
+    ok = (callable(getattr(storage, 'close_chunk', None)) and hasattr(storage, 'bio')
+          and hasattr(chunk, 'msgs') and hasattr(chunk, 'bio'))
+    if not ok:
+        import rosbags
+
+        version = getattr(rosbags, '__version__', 'unknown')
+        raise RuntimeError(f'rosbags {version}: McapWriter internals (storage.chunk, storage.close_chunk, '
+                           f'storage.bio) changed; periodic flushing needs {_PINNED}')
+
+
+def flush_mcap_writer(writer) -> bool:
+    """Close rosbags' pending MCAP chunk (if it holds messages) and flush the file to the OS.
+
+    rosbags keeps up to 1 MiB of messages in memory before writing a chunk; after this call the
+    file holds every message written so far, so a SIGKILL loses nothing older than the last
+    flush (recover such a file with ``track-bag-recover``). Returns True if a chunk was written.
+    """
+    storage = writer.storage
+    if storage is None:
+        return False
+    wrote = False
+    if storage.chunk.msgs:
+        storage.close_chunk()
+        wrote = True
+    storage.bio.flush()
+    return wrote

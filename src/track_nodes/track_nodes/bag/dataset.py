@@ -1,0 +1,151 @@
+"""``track-dataset``: convert real data sets into rosbag2 bags the ``player`` can replay.
+
+Usage::
+
+    track-dataset victoria-park --out DIR [--data DIR] [--t-max SECONDS]
+
+``victoria-park`` reads ``inputs.dat``, ``measurements.dat`` and ``gps.dat`` of the ACFR Victoria
+Park run (default folder: ``track_core.slam.victoria.data_dir()``, i.e. ``$TRACK_VICTORIA_PARK`` or
+``../shared/data/victoria_park``) and writes a rosbag2 bag (version 9, MCAP storage, CDR, the same
+format as the recorder) to ``DIR`` (a new directory; an existing one is never overwritten) with
+
+- ``/slam/inputs`` (geometry_msgs/TwistStamped): one per row of inputs.dat, ``twist.linear.x`` =
+  encoder speed, ``twist.angular.z`` = steering angle;
+- ``/slam/scan`` (sensor_msgs/PointCloud2): one per laser scan (rows of measurements.dat sharing one
+  t), fields ``range`` (as measured, to the trunk surface; the ``slam`` node adds the radius),
+  ``bearing`` (unchanged: the data's convention is eq. 5's), ``diameter``;
+- ``/slam/gps`` (geometry_msgs/PointStamped, frame ``gps``): one per row of gps.dat, jumps included.
+
+Every header stamp and bag (log) time is the data's own time (seconds from the run's start);
+messages are written in time order (a scan before an input at equal t, as ``victoria.events``).
+``--t-max S`` keeps only the data with t ≤ S (``victoria.load(t_max=S)``), for a short stretch.
+A wrong data path, a missing or malformed file, an existing ``--out`` or a bad ``--t-max`` prints one
+line on stderr and exits with code 2. Do not commit converted bags: they are derived data.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+from track_nodes.bag.api import one_line
+from track_nodes.base.cli import OneLineParser
+
+EXIT_BAD_INPUT = 2
+
+
+class DatasetError(ValueError):
+    """The conversion cannot be done; the message is one line."""
+
+
+def load_victoria(data: Path | None, t_max: float | None):
+    """``victoria.load`` with raw ranges (add_radius=False), every problem as one-line ``DatasetError``."""
+    from track_core.slam import victoria
+
+    path = Path(data) if data is not None else victoria.data_dir()
+    if not path.is_dir():
+        raise DatasetError(f'{path}: Victoria Park data folder not found (expected inputs.dat, measurements.dat, '
+                           'gps.dat; give --data DIR or set TRACK_VICTORIA_PARK)')
+    missing = [f for f in ('inputs.dat', 'measurements.dat', 'gps.dat') if not (path / f).is_file()]
+    if missing:
+        raise DatasetError(f'{path}: not a Victoria Park data folder: missing {", ".join(missing)}')
+    try:
+        vp = victoria.load(path, t_max=t_max, add_radius=False)
+    except (OSError, ValueError, IndexError) as exc:
+        raise DatasetError(f'{path}: cannot read the data: {one_line(exc)}') from None
+    if vp.inputs.ndim != 2 or vp.inputs.shape[1] < 3 or len(vp.scans) == 0:
+        raise DatasetError(f'{path}: no usable rows' + (f' with t <= {t_max:g} s' if t_max is not None else ''))
+    return vp
+
+
+def victoria_messages(vp):
+    """(t, topic, message) of the whole run in time order (scan before input at equal t, then GPS)."""
+    import numpy as np
+    from geometry_msgs.msg import PointStamped
+    from std_msgs.msg import Header
+
+    from track_msgs_py.convert import inputs_to_twist, scan_to_pointcloud2, sec_to_stamp
+    from track_msgs_py.topics import FRAME_GPS, SLAM_GPS, SLAM_INPUTS, SLAM_SCAN
+
+    t_in, t_sc, t_gps = vp.inputs[:, 0], np.asarray(vp.scan_t, dtype=float), vp.gps[:, 0]
+    times = np.concatenate([t_sc, t_in, t_gps])
+    prio = np.concatenate([np.zeros(t_sc.size), np.ones(t_in.size), np.full(t_gps.size, 2)])
+    order = np.lexsort((prio, times))  # by time, then scan < input < gps
+    k_sc, k_in = t_sc.size, t_sc.size + t_in.size
+    for j in order.tolist():
+        if j < k_sc:
+            yield float(t_sc[j]), SLAM_SCAN, scan_to_pointcloud2(t_sc[j], vp.scans[j], vp.diameters[j])
+        elif j < k_in:
+            _, v, a = vp.inputs[j - k_sc]
+            yield float(t_in[j - k_sc]), SLAM_INPUTS, inputs_to_twist(t_in[j - k_sc], v, a)
+        else:
+            t, x, y = vp.gps[j - k_in]
+            msg = PointStamped(header=Header(stamp=sec_to_stamp(t), frame_id=FRAME_GPS))
+            msg.point.x, msg.point.y = float(x), float(y)
+            yield float(t), SLAM_GPS, msg
+
+
+def write_bag(out: Path, messages, topics: dict[str, str]) -> dict[str, int]:
+    """Write (t, topic, msg) to a new rosbag2 v9 MCAP bag at ``out``; → message count per topic."""
+    from rclpy.serialization import serialize_message
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    from track_msgs_py.convert import stamp_to_ns
+
+    ts = get_typestore(Stores.ROS2_JAZZY)
+    counts = dict.fromkeys(topics, 0)
+    with Writer(out, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        conns = {topic: writer.add_connection(topic, msgtype, typestore=ts) for topic, msgtype in topics.items()}
+        for _, topic, msg in messages:
+            writer.write(conns[topic], stamp_to_ns(msg.header.stamp), serialize_message(msg))
+            counts[topic] += 1
+    return counts
+
+
+def convert_victoria_park(out: Path, data: Path | None = None, t_max: float | None = None) -> dict[str, int]:
+    from track_msgs_py.topics import SLAM_GPS, SLAM_INPUTS, SLAM_SCAN, TOPICS
+
+    if t_max is not None and not t_max > 0:
+        raise DatasetError(f'--t-max {t_max}: must be > 0')
+    out = Path(out)
+    if out.exists():
+        raise DatasetError(f'{out}: exists already, not overwriting (choose another --out)')
+    vp = load_victoria(data, t_max)
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise DatasetError(f'{out.parent}: cannot create the folder for --out: {one_line(exc)}') from None
+    topics = {t: TOPICS[t].msgtype for t in (SLAM_INPUTS, SLAM_SCAN, SLAM_GPS)}
+    return write_bag(out, victoria_messages(vp), topics)
+
+
+def _parser() -> argparse.ArgumentParser:
+    ap = OneLineParser(prog='track-dataset', description='Convert a real data set into a rosbag2 MCAP bag.')
+    sub = ap.add_subparsers(dest='dataset', required=True, metavar='DATASET', parser_class=OneLineParser)
+    vp = sub.add_parser('victoria-park', help='the ACFR Victoria Park run (inputs, laser scans of trees, GPS)',
+                        description='Write /slam/inputs, /slam/scan and /slam/gps, stamped with the data times, '
+                                    'to a new rosbag2 MCAP bag.')
+    vp.add_argument('--out', type=Path, required=True, metavar='DIR', help='new bag directory to write')
+    vp.add_argument('--data', type=Path, default=None, metavar='DIR',
+                    help='data folder (default: $TRACK_VICTORIA_PARK or ../shared/data/victoria_park)')
+    vp.add_argument('--t-max', type=float, default=None, metavar='SECONDS', help='keep only data with t <= SECONDS')
+    return ap
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = _parser().parse_args(list(sys.argv[1:] if argv is None else argv))
+    try:
+        counts = convert_victoria_park(args.out, args.data, args.t_max)
+    except DatasetError as exc:
+        print(f'track-dataset: {exc}', file=sys.stderr)
+        return EXIT_BAD_INPUT
+    total = sum(counts.values())
+    print(f'{args.out}: {total} messages (' + ', '.join(f'{t} {n}' for t, n in counts.items()) + ')', flush=True)
+    return 0
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())

@@ -1,0 +1,272 @@
+"""``player``: replay a rosbag2 bag with its original timing, publishing ``/clock``.
+
+Usage::
+
+    track-play BAG [--rate R] [--loop] [--topics T ...] [--start-offset S] [--wait-subscribers S]
+    .venv/lib/track_nodes/player BAG ...          (same, through the ros2-run shim)
+    ... --ros-args -p bag:=BAG -p rate:=2.0       (parameters directly)
+
+- BAG: a bag directory (``metadata.yaml`` + .mcap), an .mcap file with summary, or a bag name
+  (→ ``bags/BAG/``).
+- Timing: a message recorded at bag time t is published at wall time
+  ``t0_wall + (t - t_start) / rate`` (``rate`` 2 = twice as fast), where ``t_start`` is the bag's
+  first message time plus ``--start-offset``; earlier messages are skipped.
+- The raw CDR bytes are published unchanged (no deserialisation); the classes for the publishers
+  come from the type names by importlib.
+- ``/clock`` (rosgraph_msgs/Clock) carries bag time: the time of each message just before it is
+  published, and between messages every ``clock_period`` wall seconds the interpolated bag
+  time. It never goes backwards (except when ``--loop`` restarts). So ``use_sim_time`` nodes
+  follow bag time at any rate. A ``/clock`` topic recorded in the bag is not replayed.
+- QoS of the publishers: reliable, keep-last 100; transient-local only for topics whose
+  recorded offered QoS was transient-local for every publisher, else volatile.
+- Before the first message: wait up to ``wait_subscribers`` seconds (default 2) until every
+  topic to be played has at least one matched subscription, then 0.1 s for the match to settle
+  on both sides. Topics still without a subscriber after that are played anyway.
+- The whole bag is validated before anything is published (opened and every message read
+  once), so a truncated bag never half-plays. A bad path, a directory that is not a bag, a bag
+  without metadata.yaml (killed recorder: recover it with ``track-bag-recover``), a truncated
+  or corrupt .mcap, an invalid ``--rate`` (≤ 0, NaN) or an unknown ``--topics`` entry → one line
+  on stderr naming the file and the problem, exit code 2.
+- Exits with code 0 when the bag has been played (reliable messages acknowledged, up to 2 s),
+  unless ``--loop``.
+"""
+
+from __future__ import annotations
+
+import sys
+import threading
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+from rclpy.clock import Clock as RosClock
+from rclpy.clock import ClockType
+from rclpy.duration import Duration
+from rclpy.parameter import Parameter
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rosgraph_msgs.msg import Clock
+
+from track_nodes.bag.api import BagError, msg_class, open_bag_checked, qos_is_transient_local, validate_messages
+from track_nodes.base import Param, ParameterError, TrackNode, declare_params, run_node
+from track_nodes.base.cli import OneLineParser
+
+CLOCK_TOPIC = '/clock'
+DEPTH = 100
+SETTLE = 0.1  # wall seconds after all subscriptions matched
+ACK_TIMEOUT = 2.0
+
+BAG_PARAM = Param('bag', '', "bag directory or .mcap file (a name without '/' → bags/<name>/)")
+PARAMS = (
+    Param('rate', 1.0, 'playback speed factor (2 = twice as fast)', 1e-6, 1e6),
+    Param('loop', False, 'start again at the end, forever'),
+    Param('topics', [''], 'topics to play (empty: all)'),
+    Param('start_offset', 0.0, 'skip this much bag time from the first message [s]', 0.0, 1e9),
+    Param('wait_subscribers', 2.0, 'wait up to this long for a subscription on every topic [s]', 0.0, 3600.0),
+    Param('clock_period', 0.01, 'wall interval between /clock messages between bag messages [s]', 1e-3, 10.0),
+)
+
+
+def resolve_bag(text: str) -> Path:
+    path = Path(text)
+    if '/' not in text and not path.exists() and (Path('bags') / text).exists():
+        return Path('bags') / text
+    return path
+
+
+def wall_offsets(bag_times_ns: Sequence[int], start_ns: int, rate: float) -> list[float]:
+    """Wall seconds after playback start at which each message is due: (t - start) / rate."""
+    return [(t - start_ns) * 1e-9 / rate for t in bag_times_ns]
+
+
+def _stamp(ns: int):
+    from builtin_interfaces.msg import Time
+
+    return Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
+
+
+class PlayerNode(TrackNode):
+    DEFAULT_NAME = 'player'
+
+    def __init__(self, exit_when_done: bool = False, **kw) -> None:
+        super().__init__(**kw)
+        self.reader = None
+        self.exit_code = 0
+        self.done = threading.Event()
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        bag_text = declare_params(self, [BAG_PARAM]).bag
+        if not bag_text:
+            raise ValueError('no bag given: track-play BAG (or -p bag:=BAG)')
+        self.path = resolve_bag(bag_text)
+        try:
+            p = declare_params(self, PARAMS)
+        except ParameterError as exc:
+            raise ParameterError(f'{self.path}: {exc}') from None
+        self.p = p
+        self.reader = open_bag_checked(self.path)
+        try:
+            self._setup()
+        except BaseException:
+            self._close_reader()
+            raise
+        self.published = 0
+        self.clock_pub = self.create_publisher(Clock, CLOCK_TOPIC, QoSProfile(depth=10))
+        self.publishers_by_topic = {}
+        for topic, (msgtype, transient) in self.topic_info.items():
+            qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=DEPTH, reliability=ReliabilityPolicy.RELIABLE,
+                             durability=DurabilityPolicy.TRANSIENT_LOCAL if transient else DurabilityPolicy.VOLATILE)
+            self.publishers_by_topic[topic] = self.create_publisher(self.classes[msgtype], topic, qos)
+        if exit_when_done:
+            self.create_timer(0.05, self._exit_if_done, clock=RosClock(clock_type=ClockType.STEADY_TIME))
+        self._thread = threading.Thread(target=self._run, name='player', daemon=True)
+        self._thread.start()
+
+    # -- validation -----------------------------------------------------------------------
+    def _setup(self) -> None:
+        reader, path = self.reader, self.path
+        by_topic: dict[str, list] = {}
+        for conn in reader.connections:
+            by_topic.setdefault(conn.topic, []).append(conn)
+        wanted = sorted({t if t.startswith('/') else '/' + t for t in self.p.topics if t})
+        unknown = [t for t in wanted if t not in by_topic]
+        if unknown:
+            raise BagError(f'{path}: --topics {", ".join(unknown)} not in the bag '
+                           f'(it has: {", ".join(sorted(by_topic)) or "no topics"})')
+        topics = [t for t in (wanted or sorted(by_topic)) if t != CLOCK_TOPIC]
+        self.topic_info: dict[str, tuple[str, bool]] = {}
+        self.classes: dict[str, type] = {}
+        for topic in topics:
+            conns = by_topic[topic]
+            types = {c.msgtype for c in conns}
+            if len(types) > 1:
+                raise BagError(f'{path}: topic {topic} has several types {sorted(types)}; not supported')
+            msgtype = types.pop()
+            try:
+                self.classes.setdefault(msgtype, msg_class(msgtype))
+            except ValueError as exc:
+                raise BagError(f'{path}: topic {topic}: {exc}') from None
+            qos = [q for c in conns for q in c.ext.offered_qos_profiles]
+            self.topic_info[topic] = (msgtype, qos_is_transient_local(qos))
+        self.connections = [c for t in topics for c in by_topic[t]]
+        counts = validate_messages(reader, path)  # every message of every topic, once
+        self.start_ns = reader.start_time + round(self.p.start_offset * 1e9)
+        self.to_play = sum(counts.get(t, 0) for t in topics)
+        self.get_logger().info(
+            f'{path}: {reader.message_count} messages, {reader.duration * 1e-9:.3f} s; playing '
+            f'{len(topics)} topics at rate {self.p.rate:g}' + (' in a loop' if self.p.loop else ''))
+
+    # -- playback -------------------------------------------------------------------------
+    def _wait_for_subscribers(self) -> None:
+        deadline = time.monotonic() + self.p.wait_subscribers
+        pubs = list(self.publishers_by_topic.values())
+        while time.monotonic() < deadline and not self._stop.is_set():
+            if all(pub.get_subscription_count() > 0 for pub in pubs):
+                self._stop.wait(SETTLE)
+                return
+            self._stop.wait(0.02)
+
+    def _log(self, line: str, error: bool = False) -> None:
+        if self.context.ok():
+            (self.get_logger().error if error else self.get_logger().info)(line)
+        else:  # after shutdown (Ctrl-C) the logger can no longer reach /rosout and complains
+            print(f'[{"ERROR" if error else "INFO"}] [{self.get_name()}]: {line}', file=sys.stderr)
+
+    def _publish_clock(self, ns: int) -> None:
+        if ns > self._last_clock:
+            self._last_clock = ns
+            self.clock_pub.publish(Clock(clock=_stamp(ns)))
+
+    def _run(self) -> None:
+        try:
+            self._wait_for_subscribers()
+            while not self._stop.is_set():
+                self._play_once()
+                if not self.p.loop:
+                    break
+            for pub in self.publishers_by_topic.values():
+                if self._stop.is_set():
+                    break
+                pub.wait_for_all_acked(Duration(seconds=ACK_TIMEOUT))
+            self._log(f'played {self.published} messages from {self.path}')
+        except Exception as exc:  # a failing playback thread must not hang the node
+            if not self._stop.is_set():
+                self.exit_code = 1
+                self._log(f'playback of {self.path} failed: {type(exc).__name__}: {exc}', error=True)
+        finally:
+            self.done.set()
+
+    def _play_once(self) -> None:
+        rate, period = self.p.rate, self.p.clock_period
+        self._last_clock = -1
+        self._publish_clock(self.start_ns)
+        wall0 = time.monotonic()
+        for conn, t, data in self.reader.messages(connections=self.connections, start=self.start_ns):
+            due = wall0 + (t - self.start_ns) * 1e-9 / rate
+            while (now := time.monotonic()) < due:
+                if self._stop.wait(min(due - now, period)):
+                    return
+                bag_now = self.start_ns + round((time.monotonic() - wall0) * rate * 1e9)
+                self._publish_clock(min(bag_now, t - 1))
+            if self._stop.is_set():
+                return
+            self._publish_clock(t)
+            self.publishers_by_topic[conn.topic].publish(data)
+            self.published += 1
+
+    def _exit_if_done(self) -> None:
+        if self.done.is_set():
+            self.context.try_shutdown()  # ends run_node's spin; destroy_node follows
+
+    def _close_reader(self) -> None:
+        reader, self.reader = self.reader, None
+        if reader is not None:
+            reader.close()
+
+    def destroy_node(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=5.0)
+        self._close_reader()
+        super().destroy_node()
+
+
+
+
+def parse_cli(argv: Sequence[str]) -> list[Parameter]:
+    """Non-ROS CLI arguments → parameter overrides (``--ros-args`` are left to rclpy)."""
+    from rclpy.utilities import remove_ros_args
+
+    ap = OneLineParser(prog='track-play', description='Replay a bag with its timing and /clock.')
+    ap.add_argument('bag', nargs='?', help="bag directory or .mcap (a name without '/' → bags/NAME/)")
+    ap.add_argument('--rate', type=float, default=None, help='speed factor, > 0 (default 1)')
+    ap.add_argument('--loop', action='store_true', help='play again and again')
+    ap.add_argument('--topics', nargs='+', default=None, metavar='T', help='play only these topics')
+    ap.add_argument('--start-offset', type=float, default=None, metavar='S',
+                    help='start S seconds of bag time after the first message')
+    ap.add_argument('--wait-subscribers', type=float, default=None, metavar='S',
+                    help='wait up to S s for a subscriber on every topic (default 2)')
+    args = ap.parse_args(remove_ros_args(list(argv))[1:])
+    overrides = []
+    if args.bag is not None:
+        overrides.append(Parameter('bag', value=args.bag))
+    if args.rate is not None:
+        overrides.append(Parameter('rate', value=float(args.rate)))
+    if args.loop:
+        overrides.append(Parameter('loop', value=True))
+    if args.topics is not None:
+        overrides.append(Parameter('topics', value=list(args.topics)))
+    if args.start_offset is not None:
+        overrides.append(Parameter('start_offset', value=float(args.start_offset)))
+    if args.wait_subscribers is not None:
+        overrides.append(Parameter('wait_subscribers', value=float(args.wait_subscribers)))
+    return overrides
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = list(sys.argv if argv is None else argv)
+    overrides = parse_cli(args)
+    return run_node(PlayerNode, args, parameter_overrides=overrides or None, exit_when_done=True)
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())

@@ -1,0 +1,246 @@
+"""``recorder``: record topics to a rosbag2 bag (``metadata.yaml`` + MCAP, version 9).
+
+Usage::
+
+    track-record NAME [-t TOPIC ...] [-e REGEX] [--flush-period S] [--ros-args ...]
+    .venv/lib/track_nodes/recorder --ros-args -p bag:=NAME -p regex:=REGEX -p topics:="['/a', '/b']"
+
+- NAME → ``bags/NAME/`` relative to the cwd, or a path if it contains '/'. An existing bag is
+  never overwritten (one error line, exit 2). Without a name: ``bags/rosbag2_<timestamp>/``.
+- What is recorded: the listed ``topics``, plus every topic matching ``regex`` (``re.search``).
+  With neither, every topic. ``/rosout`` and ``/parameter_events`` are only recorded when listed
+  in ``topics``. Topics that appear later are found by polling the graph every
+  ``discovery_period`` seconds; a topic is subscribed once it has a publisher (its type and QoS
+  come from the publishers). Discovery and flushing run on the steady wall clock, also under
+  ``use_sim_time`` (a launcher may start /clock only once the recorder has subscribed).
+- Subscriptions are raw (the CDR bytes are written as received). QoS: best effort if any
+  publisher is best effort, transient-local if all publishers are, else reliable volatile;
+  depth 100. The publishers' offered QoS is stored in the bag.
+- Timestamps: receive time on the node's clock (sim time under ``use_sim_time``).
+- Durability: every ``flush_period`` seconds the pending MCAP chunk is written and the file
+  flushed, so after a SIGKILL the .mcap holds every message up to the last flush; recover it
+  with ``track-bag-recover``. SIGINT/SIGTERM (and destroying the node) close the bag cleanly.
+"""
+
+from __future__ import annotations
+
+import re
+import sys
+import threading
+from collections.abc import Sequence
+from datetime import datetime
+
+from rclpy.clock import Clock, ClockType
+from rclpy.parameter import Parameter
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+from track_nodes.bag.api import bag_path, check_mcap_writer_internals, flush_mcap_writer, msg_class, qos_to_rosbags
+from track_nodes.base import Param, TrackNode, run_node
+from track_nodes.base.cli import OneLineParser
+
+EXCLUDED_BY_DEFAULT = ('/rosout', '/parameter_events')
+DEPTH = 100
+
+PARAMS = (
+    Param('bag', '', "bag name (→ bags/<name>/) or a path containing '/'; empty: rosbag2_<timestamp>"),
+    Param('topics', [''], 'topics to record (empty: only those matching regex, or all)'),
+    Param('regex', '', 'record every topic matching this regular expression (re.search)'),
+    Param('discovery_period', 0.1, 'interval between graph polls for new topics [s]', 0.01, 60.0),
+    Param('flush_period', 1.0, 'interval between flushes of the pending data to the file [s]', 0.01, 3600.0),
+)
+
+
+def _normalise(topic: str) -> str:
+    return topic if topic.startswith('/') else '/' + topic
+
+
+def recording_qos(publisher_profiles: Sequence) -> QoSProfile:
+    """Subscription QoS compatible with every publisher (see the module docstring)."""
+    best_effort = any(p.reliability == ReliabilityPolicy.BEST_EFFORT for p in publisher_profiles)
+    transient = bool(publisher_profiles) and all(
+        p.durability == DurabilityPolicy.TRANSIENT_LOCAL for p in publisher_profiles)
+    return QoSProfile(
+        history=HistoryPolicy.KEEP_LAST, depth=DEPTH,
+        reliability=ReliabilityPolicy.BEST_EFFORT if best_effort else ReliabilityPolicy.RELIABLE,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL if transient else DurabilityPolicy.VOLATILE)
+
+
+class RecorderNode(TrackNode):
+    DEFAULT_NAME = 'recorder'
+    PARAMS = PARAMS
+
+    def __init__(self, **kw) -> None:
+        super().__init__(**kw)
+        self._writer = None
+        self._closed = False
+        self._lock = threading.Lock()
+        p = self.p
+        self.explicit = {_normalise(t) for t in p.topics if t}
+        try:
+            self.regex = re.compile(p.regex) if p.regex else None
+        except re.error as exc:
+            raise ValueError(f'parameter regex={p.regex!r} is not a valid regular expression: {exc}') from None
+        if self.regex is None and not self.explicit:
+            self.regex = re.compile('')  # everything
+        name = p.bag or f'rosbag2_{datetime.now():%Y_%m_%d-%H_%M_%S}'
+        self.path = bag_path(name)
+        if self.path.exists():
+            raise ValueError(f'{self.path}: bag exists already, not overwriting (choose another name)')
+
+        from rosbags.rosbag2 import StoragePlugin, Writer, WriterError
+        from rosbags.typesys import Stores, get_typestore
+
+        self.typestore = get_typestore(Stores.ROS2_JAZZY)
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            writer = Writer(self.path, version=9, storage_plugin=StoragePlugin.MCAP)
+            writer.open()
+        except WriterError as exc:
+            raise ValueError(f'{self.path}: cannot create bag: {exc}') from None
+        self._writer = writer
+        try:
+            check_mcap_writer_internals(writer)
+        except RuntimeError:
+            self._abort()
+            raise
+        flush_mcap_writer(writer)  # the MCAP header reaches the file at once
+        self.connections: dict[str, object] = {}
+        self.counts: dict[str, int] = {}
+        self.subscriptions_by_topic: dict[str, object] = {}
+        self.skipped: set[str] = set()
+        # Wall-clock (steady) timers: under use_sim_time, /clock may only start once we subscribed.
+        steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self.discovery_timer = self.create_timer(p.discovery_period, self.discover, clock=steady)
+        self.flush_timer = self.create_timer(p.flush_period, self.flush, clock=steady)
+        what = []
+        if self.explicit:
+            what.append('topics ' + ', '.join(sorted(self.explicit)))
+        if self.regex is not None:
+            what.append(f'topics matching {self.regex.pattern!r}' if self.regex.pattern else 'all topics')
+        self.get_logger().info(f'recording {" and ".join(what)} to {self.path}')
+
+    # -- discovery ------------------------------------------------------------------------
+    def wanted(self, topic: str) -> bool:
+        if topic in self.explicit:
+            return True
+        if topic in EXCLUDED_BY_DEFAULT or self.regex is None:
+            return False
+        return self.regex.search(topic) is not None
+
+    def discover(self) -> None:
+        if self._closed:
+            return
+        for topic, types in self.get_topic_names_and_types():
+            if topic in self.subscriptions_by_topic or topic in self.skipped or not self.wanted(topic):
+                continue
+            infos = self.get_publishers_info_by_topic(topic)
+            if not infos:
+                continue  # only subscribers so far: type and QoS unknown
+            self._subscribe(topic, types, infos)
+
+    def _subscribe(self, topic: str, types: list[str], infos: list) -> None:
+        msgtype = types[0]
+        if len(types) > 1:
+            self.get_logger().warning(f'{topic} has several types {types}; recording {msgtype}')
+        try:
+            cls = msg_class(msgtype)
+            self.typestore.generate_msgdef(msgtype, ros_version=2)
+        except (ValueError, KeyError) as exc:
+            self.get_logger().error(f'not recording {topic}: {exc}')
+            self.skipped.add(topic)
+            return
+        profiles = [i.qos_profile for i in infos]
+        offered = [qos_to_rosbags(q) for q in profiles]
+        with self._lock:
+            if self._closed:
+                return
+            self.connections[topic] = self._writer.add_connection(
+                topic, msgtype, typestore=self.typestore, offered_qos_profiles=offered)
+            self.counts[topic] = 0
+        qos = recording_qos(profiles)
+        self.subscriptions_by_topic[topic] = self.create_subscription(
+            cls, topic, lambda data, t=topic: self._on_message(t, data), qos, raw=True)
+        self.get_logger().info(
+            f'recording {topic} [{msgtype}] ({qos.reliability.name.lower()}, {qos.durability.name.lower()})')
+
+    # -- writing --------------------------------------------------------------------------
+    def _on_message(self, topic: str, data: bytes) -> None:
+        stamp = self.get_clock().now().nanoseconds
+        with self._lock:
+            if self._closed:
+                return
+            self._writer.write(self.connections[topic], stamp, data)
+            self.counts[topic] += 1
+
+    def flush(self) -> None:
+        """Write the pending chunk and flush the file (SIGKILL safety, see bag_io)."""
+        with self._lock:
+            if not self._closed and self._writer is not None:
+                flush_mcap_writer(self._writer)
+
+    def message_counts(self) -> dict[str, int]:
+        with self._lock:
+            return dict(self.counts)
+
+    def summary(self) -> str:
+        counts = self.message_counts()
+        per_topic = ', '.join(f'{t}: {n}' for t, n in sorted(counts.items())) or 'no topics'
+        return f'recorded {sum(counts.values())} messages ({per_topic}) to {self.path}'
+
+    def close(self) -> None:
+        """Close the bag (writes the MCAP summary and metadata.yaml); idempotent."""
+        with self._lock:
+            if self._closed or self._writer is None:
+                self._closed = True
+                return
+            self._closed = True
+            self._writer.close()
+        line = self.summary()
+        if self.context.ok():
+            self.get_logger().info(line)
+        else:  # after shutdown the logger can no longer reach /rosout and complains
+            print(f'[INFO] [{self.get_name()}]: {line}', file=sys.stderr)
+
+    def _abort(self) -> None:
+        self._closed = True
+        if self._writer is not None:
+            self._writer.abort()
+
+    def destroy_node(self) -> None:
+        self.close()
+        super().destroy_node()
+
+
+
+
+def parse_cli(argv: Sequence[str]) -> list[Parameter]:
+    """Non-ROS CLI arguments → parameter overrides (``--ros-args`` are left to rclpy)."""
+    from rclpy.utilities import remove_ros_args
+
+    ap = OneLineParser(prog='track-record', description='Record topics to bags/NAME/ (rosbag2, MCAP).')
+    ap.add_argument('name', nargs='?', help="bag name (→ bags/NAME/) or a path containing '/'")
+    ap.add_argument('-t', '--topics', nargs='+', default=None, metavar='TOPIC', help='topics to record')
+    ap.add_argument('-e', '--regex', default=None, help='record every topic matching REGEX')
+    ap.add_argument('--flush-period', type=float, default=None, metavar='S',
+                    help='flush pending messages to the file every S seconds (default 1)')
+    args = ap.parse_args(remove_ros_args(list(argv))[1:])
+    overrides = []
+    if args.name is not None:
+        overrides.append(Parameter('bag', value=args.name))
+    if args.topics is not None:
+        overrides.append(Parameter('topics', value=list(args.topics)))
+    if args.regex is not None:
+        overrides.append(Parameter('regex', value=args.regex))
+    if args.flush_period is not None:
+        overrides.append(Parameter('flush_period', value=float(args.flush_period)))
+    return overrides
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = list(sys.argv if argv is None else argv)
+    overrides = parse_cli(args)
+    return run_node(RecorderNode, args, parameter_overrides=overrides or None)
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())

@@ -1,0 +1,140 @@
+"""Declared, range-checked node parameters.
+
+- ``Param`` + ``declare_params``: every parameter gets a description and, for numbers, a
+  range in its ParameterDescriptor (so ``ros2 param describe`` shows it). A value outside
+  the range, of the wrong type or not among ``choices`` raises ``ParameterError`` with one
+  line naming the parameter, the value and what is allowed.
+- ``declare_dataclass``: a core configuration dataclass as ``<prefix>.<field>`` parameters,
+  one per number, bool or number-tuple field, with the core's own checks on the result.
+- ``vector``: a list parameter as a finite numpy vector of a fixed length, or one line.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import sys
+from collections.abc import Iterable
+from dataclasses import dataclass
+from types import SimpleNamespace
+from typing import Any
+
+import numpy as np
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+from rclpy.exceptions import ParameterException
+from rclpy.node import Node
+
+
+class ParameterError(ValueError):
+    """A node parameter has an invalid value; the message is one line."""
+
+
+@dataclass(frozen=True)
+class Param:
+    """Declaration of one node parameter. ``lo``/``hi`` are inclusive bounds for numbers."""
+
+    name: str
+    default: Any
+    description: str
+    lo: float | None = None
+    hi: float | None = None
+    choices: tuple[str, ...] | None = None
+
+    def allowed(self) -> str:
+        if self.choices is not None:
+            return 'one of ' + ', '.join(self.choices)
+        lo = '-inf' if self.lo is None else f'{self.lo:g}'
+        hi = 'inf' if self.hi is None else f'{self.hi:g}'
+        return f'[{lo}, {hi}]'
+
+    def descriptor(self) -> ParameterDescriptor:
+        d = ParameterDescriptor(name=self.name, description=f'{self.description} (allowed: {self.allowed()})')
+        if isinstance(self.default, bool) or (self.lo is None and self.hi is None):
+            return d
+        lo = -sys.float_info.max if self.lo is None else self.lo
+        hi = sys.float_info.max if self.hi is None else self.hi
+        if isinstance(self.default, int):
+            d.integer_range = [IntegerRange(from_value=int(max(lo, -(2**62))), to_value=int(min(hi, 2**62)), step=0)]
+        elif isinstance(self.default, float):
+            d.floating_point_range = [FloatingPointRange(from_value=float(lo), to_value=float(hi), step=0.0)]
+        return d
+
+    def check(self, value: Any) -> None:
+        if self.choices is not None and value not in self.choices:
+            raise ParameterError(f'parameter {self.name}={value!r} is invalid: allowed {self.allowed()}')
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            bad_lo = self.lo is not None and not value >= self.lo
+            bad_hi = self.hi is not None and not value <= self.hi
+            if bad_lo or bad_hi or math.isnan(value):
+                raise ParameterError(f'parameter {self.name}={value!r} is out of range: allowed {self.allowed()}')
+
+
+def declare_params(node: Node, specs: Iterable[Param]) -> SimpleNamespace:
+    """Declare ``specs`` on ``node`` and return their checked values as attributes."""
+    values = {}
+    for spec in specs:
+        try:
+            param = node.declare_parameter(spec.name, spec.default, spec.descriptor())
+        except ParameterException as exc:
+            # rclpy's own range/type checks: keep only the first line of its message.
+            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            raise ParameterError(f'parameter {spec.name}: {first} (allowed: {spec.allowed()})') from None
+        value = param.value
+        spec.check(value)
+        values[spec.name] = value
+    return SimpleNamespace(**values)
+
+
+def vector(name: str, value: Any, n: int, positive: bool = False) -> np.ndarray:
+    """Parameter ``name`` as ``n`` finite (and, with ``positive``, > 0) floats, else ``ParameterError``."""
+    v = np.asarray(value, dtype=float)
+    if v.shape != (n,) or not np.all(np.isfinite(v)) or (positive and np.any(v <= 0)):
+        what = 'positive' if positive else 'finite'
+        raise ParameterError(f'parameter {name}={list(value)!r} is invalid: allowed {n} {what} numbers')
+    return v
+
+
+def _plain(v: Any) -> Any:
+    """A dataclass field value as a ROS parameter value (tuples → lists of float, numpy → python)."""
+    if isinstance(v, (tuple, list, np.ndarray)):
+        return [float(x) for x in v]
+    if isinstance(v, (bool, np.bool_)):
+        return bool(v)
+    if isinstance(v, (int, np.integer)):
+        return int(v)
+    return float(v)
+
+
+def _scalar_field(v: Any) -> bool:
+    if isinstance(v, (tuple, list)):
+        return all(isinstance(x, (int, float, np.number)) and not isinstance(x, bool) for x in v)
+    return isinstance(v, (bool, int, float, np.number, np.bool_))
+
+
+def dataclass_params(prefix: str, default: Any) -> list[Param]:
+    """One Param per number/bool/number-tuple field of the dataclass instance ``default``, named
+    ``<prefix>.<field>`` with the instance's value as default (other fields keep their value)."""
+    cls = type(default)
+    return [Param(f'{prefix}.{f.name}', _plain(getattr(default, f.name)),
+                  f'{cls.__name__}.{f.name} of {cls.__module__} (see its docstring)')
+            for f in dataclasses.fields(cls) if _scalar_field(getattr(default, f.name))]
+
+
+def replace_dataclass(prefix: str, default: Any, values: dict) -> Any:
+    """``default`` with the declared values; the core's own checks → ParameterError (one line)."""
+    kw = {}
+    for f in dataclasses.fields(type(default)):
+        key = f'{prefix}.{f.name}'
+        if key in values:
+            v = values[key]
+            kw[f.name] = tuple(v) if isinstance(getattr(default, f.name), tuple) else v
+    try:
+        return dataclasses.replace(default, **kw)
+    except (ValueError, TypeError) as exc:
+        raise ParameterError(f'parameter {prefix}.{exc}' if str(exc)[:1].isalpha() else
+                             f'parameters {prefix}.*: {exc}') from None
+
+
+def declare_dataclass(node: Node, prefix: str, default: Any) -> Any:
+    """Declare ``default``'s fields as ``<prefix>.*`` parameters and return the dataclass they give."""
+    return replace_dataclass(prefix, default, vars(declare_params(node, dataclass_params(prefix, default))))

@@ -1,0 +1,35 @@
+"""``FixedRateSteps``: a seeded simulator's step clock, reproducible whatever the executor timing."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+from rclpy.node import Node
+
+
+class FixedRateSteps:
+    """Call ``step(t)`` once per ``period`` of node time, at t = origin + k·period exactly.
+
+    Stamps come from the step counter, not from when the timer happened to fire, and a late
+    timer catches up one step at a time, so a seeded simulator publishes the same payloads
+    whatever the executor timing. Under ``use_sim_time`` the origin is 0 (the launcher's
+    clock starts there); on wall time it is the whole second at the first tick.
+    ``max_time`` > 0 stops stepping after that much node time since the origin.
+    """
+
+    def __init__(self, node: Node, period: float, step: Callable[[float], None], max_time: float = 0.0) -> None:
+        self.node, self.period, self.step, self.max_time = node, period, step, max_time
+        self.k = 0
+        self.origin: float | None = None
+        self.timer = node.create_timer(period, self._tick)
+
+    def _tick(self) -> None:
+        now = self.node.get_clock().now().nanoseconds * 1e-9
+        if self.origin is None:
+            self.origin = 0.0 if self.node.get_parameter('use_sim_time').value else float(math.floor(now))
+        while self.origin + (self.k + 1) * self.period <= now + 1e-9:
+            if self.max_time > 0 and (self.k + 1) * self.period > self.max_time + 1e-9:
+                return
+            self.k += 1
+            self.step(self.origin + self.k * self.period)

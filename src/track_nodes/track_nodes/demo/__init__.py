@@ -1,0 +1,1 @@
+"""The foundation demo: a Kalman tracker of a constant-velocity target."""

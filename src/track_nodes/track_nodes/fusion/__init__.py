@@ -1,0 +1,1 @@
+"""Track-to-track association by geofeasibility scores, and covariance-intersection fusion."""

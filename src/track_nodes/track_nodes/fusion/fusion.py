@@ -1,0 +1,278 @@
+"""``fusion``: geofeasibility scoring and track-to-track association of every pair of tracks.
+
+Subscribes to the track topics listed in ``odometry_topics`` (nav_msgs/Odometry; the track id
+is ``<topic>/<child_frame_id>``, so one topic may carry several tracks of one source) and
+``pose_topics`` (PoseWithCovarianceStamped; one track per topic, and the topic's namespace is
+its source: ``/radar/t0`` and ``/radar/t1`` are two tracks of ``/radar``) and
+``pose_track_topics`` (PoseWithCovarianceStamped carrying many tracks of one source, the source
+being the topic: the local track id travels in ``header.frame_id`` as ``"<frame>#<local id>"``,
+``track_msgs_py.topics.track_frame_id``, and the track id is ``<topic>/<local id>``; these
+subscriptions keep ``TRACKS_QOS_DEPTH`` messages, so a source may publish all its ships at one
+instant). Pairs within one source are not scored unless ``same_source_pairs`` (a source does
+not report a ship twice).
+Every incoming message is validated (finite, symmetric PSD covariance, known frame,
+non-decreasing stamp per track); a bad one is dropped with at most one warning per topic
+every ``warn_period`` seconds, and the node keeps running.
+
+Velocities with variance ≥ ``UNUSED_VARIANCE`` (the "not estimated" convention of
+track_msgs_py.convert, e.g. the IDSQ network's estimate) are ignored: such a track is held like a
+position report instead of being predicted with a 1e6 m²/s² velocity variance.
+
+Schedule. ``schedule:=timer`` (default): score at every tick of a ``rate`` Hz timer on the node
+clock, with the reports received so far. ``schedule:=stamps``: score at the instants
+t_k = k/``rate`` of the *data* (the first one at or after the first report's stamp), and score
+t_k only once a report stamped ≥ t_k + 1/``rate`` has arrived, using the reports stamped ≤ t_k.
+The output then depends only on the reports' stamps and contents, not on when they arrive, as
+long as every report stamped ≤ t_k arrives before any report stamped ≥ t_k + 1/``rate`` (sources
+on one clock, lagging each other by less than one period): a recorded bag replayed into a fresh
+node reproduces every score. The last instant of a run is scored only when a later report comes.
+The rule lives in ``track_core.fusion.StampSchedule``; the node applies and scores what it releases.
+
+At ``rate`` Hz it brings every live track to the current node time (``TrackTable``: Odometry
+tracks are predicted with their velocity, position reports are held until ``stale_after``),
+scores every pair from different sources with ``method`` (paper eqs. 49–71, batched over pairs;
+``mc`` shares one draw among the pairs of an instant), keeps the last ``window`` instant
+scores per pair and combines them (harmonic or geometric mean, §1; one zero instant makes the
+combination zero, as the paper's means do), and publishes:
+
+| topic | type | content |
+|---|---|---|
+| /fusion/scores | DiagnosticArray | one status per pair ``A | B``: score, combined, instants, associated, method |
+| /fusion/associations | DiagnosticArray | the pairs whose combined score ≥ ``threshold`` |
+| /fusion/fused | Odometry | covariance intersection of each associated pair, child_frame_id ``A+B`` |
+| /fusion/markers | MarkerArray | 2σ ellipse per track, a link per pair coloured red→green by score |
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import Point, PoseWithCovarianceStamped
+from nav_msgs.msg import Odometry
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from std_msgs.msg import ColorRGBA
+from visualization_msgs.msg import Marker, MarkerArray
+
+from track_core.filters.covariance_intersection import covariance_intersection
+from track_core.fusion import StampSchedule, TrackReport, TrackTable
+from track_core.geofeasibility import ScoreWindow, score
+from track_msgs_py.convert import (
+    DIAG_OK,
+    UNUSED_VARIANCE,
+    covariance_ellipse_marker,
+    cv_state_to_odometry,
+    diagnostic_array,
+    diagnostic_status,
+    odometry_to_cv_state,
+    pose_cov_to_position,
+    sec_to_stamp,
+)
+from track_msgs_py.qos import ESTIMATE_QOS
+from track_msgs_py.topics import (
+    FRAME_MAP,
+    FUSION_ASSOCIATIONS,
+    FUSION_FUSED,
+    FUSION_MARKERS,
+    FUSION_SCORES,
+    KNOWN_FRAMES,
+    split_track_frame_id,
+)
+from track_msgs_py.validate import StampMonotonic, frame_problem, odometry_problem, pose_cov_problem
+from track_nodes.base import Param, TrackNode
+
+# Best effort accepts both reliable and best-effort publishers; depth covers a few rate periods.
+TRACK_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=50, reliability=ReliabilityPolicy.BEST_EFFORT)
+# Topics carrying many tracks (pose_track_topics): one burst per instant holds every ship of a source.
+TRACKS_QOS_DEPTH = 1000
+TRACKS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=TRACKS_QOS_DEPTH,
+                        reliability=ReliabilityPolicy.BEST_EFFORT)
+
+PARAMS = (
+    Param('odometry_topics', [''], 'nav_msgs/Odometry track topics (track id = topic/child_frame_id)'),
+    Param('pose_topics', [''], 'PoseWithCovarianceStamped track topics (one track per topic)'),
+    Param('pose_track_topics', [''], 'PoseWithCovarianceStamped topics of many tracks of one source '
+          '(header.frame_id = "<frame>#<local id>", track id = topic/<local id>)'),
+    Param('rate', 2.0, 'scoring rate [Hz]', 0.01, 100.0),
+    Param('method', 'exact', 'geofeasibility score', choices=('exact', 'glr', 'glr_thresholded', 'mc')),
+    Param('n_samples', 500, 'Monte-Carlo samples per pair (method mc)', 10, 1_000_000),
+    Param('threshold', 0.5, 'associate a pair when its combined score is at least this', 0.0, 1.0),
+    Param('combine', 'geometric', 'track-level combination of instant scores', choices=('geometric', 'harmonic')),
+    Param('window', 10, 'instant scores kept per pair for the combination', 1, 100_000),
+    Param('stale_after', 2.0, 'a position report older than this drops out [s]', 1e-3, 1e6),
+    Param('max_prediction', 10.0, 'an Odometry track predicted further than this drops out [s]', 1e-3, 1e6),
+    Param('q_s', 0.1, 'CV process-noise intensity used when predicting tracks [m²/s³]', 0.0, 1e6),
+    Param('seed', 0, 'seed of the Generator used by the mc method', 0, 2**31 - 1),
+    Param('same_source_pairs', False, 'also score pairs from one source (Odometry: same topic; pose: same '
+          'namespace)'),
+    Param('schedule', 'timer', 'timer: score at node-clock ticks; stamps: at the data instants k/rate, '
+          'deterministic (module docstring)', choices=('timer', 'stamps')),
+    Param('warn_period', 5.0, 'at most one bad-input warning per topic per this many seconds', 0.0, 1e6),
+)
+
+
+class FusionNode(TrackNode):
+    DEFAULT_NAME = 'fusion'
+    PARAMS = PARAMS
+
+    def __init__(self, **kw) -> None:
+        super().__init__(**kw)
+        p = self.p
+        odo = [t for t in p.odometry_topics if t]
+        pose = [t for t in p.pose_topics if t]
+        multi = [t for t in p.pose_track_topics if t]
+        if not odo and not pose and not multi:
+            raise ValueError('parameters odometry_topics, pose_topics and pose_track_topics are all empty: '
+                             'nothing to fuse')
+        self.rng = np.random.default_rng(p.seed)
+        self.table = TrackTable(p.stale_after, p.max_prediction, p.q_s)
+        self.source: dict[str, str] = {}
+        self.history: dict[tuple[str, str], ScoreWindow] = {}
+        self.stamps = StampMonotonic()
+        self.dropped: dict[str, int] = {}
+        self._last_warn: dict[str, float] = {}
+        self.marker_ids: dict[str, int] = {}
+        self.subs = [self.create_subscription(Odometry, t, lambda m, t=t: self._on_odometry(t, m), TRACK_QOS)
+                     for t in odo]
+        self.subs += [self.create_subscription(PoseWithCovarianceStamped, t, lambda m, t=t: self._on_pose(t, m),
+                                               TRACK_QOS) for t in pose]
+        self.subs += [self.create_subscription(PoseWithCovarianceStamped, t,
+                                               lambda m, t=t: self._on_pose_track(t, m), TRACKS_QOS) for t in multi]
+        self.pub_scores = self.create_publisher(DiagnosticArray, FUSION_SCORES, ESTIMATE_QOS)
+        self.pub_assoc = self.create_publisher(DiagnosticArray, FUSION_ASSOCIATIONS, ESTIMATE_QOS)
+        self.pub_fused = self.create_publisher(Odometry, FUSION_FUSED, ESTIMATE_QOS)
+        self.pub_markers = self.create_publisher(MarkerArray, FUSION_MARKERS, ESTIMATE_QOS)
+        self.stamp_schedule = StampSchedule(p.rate) if p.schedule == 'stamps' else None
+        self.timer = self.create_timer(1.0 / p.rate, self.tick) if p.schedule == 'timer' else None
+
+    @property
+    def next_k(self) -> int | None:
+        """schedule stamps: index of the next instant k/rate to score (None before the first report)."""
+        return None if self.stamp_schedule is None else self.stamp_schedule.next_k
+
+    # -- input ---------------------------------------------------------------------------
+    def _now(self) -> float:
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    def _drop(self, topic: str, reason: str) -> None:
+        self.dropped[topic] = self.dropped.get(topic, 0) + 1
+        now = self._now()
+        if now - self._last_warn.get(topic, -np.inf) >= self.p.warn_period:
+            self._last_warn[topic] = now
+            self.get_logger().warning(f'{topic}: dropped track message ({self.dropped[topic]} so far): {reason}')
+
+    def _on_odometry(self, topic: str, msg: Odometry) -> None:
+        track_id = f'{topic}/{msg.child_frame_id}' if msg.child_frame_id else topic
+        reason = odometry_problem(msg, KNOWN_FRAMES) or self.stamps.msg_problem(track_id, msg)
+        if reason:
+            self._drop(topic, reason)
+            return
+        t, x, P = odometry_to_cv_state(msg)
+        Pv = P[np.ix_([1, 3], [1, 3])]
+        if np.any(np.diag(Pv) >= UNUSED_VARIANCE):  # velocity not estimated: hold the position
+            self._store(topic, track_id, TrackReport(t, x[[0, 2]], P[np.ix_([0, 2], [0, 2])]))
+            return
+        self._store(topic, track_id, TrackReport(t, x[[0, 2]], P[np.ix_([0, 2], [0, 2])], x[[1, 3]], Pv))
+
+    def _on_pose(self, topic: str, msg: PoseWithCovarianceStamped) -> None:
+        reason = pose_cov_problem(msg, KNOWN_FRAMES) or self.stamps.msg_problem(topic, msg)
+        if reason:
+            self._drop(topic, reason)
+            return
+        t, z, R = pose_cov_to_position(msg)
+        # One track per topic; a source publishes its tracks under one namespace (<source>/<track>).
+        self._store(topic.rsplit('/', 1)[0] or topic, topic, TrackReport(t, z, R))
+
+    def _on_pose_track(self, topic: str, msg: PoseWithCovarianceStamped) -> None:
+        frame, local = split_track_frame_id(msg.header.frame_id)
+        if not local:
+            self._drop(topic, f'header.frame_id: {msg.header.frame_id!r} carries no track id '
+                              '(expected "<frame>#<local id>")')
+            return
+        track_id = f'{topic}/{local}'
+        reason = (frame_problem(frame, KNOWN_FRAMES) or pose_cov_problem(msg, None)
+                  or self.stamps.msg_problem(track_id, msg))
+        if reason:
+            self._drop(topic, reason)
+            return
+        t, z, R = pose_cov_to_position(msg)
+        self._store(topic, track_id, TrackReport(t, z, R))  # the topic is the source
+
+    def _store(self, source: str, track_id: str, report: TrackReport) -> None:
+        if self.stamp_schedule is None:
+            self._apply(source, track_id, report)
+            return
+        for t_k, released in self.stamp_schedule.push(report.t, track_id, (source, track_id, report)):
+            for item in released:
+                self._apply(*item)
+            self._score(t_k)
+
+    def _apply(self, source: str, track_id: str, report: TrackReport) -> None:
+        self.source[track_id] = source
+        self.table.update(track_id, report)
+
+    # -- scoring -------------------------------------------------------------------------
+    def tick(self) -> None:
+        self._score(self._now())
+
+    def _score(self, t: float) -> None:
+        ids, mu, R = self.table.at(t)
+        if len(ids) < 2:
+            return
+        i, j = np.triu_indices(len(ids), 1)
+        if not self.p.same_source_pairs:
+            src = np.array([self.source[k] for k in ids])
+            keep = src[i] != src[j]
+            i, j = i[keep], j[keep]
+        if i.size == 0:
+            return
+        try:
+            s = np.atleast_1d(score(mu[i], R[i], mu[j], R[j], self.p.method, n_samples=self.p.n_samples,
+                                    rng=self.rng, shared_samples=True))
+        except ValueError as exc:  # inputs were validated; a failure here is a bug worth one line
+            self.get_logger().error(f'scoring failed: {exc}')
+            return
+        stamp = sec_to_stamp(t)
+        statuses, assoc, links = [], [], []
+        for k, (a, b) in enumerate(zip(i, j, strict=True)):
+            pair = (ids[a], ids[b])
+            hist = self.history.setdefault(pair, ScoreWindow(self.p.combine, max_instants=self.p.window))
+            hist.add(t, float(np.clip(s[k], 0.0, 1.0)))
+            combined = hist.value()
+            associated = combined >= self.p.threshold
+            status = diagnostic_status(f'{pair[0]} | {pair[1]}', DIAG_OK,
+                                       'associated' if associated else 'not associated',
+                                       {'score': f'{s[k]:.6f}', 'combined': f'{combined:.6f}',
+                                        'instants': str(len(hist)), 'associated': str(associated).lower(),
+                                        'method': self.p.method}, hardware_id='fusion')
+            statuses.append(status)
+            links.append((a, b, combined))
+            if associated:
+                assoc.append(status)
+                self._publish_fused(t, pair, mu[a], R[a], mu[b], R[b])
+        self.pub_scores.publish(diagnostic_array(t, statuses))
+        self.pub_assoc.publish(diagnostic_array(t, assoc))
+        self.pub_markers.publish(self._markers(stamp, t, ids, mu, R, links))
+
+    def _publish_fused(self, t, pair, mu1, R1, mu2, R2) -> None:
+        m, P, _ = covariance_intersection(mu1, R1, mu2, R2)
+        P4 = np.zeros((4, 4))
+        P4[np.ix_([0, 2], [0, 2])] = P
+        self.pub_fused.publish(cv_state_to_odometry(t, np.array([m[0], 0.0, m[1], 0.0]), P4, FRAME_MAP,
+                                                    f'{pair[0]}+{pair[1]}'))
+
+    def _markers(self, stamp, t, ids, mu, R, links) -> MarkerArray:
+        out = MarkerArray()
+        for k, track_id in enumerate(ids):
+            mid = self.marker_ids.setdefault(track_id, len(self.marker_ids))
+            out.markers.append(covariance_ellipse_marker(t, mu[k], R[k], FRAME_MAP, ns='fusion_tracks',
+                                                         marker_id=mid, lifetime=2.0 / self.p.rate))
+        link = Marker(ns='fusion_links', id=0, type=Marker.LINE_LIST, action=Marker.ADD)
+        link.header.stamp, link.header.frame_id = stamp, FRAME_MAP
+        link.scale.x = 0.5
+        link.pose.orientation.w = 1.0
+        for a, b, combined in links:
+            c = ColorRGBA(r=float(1.0 - combined), g=float(combined), b=0.0, a=1.0)
+            link.points += [Point(x=float(mu[a][0]), y=float(mu[a][1])), Point(x=float(mu[b][0]), y=float(mu[b][1]))]
+            link.colors += [c, c]
+        out.markers.append(link)
+        return out

@@ -1,0 +1,308 @@
+"""Launcher: ``python -m track_nodes.launch SCENARIO [--record [NAME]] [--duration S] [--processes]
+[--params FILE] [--rate R]``.
+
+Reads ``config/SCENARIO.yaml`` (see ``track_nodes.launch.scenario``) and runs its nodes, either all in
+this process on one MultiThreadedExecutor (default) or one process per node (``--processes``).
+
+Time: with ``--rate R > 0`` (default: the scenario's ``rate``) every node gets
+``use_sim_time:=true`` and this launcher publishes ``/clock``, starting at 0, in steps of
+min(R·CLOCK_TICK, MAX_CLOCK_STEP) seconds, at most R times faster than the wall clock. In one
+process the clock runs in lock-step: after each step the launcher runs every callback that became ready
+(inline, in order) until the graph is idle, and only then advances the clock. A slow machine
+therefore runs slower than R×, never differently: a seed reproduces every payload. With
+``--processes`` the other processes cannot be observed, so the clock is only paced by R.
+``--rate 0`` runs on wall time, callbacks on the MultiThreadedExecutor's threads.
+
+Before the clock starts, the launcher waits until every node is up and, when recording, until
+the recorder has subscribed to every recordable topic, then lets discovery settle: nothing
+published at t = 0 is lost. The clock stops exactly at ``--duration``, the launcher waits a
+short grace period for messages in flight, then stops every node (the recorder closes its
+bag). Ctrl-C stops everything the same way.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from datetime import datetime
+from pathlib import Path
+
+import rclpy
+from rclpy.context import Context
+from rclpy.executors import (
+    ExternalShutdownException,
+    MultiThreadedExecutor,
+    ShutdownException,
+    TimeoutException,
+)
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rosgraph_msgs.msg import Clock
+
+from track_msgs_py.convert import sec_to_stamp
+from track_msgs_py.qos import CLOCK_QOS
+from track_msgs_py.topics import CLOCK
+from track_nodes.base import EXIT_BAD_INPUT
+from track_nodes.launch.scenario import Scenario, ScenarioError, load_scenario
+
+CLOCK_TICK = 0.01  # wall seconds per /clock step at the nominal rate ...
+MAX_CLOCK_STEP = 0.05  # ... but never more than this many node seconds per step (bounded bursts)
+IDLE_POLL = 0.001  # wall seconds without a ready callback that count as idle (lock-step)
+SETTLE = 1.0  # wall seconds for discovery to settle before the clock starts
+GRACE = 1.0  # wall seconds for messages in flight after the clock stops
+GRACE_PROCESSES = 3.0  # the same with one process per node: slower processes still hold queued work
+READY_TIMEOUT = 30.0
+IGNORED_TOPICS = ('/rosout', '/parameter_events', CLOCK)
+
+
+class LaunchError(RuntimeError):
+    """The scenario could not be started; the message is one line."""
+
+
+class LauncherNode(Node):
+    """Publishes /clock and watches the graph. Always on wall time."""
+
+    def __init__(self, context: Context) -> None:
+        super().__init__('track_launcher', context=context, start_parameter_services=False)
+        self.clock_pub = self.create_publisher(Clock, CLOCK, CLOCK_QOS)
+
+    def publish_clock(self, t: float) -> None:
+        self.clock_pub.publish(Clock(clock=sec_to_stamp(t)))
+
+    def nodes_missing(self, names: list[str]) -> list[str]:
+        present = set(self.get_node_names())
+        return [n for n in names if n not in present]
+
+    def topics_unrecorded(self, regex: str, recorder: str) -> list[str]:
+        pattern = re.compile(regex)
+        missing = []
+        for topic, _ in self.get_topic_names_and_types():
+            if topic in IGNORED_TOPICS or not pattern.search(topic) or not self.count_publishers(topic):
+                continue
+            subs = {info.node_name for info in self.get_subscriptions_info_by_topic(topic)}
+            if recorder not in subs:
+                missing.append(topic)
+        return missing
+
+
+def _parse(argv: list[str] | None) -> argparse.Namespace:
+    ap = argparse.ArgumentParser(prog='python -m track_nodes.launch', description=__doc__.split('\n\n')[1])
+    ap.add_argument('scenario', help='scenario name (config/<name>.yaml) or a path to a .yaml file')
+    ap.add_argument('--record', nargs='?', const='', default=None, metavar='NAME',
+                    help='record to bags/NAME/ (default NAME: <scenario>-<timestamp>)')
+    ap.add_argument('--duration', type=float, default=None, help='run length in node time [s]')
+    ap.add_argument('--processes', action='store_true', help='one process per node')
+    ap.add_argument('--params', type=Path, default=None, metavar='FILE', help='extra params file on top')
+    ap.add_argument('--rate', type=float, default=None,
+                    help='drive /clock at R x real time; 0 = wall time (default: the scenario)')
+    return ap.parse_args(argv)
+
+
+class Launch:
+    def __init__(self, scenario: Scenario, args: argparse.Namespace) -> None:
+        self.sc = scenario
+        opts = scenario.options
+        self.rate = float(args.rate if args.rate is not None else opts.get('rate', 0.0))
+        self.duration = args.duration if args.duration is not None else opts.get('duration')
+        if not self.rate >= 0:
+            raise LaunchError(f'--rate must be >= 0, got {self.rate}')
+        if self.duration is not None and not float(self.duration) > 0:
+            raise LaunchError(f'--duration must be > 0, got {self.duration}')
+        self.sim = self.rate > 0
+        self.params_files = [str(scenario.path)]
+        if args.params is not None:
+            if not args.params.is_file():
+                raise LaunchError(f'--params {args.params}: no such file')
+            self.params_files.append(str(args.params.resolve()))
+        self.bag: Path | None = None
+        if args.record is not None:
+            name = args.record or f'{scenario.name}-{datetime.now():%Y%m%d-%H%M%S}'
+            self.bag = Path(name) if '/' in name else Path('bags') / name
+            if self.bag.exists():
+                raise LaunchError(f'{self.bag}: bag exists already, not overwriting (choose another --record NAME)')
+            self.bag.parent.mkdir(parents=True, exist_ok=True)
+        self.record_regex = str(opts.get('record_regex', '.*'))
+
+    # -- the two ways of running the nodes ------------------------------------------------
+    def run(self, processes: bool) -> int:
+        self.context = context = Context()
+        ros_args = ['--ros-args', *[a for f in self.params_files for a in ('--params-file', f)]]
+        rclpy.init(args=ros_args if not processes else None, context=context)
+        launcher = LauncherNode(context)
+        executor = MultiThreadedExecutor(context=context)
+        executor.add_node(launcher)
+        nodes, children = [], []
+        try:
+            if processes:
+                children = self._spawn_all()
+            else:
+                nodes = self._create_all(context)
+                for node in nodes:
+                    executor.add_node(node)
+            self._wait_ready(launcher, executor, children)
+            self._drive(launcher, executor, children)
+        except KeyboardInterrupt:
+            pass
+        finally:
+            with contextlib.suppress(KeyboardInterrupt):
+                grace = GRACE_PROCESSES if children else GRACE
+                self._pump(executor, time.monotonic() + grace)  # messages in flight reach the recorder
+            self._stop_children(children)
+            # The main thread is the only one that hands work to the pool; drain the pool before
+            # shutting the executor down (rclpy 7.1's shutdown does not wait for running callbacks).
+            pool = getattr(executor, '_executor', None)
+            if pool is not None:
+                pool.shutdown(wait=True)
+            executor.shutdown(timeout_sec=5.0)
+            for node in nodes:
+                node.destroy_node()  # the recorder closes its bag here
+            launcher.destroy_node()
+            context.try_shutdown()
+        failed = [c for c in children if c.returncode not in (0, -signal.SIGINT, None)]
+        return EXIT_BAD_INPUT if failed else 0
+
+    def _pump(self, executor: MultiThreadedExecutor, deadline: float) -> None:
+        """Hand ready callbacks to the executor's threads until ``deadline`` (monotonic s)."""
+        while self.context.ok():
+            left = deadline - time.monotonic()
+            if left <= 0:
+                return
+            executor.spin_once(timeout_sec=min(left, 0.005))
+
+    def _run_until_idle(self, executor: MultiThreadedExecutor) -> None:
+        """Lock-step: run ready callbacks inline, in order, until none is ready twice in a row."""
+        idle = 0
+        while idle < 2 and self.context.ok():
+            try:
+                handler, _, _ = executor.wait_for_ready_callbacks(timeout_sec=IDLE_POLL)
+            except TimeoutException:
+                idle += 1
+                continue
+            except (ShutdownException, ExternalShutdownException):
+                return
+            idle = 0
+            handler()
+            if handler.exception() is not None:
+                raise handler.exception()
+
+    def _overrides(self) -> list[Parameter]:
+        return [Parameter('use_sim_time', value=self.sim)]
+
+    def _create_all(self, context: Context) -> list[Node]:
+        nodes = []
+        for spec in self.sc.nodes:
+            cls = spec.node_class()
+            try:
+                nodes.append(cls(node_name=spec.name, context=context, parameter_overrides=self._overrides()))
+            except ValueError as exc:
+                for node in nodes:
+                    node.destroy_node()
+                raise LaunchError(f'{spec.name}: {exc}') from None
+        if self.bag is not None:
+            from track_nodes.bag.recorder import RecorderNode
+
+            nodes.append(RecorderNode(context=context, parameter_overrides=[
+                *self._overrides(), Parameter('bag', value=str(self.bag)),
+                Parameter('regex', value=self.record_regex)]))
+        return nodes
+
+    def _spawn_all(self) -> list[subprocess.Popen]:
+        files = [a for f in self.params_files for a in ('--params-file', f)]
+        sim = f'use_sim_time:={str(self.sim).lower()}'
+        cmds = [[sys.executable, '-m', 'track_nodes', spec.executable, '--ros-args', '-r', f'__node:={spec.name}',
+                 *files, '-p', sim]
+                for spec in self.sc.nodes]
+        if self.bag is not None:
+            cmds.append([sys.executable, '-m', 'track_nodes', 'recorder', '--ros-args', '-p', sim,
+                         '-p', f'bag:={self.bag}', '-p', f'regex:={self.record_regex}'])
+        # Own process group each, so a terminal Ctrl-C reaches only the launcher, which stops them in order.
+        return [subprocess.Popen(cmd, start_new_session=True) for cmd in cmds]
+
+    # -- start, clock, stop ---------------------------------------------------------------
+    def _wait_ready(self, launcher: LauncherNode, executor: MultiThreadedExecutor,
+                    children: list[subprocess.Popen]) -> None:
+        names = [s.name for s in self.sc.nodes] + (['recorder'] if self.bag is not None else [])
+        deadline = time.monotonic() + READY_TIMEOUT
+        while True:
+            for child in children:
+                if child.poll() is not None:
+                    raise LaunchError(f'{" ".join(child.args[3:4])} exited with code {child.returncode} at start')
+            missing = launcher.nodes_missing(names)
+            if not missing and self.bag is not None:
+                missing = [f'recorder subscription to {t}' for t in
+                           launcher.topics_unrecorded(self.record_regex, 'recorder')]
+            if not missing:
+                break
+            if time.monotonic() > deadline or not self.context.ok():
+                raise LaunchError(f'not ready after {READY_TIMEOUT:.0f} s: waiting for {", ".join(missing)}')
+            self._pump(executor, time.monotonic() + 0.05)
+        self._pump(executor, time.monotonic() + SETTLE)
+
+    def _drive(self, launcher: LauncherNode, executor: MultiThreadedExecutor,
+               children: list[subprocess.Popen]) -> None:
+        duration = None if self.duration is None else float(self.duration)
+        lockstep = self.sim and not children
+        step = min(self.rate * CLOCK_TICK, MAX_CLOCK_STEP)
+        wall_step = step / self.rate if self.sim else CLOCK_TICK
+        t0, k = time.monotonic(), 0
+        while self.context.ok():
+            if any(c.poll() is not None for c in children):
+                return
+            if not self.sim:
+                if duration is not None and time.monotonic() - t0 >= duration:
+                    return
+                self._pump(executor, time.monotonic() + CLOCK_TICK)
+                continue
+            node_time = k * step if duration is None else min(k * step, duration)
+            launcher.publish_clock(node_time)
+            if lockstep:
+                self._run_until_idle(executor)
+            # Never faster than R x real time: wait for the wall time of the next step.
+            self._pump(executor, t0 + (k + 1) * wall_step)
+            if duration is not None and node_time >= duration:
+                return
+            k += 1
+
+    def _stop_children(self, children: list[subprocess.Popen]) -> None:
+        for child in children:
+            if child.poll() is None:
+                child.send_signal(signal.SIGINT)
+        for child in children:
+            try:
+                child.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                child.kill()
+                child.wait()
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parse(argv)
+    os.environ.setdefault('AMENT_PREFIX_PATH', sys.prefix)
+    try:
+        scenario = load_scenario(args.scenario)
+        launch = Launch(scenario, args)
+        print(f'scenario {scenario.name}: {", ".join(s.name for s in scenario.nodes)}'
+              f' ({"processes" if args.processes else "one process"}, '
+              f'{f"/clock at {launch.rate:g}x" if launch.sim else "wall time"}'
+              f'{f", {launch.duration:g} s" if launch.duration else ""})', flush=True)
+        code = launch.run(args.processes)
+    except (ScenarioError, LaunchError) as exc:
+        print(f'track_nodes.launch: {exc}', file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        code = 0
+    if launch.bag is not None and (launch.bag / 'metadata.yaml').exists():
+        from track_nodes.report.summary import print_summary
+
+        print_summary(launch.bag, scenario.options.get('summary'))
+    return code
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())

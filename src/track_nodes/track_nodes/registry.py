@@ -1,0 +1,72 @@
+"""Every executable of track_nodes and the class that runs it: ``executable → 'module:Class'``.
+
+The ``ros2 run`` shims (``lib/track_nodes/<executable>``), ``python -m track_nodes
+<executable>``, the launcher's scenarios and ``ros2 launch`` all resolve names here, so a node
+can move between sub-packages without any of them changing.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+NODES = {
+    # simulators and sources
+    'demo_target': 'track_nodes.sim.demo_target:DemoTargetNode',
+    'smart_target': 'track_nodes.sim.smart_target:SmartTargetNode',
+    'vehicle_sim': 'track_nodes.sim.vehicle_sim:VehicleSimNode',
+    'report_source': 'track_nodes.sim.report_source:ReportSourceNode',
+    'ais_source': 'track_nodes.sim.ais_source:AisSourceNode',
+    'slam_sim': 'track_nodes.sim.slam_sim:SlamSimNode',
+    # estimators, one sub-package per system
+    'demo_tracker': 'track_nodes.demo.demo_tracker:DemoTrackerNode',
+    'sonar_observer': 'track_nodes.sonar.sonar_observer:SonarObserverNode',
+    'acoustic_sensor': 'track_nodes.idsq.sensor:AcousticSensorNode',
+    'doa_sensor': 'track_nodes.idsq.sensor:DoaSensorNode',
+    'rfid_reader': 'track_nodes.rfid.rfid_reader:RfidReaderNode',
+    'rfid_guidance': 'track_nodes.rfid.rfid_guidance:RfidGuidanceNode',
+    'slam': 'track_nodes.slam.slam:SlamNode',
+    'fusion': 'track_nodes.fusion.fusion:FusionNode',
+    # bag tools that are nodes
+    'recorder': 'track_nodes.bag.recorder:RecorderNode',
+    'player': 'track_nodes.bag.player:PlayerNode',
+}
+
+# Executables whose main is not TrackNode.main (they parse their own command line first). All take
+# sys.argv-style arguments (program name first) but bag_recover, a plain argparse tool.
+MAINS = {
+    'recorder': 'track_nodes.bag.recorder:main',
+    'player': 'track_nodes.bag.player:main',
+    'bag_recover': 'track_nodes.bag.recover:main',
+}
+PLAIN_ARGV = frozenset({'bag_recover'})
+
+
+class UnknownExecutableError(KeyError):
+    """No executable of that name."""
+
+
+def _resolve(target: str):
+    module, _, attr = target.partition(':')
+    return getattr(importlib.import_module(module), attr)
+
+
+def node_class(executable: str):
+    """The node class of ``executable``."""
+    try:
+        return _resolve(NODES[executable])
+    except KeyError:
+        raise UnknownExecutableError(executable) from None
+
+
+def main_of(executable: str):
+    """The ``main(argv) -> int`` of ``executable``; ``argv`` is sys.argv-style (program name first)."""
+    if executable in PLAIN_ARGV:
+        plain = _resolve(MAINS[executable])
+        return lambda argv: plain(list(argv)[1:])
+    if executable in MAINS:
+        return _resolve(MAINS[executable])
+    return node_class(executable).main
+
+
+def executables() -> list[str]:
+    return sorted({*NODES, *MAINS})

@@ -1,0 +1,1 @@
+"""Summaries and pictures of recorded bags, one module per scenario."""

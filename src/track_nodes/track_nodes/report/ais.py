@@ -1,0 +1,86 @@
+"""Summary of the ais scenario: the recorded same-ship verdicts against the MMSI."""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+
+from track_core.ais import Metrics, match_one_to_one
+from track_msgs_py.topics import FUSION_SCORES
+from track_nodes.report.read import read_topics, topics_matching
+
+
+def ais_metrics(bag: Path) -> list[str]:
+    """AIS scenario: the recorded same-ship verdicts against the MMSI, for the fusion's method.
+
+    Truth: the ``/ais/<source>/truth`` tables (local track → MMSI, evaluation only). Verdicts:
+    every pair of ``/fusion/scores``; a pair is declared the same ship when it was associated at
+    at least half of its scored instants (as ``track-experiment ais-association``), then made
+    one-to-one (Hungarian on the pair's mean score, ``track_core.ais.match_one_to_one``). Precision =
+    right / declared, recall = right / same-ship pairs that were scored at least once.
+    """
+    truth_topics = topics_matching(bag, lambda topic: topic.startswith('/ais/') and topic.endswith('/truth'))
+    msgs = read_topics(bag, {*truth_topics, FUSION_SCORES})
+    mmsi: dict[str, int] = {}
+    ships_by_source: dict[str, set[int]] = defaultdict(set)
+    for topic in truth_topics:
+        for arr in msgs.get(topic, [])[-1:]:
+            for st in arr.status:
+                v = {kv.key: kv.value for kv in st.values}
+                mmsi[st.name] = int(v['mmsi'])
+                ships_by_source[topic].add(int(v['mmsi']))
+    pairs: dict[tuple[str, str], list] = {}
+    methods, evaluations = set(), 0
+    for arr in msgs.get(FUSION_SCORES, []):
+        for st in arr.status:
+            a, _, b = st.name.partition(' | ')
+            v = {kv.key: kv.value for kv in st.values}
+            rec = pairs.setdefault(tuple(sorted((a, b))), [0.0, 0, 0])  # fusion orders a pair by first report
+            rec[0] += float(v['score'])
+            rec[1] += v['associated'] == 'true'
+            rec[2] += 1
+            methods.add(v.get('method', '?'))
+            evaluations += 1
+    if not mmsi or not pairs:
+        return [f'ais: {"no truth tables" if not mmsi else "no fusion scores"} recorded']
+    keys = [p for p in pairs if p[0] in mmsi and p[1] in mmsi]
+    if not keys:
+        return ['ais: no scored pair has a truth entry (were /ais/*/truth recorded?)']
+    same = np.array([mmsi[a] == mmsi[b] for a, b in keys])
+    mean = np.array([pairs[p][0] / pairs[p][2] for p in keys])
+    declared = np.array([pairs[p][1] >= 0.5 * pairs[p][2] for p in keys])
+    ids = {name: k for k, name in enumerate(sorted({x for p in keys for x in p}))}
+    pa = np.array([ids[a] for a, _ in keys])
+    pb = np.array([ids[b] for _, b in keys])
+    source_pair = np.array([f'{a.rsplit("/", 1)[0]} | {b.rsplit("/", 1)[0]}' for a, b in keys])
+    matched = np.zeros_like(declared)
+    for sp in np.unique(source_pair):  # one assignment per pair of sources
+        sel = np.flatnonzero((source_pair == sp) & declared)
+        if sel.size:
+            matched[sel] = match_one_to_one(pa[sel], pb[sel], mean[sel], np.ones(sel.size, bool))
+    sources = sorted(ships_by_source)
+    both = set.intersection(*ships_by_source.values()) if len(sources) >= 2 else set()
+    undecidable = len(both) - int(same.sum())
+
+    def metrics(d: np.ndarray) -> Metrics:
+        return Metrics(int(np.sum(d & same)), int(np.sum(d & ~same)), int(np.sum(~d & same)), undecidable)
+
+    lines = [f'ais: method {"/".join(sorted(methods))}; '
+             + ', '.join(f'{t.split("/")[2]} {len(ships_by_source[t])} tracks' for t in sources)
+             + f'; {len(both)} ships seen by both; {evaluations} pair evaluations, {len(keys)} track pairs, '
+             f'{int(same.sum())} of them the same ship']
+    for label, d in (('threshold (associated at ≥ half of its instants)', declared), ('one-to-one', matched)):
+        m = metrics(d)
+        lines.append(f'  {label:<50} precision {m.precision:.3f}  recall {m.recall:.3f}  F1 {m.f1:.3f}  '
+                     f'(TP {m.tp}, FP {m.fp}, FN {m.fn})')
+    wrong = [k for k in np.flatnonzero(matched & ~same)][:5]
+    missed = [k for k in np.flatnonzero(~matched & same)][:5]
+    for k in wrong:
+        lines.append(f'  wrong:  {keys[k][0]} | {keys[k][1]} (mean score {mean[k]:.2f}, MMSI {mmsi[keys[k][0]]} vs '
+                     f'{mmsi[keys[k][1]]})')
+    for k in missed:
+        lines.append(f'  missed: {keys[k][0]} | {keys[k][1]} (mean score {mean[k]:.2f}, associated '
+                     f'{pairs[keys[k]][1]}/{pairs[keys[k]][2]} instants)')
+    return lines

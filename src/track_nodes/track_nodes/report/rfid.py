@@ -1,0 +1,46 @@
+"""Summary of the rfid scenario: found or not, steps, turns, distance."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from track_nodes.report.read import read_topics
+
+
+def rfid_metrics(bag: Path) -> list[str]:
+    """RFID scenario: found or not, steps, turns, distance walked and the final distance to the tag.
+
+    From the reader's truth status (``/rfid/user/status``, the last one: steps = MOVEs walked with
+    repeated ones, turns = rotations made including the initial search for the signal and detours),
+    the ``/rfid/found`` event and the commands (``/rfid/command``, counted once per seq: re-sent
+    copies are not new commands).
+    """
+    from track_msgs_py.topics import RFID_COMMAND, RFID_FOUND, RFID_USER_STATUS
+
+    msgs = read_topics(bag, {RFID_COMMAND, RFID_FOUND, RFID_USER_STATUS})
+    status = [{kv.key: kv.value for kv in m.status[0].values} for m in msgs.get(RFID_USER_STATUS, []) if m.status]
+    if not status:
+        return ['rfid: no user status recorded']
+    last = status[-1]
+    commands: dict[int, dict] = {}
+    for m in msgs.get(RFID_COMMAND, []):
+        for st in m.status:
+            v = {kv.key: kv.value for kv in st.values}
+            commands.setdefault(int(v['seq']), v)
+    kinds = [v['kind'] for _, v in sorted(commands.items())]
+    done = [v for v in commands.values() if v['kind'] == 'done']
+    found = bool(msgs.get(RFID_FOUND)) or last.get('found') == 'true'
+    if found:
+        verdict = 'tag FOUND'
+    elif done:
+        verdict = f'tag NOT found ({done[-1].get("reason", "")})'
+    else:
+        verdict = 'tag NOT found (the search was still running when the recording stopped)'
+    repeats = sum(v.get('repeat') == 'true' for v in commands.values())
+    return [
+        f'rfid: {verdict}',
+        f'  steps {last["steps"]}, turns {last["turns"]}, distance walked {float(last["distance_m"]):.2f} m, '
+        f'final distance to the tag {float(last["distance_to_tag_m"]):.3f} m',
+        f'  commands {len(commands)} (MOVE {kinds.count("move")}, TURN {kinds.count("turn")}), '
+        f'repeated steps {repeats}, steps undone by the user {last["repeats"]}',
+    ]

@@ -1,0 +1,1 @@
+"""Handheld RFID reader: the (simulated) reader and the particle-filter guidance."""

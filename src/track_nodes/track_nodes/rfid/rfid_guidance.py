@@ -1,0 +1,267 @@
+"""``rfid_guidance``: the particle-filter guidance of the handheld RFID reader (issue 5, Sections IV–VII).
+
+Wraps ``track_core.rfid.guidance.RfidGuidance``: it consumes the step results of ``rfid_reader``
+(``/rfid/step``) and publishes
+
+- ``/rfid/command`` (diagnostic_msgs/DiagnosticArray, one status ``<node>/command``): the next
+  action, TURN by an angle or MOVE one step, or DONE at the end; values ``seq``, ``kind``
+  (turn|move|done), ``angle`` (rad, + = left; repr, exact), ``angle_deg``, ``repeat``, ``reason``.
+  Level WARN when the command repeats a step whose result was unusable;
+- after each filter update (a usable MOVE): ``/rfid/particles`` (geometry_msgs/PoseArray, the
+  particles (x, y, a) in the filter's frame ``rfid_pf``, tag at the origin, orientation = a);
+- after each usable result: ``/rfid/tag_estimate`` (geometry_msgs/PointStamped in ``rfid_user``,
+  x forward, y left): the tag at distance d (weighted mean of |pᵢ|) and bearing b (the suggested
+  turn minus the turns made since the last MOVE) from the user;
+- ``/rfid/found`` (diagnostic_msgs/DiagnosticArray, one status ``<node>/found``) once, when a step
+  result reports the user at the tag. The search then ends with DONE.
+
+The search also ends, as a failure, after ``max_steps`` MOVE results (repeated ones included: the
+count of ``track_core.rfid.search.run_search``), with DONE and the reason.
+
+Bad input (the core's rule, ``protocol.step_result_problem``): a step result with a NaN dφ or turn,
+an empty phase stream (``n_reads`` 0), a reader failure such as "signal lost", a result for another
+command, or a malformed message, gets ONE warning log line naming the problem; the filter and the
+turn sum stay exactly as they were, and the next command repeats the step (``repeat`` true, new
+``seq``; after ``max_repeats`` lost MOVEs in a row, TURN by π, see the core). A copy of a result
+already used (``seq`` below the pending command's: the reader re-publishes its answer when a
+command is re-sent) is no bad input: it is dropped silently.
+
+Command/response loop, deterministic for a seed. Every ``period`` of node time (a /clock-driven
+timer under ``use_sim_time``) the node
+
+1. sends the first command (MOVE, seq 1) once the reader is seen (``/rfid/step`` has a publisher).
+   Nothing is sent before that timer runs, so under the launcher nothing is published before the
+   clock starts (the recorder is subscribed by then);
+2. re-sends the pending command, unchanged, when it has been waiting for ``resend_after`` node
+   seconds (a command lost to a discovery race is not a dead end; the reader answers each seq once
+   and replays that answer for a copy).
+
+Each new result is handled in its callback and the next command is published at once. Its content
+depends only on the results received in order, and those only on the reader's seed. Seeds: the
+filter draws from the second of ``SeedSequence(seed).spawn(2)`` (the reader takes the first), so
+the node pair with the same ``seed`` reproduces ``run_search(world, pf, default_rng(seed),
+max_steps)`` exactly.
+
+Parameters are checked at start: ``n_particles`` < 1 or any value out of range stops the node
+with one line.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import PointStamped, PoseArray
+
+from track_core.rfid.guidance import RfidGuidance
+from track_core.rfid.pf import SUGGESTION_RULES, PFParams
+from track_core.rfid.phase import PhaseModel
+from track_core.rfid.protocol import Command, CommandKind, StepResult
+from track_msgs_py.convert import (
+    DIAG_OK,
+    DIAG_WARN,
+    diagnostic_array,
+    diagnostic_status,
+    positions_to_pose_array,
+    sec_to_stamp,
+)
+from track_msgs_py.qos import ESTIMATE_QOS, SENSOR_QOS
+from track_msgs_py.topics import (
+    RFID_COMMAND,
+    RFID_FOUND,
+    RFID_FRAME_PF,
+    RFID_FRAME_USER,
+    RFID_PARTICLES,
+    RFID_STEP,
+    RFID_TAG_ESTIMATE,
+)
+from track_nodes.base import Param, ParameterError, TrackNode
+from track_nodes.rfid.params import PHASE_PARAMS
+
+_PF = PFParams()
+
+PARAMS = (
+    Param('seed', 0, 'seed; the filter draws use the second of SeedSequence(seed).spawn(2)', 0, 2**31 - 1),
+    *PHASE_PARAMS,
+    Param('n_particles', _PF.n_particles, 'number of particles N (Table I: 10-1000)', 1, 10_000_000),
+    Param('s_step', _PF.s_step, 'commanded step length (§VI: 0.5 m) [m]', 1e-3, 10.0),
+    Param('s_r', _PF.s_r, 'step error std s_r of the motion model (§VI: 0.1 m) [m]', 0.0, 10.0),
+    Param('s_a_deg', math.degrees(_PF.s_a), 'heading error std per step s_a (§VI: 11.5°) [deg]', 0.0, 180.0),
+    Param('beam_width_deg', math.degrees(_PF.beam_width), 'beam width assumed at the start (tag inside it) [deg]',
+          1e-3, 360.0),
+    Param('suggestion', _PF.suggestion, 'turn rule: mean (eq. 24, circular), side, auto (track_core.rfid.pf)',
+          choices=SUGGESTION_RULES),
+    Param('reinit_factor', 3.0, 're-initialise when min |m| > factor · m₀; 0 = never', 0.0, 1e6),
+    Param('max_repeats', 2, 'unusable MOVEs in a row before asking for a half turn', 1, 1000),
+    Param('max_steps', 200, 'MOVE results (repeats included) before the search ends as a failure', 1, 1_000_000),
+    Param('period', 0.1, 'timer of the first command and of re-sends [node s]', 1e-3, 60.0),
+    Param('resend_after', 2.0, 're-send the pending command after this long without its answer [node s]',
+          1e-3, 3600.0),
+)
+
+
+def pf_params(p) -> PFParams:
+    try:
+        return PFParams(n_particles=p.n_particles, s_step=p.s_step, s_r=p.s_r, s_a=math.radians(p.s_a_deg),
+                        beam_width=math.radians(p.beam_width_deg), suggestion=p.suggestion,
+                        reinit_factor=p.reinit_factor if p.reinit_factor > 0 else None)
+    except ValueError as exc:
+        raise ParameterError(f'invalid filter parameters: {exc}') from None
+
+
+def _float(v: dict[str, str], key: str, default: float = math.nan) -> float:
+    try:
+        return float(v[key])
+    except (KeyError, ValueError):
+        return default
+
+
+def _int(v: dict[str, str], key: str) -> int | None:
+    try:
+        return int(v[key])
+    except (KeyError, ValueError):
+        return None
+
+
+def parse_step(msg: DiagnosticArray, pending: Command) -> tuple[StepResult, int | None]:
+    """A ``/rfid/step`` message → (StepResult, its seq or None when unreadable).
+
+    Missing or unreadable fields do not raise: numbers become NaN/0 and an unreadable kind or seq
+    becomes a result with ``ok`` False and the reason, so the core's bad-input rule handles it.
+    """
+    v = {kv.key: kv.value for kv in msg.status[0].values} if msg.status else {}
+    seq = _int(v, 'seq')
+    try:
+        kind = CommandKind(v.get('kind', ''))
+        bad = None
+    except ValueError:
+        kind, bad = pending.kind, f'malformed step result: kind {v.get("kind")!r}'
+    if seq is None:
+        bad = bad or f'malformed step result: seq {v.get("seq")!r}'
+    dphi, turn = (math.nan, math.nan) if bad else (_float(v, 'dphi'), _float(v, 'turn'))
+    res = StepResult(kind, pending.seq if seq is None else seq, dphi=dphi, turn=turn,
+                     n_reads=_int(v, 'n_reads') or 0, n_outliers=_int(v, 'n_outliers') or 0,
+                     ok=v.get('ok') == 'true' and bad is None, reason=bad or v.get('reason', ''),
+                     found=v.get('found') == 'true' and bad is None)
+    return res, seq
+
+
+class RfidGuidanceNode(TrackNode):
+    DEFAULT_NAME = 'rfid_guidance'
+    PARAMS = PARAMS
+
+    def __init__(self, **kw) -> None:
+        super().__init__(**kw)
+        p = self.p
+        params = pf_params(p)
+        _, pf_ss = np.random.SeedSequence(p.seed).spawn(2)
+        try:
+            phase = PhaseModel.with_wrap(p.wrap, carrier_hz=p.carrier_hz, s_theta=math.radians(p.s_theta_deg))
+            self.guide = RfidGuidance(params, phase, np.random.default_rng(pf_ss), log_warnings=False,
+                                      max_repeats=p.max_repeats)
+        except ValueError as exc:
+            raise ParameterError(f'invalid guidance parameters: {exc}') from None
+        self.cmd: Command | None = None          # the command sent last (pending until answered)
+        self.cmd_msg: DiagnosticArray | None = None
+        self.sent_at = 0.0
+        self.answered = False
+        self.ended = False                       # DONE sent
+        self.found = False
+        self.moves = 0                           # MOVE results answering the pending command
+        self.turns = 0                           # usable TURN results
+        self.warnings: list[str] = []            # the bad-input warnings, in order
+        self.resends = 0
+        self.stale = 0
+        self.pub_cmd = self.create_publisher(DiagnosticArray, RFID_COMMAND, ESTIMATE_QOS)
+        self.pub_particles = self.create_publisher(PoseArray, RFID_PARTICLES, SENSOR_QOS)
+        self.pub_estimate = self.create_publisher(PointStamped, RFID_TAG_ESTIMATE, ESTIMATE_QOS)
+        self.pub_found = self.create_publisher(DiagnosticArray, RFID_FOUND, ESTIMATE_QOS)
+        self.sub_step = self.create_subscription(DiagnosticArray, RFID_STEP, self._on_step, ESTIMATE_QOS)
+        self.timer = self.create_timer(p.period, self._tick)
+
+    def _now(self) -> float:
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    # -- sending --------------------------------------------------------------------------
+    def _tick(self) -> None:
+        if self.cmd is None:
+            if self.count_publishers(RFID_STEP) > 0:
+                self._send(self.guide.start())
+            return
+        if not self.answered and self._now() - self.sent_at >= self.p.resend_after - 1e-9:
+            self.resends += 1
+            self.sent_at = self._now()
+            self.get_logger().debug(f'no answer to {self.cmd} yet: sending it again')
+            self.pub_cmd.publish(self.cmd_msg)
+
+    def _send(self, cmd: Command) -> None:
+        t = self._now()
+        values = {'seq': cmd.seq, 'kind': cmd.kind.value, 'angle': repr(float(cmd.angle)),
+                  'angle_deg': f'{math.degrees(cmd.angle):.2f}', 'repeat': str(cmd.repeat).lower(),
+                  'reason': cmd.reason}
+        words = str(cmd) + (f': {cmd.reason}' if cmd.reason else '')
+        self.cmd, self.answered, self.sent_at = cmd, False, t
+        self.cmd_msg = diagnostic_array(t, [diagnostic_status(f'{self.get_name()}/command',
+                                                              DIAG_WARN if cmd.repeat else DIAG_OK, words, values)])
+        self.pub_cmd.publish(self.cmd_msg)
+
+    # -- results --------------------------------------------------------------------------
+    def _on_step(self, msg: DiagnosticArray) -> None:
+        if self.cmd is None:
+            return  # nothing asked yet: not an answer
+        res, seq = parse_step(msg, self.cmd)
+        if seq is not None and (seq < self.cmd.seq or (seq == self.cmd.seq and self.answered)):
+            self.stale += 1  # a replayed answer that was already used
+            return
+        if self.ended:
+            self.answered = self.answered or seq == self.cmd.seq  # DONE acknowledged: stop re-sending
+            return
+        answers = seq == self.cmd.seq
+        self.answered = answers
+        if answers and res.kind is CommandKind.MOVE and self.cmd.kind is CommandKind.MOVE:
+            self.moves += 1
+        reply = self.guide.on_step(res)
+        if reply.warning is not None:
+            line = f'{RFID_STEP} #{res.seq}: {reply.warning}; filter state unchanged, asking for {reply.command}'
+            self.warnings.append(line)
+            self.get_logger().warning(line)
+        elif res.kind is CommandKind.TURN:
+            self.turns += 1
+        t = self._now()
+        if reply.accepted:
+            self._publish_estimate(t, res.kind is CommandKind.MOVE)
+        cmd = reply.command
+        if reply.found or (answers and res.found):
+            self.found = self.guide.found = True
+            cmd = cmd if cmd.kind is CommandKind.DONE else Command(CommandKind.DONE, seq=cmd.seq, reason='tag found')
+            self._publish_found(t, res.seq)
+        elif self.moves >= self.p.max_steps and cmd.kind is not CommandKind.DONE:
+            cmd = Command(CommandKind.DONE, seq=cmd.seq, reason=f'tag not found after {self.moves} steps')
+            self.get_logger().warning(f'search failed: {cmd.reason}')
+        if cmd.kind is CommandKind.DONE:
+            self.ended = True
+            self.guide.pending = cmd
+        self._send(cmd)
+
+    def _publish_estimate(self, t: float, updated: bool) -> None:
+        pf = self.guide.pf
+        if not pf.initialized:
+            return
+        if updated:
+            P = pf.particles
+            self.pub_particles.publish(positions_to_pose_array(t, P[:, :2], RFID_FRAME_PF, headings=P[:, 2]))
+        d, b = self.guide.tag_estimate()
+        if math.isfinite(d) and math.isfinite(b):
+            msg = PointStamped()
+            msg.header.stamp, msg.header.frame_id = sec_to_stamp(t), RFID_FRAME_USER
+            msg.point.x, msg.point.y = d * math.cos(b), d * math.sin(b)
+            self.pub_estimate.publish(msg)
+
+    def _publish_found(self, t: float, seq: int) -> None:
+        pf = self.guide.pf
+        self.get_logger().info(f'tag found after {self.moves} steps and {self.turns} turns')
+        self.pub_found.publish(diagnostic_array(t, [diagnostic_status(
+            f'{self.get_name()}/found', DIAG_OK, 'tag found',
+            {'seq': seq, 'moves': self.moves, 'turns': self.turns, 'updates': pf.n_updates,
+             'resamples': pf.n_resamples, 'reinits': pf.n_reinits})]))

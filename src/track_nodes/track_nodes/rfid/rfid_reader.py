@@ -1,0 +1,277 @@
+"""``rfid_reader``: the simulated user holding the handheld UHF RFID reader (issue 5, Section VI).
+
+The reader side of the step-by-step protocol of ``track_core.rfid.protocol``: it performs each
+command that ``rfid_guidance`` publishes on ``/rfid/command`` with ``track_core.rfid.world.SimReader``
+(world, user and reader: the user turns or walks one step with the paper's worst-case errors, the
+reader reads the tag ~300 times a second and processes the MOVE's phase stream into dφ) and
+publishes, in this order,
+
+- ``/rfid/phase`` (sensor_msgs/PointCloud2, MOVE only): the raw wrapped reads of the step, float32
+  fields ``t`` (s since the step started), ``phase`` (rad, wrapped into (0, P]), ``rssi`` (dBm);
+- ``/rfid/user/pose`` (geometry_msgs/PoseStamped in ``map``, tag at the origin) and
+  ``/rfid/user/status`` (diagnostic_msgs/DiagnosticArray: steps, turns, distance walked, ...):
+  the truth, for evaluation only (the guidance never reads them);
+- ``/rfid/step`` (diagnostic_msgs/DiagnosticArray): the step result, last. One status; its values
+  are the fields of ``StepResult`` (``seq``, ``kind``, ``dphi``, ``turn``, ``n_reads``,
+  ``n_outliers``, ``ok``, ``reason``, ``found``) plus ``duration`` (see ``track_msgs_py.topics``).
+
+The phase cloud and the step result of one MOVE carry the same header stamp.
+
+Exactly one answer per command (``seq``): a command whose ``seq`` was already answered (the
+guidance re-sends its pending command until it sees the answer, which covers discovery races) gets
+the cached step result again, nothing is re-executed; a command older than the last one is
+ignored. After DONE the search is over: the reader answers DONE and performs nothing more (one
+search per node lifetime).
+
+Time. The simulated user takes time: a MOVE lasts the walk (step length / ``walk_speed``), a TURN
+the ``turn_read_s`` of reads that follow it. With ``time_scale`` > 0 the answer is published when
+that much node time (× ``time_scale``) has passed since the command arrived, checked by a timer of
+period ``tick`` (node time: /clock under ``use_sim_time``); ``time_scale`` 0 answers at once. The
+timing changes only the stamps, never the content: the content depends only on the seed and the
+sequence of commands.
+
+Seeds: the world/user generator is the first of ``SeedSequence(seed).spawn(2)``, the stream
+``track_core.rfid.search.run_search`` gives the world. The guidance node takes the second one, so
+the node pair with the same ``seed`` replays ``run_search(world, pf, default_rng(seed), max_steps)``
+exactly. The start is random (10 m away, random direction) unless ``random_start`` is false.
+
+Parameters are checked at start (ranges, the carrier band): a bad value stops
+the node with one line.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import PoseStamped
+from sensor_msgs.msg import PointCloud2
+
+from track_core.rfid.phase import PhaseModel
+from track_core.rfid.protocol import Command, CommandKind, StepResult
+from track_core.rfid.world import SimReader, WorldParams, office_obstacles
+from track_msgs_py.convert import (
+    DIAG_OK,
+    DIAG_WARN,
+    diagnostic_array,
+    diagnostic_status,
+    sec_to_stamp,
+    table_to_pointcloud2,
+)
+from track_msgs_py.qos import ESTIMATE_QOS
+from track_msgs_py.topics import FRAME_MAP, RFID_COMMAND, RFID_PHASE, RFID_STEP, RFID_USER_POSE, RFID_USER_STATUS
+from track_nodes.base import Param, ParameterError, TrackNode
+from track_nodes.rfid.params import PHASE_PARAMS
+
+_W = WorldParams()
+KINDS = tuple(k.value for k in CommandKind)
+
+PARAMS = (
+    Param('seed', 0, 'seed; the world/user draws use the first of SeedSequence(seed).spawn(2)', 0, 2**31 - 1),
+    *PHASE_PARAMS,
+    Param('start_distance', _W.start_distance, 'distance of the random start from the tag (§VI: 10 m) [m]',
+          1e-3, 1e3),
+    Param('random_start', True, 'start start_distance away in a random direction (false: use start)'),
+    Param('start', [10.0, 0.0, 180.0], 'fixed start [x m, y m, facing deg from +x] (map, tag at the origin)'),
+    Param('beam_width_deg', math.degrees(_W.beam_width), 'antenna half-power beam width (§VI: 180°, real 68°) [deg]',
+          1e-3, 360.0),
+    Param('max_range', _W.max_range, 'read range [m]', 1e-3, 1e3),
+    Param('back_lobe_range', _W.back_lobe_range, 'range of the back/side lobes [m]', 0.0, 1e3),
+    Param('read_rate', _W.read_rate, 'reads per second while the tag is read (Poisson) [1/s]', 1e-3, 1e5),
+    Param('outlier_prob', _W.outlier_prob, 'probability that a read is an outlier (uniform phase)', 0.0, 0.999),
+    Param('walk_speed', _W.walk_speed, 'walking speed [m/s]', 1e-3, 10.0),
+    Param('turn_read_s', _W.turn_read_s, 'reads collected after a TURN to check the signal [s]', 0.0, 60.0),
+    Param('s_step', _W.s_step, 'step length s_step (§VI: 0.5 m) [m]', 1e-3, 10.0),
+    Param('s_r', _W.s_r, 'step error std s_r (§VI: 0.1 m) [m]', 0.0, 10.0),
+    Param('s_a_deg', math.degrees(_W.s_a), 'heading error std per step s_a (§VI: 11.5°) [deg]', 0.0, 180.0),
+    Param('step_model', _W.step_model, "eq1: eqs. 1-2 (default); eq20: (s_step + r) along the heading",
+          choices=('eq1', 'eq20')),
+    Param('found_radius', _W.found_radius, 'the tag is found within this distance at the end of a MOVE [m]',
+          1e-3, 100.0),
+    Param('obstacles', 'none', 'none, or office: the obstacle variant (track_core.rfid.world.office_obstacles)',
+          choices=('none', 'office')),
+    Param('time_scale', 1.0, 'node seconds per second of the simulated action before answering; 0 = at once',
+          0.0, 1e3),
+    Param('tick', 0.05, 'period of the timer that publishes due answers [node s]', 1e-3, 10.0),
+)
+
+
+@dataclass
+class _Answer:
+    """What one command produced, published together when due."""
+
+    seq: int
+    kind: CommandKind
+    due: float                          # node time [s]
+    stream: PointCloud2 | None
+    pose: PoseStamped
+    status: DiagnosticArray
+    step: DiagnosticArray
+    published: bool = False
+
+
+def world_params(p) -> WorldParams:
+    """``WorldParams`` from the node parameters (ParameterError with one line when inconsistent)."""
+    try:
+        phase = PhaseModel.with_wrap(p.wrap, carrier_hz=p.carrier_hz, s_theta=math.radians(p.s_theta_deg))
+        return WorldParams(
+            phase=phase, start_distance=p.start_distance, beam_width=math.radians(p.beam_width_deg),
+            max_range=p.max_range, back_lobe_range=p.back_lobe_range, read_rate=p.read_rate,
+            outlier_prob=p.outlier_prob, walk_speed=p.walk_speed, turn_read_s=p.turn_read_s, s_step=p.s_step,
+            s_r=p.s_r, s_a=math.radians(p.s_a_deg), found_radius=p.found_radius, step_model=p.step_model,
+            obstacles=office_obstacles() if p.obstacles == 'office' else ())
+    except ValueError as exc:
+        raise ParameterError(f'invalid world parameters: {exc}') from None
+
+
+def parse_command(msg: DiagnosticArray) -> tuple[Command | None, str | None]:
+    """(command, None) from a ``/rfid/command`` message, or (None, why it is unusable)."""
+    if not msg.status:
+        return None, 'no status'
+    v = {kv.key: kv.value for kv in msg.status[0].values}
+    try:
+        seq = int(v['seq'])
+        kind = CommandKind(v['kind'])
+        angle = float(v.get('angle', '0.0'))
+    except (KeyError, ValueError) as exc:
+        return None, f'malformed command ({type(exc).__name__}: {exc}); needs seq, kind ({"|".join(KINDS)}), angle'
+    if seq < 1:
+        return None, f'seq {seq} < 1'
+    if not math.isfinite(angle):
+        return None, f'non-finite angle={angle}'
+    return Command(kind, angle, seq, v.get('repeat') == 'true', v.get('reason', '')), None
+
+
+def step_values(res: StepResult, duration: float) -> dict[str, object]:
+    """The values of a ``/rfid/step`` status (floats with repr: they round-trip exactly)."""
+    return {'seq': res.seq, 'kind': res.kind.value, 'dphi': repr(float(res.dphi)), 'turn': repr(float(res.turn)),
+            'n_reads': res.n_reads, 'n_outliers': res.n_outliers, 'ok': str(res.ok).lower(), 'reason': res.reason,
+            'found': str(res.found).lower(), 'duration': repr(float(duration))}
+
+
+def pose_stamped(t: float, pose: np.ndarray, frame_id: str = FRAME_MAP) -> PoseStamped:
+    msg = PoseStamped()
+    msg.header.stamp, msg.header.frame_id = sec_to_stamp(t), frame_id
+    msg.pose.position.x, msg.pose.position.y = float(pose[0]), float(pose[1])
+    msg.pose.orientation.z, msg.pose.orientation.w = math.sin(0.5 * pose[2]), math.cos(0.5 * pose[2])
+    return msg
+
+
+class RfidReaderNode(TrackNode):
+    DEFAULT_NAME = 'rfid_reader'
+    PARAMS = PARAMS
+
+    def __init__(self, **kw) -> None:
+        super().__init__(**kw)
+        p = self.p
+        self.world = world_params(p)
+        start = None
+        if not p.random_start:
+            s = np.asarray(p.start, dtype=float)
+            if s.shape != (3,) or not np.all(np.isfinite(s)):
+                raise ParameterError(f'parameter start={list(p.start)!r} is invalid: allowed 3 finite numbers '
+                                     '[x m, y m, facing deg]')
+            start = np.array([s[0], s[1], math.radians(s[2])])
+        world_ss, _ = np.random.SeedSequence(p.seed).spawn(2)
+        try:
+            self.reader = SimReader(self.world, np.random.default_rng(world_ss), start=start)
+        except ValueError as exc:
+            raise ParameterError(f'cannot start the search: {exc}') from None
+        self.last: _Answer | None = None
+        self.finished = False
+        self.duplicates = 0
+        self.ignored = 0
+        self._initial_sent = False
+        self.pub_phase = self.create_publisher(PointCloud2, RFID_PHASE, ESTIMATE_QOS)
+        self.pub_pose = self.create_publisher(PoseStamped, RFID_USER_POSE, ESTIMATE_QOS)
+        self.pub_status = self.create_publisher(DiagnosticArray, RFID_USER_STATUS, ESTIMATE_QOS)
+        self.pub_step = self.create_publisher(DiagnosticArray, RFID_STEP, ESTIMATE_QOS)
+        self.sub_cmd = self.create_subscription(DiagnosticArray, RFID_COMMAND, self._on_command, ESTIMATE_QOS)
+        self.timer = self.create_timer(p.tick, self._tick)
+        self.get_logger().info(f'user {self.reader.distance_to_tag():.2f} m from the tag at '
+                               f'({self.reader.pose[0]:.2f}, {self.reader.pose[1]:.2f}) m, '
+                               f'{self.reader.turns} rotation(s) to find the signal')
+
+    def _now(self) -> float:
+        return self.get_clock().now().nanoseconds * 1e-9
+
+    # -- truth ----------------------------------------------------------------------------
+    def _truth(self, t: float, seq: int) -> tuple[PoseStamped, DiagnosticArray]:
+        r = self.reader
+        status = diagnostic_status(f'{self.get_name()}/user', DIAG_OK, 'found' if r.found() else 'searching', {
+            'seq': seq, 'steps': r.steps, 'turns': r.turns, 'distance_m': repr(float(r.distance)),
+            'repeats': r.repeats, 'distance_to_tag_m': repr(r.distance_to_tag()), 'found': str(r.found()).lower(),
+            'x': repr(float(r.pose[0])), 'y': repr(float(r.pose[1])), 'heading': repr(float(r.pose[2]))})
+        return pose_stamped(t, r.pose), diagnostic_array(t, [status])
+
+    def _send_initial(self) -> None:
+        """The start pose (seq 0), once, before the first answer."""
+        if not self._initial_sent:
+            self._initial_sent = True
+            pose, status = self._truth(self._now(), 0)
+            self.pub_pose.publish(pose)
+            self.pub_status.publish(status)
+
+    # -- commands -------------------------------------------------------------------------
+    def _on_command(self, msg: DiagnosticArray) -> None:
+        cmd, problem = parse_command(msg)
+        if cmd is None:
+            self.ignored += 1
+            self.get_logger().warning(f'{RFID_COMMAND}: dropped command: {problem}')
+            return
+        last = self.last
+        if last is not None and cmd.seq == last.seq:
+            if last.published:  # the guidance has not seen the answer: send it again, nothing re-executed
+                self.duplicates += 1
+                self.pub_step.publish(last.step)
+            return
+        if last is not None and cmd.seq < last.seq:
+            self.ignored += 1
+            self.get_logger().debug(f'{RFID_COMMAND}: ignored stale command #{cmd.seq} (last #{last.seq})')
+            return
+        if self.finished:
+            self.ignored += 1
+            self.get_logger().warning(f'{RFID_COMMAND}: ignored {cmd}: the search has ended')
+            return
+        self._send_initial()
+        self._execute(cmd)
+        if self.p.time_scale == 0.0:
+            self._tick()
+
+    def _execute(self, cmd: Command) -> None:
+        r = self.reader
+        t0 = r.t
+        out = r.execute(cmd)
+        duration = r.t - t0
+        now = self._now()
+        due = now + self.p.time_scale * duration
+        res = out.result
+        level = DIAG_OK if res.ok else DIAG_WARN
+        words = f'{cmd}: ' + ('found' if res.found else 'ok' if res.ok else res.reason or 'unusable')
+        step = diagnostic_array(due, [diagnostic_status(f'{self.get_name()}/step', level, words,
+                                                        step_values(res, duration))])
+        stream = None
+        if cmd.kind is CommandKind.MOVE:
+            s = out.stream
+            t_start = s.t_start if s.t_start is not None else t0
+            stream = table_to_pointcloud2(due, self.get_name(), {'t': s.t - t_start, 'phase': s.phase,
+                                                                 'rssi': s.rssi})
+        pose, status = self._truth(due, cmd.seq)
+        self.last = _Answer(cmd.seq, cmd.kind, due, stream, pose, status, step)
+        if cmd.kind is CommandKind.DONE:
+            self.finished = True
+            self.get_logger().info(f'search over ({cmd.reason or "done"}): {r.steps} steps, {r.turns} turns, '
+                                   f'{r.distance:.1f} m walked, {r.distance_to_tag():.2f} m from the tag')
+
+    def _tick(self) -> None:
+        a = self.last
+        if a is None or a.published or self._now() + 1e-9 < a.due:
+            return
+        a.published = True
+        if a.stream is not None:
+            self.pub_phase.publish(a.stream)
+        self.pub_pose.publish(a.pose)
+        self.pub_status.publish(a.status)
+        self.pub_step.publish(a.step)

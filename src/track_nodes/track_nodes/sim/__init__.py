@@ -1,0 +1,1 @@
+"""Simulators and sources: seeded truths and sensor reports for every scenario."""

@@ -1,0 +1,138 @@
+"""``ais_source``: one simulated surveillance source observing the real Solent AIS ships, on /clock.
+
+At start the node reads the AIS file (``file``; default the Solent file under
+``track_core.data.data_dir('ais_solent')``; bad rows are skipped, counted and logged in one
+line), projects it to east/north metres in the tangent plane at the data centroid
+(``track_core.ais.projection``; every source uses the same origin, so their ``map`` frames
+agree) and simulates this source's reports (``track_core.ais.sources``) for the data window
+[``start``, ``start`` + ``duration``] seconds after the first AIS report. Node time 0 is data time
+``start``: a report of data time τ is stamped τ − ``start`` and published when the node clock
+reaches its stamp, so the replay runs as fast as ``/clock`` (the launcher's ``--rate``). On wall
+time (no ``use_sim_time``) node time 0 is the whole second at the first timer tick.
+
+The source reports every ship it sees at ``offset + k·period`` (node time), each report missing
+with probability ``dropout``, as the true position plus Gaussian noise with its own 2σ ellipse
+(1σ ``sigma_major`` × ``sigma_minor``, major axis ``orientation``: ``fixed`` at ``bearing_deg``,
+``radial`` across the line of sight from ``site`` [lat, lon], or ``random`` per report). Ships
+beyond ``max_range`` of the site (0: no limit) are not seen.
+
+Topics (``prefix`` e.g. ``/ais/radar``, see ``track_msgs_py.topics``):
+
+- ``<prefix>/reports`` (PoseWithCovarianceStamped): one message per ship report, all ships on
+  this one topic, under the source's own local track ids (``id_prefix`` + 3 digits, shuffled):
+  ``header.frame_id = "map#<local id>"``. The MMSI is never sent.
+- ``<prefix>/truth`` (DiagnosticArray, transient-local, evaluation only; with
+  ``publish_truth``): once at start, one status per local track named like the fusion node's
+  track id ``<prefix>/reports/<local id>``, values ``mmsi`` and ``reports``.
+
+The stamps ``offset + k·period`` let a fusion node that ticks at multiples of its own period
+see one fresh instant per tick: with ``offset`` = 4.5 s, ``period`` = 5 s and a fusion tick
+every 5 s with ``stale_after`` = 1 s, each tick scores exactly the reports stamped 0.5 s
+before it (position reports are held, not predicted, so stale reports of moving ships would
+be scored against fresh ones).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import PoseWithCovarianceStamped
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+from track_core.ais import LocalTangentPlane, ShipTruth, SourceModel, read_ais, simulate_source
+from track_core.ais.sources import ORIENTATIONS
+from track_msgs_py.convert import DIAG_OK, diagnostic_array, diagnostic_status, position_to_pose_cov
+from track_msgs_py.qos import STATIC_QOS
+from track_msgs_py.topics import FRAME_MAP, ais_reports_topic, ais_truth_topic, track_frame_id
+from track_nodes.base import FixedRateSteps, Param, TrackNode
+
+# All ships of one instant are published in one burst: keep them all until delivered.
+REPORTS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE,
+                         durability=DurabilityPolicy.VOLATILE)
+
+PARAMS = (
+    Param('file', '', 'AIS CSV file (empty: the Solent file in the shared data folder)'),
+    Param('start', 0.0, 'data time replayed at node time 0 [s after the first AIS report]', 0.0, 1e7),
+    Param('duration', 600.0, 'length of the replayed data window [s]', 1.0, 1e7),
+    Param('origin', [0.0], 'projection origin [lat, lon] in degrees; [0.0]: the data centroid (median)'),
+    Param('max_gap', 400.0, 'a ship is unknown inside a gap between its AIS reports longer than this [s]',
+          1.0, 1e6),
+    Param('period', 5.0, 'report interval [s]', 1e-3, 3600.0),
+    Param('offset', 0.0, 'stamp of the first report [s]; reports at offset + k·period', 0.0, 3600.0),
+    Param('tick', 0.5, 'publishing timer period [s]: a report goes out at the first tick at or after its stamp',
+          1e-3, 60.0),
+    Param('sigma_major', 15.0, '1σ error along the major axis of the report ellipse [m]', 1e-3, 1e6),
+    Param('sigma_minor', 8.0, '1σ error along the minor axis [m]', 1e-3, 1e6),
+    Param('orientation', 'radial', 'major-axis bearing: fixed | radial (across the line of sight from site) | '
+          'random (per report)', choices=ORIENTATIONS),
+    Param('bearing_deg', 0.0, 'major-axis bearing for orientation fixed, clockwise from north [deg]', -360.0, 360.0),
+    Param('site', [50.8184, -1.3072], 'sensor position [lat, lon] in degrees (radial orientation, max_range)'),
+    Param('max_range', 0.0, 'ships further than this from the site are not seen [m]; 0: no limit', 0.0, 1e7),
+    Param('dropout', 0.02, 'probability that a report is missing', 0.0, 0.99),
+    Param('seed', 1, 'seed of this source\'s noise, dropouts and local ids', 0, 2**31 - 1),
+    Param('id_prefix', 'r', 'local track ids are <id_prefix><3 digits>'),
+    Param('prefix', '/ais/radar', 'topic prefix: reports on <prefix>/reports, truth on <prefix>/truth'),
+    Param('publish_truth', True, 'publish the local track → MMSI table on <prefix>/truth (evaluation only)'),
+)
+
+
+def _latlon(name: str, value) -> tuple[float, float]:
+    v = [float(x) for x in value]
+    if len(v) != 2 or not (-90.0 <= v[0] <= 90.0 and -180.0 <= v[1] <= 180.0):
+        raise ValueError(f'parameter {name}={list(value)} is invalid: allowed [lat, lon] in degrees')
+    return v[0], v[1]
+
+
+class AisSourceNode(TrackNode):
+    DEFAULT_NAME = 'ais_source'
+    PARAMS = PARAMS
+
+    def __init__(self, **kw) -> None:
+        super().__init__(**kw)
+        p = self.p
+        if p.sigma_minor > p.sigma_major:
+            raise ValueError(f'parameter sigma_minor={p.sigma_minor} exceeds sigma_major={p.sigma_major}')
+        if not p.id_prefix or '#' in p.id_prefix or '/' in p.id_prefix:
+            raise ValueError(f'parameter id_prefix={p.id_prefix!r} is invalid: allowed a non-empty name without '
+                             '"#" or "/"')
+        data = read_ais(p.file or None)
+        if data.n_skipped:
+            self.get_logger().warning(f'AIS file {data.path}: {data.describe()}')
+        else:
+            self.get_logger().info(f'AIS file {data.path}: {data.describe()}')
+        origin = data.centroid() if list(p.origin) == [0.0] else _latlon('origin', p.origin)
+        truth = ShipTruth(data, LocalTangentPlane(*origin), max_gap=p.max_gap)
+        if p.start >= truth.t_end:
+            raise ValueError(f'parameter start={p.start} is after the end of the data ({truth.t_end:.0f} s)')
+        model = SourceModel(name=self.get_name(), id_prefix=p.id_prefix, period=p.period, offset=p.offset,
+                            sigma_major=p.sigma_major, sigma_minor=p.sigma_minor, orientation=p.orientation,
+                            bearing_deg=p.bearing_deg, site=_latlon('site', p.site),
+                            max_range=p.max_range or None, dropout=p.dropout)
+        self.reports = rep = simulate_source(truth, model, np.random.default_rng(p.seed), p.start,
+                                             p.start + p.duration)
+        self.stamps = rep.t - p.start
+        self.next = 0
+        self.frames = [track_frame_id(FRAME_MAP, i) for i in rep.ids]
+        self.topic = ais_reports_topic(p.prefix)
+        self.pub = self.create_publisher(PoseWithCovarianceStamped, self.topic, REPORTS_QOS)
+        self.get_logger().info(f'{len(rep.ids)} ships, {len(rep)} reports in [{p.start:g}, {p.start + p.duration:g}] s '
+                               f'of data on {self.topic}')
+        if p.publish_truth:
+            self.pub_truth = self.create_publisher(DiagnosticArray, ais_truth_topic(p.prefix), STATIC_QOS)
+            counts = np.bincount(rep.track, minlength=len(rep.ids))
+            self.pub_truth.publish(diagnostic_array(0.0, [
+                diagnostic_status(f'{self.topic}/{tid}', DIAG_OK, 'evaluation only',
+                                  {'mmsi': str(int(rep.mmsi[k])), 'reports': str(int(counts[k]))},
+                                  hardware_id=self.get_name())
+                for k, tid in enumerate(rep.ids)]))
+        self.steps = FixedRateSteps(self, p.tick, self._step, max_time=p.duration)
+
+    def _step(self, t: float) -> None:
+        # node time = origin + (data time − start); the origin is 0 on /clock, a whole second on wall time
+        origin = self.steps.origin or 0.0
+        rep, k = self.reports, self.next
+        while k < len(rep) and origin + self.stamps[k] <= t + 1e-9:
+            self.pub.publish(position_to_pose_cov(origin + float(self.stamps[k]), rep.mu[k], rep.R[k],
+                                                  self.frames[rep.track[k]]))
+            k += 1
+        self.next = k

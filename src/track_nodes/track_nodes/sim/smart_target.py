@@ -1,0 +1,161 @@
+"""``smart_target``: the sonar paper's target, which hears the observer's active pings and evades.
+
+Steps ``track_core.sonar.SmartTarget`` every ``period`` T of node time (``FixedRateSteps``,
+stamps t_k = origin + k·T) and publishes
+
+- ``/sonar/target/truth`` (nav_msgs/Odometry, zero covariance, ``child_frame_id`` = ``track_id``),
+- ``/sonar/target/status`` (diagnostic_msgs/DiagnosticArray, one status named ``track_id`` with the
+  values ``mode`` naive|cruise|evade, ``heard`` true|false, ``pings``, ``detections``).
+
+It subscribes to the observer's active-ping events (``/sonar/ping``, geometry_msgs/PointStamped)
+and to the observer's Odometry (``/sonar/observer/odom``): the range between the two sets the
+detection probability of a ping (``SmartTargetParams.detection_probability``), and the observer
+position sets the evasion heading. ``naive:=true`` is the paper's constant-velocity target (it
+still counts the pings it hears, but never reacts).
+
+Ordering rule (the same as the core's closed loop, ``experiments.run_closed_loop``): step k moves
+x_{k-1} → x_k. It uses the ping the observer emitted at t_{k-1} (if any) and the observer
+position at t_{k-1}; step 1 has no ping (the observer's first reading is at t_1). With
+``sync_observer`` (default) step k waits until the observer's Odometry stamped t_{k-1} has
+arrived: the observer publishes its ping event before its Odometry, so by then the target knows
+whether t_{k-1} was a ping. The observer in turn waits for the truth stamped t_k before it
+measures, so the two nodes alternate T1, O1, T2, O2, … whatever the executor's callback order,
+and a seed reproduces every payload. ``sync_observer:=false`` runs freely, for a target without
+an observer: step k takes a ping stamped t_{k-1} only if it has already arrived, and the latest
+observer position received.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+
+import numpy as np
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import PointStamped
+from nav_msgs.msg import Odometry
+
+from track_core.sonar import SmartTarget, SmartTargetParams, SonarParams
+from track_msgs_py.convert import (
+    DIAG_OK,
+    cv_state_to_odometry,
+    diagnostic_array,
+    diagnostic_status,
+    odometry_to_cv_state,
+    sec_to_stamp,
+    stamp_to_ns,
+)
+from track_msgs_py.qos import ESTIMATE_QOS
+from track_msgs_py.topics import FRAME_MAP, KNOWN_FRAMES, SONAR_OBSERVER, SONAR_PING, SONAR_TARGET_STATUS, SONAR_TRUTH
+from track_msgs_py.validate import header_problem, odometry_problem, xyz_problem
+from track_nodes.base import FixedRateSteps, Param, TrackNode
+
+_D = SmartTargetParams()
+PARAMS = (
+    Param('seed', 0, 'seed of the numpy Generator driving process noise and ping detection', 0, 2**31 - 1),
+    Param('period', 1.0, 'step T of the target model (Table 1: 1 s) [s]', 1e-3, 60.0),
+    Param('q_s', 1.0, 'CV process-noise intensity q_s of eq. 4 (Table 1: 1) [m²/s³]', 1e-9, 1e3),
+    Param('x0', [300.0, 12.25, 300.0, -12.25], 'initial state [x, vx, y, vy] in map (Section 5) [m, m/s]'),
+    Param('naive', False, 'the paper\'s constant-velocity target (never evades)'),
+    Param('p_max', _D.p_max, 'detection probability of a ping at close range', 0.0, 1.0),
+    Param('r_50', _D.r_50, 'range at which a ping is heard with probability p_max/2 [m]', 1e-3, 1e7),
+    Param('width', _D.width, 'width of the logistic fall-off of the detection probability [m]', 1e-3, 1e7),
+    Param('evade_speed', _D.evade_speed, 'speed while evading [m/s]', 0.0, 1e3),
+    Param('max_turn_rate_deg', math.degrees(_D.max_turn_rate), 'bounded turn rate while manoeuvring [deg/s]',
+          0.0, 360.0),
+    Param('max_accel', _D.max_accel, 'bounded speed change [m/s²]', 0.0, 1e3),
+    Param('quiet_period', _D.quiet_period, 'time without a detected ping before cruising again [s]', 0.0, 1e6),
+    Param('sync_observer', True, 'step k waits for the observer\'s Odometry of t_{k-1} (deterministic lock-step)'),
+    Param('max_time', 0.0, 'stop after this node time since origin [s]; 0 = never', 0.0, 1e9),
+    Param('track_id', 'smart_target', 'child_frame_id of the truth odometry and name of the status'),
+)
+
+
+class SmartTargetNode(TrackNode):
+    DEFAULT_NAME = 'smart_target'
+    PARAMS = PARAMS
+
+    def __init__(self, **kw) -> None:
+        super().__init__(**kw)
+        p = self.p
+        x0 = np.asarray(p.x0, dtype=float)
+        if x0.shape != (4,) or not np.all(np.isfinite(x0)):
+            raise ValueError(f'parameter x0={list(p.x0)!r} is invalid: allowed 4 finite numbers [x, vx, y, vy]')
+        params = SmartTargetParams(p_max=p.p_max, r_50=p.r_50, width=p.width, evade_speed=p.evade_speed,
+                                   max_turn_rate=math.radians(p.max_turn_rate_deg), max_accel=p.max_accel,
+                                   quiet_period=p.quiet_period, naive=p.naive)
+        self.target = SmartTarget(x0, sonar=SonarParams(T=p.period, q_s=p.q_s), params=params)
+        self.rng = np.random.default_rng(p.seed)
+        self.pending: deque[float] = deque()  # due step times not yet taken (waiting for the observer)
+        self.pings: dict[int, np.ndarray] = {}  # ping stamp [ns] → observer position
+        self.observer: dict[int, np.ndarray] = {}  # observer Odometry stamp [ns] → position
+        self.last_t: float | None = None  # stamp of the last step taken (t_{k-1})
+        self.rejected = 0
+        self.pub_truth = self.create_publisher(Odometry, SONAR_TRUTH, ESTIMATE_QOS)
+        self.pub_status = self.create_publisher(DiagnosticArray, SONAR_TARGET_STATUS, ESTIMATE_QOS)
+        # Ping subscription first: when both are ready at once the executor serves it first.
+        self.sub_ping = self.create_subscription(PointStamped, SONAR_PING, self._on_ping, ESTIMATE_QOS)
+        self.sub_obs = self.create_subscription(Odometry, SONAR_OBSERVER, self._on_observer, ESTIMATE_QOS)
+        self.steps = FixedRateSteps(self, p.period, self._due, p.max_time)
+
+    # -- inputs ---------------------------------------------------------------------------
+    def _reject(self, topic: str, reason: str) -> None:
+        self.rejected += 1
+        self.get_logger().warning(f'{topic}: dropped message: {reason}')
+
+    def _on_ping(self, msg: PointStamped) -> None:
+        reason = header_problem(msg.header, KNOWN_FRAMES) or xyz_problem('point', msg.point)
+        if reason:
+            self._reject(SONAR_PING, reason)
+            return
+        self.pings[stamp_to_ns(msg.header.stamp)] = np.array([msg.point.x, msg.point.y])
+
+    def _on_observer(self, msg: Odometry) -> None:
+        reason = odometry_problem(msg, KNOWN_FRAMES)
+        if reason:
+            self._reject(SONAR_OBSERVER, reason)
+            return
+        _, x, _ = odometry_to_cv_state(msg)
+        self.observer[stamp_to_ns(msg.header.stamp)] = np.array([x[0], x[2]])
+        self._advance()
+
+    # -- stepping -------------------------------------------------------------------------
+    def _due(self, t: float) -> None:
+        self.pending.append(t)
+        self._advance()
+
+    def _advance(self) -> None:
+        while self.pending:
+            key = None if self.last_t is None else _ns(self.last_t)  # t_{k-1}; None at step 1
+            if self.p.sync_observer and key is not None and key not in self.observer:
+                return  # the observer's step at t_{k-1} is not known yet
+            pinged = key is not None and key in self.pings
+            self._step(self.pending.popleft(), pinged, self._observer_at(key))
+
+    def _observer_at(self, key: int | None) -> np.ndarray:
+        """Observer position at t_{k-1}: its Odometry, else its ping, else the latest one before."""
+        if key is not None and key in self.observer:
+            return self.observer[key]
+        if key is not None and key in self.pings:
+            return self.pings[key]
+        older = [k for k in self.observer if key is None or k <= key]
+        return self.observer[max(older)] if older else np.zeros(2)  # none yet (step 1): no ping, no evasion
+
+    def _step(self, t: float, pinged: bool, obs_xy: np.ndarray) -> None:
+        tgt = self.target
+        before = tgt.detections
+        x = tgt.step(self.rng, pinged, obs_xy)
+        self.last_t = t
+        cutoff = _ns(t) - round(2e9 * self.p.period)  # keep what t_k and t_{k+1} may still need
+        self.pings = {k: v for k, v in self.pings.items() if k >= cutoff}
+        self.observer = {k: v for k, v in self.observer.items() if k >= cutoff}
+        self.pub_truth.publish(cv_state_to_odometry(t, x, np.zeros((4, 4)), FRAME_MAP, self.p.track_id))
+        status = diagnostic_status(self.p.track_id, DIAG_OK, tgt.mode, {
+            'mode': tgt.mode, 'heard': 'true' if tgt.detections > before else 'false',
+            'pings': tgt.pings, 'detections': tgt.detections})
+        self.pub_status.publish(diagnostic_array(t, [status]))
+
+
+def _ns(t: float) -> int:
+    """Float seconds → the integer nanoseconds of its stamp (stamps are compared exactly)."""
+    return stamp_to_ns(sec_to_stamp(t))

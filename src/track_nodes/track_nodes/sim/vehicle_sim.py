@@ -1,0 +1,80 @@
+"""``vehicle_sim``: the §5.1 vehicle and sensor field of the IDSQ paper, as topics.
+
+- At start it draws the sensor layout with the core's seeded §5.1 generator
+  (``track_core.idsq.simulation.draw_run(Scenario(...), SeedSequence(seed)).layout``: K/4 rows ×
+  4 columns over the field, jittered by N(0, ``jitter_var``), round(``doa_fraction``·K) DOA
+  sensors) and publishes it once on ``/idsq/layout`` (transient-local, so sensors started later
+  still get it): ``sensor_msgs/PointCloud2``, one point per sensor, FLOAT64 fields ``id``, ``x``,
+  ``y``, ``type`` (0 acoustic, 1 DOA; ``track_msgs_py.convert.layout_to_pointcloud2``). The same
+  seed gives the layout of the core experiments' run with that seed.
+- Every Δt of node time (``FixedRateSteps``) it publishes the vehicle truth of tracker step s on
+  ``/idsq/vehicle/truth`` (``nav_msgs/Odometry``, zero covariance, velocity (0, speed),
+  ``child_frame_id`` = ``vehicle_id``), stamped (s + 1)·Δt: the first tick comes one period after
+  the clock origin, and the vehicle enters the field (x = W/2, y = 0) then. It stops when the
+  vehicle leaves the field (``Scenario.n_steps``, 72 for §5.1) or after ``max_steps``.
+
+With ``publish_truth:=false`` it publishes only the layout: the maritime scenario's sensors hear
+other sources (``idsq_sensor``'s ``truth_topics``).
+
+The sensors are separate nodes whose ``id``/``position``/``type`` parameters must match this
+layout: ``track_nodes.launch.generate.idsq_yaml`` writes a launcher scenario with all of them from the same generator
+(``config/idsq.yaml`` was written by it).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from nav_msgs.msg import Odometry
+from sensor_msgs.msg import PointCloud2
+
+from track_core.idsq.simulation import Scenario, scenario_of
+from track_msgs_py.convert import cv_state_to_odometry, layout_to_pointcloud2
+from track_msgs_py.qos import STATIC_QOS, TRUTH_QOS
+from track_msgs_py.topics import FRAME_MAP, IDSQ_LAYOUT, IDSQ_TRUTH
+from track_nodes.base import FixedRateSteps, Param, TrackNode
+
+_SC = Scenario()
+PARAMS = (
+    Param('seed', 0, 'layout seed: draw_run(Scenario, SeedSequence(seed)).layout', 0, 2**31 - 1),
+    Param('n_sensors', 24, 'K sensors on a K/4 × 4 grid (a multiple of 4, §5.1)', 8, 4096),
+    Param('doa_fraction', 0.3, 'fraction of DOA sensors (Table 4: 30 %)', 0.0, 1.0),
+    Param('width', _SC.width, 'field width, x (§5.1: 150 m) [m]', 1.0, 1e5),
+    Param('height', _SC.height, 'field height, y; the vehicle drives south to north (§5.1: 250 m) [m]', 1.0, 1e5),
+    Param('jitter_var', _SC.jitter_var, 'variance of the N(0, σ²) jitter of each sensor coordinate (§5.1: 25) [m²]',
+          0.0, 1e6),
+    Param('speed', _SC.speed, 'vehicle speed (§5.1: 7 m/s) [m/s]', 1e-3, 1e3),
+    Param('dt', _SC.tracker.dt, 'tracker step Δt = truth period (§5.1: 0.5 s) [s]', 1e-3, 60.0),
+    Param('max_steps', 0, 'stop after this many steps; 0 = when the vehicle leaves the field', 0, 10**7),
+    Param('vehicle_id', 'vehicle', 'child_frame_id of the truth'),
+    Param('publish_truth', True, 'publish the §5.1 vehicle; false: only the layout (the sensors then sense '
+          'other sources, see idsq_sensor truth_topics)'),
+)
+
+
+class VehicleSimNode(TrackNode):
+    DEFAULT_NAME = 'vehicle_sim'
+    PARAMS = PARAMS
+
+    def __init__(self, **kw) -> None:
+        super().__init__(**kw)
+        p = self.p
+        self.scenario, self.layout, self.truth = scenario_of(p.seed, p.n_sensors, p.doa_fraction, p.width, p.height,
+                                                             p.jitter_var, p.speed, p.dt)
+        n = self.truth.shape[0] if p.max_steps == 0 else min(p.max_steps, self.truth.shape[0])
+        self.n_steps = n
+        self.published = 0
+        self.pub_layout = self.create_publisher(PointCloud2, IDSQ_LAYOUT, STATIC_QOS)
+        self.pub_truth = self.create_publisher(Odometry, IDSQ_TRUTH, TRUTH_QOS)
+        self.pub_layout.publish(layout_to_pointcloud2(0.0, self.layout))
+        self.steps = FixedRateSteps(self, p.dt, self._step, n * p.dt)
+        self.get_logger().info(f'{self.layout.n} sensors ({int(self.layout.is_doa.sum())} DOA), '
+                               f'{n} truth steps of {p.dt:g} s')
+
+    def _step(self, t: float) -> None:
+        s = self.steps.k - 1
+        if s >= self.n_steps or not self.p.publish_truth:
+            return
+        x, y = self.truth[s]
+        state = np.array([x, 0.0, y, self.p.speed])
+        self.pub_truth.publish(cv_state_to_odometry(t, state, np.zeros((4, 4)), FRAME_MAP, self.p.vehicle_id))
+        self.published += 1

@@ -1,0 +1,1 @@
+"""Hybrid CEKF/PF SLAM on vehicle inputs and laser scans."""

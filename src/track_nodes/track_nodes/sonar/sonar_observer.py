@@ -1,0 +1,230 @@
+"""``sonar_observer``: the observer AUV of the sonar paper, with passive/active sonar and a particle filter.
+
+Every ``period`` T of node time (``FixedRateSteps``, t_k = origin + k·T) the observer
+
+1. is at ``ObserverTrajectory.state(k·T)`` (constant speed, straight legs and constant-rate turns);
+2. takes the target truth stamped exactly t_k from ``/sonar/target/truth`` and simulates the sonar
+   reading the scheduler chose for this step (``simulate_measurement``: eq. 5 passive bearing, or
+   eq. 6 active bearing + range, Table 1 noise, its own seeded Generator);
+3. runs one step of the tracker (``make_tracker``: ``ss-pf`` with the eq. 7 covariance-control
+   scheduler, or the ``papf``/``acpf`` baselines; its own seeded Generator);
+4. publishes, in this order:
+   - ``/sonar/ping`` (geometry_msgs/PointStamped at the observer position), only when it pinged;
+   - ``/sonar/estimate`` (nav_msgs/Odometry with the particle covariance, ``child_frame_id`` =
+     ``track_id``; position–velocity cross-covariances are dropped, see track_msgs_py.convert);
+   - ``/sonar/particles`` (geometry_msgs/PoseArray, one pose per selected particle, identity
+     orientation like our Odometry tracks: particles carry no heading; weights are equal after
+     the selection step, so no weight field is needed);
+   - ``/sonar/mode`` (diagnostic_msgs/DiagnosticArray, one status ``<node name>/sensor_mode``;
+     message = the mode used at t_k; values ``mode``, ``next_mode`` (the scheduler's choice for
+     t_{k+1}), ``step``, ``ess``, and for ss-pf ``distance`` = ‖P_D − Cov‖ of eq. 7);
+   - ``/sonar/markers`` (visualization_msgs/MarkerArray: the 2σ position ellipse, ns
+     ``sonar_estimate``, id 0);
+   - ``/sonar/observer/odom`` (nav_msgs/Odometry of the observer, zero covariance) last: it tells
+     the smart target that step k is complete (see ``smart_target`` for the ordering rule).
+
+Determinism rule: step k is taken only when both its time has come (the timer) and the truth
+stamped t_k has arrived, whichever happens second; steps are taken strictly in order. The
+target's step k never depends on the observer's step k (only on k−1), so there is no deadlock,
+and the measurement and filter draws depend only on the seed and the truth sequence. Replaying a
+recorded ``/sonar/target/truth`` into a fresh observer with the same parameters therefore
+reproduces every estimate bit for bit. Both nodes must share the stamp origin: under
+``use_sim_time`` it is 0; on wall time it is the whole second of each node's first tick, so start
+them together (the launcher does).
+
+Parameters are checked at start; δ < 0, N < 1 or a P_D that is not symmetric PSD (4 values: a
+diagonal; 16: a row-major 4×4 matrix) stop the node with one line.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+
+import numpy as np
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import PointStamped, PoseArray
+from nav_msgs.msg import Odometry
+from visualization_msgs.msg import MarkerArray
+
+from track_core.sonar import (
+    DEFAULT_P_D,
+    CovarianceScheduler,
+    ObserverTrajectory,
+    Scenario,
+    SensorMode,
+    SonarParams,
+    desired_covariance,
+    make_tracker,
+    simulate_measurement,
+)
+from track_core.sonar.scenario import DEFAULT_LEGS
+from track_core.sonar.sspf import TRACKERS
+from track_msgs_py.convert import (
+    DIAG_OK,
+    covariance_ellipse_marker,
+    cv_state_to_odometry,
+    diagnostic_array,
+    diagnostic_status,
+    odometry_to_cv_state,
+    positions_to_pose_array,
+    sec_to_stamp,
+    stamp_to_ns,
+)
+from track_msgs_py.qos import ESTIMATE_QOS, SENSOR_QOS
+from track_msgs_py.topics import (
+    FRAME_MAP,
+    KNOWN_FRAMES,
+    SONAR_ESTIMATE,
+    SONAR_MARKERS,
+    SONAR_MODE,
+    SONAR_OBSERVER,
+    SONAR_PARTICLES,
+    SONAR_PING,
+    SONAR_TRUTH,
+)
+from track_msgs_py.validate import odometry_problem
+from track_nodes.base import FixedRateSteps, Param, ParameterError, TrackNode
+
+PARAMS = (
+    Param('seed', 0, 'seed of the measurement noise and of the particle filter (two spawned streams)', 0, 2**31 - 1),
+    Param('tracker', 'ss-pf', 'ss-pf: eq. 7 scheduling; papf: passive only; acpf: active only',
+          choices=TRACKERS),
+    Param('delta', 5.0, 'threshold δ of eq. 7 (Table 1: 5) [m²]', 0.0, 1e12),
+    Param('P_D', [float(v) for v in np.diag(DEFAULT_P_D)],
+          'desired covariance P_D of eq. 7 in [x, vx, y, vy]: 4 values (diagonal) or 16 (row-major 4x4), '
+          'symmetric PSD'),
+    Param('metric', 'spectral', 'eq. 7 distance: spectral ‖P_D − Cov‖₂ (paper) or excess λmax(Cov − P_D)',
+          choices=('spectral', 'excess')),
+    Param('n_particles', 200, 'number of particles N (Table 1: 200)', 1, 1_000_000),
+    Param('regularize', True, 'Liu-West move after resampling (track_core.sonar.sspf; not in the paper)'),
+    Param('period', 1.0, 'sampling period T (Table 1: 1 s) [s]', 1e-3, 60.0),
+    Param('q_s', 1.0, 'process-noise intensity q_s of the filter model (Table 1: 1) [m²/s³]', 1e-9, 1e3),
+    Param('sigma_b_deg', 1.0, 'bearing noise std σ_b (Table 1: 1°) [deg]', 1e-6, 180.0),
+    Param('sigma_d', 5.0, 'range noise std σ_d of the active sonar (Table 1: 5 m) [m]', 1e-6, 1e6),
+    Param('prior_mean', [300.0, 12.25, 300.0, -12.25], 'prior mean m₀ = [x, vx, y, vy] at t = 0 [m, m/s]'),
+    Param('prior_pos_std', 20.0, 'prior position std per axis [m]', 1e-6, 1e6),
+    Param('prior_vel_std', 2.0, 'prior velocity std per axis [m/s]', 1e-6, 1e6),
+    Param('start', [0.0, 0.0], 'observer start position [x, y] in map [m]'),
+    Param('speed', 10.0, 'observer speed [m/s]', 0.0, 1e3),
+    Param('heading0_deg', 90.0, 'observer initial heading, clockwise from north [deg]', -360.0, 360.0),
+    Param('legs', [float(v) for leg in DEFAULT_LEGS for v in leg],
+          'observer legs, flat [duration s, turn rate deg/s, ...]; the last leg extends past its duration'),
+    Param('max_time', 0.0, 'stop after this node time since origin [s]; 0 = never', 0.0, 1e9),
+    Param('track_id', 'sonar_track', 'child_frame_id of the estimate'),
+    Param('observer_id', 'sonar_observer', 'child_frame_id of the observer odometry'),
+)
+
+
+def _ns(t: float) -> int:
+    """Float seconds → the integer nanoseconds of its stamp (stamps are compared exactly)."""
+    return stamp_to_ns(sec_to_stamp(t))
+
+
+def _p_d(values) -> np.ndarray:
+    v = np.asarray(values, dtype=float)
+    if v.size not in (4, 16):
+        raise ParameterError(f'parameter P_D has {v.size} values: allowed 4 (diagonal) or 16 (row-major 4x4)')
+    try:
+        return desired_covariance(v if v.size == 4 else v.reshape(4, 4))
+    except ValueError as exc:
+        raise ParameterError(f'parameter P_D={v.tolist()!r} is invalid ({exc}): allowed a symmetric PSD '
+                             'matrix') from None
+
+
+class SonarObserverNode(TrackNode):
+    DEFAULT_NAME = 'sonar_observer'
+    PARAMS = PARAMS
+
+    def __init__(self, **kw) -> None:
+        super().__init__(**kw)
+        p = self.p
+        P_D = _p_d(p.P_D)
+        m0 = np.asarray(p.prior_mean, dtype=float)
+        if m0.shape != (4,) or not np.all(np.isfinite(m0)):
+            raise ValueError(f'parameter prior_mean={list(p.prior_mean)!r} is invalid: allowed 4 finite numbers')
+        legs = np.asarray(p.legs, dtype=float)
+        if legs.size == 0 or legs.size % 2 or not np.all(np.isfinite(legs)) or np.any(legs[::2] <= 0):
+            raise ValueError(f'parameter legs={list(p.legs)!r} is invalid: allowed pairs [duration > 0 s, '
+                             'turn rate deg/s, ...]')
+        start = np.asarray(p.start, dtype=float)
+        if start.shape != (2,) or not np.all(np.isfinite(start)):
+            raise ValueError(f'parameter start={list(p.start)!r} is invalid: allowed 2 finite numbers [x, y]')
+        self.sonar = SonarParams(T=p.period, q_s=p.q_s, sigma_b=math.radians(p.sigma_b_deg), sigma_d=p.sigma_d,
+                                 n_particles=p.n_particles)
+        self.trajectory = ObserverTrajectory(start=(float(start[0]), float(start[1])), speed=p.speed,
+                                             heading0_deg=p.heading0_deg,
+                                             legs=tuple((float(d), float(r)) for d, r in legs.reshape(-1, 2)))
+        prior_cov = Scenario(params=self.sonar, prior_pos_std=p.prior_pos_std, prior_vel_std=p.prior_vel_std).prior_cov
+        noise_ss, filter_ss = np.random.SeedSequence(p.seed).spawn(2)
+        self.noise_rng = np.random.default_rng(noise_ss)
+        self.tracker = make_tracker(p.tracker, self.sonar, np.random.default_rng(filter_ss), P_D=P_D,
+                                    delta=p.delta, metric=p.metric, regularize=p.regularize)
+        self.tracker.initialize(m0, prior_cov)
+        self.pending: deque[float] = deque()  # due step times waiting for their truth
+        self.truth: dict[int, np.ndarray] = {}  # truth stamp [ns] → state
+        self.rejected = 0
+        self.pings = 0
+        self.k = 0  # steps taken
+        self._waiting_logged = False
+        self.pub_ping = self.create_publisher(PointStamped, SONAR_PING, ESTIMATE_QOS)
+        self.pub_est = self.create_publisher(Odometry, SONAR_ESTIMATE, ESTIMATE_QOS)
+        self.pub_particles = self.create_publisher(PoseArray, SONAR_PARTICLES, SENSOR_QOS)
+        self.pub_mode = self.create_publisher(DiagnosticArray, SONAR_MODE, ESTIMATE_QOS)
+        self.pub_markers = self.create_publisher(MarkerArray, SONAR_MARKERS, ESTIMATE_QOS)
+        self.pub_odom = self.create_publisher(Odometry, SONAR_OBSERVER, ESTIMATE_QOS)
+        self.sub_truth = self.create_subscription(Odometry, SONAR_TRUTH, self._on_truth, ESTIMATE_QOS)
+        self.steps = FixedRateSteps(self, p.period, self._due, p.max_time)
+
+    # -- inputs ---------------------------------------------------------------------------
+    def _on_truth(self, msg: Odometry) -> None:
+        reason = odometry_problem(msg, KNOWN_FRAMES)
+        if reason:
+            self.rejected += 1
+            self.get_logger().warning(f'{SONAR_TRUTH}: dropped truth: {reason}')
+            return
+        _, x, _ = odometry_to_cv_state(msg)
+        self.truth[stamp_to_ns(msg.header.stamp)] = x
+        self._advance()
+
+    def _due(self, t: float) -> None:
+        self.pending.append(t)
+        self._advance()
+
+    def _advance(self) -> None:
+        while self.pending:
+            key = _ns(self.pending[0])
+            if key not in self.truth:
+                if len(self.pending) > 2 and not self._waiting_logged:
+                    self._waiting_logged = True
+                    self.get_logger().warning(f'waiting for {SONAR_TRUTH} stamped {self.pending[0]:.9f} s '
+                                              '(is smart_target running on the same clock?)')
+                return
+            self._step(self.pending.popleft(), self.truth.pop(key))
+            self.truth = {k: v for k, v in self.truth.items() if k > key}
+
+    # -- one step -------------------------------------------------------------------------
+    def _step(self, t: float, x_true: np.ndarray) -> None:
+        self.k += 1
+        obs_state = self.trajectory.state(self.k * self.p.period)  # trajectory time since the origin
+        obs_xy = obs_state[[0, 2]]
+        mode = self.tracker.next_mode
+        z = simulate_measurement(self.noise_rng, x_true, obs_xy, mode, self.sonar)
+        est = self.tracker.step(z, mode, obs_xy)
+        if mode is SensorMode.ACTIVE:
+            self.pings += 1
+            ping = PointStamped()
+            ping.header.stamp, ping.header.frame_id = sec_to_stamp(t), FRAME_MAP
+            ping.point.x, ping.point.y = float(obs_xy[0]), float(obs_xy[1])
+            self.pub_ping.publish(ping)
+        self.pub_est.publish(cv_state_to_odometry(t, est.mean, est.cov, FRAME_MAP, self.p.track_id))
+        self.pub_particles.publish(positions_to_pose_array(t, self.tracker.particles[:, [0, 2]]))
+        values = {'mode': est.mode.value, 'next_mode': est.next_mode.value, 'step': est.k, 'ess': est.ess}
+        if isinstance(self.tracker.scheduler, CovarianceScheduler):
+            values['distance'] = self.tracker.scheduler.distance(est.cov)
+        self.pub_mode.publish(diagnostic_array(t, [diagnostic_status(
+            f'{self.get_name()}/sensor_mode', DIAG_OK, est.mode.value, values)]))
+        pos = [0, 2]
+        self.pub_markers.publish(MarkerArray(markers=[covariance_ellipse_marker(
+            t, est.mean[pos], est.cov[np.ix_(pos, pos)], FRAME_MAP, ns='sonar_estimate', line_width=1.0)]))
+        self.pub_odom.publish(cv_state_to_odometry(t, obs_state, np.zeros((4, 4)), FRAME_MAP, self.p.observer_id))
