@@ -201,6 +201,24 @@ def _truncated(tmp: Path, bag: Path) -> tuple[Path, Path, list[str]]:
     return tmp / 'cut', mcap, []
 
 
+def _cut_to(n: int):
+    def make(tmp: Path, bag: Path) -> tuple[Path, Path, list[str]]:
+        shutil.copytree(bag, tmp / f'cut{n}')
+        (mcap,) = (tmp / f'cut{n}').glob('*.mcap')
+        mcap.write_bytes(mcap.read_bytes()[:n])
+        return tmp / f'cut{n}', mcap, []
+    return make
+
+
+def _garbage(tmp: Path, bag: Path) -> tuple[Path, Path, list[str]]:
+    shutil.copytree(bag, tmp / 'garbage')
+    (mcap,) = (tmp / 'garbage').glob('*.mcap')
+    data = bytearray(mcap.read_bytes())
+    data[8:] = bytes((i * 151 + 7) % 256 for i in range(len(data) - 8))  # magic kept, the rest noise
+    mcap.write_bytes(bytes(data))
+    return tmp / 'garbage', mcap, []
+
+
 def _rate0(tmp: Path, bag: Path) -> tuple[Path, Path, list[str]]:
     return bag, bag, ['--rate', '0']
 
@@ -210,8 +228,14 @@ def _rate0(tmp: Path, bag: Path) -> tuple[Path, Path, list[str]]:
     (_not_a_bag, 'not a rosbag2 bag'),
     (_no_metadata, 'track-bag-recover'),
     (_truncated, 'truncated'),
+    (_cut_to(0), 'truncated'),
+    (_cut_to(8), 'truncated'),
+    (_cut_to(9), 'truncated'),
+    (_cut_to(40), 'truncated'),
+    (_garbage, 'truncated'),
     (_rate0, 'rate'),
-], ids=['missing', 'not-a-bag', 'no-metadata', 'truncated', 'rate-0'])
+], ids=['missing', 'not-a-bag', 'no-metadata', 'truncated', 'cut-0', 'cut-8', 'cut-9', 'cut-40', 'garbage',
+        'rate-0'])
 def test_bad_input_is_one_line_and_exit_2(ros, bag, venv, tmp_path, make, problem):
     given, named, extra = make(tmp_path, bag[0])
     sink = Sink(ros)

@@ -25,6 +25,7 @@ DEMO_TRUTH = '/demo/truth'
 DEMO_REPORTS = '/demo/reports'
 DEMO_TRACK = '/demo/track'
 CLOCK = '/clock'
+DIAGNOSTICS = '/diagnostics'  # the standard ROS health topic: every node's counts of refused input
 
 # Track-to-track fusion (geofeasibility paper). Input track topics are parameters of the node.
 FUSION_SCORES = '/fusion/scores'
@@ -43,6 +44,8 @@ class TopicSpec(NamedTuple):
 
 TOPICS: dict[str, TopicSpec] = {
     CLOCK: TopicSpec('rosgraph_msgs/msg/Clock', 'clock', 'simulated time, driven by the launcher or the player'),
+    DIAGNOSTICS: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'estimate',
+                           'per node: refused input counted per "<topic> <reason field>" (track_nodes.base.node)'),
     DEMO_TRUTH: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
                           'true CV state of the demo target (zero covariance); child_frame_id = track id'),
     DEMO_REPORTS: TopicSpec('geometry_msgs/msg/PoseWithCovarianceStamped', 'sensor',

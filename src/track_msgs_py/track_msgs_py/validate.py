@@ -13,17 +13,100 @@ What is checked (the fields ``convert`` reads, see its table):
   ``track_core.filters.gaussian.covariance_problem``. Only those blocks: the other diagonal
   entries carry ``UNUSED_VARIANCE`` (or whatever another producer wrote) and are not read;
 - stamps do not go backwards per key (``StampMonotonic``); equal stamps are accepted.
+
+``InputPolicy`` (issue 13) adds what finite-ness alone lets through, so one hostile message can
+neither poison an estimate nor lock a stream:
+
+- magnitudes: positions and ranges within ``world_bound`` m, speeds within ``speed_bound`` m/s;
+- covariances: the x/y block positive definite with both eigenvalues in
+  [``variance_floor``, ``variance_ceiling``] m² (zero, denormal and huge ones are refused);
+- stamps: not zero where one is required, and not more than ``horizon`` s ahead of the
+  receiving node's clock (``stamp_problem``). A refused stamp never moves a watermark.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Collection, Hashable
+from dataclasses import dataclass
 
 import numpy as np
 
 from track_core.filters.gaussian import covariance_problem
 from track_msgs_py.convert import stamp_to_sec, xy_block
+
+
+@dataclass(frozen=True)
+class InputPolicy:
+    """Bounds a usable message respects (SI units; defaults generous for any scenario here)."""
+
+    horizon: float = 60.0  # a stamp may be at most this far ahead of the node's clock [s]
+    world_bound: float = 1e7  # |position|, |range| [m] (beyond the Earth's diameter)
+    speed_bound: float = 1e4  # |velocity| [m/s]
+    variance_floor: float = 1e-12  # smallest eigenvalue of a position covariance [m²]
+    variance_ceiling: float = 1e14  # largest eigenvalue of a position covariance [m²]
+
+    def __post_init__(self) -> None:
+        if not (self.horizon > 0 and self.world_bound > 0 and self.speed_bound > 0
+                and 0 < self.variance_floor < self.variance_ceiling):
+            raise ValueError(f'invalid input policy {self}')
+
+
+DEFAULT_POLICY = InputPolicy()
+
+
+def bound_problem(field: str, bound: float, **values: float) -> str | None:
+    """Reason naming the first value that is non-finite or beyond ``±bound``."""
+    for name, value in values.items():
+        if not math.isfinite(value):
+            return f'{field}: non-finite {name}={value}'
+        if abs(value) > bound:
+            return f'{field}: {name}={value:g} is beyond the bound ±{bound:g}'
+    return None
+
+
+def variance_problem(field: str, C: np.ndarray, policy: InputPolicy = DEFAULT_POLICY) -> str | None:
+    """Reason when the symmetric block ``C`` is not a covariance with eigenvalues in the policy's range."""
+    reason = covariance_problem(C)
+    if reason is not None:
+        return f'{field}: {reason}'
+    eig = np.linalg.eigvalsh(0.5 * (C + C.T))
+    if eig[0] < policy.variance_floor:
+        return f'{field}: smallest variance {eig[0]:.3g} is below the floor {policy.variance_floor:g}'
+    if eig[-1] > policy.variance_ceiling:
+        return f'{field}: largest variance {eig[-1]:.3g} is above the ceiling {policy.variance_ceiling:g}'
+    return None
+
+
+def stamp_problem(t: float, now: float | None, policy: InputPolicy = DEFAULT_POLICY, *,
+                  required: bool = True, field: str = 'header.stamp') -> str | None:
+    """Reason when stamp ``t`` [s] is zero (if ``required``), non-finite, or beyond the horizon of ``now``.
+
+    ``now`` is the receiving node's clock [s]; ``None`` skips the horizon test (a node without a clock).
+    """
+    if not math.isfinite(t):
+        return f'{field}: non-finite stamp {t}'
+    if required and t == 0.0:
+        return f'{field}: zero stamp (a time is required)'
+    if now is not None and t > now + policy.horizon:
+        return f'{field}: {t:.9g} s is {t - now:.3g} s ahead of the clock ({now:.9g} s; horizon {policy.horizon:g} s)'
+    return None
+
+
+def pose_cov_bounds_problem(msg, policy: InputPolicy = DEFAULT_POLICY) -> str | None:
+    """Policy checks of a ``PoseWithCovarianceStamped`` beyond ``pose_cov_problem``: position bound, variances."""
+    p = msg.pose.pose.position
+    return (bound_problem('pose.pose.position', policy.world_bound, x=p.x, y=p.y, z=p.z)
+            or variance_problem('pose.covariance', xy_block(np.asarray(msg.pose.covariance, float)), policy))
+
+
+def odometry_bounds_problem(msg, policy: InputPolicy = DEFAULT_POLICY, *, pose_covariance: bool = True) -> str | None:
+    """Policy checks of an ``Odometry``: position and velocity bounds, and (optionally) the x/y variances."""
+    p, v = msg.pose.pose.position, msg.twist.twist.linear
+    return (bound_problem('pose.pose.position', policy.world_bound, x=p.x, y=p.y, z=p.z)
+            or bound_problem('twist.twist.linear', policy.speed_bound, x=v.x, y=v.y, z=v.z)
+            or (variance_problem('pose.covariance', xy_block(np.asarray(msg.pose.covariance, float)), policy)
+                if pose_covariance else None))
 
 
 def frame_problem(frame_id: str, known_frames: Collection[str] | None, field: str = 'header.frame_id') -> str | None:

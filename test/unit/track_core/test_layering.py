@@ -30,6 +30,16 @@ def test_importing_every_track_core_module_loads_no_ros():
     assert 'track_core.filters.kalman' in result['imported']  # the walk really found the modules
     bad = [m for m in result['loaded'] if _forbidden(m)]
     assert not bad, f'track_core pulled in ROS or upper-layer modules: {bad[:10]}'
+    heavy = [m for m in result['loaded'] if m.split('.')[0] in ('matplotlib', 'tqdm')]
+    assert not heavy, f'importing track_core loaded plotting or progress bars: {heavy[:5]}'
+
+
+def test_one_plotting_helper():
+    """Figures go through track_core.plotting.pyplot; no module sets up matplotlib on its own."""
+    root = Path(track_core.__file__).parent
+    own = [p.relative_to(root).as_posix() for p in root.rglob('*.py')
+           if p.name != 'plotting.py' and 'matplotlib.use(' in p.read_text()]
+    assert not own, own
 
 
 def test_no_forbidden_import_statements_in_source():

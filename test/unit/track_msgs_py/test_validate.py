@@ -125,3 +125,36 @@ def test_stamp_monotonic_reads_message_header():
     s = StampMonotonic()
     assert s.msg_problem('a', odom()) is None
     assert s.msg_problem('a', cv_state_to_odometry(4.999, X, P)) is not None
+
+
+# --- InputPolicy (issue 13): magnitudes, variances and stamps a finite check lets through -------------
+
+def test_policy_refuses_huge_positions_and_variances_beyond_floor_and_ceiling():
+    from geometry_msgs.msg import PoseWithCovarianceStamped
+
+    from track_msgs_py.validate import InputPolicy, pose_cov_bounds_problem
+
+    policy = InputPolicy()
+
+    def msg(x=1.0, var=(4.0, 4.0)):
+        m = PoseWithCovarianceStamped()
+        m.pose.pose.position.x = x
+        m.pose.covariance[0], m.pose.covariance[7] = var
+        return m
+
+    assert pose_cov_bounds_problem(msg(), policy) is None
+    assert 'beyond the bound' in pose_cov_bounds_problem(msg(x=1e308), policy)
+    for var, word in (((0.0, 4.0), 'floor'), ((5e-324, 5e-324), 'floor'), ((1e30, 4.0), 'ceiling')):
+        assert word in pose_cov_bounds_problem(msg(var=var), policy), var
+
+
+def test_stamp_problem_zero_future_and_nonfinite():
+    from track_msgs_py.validate import InputPolicy, stamp_problem
+
+    policy = InputPolicy(horizon=10.0)
+    assert stamp_problem(5.0, now=0.0, policy=policy) is None
+    assert 'zero stamp' in stamp_problem(0.0, now=0.0, policy=policy)
+    assert stamp_problem(0.0, now=0.0, policy=policy, required=False) is None
+    assert 'ahead of the clock' in stamp_problem(2147483647.0, now=100.0, policy=policy)
+    assert 'non-finite' in stamp_problem(float('nan'), now=None)
+    assert stamp_problem(1e12, now=None) is None  # no clock: no horizon

@@ -53,6 +53,7 @@ from track_core.ais.reader import AisData, read_ais
 from track_core.ais.sources import PATROL, RADAR, ShipTruth, SourceModel, SourceReports, simulate_source
 from track_core.cli import Outcome, RunConfig, format_table
 from track_core.geofeasibility.scores import METHODS
+from track_core.plotting import pyplot
 
 PAPER_EVALS_PER_HOUR = 100_000
 ORDER = ('exact', 'glr', 'glr_thresholded', 'mc')
@@ -130,18 +131,10 @@ def _describe(model: SourceModel) -> str:
             f'every {model.period:g} s, {100 * model.dropout:g} % missed')
 
 
-def _plt():
-    import matplotlib
-
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
-
-    return plt
-
 
 def plot_map(path, truth: ShipTruth, res: RunResult, method: str, radar: SourceModel) -> None:
     """Map of the ships: true tracks in grey, each associated track pair in its own colour."""
-    plt = _plt()
+    plt = pyplot()
     a, b = res.radar, res.patrol
     dec = res.methods[method].decisions
     assert dec is not None
@@ -200,7 +193,7 @@ def plot_map(path, truth: ShipTruth, res: RunResult, method: str, radar: SourceM
 
 
 def plot_sweep(path, scales, f1: dict[str, list[float]]) -> None:
-    plt = _plt()
+    plt = pyplot()
     f, ax = plt.subplots(figsize=(6, 4))
     for m in ORDER:
         ax.plot(scales, f1[m], 'o-', label=m)

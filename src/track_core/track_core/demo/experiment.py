@@ -18,6 +18,7 @@ from track_core.cli import Outcome, RunConfig, best_time, format_table
 from track_core.demo.simulator import CVTarget
 from track_core.demo.tracker import CVKalmanTracker
 from track_core.filters import mahalanobis_sq
+from track_core.plotting import pyplot
 
 X0 = np.array([0.0, 5.0, 0.0, 2.0])
 
@@ -60,10 +61,7 @@ def nees_experiment(cfg: RunConfig) -> Outcome:
 
 
 def _plot(res: dict, path) -> None:
-    import matplotlib
-
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     fig, ax = plt.subplots(figsize=(7, 3.5))
     ax.plot(res['anees'], lw=1, label='ANEES')

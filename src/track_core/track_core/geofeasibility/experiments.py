@@ -23,6 +23,7 @@ from scipy.optimize import brentq
 from track_core.cli import Outcome, RunConfig, format_table
 from track_core.geofeasibility.ellipse import ellipse_to_gaussian
 from track_core.geofeasibility.scores import score
+from track_core.plotting import pyplot
 
 
 def circle_overlap(r1, r2, d) -> np.ndarray:
@@ -49,14 +50,6 @@ def _fig_path(cfg: RunConfig, name: str):
     return cfg.out / name
 
 
-def _plt():
-    import matplotlib
-
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
-
-    return plt
-
 
 def fig2(cfg: RunConfig) -> Outcome:
     """Overlapping unit circles: MC (N = 500) error bars over ``runs`` trials vs analytic and exact."""
@@ -75,7 +68,7 @@ def fig2(cfg: RunConfig) -> Outcome:
         table.append([float(dist[k]), float(analytic[k]), float(exact[k]), float(g.mean()), float(g.std(ddof=1))])
     err = float(np.max(np.abs(exact - analytic)))
     fig = _fig_path(cfg, 'geo-fig2.png')
-    plt = _plt()
+    plt = pyplot()
     f, ax = plt.subplots(figsize=(6, 4))
     ax.plot(analytic, analytic, 'k-', lw=1, label='analytic (= exact)')
     ax.errorbar(analytic, [r['mc_mean'] for r in rows], yerr=[r['mc_std'] for r in rows], fmt='o', ms=3,
@@ -108,7 +101,7 @@ def fig5(cfg: RunConfig) -> Outcome:
     y = 10.0 * np.log10([r['mse'] for r in rows])
     slope = float(np.polyfit(x, y, 1)[0])
     fig = _fig_path(cfg, 'geo-fig5.png')
-    plt = _plt()
+    plt = pyplot()
     f, ax = plt.subplots(figsize=(6, 4))
     ax.semilogx([r['n'] for r in rows], y, 'o-', base=2, label='MC')
     ax.semilogx([r['n'] for r in rows], y[0] - 10 * np.log10(2) * (x - x[0]), 'k--', base=2, lw=0.8,
@@ -164,7 +157,7 @@ def fig6(cfg: RunConfig) -> Outcome:
     under = [crossover, 1.0] if crossover is not None else None
     order = np.argsort(exact, kind='stable')
     fig = _fig_path(cfg, 'geo-fig6.png')
-    plt = _plt()
+    plt = pyplot()
     f, ax = plt.subplots(figsize=(8, 4))
     k = np.arange(n)
     ax.plot(k, res['glr'][order], 'k.', ms=1, alpha=0.4, label='GLR (eq. 71)')

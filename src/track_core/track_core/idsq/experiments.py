@@ -32,6 +32,7 @@ import numpy as np
 
 from track_core.cli import Outcome, RunConfig, format_table
 from track_core.idsq.simulation import Scenario, TrackResult, draw_run, run_centralized, run_idsq, summary
+from track_core.plotting import pyplot
 
 log = logging.getLogger(__name__)
 
@@ -64,18 +65,10 @@ def run_config(sc: Scenario, n_runs: int, seed: int, trackers: tuple[str, ...] =
     return out
 
 
-def _plt():
-    import matplotlib
-
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
-
-    return plt
-
 
 def snapshot_figure(path: Path, seed: int = 0, n_sensors: int = 40, doa_fraction: float = 0.3) -> Path:
     """Fig. 8: three snapshots of one run (belief cells, sensors, leader, its candidates, target)."""
-    plt = _plt()
+    plt = pyplot()
     sc = Scenario(n_sensors=n_sensors, doa_fraction=doa_fraction)
     d = draw_run(sc, _seeds(seed, n_sensors, doa_fraction, 1)[0])
     T = sc.n_steps
@@ -110,7 +103,7 @@ def snapshot_figure(path: Path, seed: int = 0, n_sensors: int = 40, doa_fraction
 
 def _error_figure(path: Path, xs: list[float], per_run: list[np.ndarray], paper: list[float], xlabel: str,
                   title: str) -> Path:
-    plt = _plt()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(6.5, 4.2))
     for x, e in zip(xs, per_run, strict=True):
         ax.plot(np.full(e.size, x), e, 'o', mfc='none', color='0.5', ms=4)
@@ -200,7 +193,7 @@ def selection(cfg: RunConfig) -> Outcome:
 
 
 def _selection_figure(path: Path, res: dict[str, list[TrackResult]], sc: Scenario) -> Path:
-    plt = _plt()
+    plt = pyplot()
     t = np.arange(sc.n_steps) * sc.tracker.dt
     fig, ax = plt.subplots(figsize=(6.5, 4.2))
     for name, rs in res.items():

@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from track_core.cli import Outcome, RunConfig, format_table
+from track_core.plotting import pyplot
 from track_core.rfid.pf import PFParams
 from track_core.rfid.search import SearchOutcome, run_search
 from track_core.rfid.world import WorldParams, office_obstacles
@@ -110,10 +111,7 @@ def _cells(s: dict) -> list:
 
 def plot_route(run: SearchOutcome, world: WorldParams, path: Path, title: str) -> Path:
     """Fig. 6 style: user positions '+' (black), start 'o' (green), tag '*' (red), obstacles grey."""
-    import matplotlib
-
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
+    plt = pyplot()
     from matplotlib.patches import Rectangle
 
     fig, ax = plt.subplots(figsize=(6, 6))

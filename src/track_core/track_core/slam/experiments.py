@@ -48,6 +48,7 @@ import time
 import numpy as np
 
 from track_core.cli import Outcome, RunConfig, best_time, format_table
+from track_core.plotting import pyplot
 from track_core.slam import victoria
 from track_core.slam.blas import single_threaded_blas
 from track_core.slam.cekf import CekfSlam, SlamParams
@@ -140,17 +141,9 @@ def _slam_loop(cfg: RunConfig) -> Outcome:
     return Outcome(table, data, figs)
 
 
-def _plt():
-    import matplotlib
-
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
-
-    return plt
-
 
 def _plot_loop(cfg: RunConfig, w: LoopWorld, run0, res) -> list:
-    plt = _plt()
+    plt = pyplot()
     cfg.out.mkdir(parents=True, exist_ok=True)
     figs = []
     # Fig. 4: paths (truth, EKF, hybrid mean over runs of run 0)
@@ -256,7 +249,7 @@ def victoria_park(cfg: RunConfig) -> Outcome:
 
 
 def _plot_victoria(cfg: RunConfig, r: dict) -> list:
-    plt = _plt()
+    plt = pyplot()
     cfg.out.mkdir(parents=True, exist_ok=True)
     fig, axs = plt.subplots(1, 3, figsize=(17, 5.5), gridspec_kw={'width_ratios': [2, 1.2, 1]})
     ax = axs[0]

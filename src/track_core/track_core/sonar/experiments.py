@@ -24,6 +24,7 @@ import numpy as np
 from scipy.stats import chi2
 
 from track_core.cli import Outcome, RunConfig, format_table
+from track_core.plotting import pyplot
 from track_core.sonar.models import SensorMode, measure, residual
 from track_core.sonar.scenario import Scenario, pcrlb, run_once
 from track_core.sonar.scheduler import DEFAULT_P_D
@@ -147,17 +148,9 @@ def table2(cfg: RunConfig) -> Outcome:
     return Outcome(table, {'rows': rows, 'baselines': base}, figs)
 
 
-def _plt():
-    import matplotlib
-
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
-
-    return plt
-
 
 def _fig2(res: dict, path: Path) -> Path:
-    plt = _plt()
+    plt = pyplot()
     r, t = res['results'], res['scenario'].times
     fig, ax = plt.subplots(figsize=(7, 3.8))
     for name, label in [('ss-pf d=5', 'SS-PF δ=5'), ('ss-pf d=50', 'SS-PF δ=50'), ('acpf', 'AcPF'), ('papf', 'PaPF')]:
@@ -174,7 +167,7 @@ def _fig2(res: dict, path: Path) -> Path:
 
 
 def _fig4(res: dict, path: Path) -> Path:
-    plt = _plt()
+    plt = pyplot()
     t = res['scenario'].times
     fig, axes = plt.subplots(len(DELTAS), 1, figsize=(7, 1.2 * len(DELTAS) + 1), sharex=True)
     for ax, d in zip(axes, DELTAS, strict=True):
@@ -191,7 +184,7 @@ def _fig4(res: dict, path: Path) -> Path:
 
 
 def _fig13(res: dict, path: Path) -> Path:
-    plt = _plt()
+    plt = pyplot()
     r0 = res['run0']['ss-pf d=50']
     fig, ax = plt.subplots(figsize=(6, 5))
     ax.plot(r0.observer[:, 0], r0.observer[:, 1], 'k.-', label='observer')
@@ -258,7 +251,7 @@ def smart_target(cfg: RunConfig) -> Outcome:
 
 
 def _fig_closed_loop(path: Path, trackers: dict) -> Path:
-    plt = _plt()
+    plt = pyplot()
     path.parent.mkdir(parents=True, exist_ok=True)
     names = list(trackers)
     fig, axes = plt.subplots(1, 2, figsize=(8, 3.2))

@@ -13,9 +13,15 @@ Usage::
   ``discovery_period`` seconds; a topic is subscribed once it has a publisher (its type and QoS
   come from the publishers). Discovery and flushing run on the steady wall clock, also under
   ``use_sim_time`` (a launcher may start /clock only once the recorder has subscribed).
-- Subscriptions are raw (the CDR bytes are written as received). QoS: best effort if any
-  publisher is best effort, transient-local if all publishers are, else reliable volatile;
-  depth 100. The publishers' offered QoS is stored in the bag.
+- Subscriptions are raw (the CDR bytes are written as received). QoS
+  (``bag.api.recording_qos``): best effort if any publisher is best effort, transient-local if
+  all are, else reliable; the queue twice as deep as the deepest publisher's history (at least
+  1000), so a burst the publishers can hold is recorded whole. The publishers' offered QoS is
+  stored in the bag.
+- Losses are counted (``bag.loss.LossCounter``: gaps in the publication sequence numbers, and
+  the middleware's message-lost events where several publishers share a topic), warned about
+  while recording (one line per ``warn_throttle`` seconds with the count) and printed in the
+  final line.
 - Timestamps: receive time on the node's clock (sim time under ``use_sim_time``).
 - Durability: every ``flush_period`` seconds the pending MCAP chunk is written and the file
   flushed, so after a SIGKILL the .mcap holds every message up to the last flush; recover it
@@ -31,15 +37,22 @@ from collections.abc import Sequence
 from datetime import datetime
 
 from rclpy.clock import Clock, ClockType
+from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.parameter import Parameter
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from track_nodes.bag.api import bag_path, check_mcap_writer_internals, flush_mcap_writer, msg_class, qos_to_rosbags
+from track_nodes.bag.api import (
+    bag_path,
+    check_mcap_writer_internals,
+    flush_mcap_writer,
+    msg_class,
+    qos_to_rosbags,
+    recording_qos,
+)
+from track_nodes.bag.loss import LossCounter
 from track_nodes.base import Param, TrackNode, run_node
 from track_nodes.base.cli import OneLineParser
 
 EXCLUDED_BY_DEFAULT = ('/rosout', '/parameter_events')
-DEPTH = 100
 
 PARAMS = (
     Param('bag', '', "bag name (→ bags/<name>/) or a path containing '/'; empty: rosbag2_<timestamp>"),
@@ -47,22 +60,12 @@ PARAMS = (
     Param('regex', '', 'record every topic matching this regular expression (re.search)'),
     Param('discovery_period', 0.1, 'interval between graph polls for new topics [s]', 0.01, 60.0),
     Param('flush_period', 1.0, 'interval between flushes of the pending data to the file [s]', 0.01, 3600.0),
+    Param('warn_throttle', 5.0, 'at most one warning about lost messages per this many seconds [s]', 0.0, 3600.0),
 )
 
 
 def _normalise(topic: str) -> str:
     return topic if topic.startswith('/') else '/' + topic
-
-
-def recording_qos(publisher_profiles: Sequence) -> QoSProfile:
-    """Subscription QoS compatible with every publisher (see the module docstring)."""
-    best_effort = any(p.reliability == ReliabilityPolicy.BEST_EFFORT for p in publisher_profiles)
-    transient = bool(publisher_profiles) and all(
-        p.durability == DurabilityPolicy.TRANSIENT_LOCAL for p in publisher_profiles)
-    return QoSProfile(
-        history=HistoryPolicy.KEEP_LAST, depth=DEPTH,
-        reliability=ReliabilityPolicy.BEST_EFFORT if best_effort else ReliabilityPolicy.RELIABLE,
-        durability=DurabilityPolicy.TRANSIENT_LOCAL if transient else DurabilityPolicy.VOLATILE)
 
 
 class RecorderNode(TrackNode):
@@ -108,6 +111,7 @@ class RecorderNode(TrackNode):
         self.counts: dict[str, int] = {}
         self.subscriptions_by_topic: dict[str, object] = {}
         self.skipped: set[str] = set()
+        self.losses = LossCounter()
         # Wall-clock (steady) timers: under use_sim_time, /clock may only start once we subscribed.
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.discovery_timer = self.create_timer(p.discovery_period, self.discover, clock=steady)
@@ -131,7 +135,11 @@ class RecorderNode(TrackNode):
         if self._closed:
             return
         for topic, types in self.get_topic_names_and_types():
-            if topic in self.subscriptions_by_topic or topic in self.skipped or not self.wanted(topic):
+            if topic in self.subscriptions_by_topic:
+                with self._lock:
+                    self.losses.publishers(topic, self.count_publishers(topic))
+                continue
+            if topic in self.skipped or not self.wanted(topic):
                 continue
             infos = self.get_publishers_info_by_topic(topic)
             if not infos:
@@ -157,20 +165,38 @@ class RecorderNode(TrackNode):
             self.connections[topic] = self._writer.add_connection(
                 topic, msgtype, typestore=self.typestore, offered_qos_profiles=offered)
             self.counts[topic] = 0
+            self.losses.publishers(topic, len(infos))
         qos = recording_qos(profiles)
+        events = SubscriptionEventCallbacks(
+            message_lost=lambda info, t=topic: self._on_lost(t, info.total_count_change))
         self.subscriptions_by_topic[topic] = self.create_subscription(
-            cls, topic, lambda data, t=topic: self._on_message(t, data), qos, raw=True)
+            cls, topic, lambda data, info, t=topic: self._on_message(t, data, info), qos, raw=True,
+            event_callbacks=events)
         self.get_logger().info(
             f'recording {topic} [{msgtype}] ({qos.reliability.name.lower()}, {qos.durability.name.lower()})')
 
     # -- writing --------------------------------------------------------------------------
-    def _on_message(self, topic: str, data: bytes) -> None:
+    def _on_message(self, topic: str, data: bytes, info: dict | None = None) -> None:
         stamp = self.get_clock().now().nanoseconds
         with self._lock:
             if self._closed:
                 return
             self._writer.write(self.connections[topic], stamp, data)
             self.counts[topic] += 1
+            lost = self.losses.received(topic, (info or {}).get('publication_sequence_number'))
+        if lost:
+            self._warn_lost(topic)
+
+    def _on_lost(self, topic: str, count_change: int) -> None:
+        with self._lock:
+            lost = self.losses.event(topic, count_change)
+        if lost:
+            self._warn_lost(topic)
+
+    def _warn_lost(self, topic: str) -> None:
+        self.get_logger().warning(f'{topic}: {self.losses.lost[topic]} messages lost so far '
+                                  f'({self.losses.total()} on all topics)',
+                                  throttle_duration_sec=self.p.warn_throttle)
 
     def flush(self) -> None:
         """Write the pending chunk and flush the file (SIGKILL safety, see bag_io)."""
@@ -185,7 +211,10 @@ class RecorderNode(TrackNode):
     def summary(self) -> str:
         counts = self.message_counts()
         per_topic = ', '.join(f'{t}: {n}' for t, n in sorted(counts.items())) or 'no topics'
-        return f'recorded {sum(counts.values())} messages ({per_topic}) to {self.path}'
+        lost = self.losses.total()
+        loss = f'; LOST {lost} ({", ".join(f"{t}: {n}" for t, n in sorted(self.losses.lost.items()) if n)})' \
+            if lost else '; lost 0'
+        return f'recorded {sum(counts.values())} messages ({per_topic}) to {self.path}{loss}'
 
     def close(self) -> None:
         """Close the bag (writes the MCAP summary and metadata.yaml); idempotent."""

@@ -9,6 +9,11 @@ A node subclass names itself (``DEFAULT_NAME``), lists its parameters (``PARAMS`
   destroy (which closes files) → exit code. A bad parameter or bad input at start
   (``ValueError``, ``OSError``) prints one line on stderr and exits 2, without a traceback.
 
+Refused input goes through ``refuse(topic, reason)``: counted per reason, logged at most once
+per reason every ``warn_throttle`` seconds with the count (``base.refusals``), and published on
+``/diagnostics`` (one ``DiagnosticStatus`` named after the node, a key per topic and reason) at
+most once a second while refusals happen, so ``ros2 topic echo /diagnostics`` shows them.
+
 ``python -m track_nodes <executable>`` (what the ``ros2 run`` shims call) looks the class up in
 ``track_nodes.registry`` and calls ``main``.
 """
@@ -20,10 +25,16 @@ from collections.abc import Callable, Sequence
 from typing import Any, ClassVar
 
 import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
+from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 
+from track_msgs_py.convert import diagnostic_array
+from track_msgs_py.records import DIAG_OK, DIAG_WARN, StatusRecord
+from track_msgs_py.topics import DIAGNOSTICS
 from track_nodes.base.params import Param, declare_params
+from track_nodes.base.refusals import RefusalCounter
 
 EXIT_BAD_INPUT = 2
 
@@ -33,12 +44,43 @@ class TrackNode(Node):
 
     DEFAULT_NAME: ClassVar[str] = 'track_node'
     PARAMS: ClassVar[tuple[Param, ...]] = ()
+    WARN_THROTTLE: ClassVar[float] = 5.0  # seconds between two log lines about one kind of refusal
+    DIAGNOSTICS_PERIOD: ClassVar[float] = 1.0
 
     def __init__(self, *, node_name: str | None = None, context=None, parameter_overrides=None, cli_args=None,
                  **node_kwargs: Any) -> None:
         super().__init__(node_name or self.DEFAULT_NAME, context=context, parameter_overrides=parameter_overrides,
                          cli_args=cli_args, **node_kwargs)
         self.p = declare_params(self, self.PARAMS)
+        self.refusals = RefusalCounter(self.WARN_THROTTLE)
+        self._steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self._diagnostics = None  # publisher and timer made at the first refusal (most nodes never need them)
+        self._diagnostics_dirty = False
+
+    def steady_now(self) -> float:
+        return self._steady.now().nanoseconds * 1e-9
+
+    def refuse(self, topic: str, reason: str) -> None:
+        """Count and (throttled) log one refused message; the caller leaves its state unchanged."""
+        line = self.refusals.refuse(topic, reason, self.steady_now())
+        if line is not None:
+            self.get_logger().warning(line)
+        self._diagnostics_dirty = True
+        if self._diagnostics is None:
+            pub = self.create_publisher(DiagnosticArray, DIAGNOSTICS, 10)
+            timer = self.create_timer(self.DIAGNOSTICS_PERIOD, self.publish_diagnostics, clock=self._steady)
+            self._diagnostics = (pub, timer)
+            self.publish_diagnostics()
+
+    def publish_diagnostics(self) -> None:
+        """The refusal counts on /diagnostics, when they changed since the last publication."""
+        if self._diagnostics is None or not self._diagnostics_dirty:
+            return
+        self._diagnostics_dirty = False
+        counts = self.refusals.by_key()
+        status = StatusRecord().to_status(self.get_fully_qualified_name(), DIAG_WARN if counts else DIAG_OK,
+                                          f'{self.refusals.total()} messages refused', extra=counts)
+        self._diagnostics[0].publish(diagnostic_array(self.get_clock().now().nanoseconds * 1e-9, [status]))
 
     @classmethod
     def main(cls, argv: Sequence[str] | None = None, **kwargs: Any) -> int:

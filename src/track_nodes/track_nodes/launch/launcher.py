@@ -48,7 +48,9 @@ from rosgraph_msgs.msg import Clock
 from track_msgs_py.convert import sec_to_stamp
 from track_msgs_py.qos import CLOCK_QOS
 from track_msgs_py.topics import CLOCK
+from track_nodes.bag.api import msg_class, recording_qos
 from track_nodes.base import EXIT_BAD_INPUT
+from track_nodes.launch.processes import spawn_nodes, stop_processes
 from track_nodes.launch.scenario import Scenario, ScenarioError, load_scenario
 
 CLOCK_TICK = 0.01  # wall seconds per /clock step at the nominal rate ...
@@ -56,7 +58,9 @@ MAX_CLOCK_STEP = 0.05  # ... but never more than this many node seconds per step
 IDLE_POLL = 0.001  # wall seconds without a ready callback that count as idle (lock-step)
 SETTLE = 1.0  # wall seconds for discovery to settle before the clock starts
 GRACE = 1.0  # wall seconds for messages in flight after the clock stops
-GRACE_PROCESSES = 3.0  # the same with one process per node: slower processes still hold queued work
+QUIET = 2.0  # --processes: the graph is drained once no watched topic delivered for this long [wall s] ...
+DRAIN_MAX = 120.0  # ... waiting at most this long after the clock stopped
+WATCH_EVERY = 50  # clock steps between looks for new topics to watch (--processes)
 READY_TIMEOUT = 30.0
 IGNORED_TOPICS = ('/rosout', '/parameter_events', CLOCK)
 
@@ -71,6 +75,27 @@ class LauncherNode(Node):
     def __init__(self, context: Context) -> None:
         super().__init__('track_launcher', context=context, start_parameter_services=False)
         self.clock_pub = self.create_publisher(Clock, CLOCK, CLOCK_QOS)
+        self.watched: dict[str, object] = {}
+        self.last_message = time.monotonic()
+
+    def watch(self, regex: str) -> None:
+        """Subscribe (raw, no decoding) to every published topic matching ``regex``, to see when work ends."""
+        pattern = re.compile(regex)
+        for topic, types in self.get_topic_names_and_types():
+            if topic in self.watched or topic in IGNORED_TOPICS or not pattern.search(topic):
+                continue
+            infos = self.get_publishers_info_by_topic(topic)
+            if not infos:
+                continue
+            try:
+                cls = msg_class(types[0])
+            except (ValueError, KeyError):
+                continue
+            self.watched[topic] = self.create_subscription(cls, topic, self._seen, recording_qos(
+                [i.qos_profile for i in infos]), raw=True)
+
+    def _seen(self, _data: bytes) -> None:
+        self.last_message = time.monotonic()
 
     def publish_clock(self, t: float) -> None:
         self.clock_pub.publish(Clock(clock=sec_to_stamp(t)))
@@ -140,7 +165,7 @@ class Launch:
         nodes, children = [], []
         try:
             if processes:
-                children = self._spawn_all()
+                children = spawn_nodes(self.sc.nodes, self.params_files, self.sim, self.bag, self.record_regex)
             else:
                 nodes = self._create_all(context)
                 for node in nodes:
@@ -151,9 +176,10 @@ class Launch:
             pass
         finally:
             with contextlib.suppress(KeyboardInterrupt):
-                grace = GRACE_PROCESSES if children else GRACE
-                self._pump(executor, time.monotonic() + grace)  # messages in flight reach the recorder
-            self._stop_children(children)
+                if children:
+                    self._drain(launcher, executor)
+                self._pump(executor, time.monotonic() + GRACE)  # messages in flight reach the recorder
+            stop_processes(children)
             # The main thread is the only one that hands work to the pool; drain the pool before
             # shutting the executor down (rclpy 7.1's shutdown does not wait for running callbacks).
             pool = getattr(executor, '_executor', None)
@@ -166,6 +192,21 @@ class Launch:
             context.try_shutdown()
         failed = [c for c in children if c.returncode not in (0, -signal.SIGINT, None)]
         return EXIT_BAD_INPUT if failed else 0
+
+    def _drain(self, launcher: LauncherNode, executor: MultiThreadedExecutor) -> None:
+        """--processes: after the clock stopped, wait until the other processes' work is done.
+
+        They cannot be observed directly, but every result they produce is a message: once no
+        watched topic has delivered anything for ``QUIET`` wall seconds, the work queued up to the
+        last clock tick is done, whatever the machine's load (at most ``DRAIN_MAX`` seconds).
+        """
+        deadline = time.monotonic() + DRAIN_MAX
+        launcher.watch(self.record_regex)
+        launcher.last_message = time.monotonic()
+        while self.context.ok() and time.monotonic() < deadline:
+            if time.monotonic() - launcher.last_message >= QUIET:
+                return
+            self._pump(executor, time.monotonic() + 0.1)
 
     def _pump(self, executor: MultiThreadedExecutor, deadline: float) -> None:
         """Hand ready callbacks to the executor's threads until ``deadline`` (monotonic s)."""
@@ -212,18 +253,6 @@ class Launch:
                 Parameter('regex', value=self.record_regex)]))
         return nodes
 
-    def _spawn_all(self) -> list[subprocess.Popen]:
-        files = [a for f in self.params_files for a in ('--params-file', f)]
-        sim = f'use_sim_time:={str(self.sim).lower()}'
-        cmds = [[sys.executable, '-m', 'track_nodes', spec.executable, '--ros-args', '-r', f'__node:={spec.name}',
-                 *files, '-p', sim]
-                for spec in self.sc.nodes]
-        if self.bag is not None:
-            cmds.append([sys.executable, '-m', 'track_nodes', 'recorder', '--ros-args', '-p', sim,
-                         '-p', f'bag:={self.bag}', '-p', f'regex:={self.record_regex}'])
-        # Own process group each, so a terminal Ctrl-C reaches only the launcher, which stops them in order.
-        return [subprocess.Popen(cmd, start_new_session=True) for cmd in cmds]
-
     # -- start, clock, stop ---------------------------------------------------------------
     def _wait_ready(self, launcher: LauncherNode, executor: MultiThreadedExecutor,
                     children: list[subprocess.Popen]) -> None:
@@ -254,6 +283,8 @@ class Launch:
         while self.context.ok():
             if any(c.poll() is not None for c in children):
                 return
+            if children and k % WATCH_EVERY == 0:
+                launcher.watch(self.record_regex)  # topics whose traffic tells when the processes are done
             if not self.sim:
                 if duration is not None and time.monotonic() - t0 >= duration:
                     return
@@ -268,17 +299,6 @@ class Launch:
             if duration is not None and node_time >= duration:
                 return
             k += 1
-
-    def _stop_children(self, children: list[subprocess.Popen]) -> None:
-        for child in children:
-            if child.poll() is None:
-                child.send_signal(signal.SIGINT)
-        for child in children:
-            try:
-                child.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                child.kill()
-                child.wait()
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,0 +1,55 @@
+"""Counting what a recording lost, so nothing is lost without a count.
+
+Two sources, because neither covers every case:
+
+- gaps in the publication sequence numbers (rmw message info) of a topic with exactly one
+  publisher: the count is exact (a sequence that restarts, a new publisher, counts nothing);
+- the middleware's message-lost events on topics with several publishers, where sequence
+  numbers of different writers cannot be told apart (rmw gives no publisher id to rclpy).
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+
+
+class LossCounter:
+    """Lost messages per topic (pure bookkeeping; the recorder feeds it)."""
+
+    def __init__(self) -> None:
+        self.lost: dict[str, int] = defaultdict(int)
+        self._single: dict[str, bool] = {}
+        self._last: dict[str, int] = {}
+
+    def publishers(self, topic: str, n: int) -> None:
+        """The topic now has ``n`` publishers; sequence gaps count only while there is exactly one."""
+        single = n == 1
+        if not single or not self._single.get(topic, False):
+            self._last.pop(topic, None)
+        self._single[topic] = single
+
+    def received(self, topic: str, seq: int | None) -> int:
+        """One message with publication sequence number ``seq``; returns the messages it shows lost."""
+        if seq is None or not self._single.get(topic, False):
+            return 0
+        last = self._last.get(topic)
+        self._last[topic] = seq
+        if last is None or seq <= last:  # first message, or the publisher restarted
+            return 0
+        gap = seq - last - 1
+        self.lost[topic] += gap
+        return gap
+
+    def event(self, topic: str, count_change: int) -> int:
+        """A message-lost event; counted only where sequence gaps cannot be (several publishers)."""
+        if self._single.get(topic, False) or count_change <= 0:
+            return 0
+        self.lost[topic] += int(count_change)
+        return int(count_change)
+
+    def last(self, topic: str) -> int | None:
+        """The last sequence number seen on a single-publisher topic."""
+        return self._last.get(topic)
+
+    def total(self) -> int:
+        return sum(self.lost.values())
