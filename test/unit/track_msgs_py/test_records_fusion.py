@@ -54,3 +54,22 @@ def test_ais_truth_entry_round_trip_and_the_old_layout():
     st.values[0].value = '2.5e8'
     with pytest.raises(RecordError, match='mmsi'):
         AisTruthEntry.from_status(st)
+
+
+def test_fusion_markers_keep_one_id_per_track_and_colour_links_by_score():
+    import numpy as np
+
+    from track_core.fusion import Instant, PairScore
+    from track_msgs_py.markers.fusion import LINKS_NS, TRACKS_NS, FusionMarkers
+
+    markers = FusionMarkers(lifetime=1.0)
+    mu, R = np.array([[0.0, 0.0], [10.0, 5.0]]), np.array([np.eye(2), 4 * np.eye(2)])
+    q = PairScore('b', 'a', 0, 1, 0.9, 0.75, 3, True)
+    first = markers.build(Instant(2.0, ['b', 'a'], mu, R, (q,)))
+    assert [(m.ns, m.id) for m in first.markers] == [(TRACKS_NS, 0), (TRACKS_NS, 1), (LINKS_NS, 0)]
+    link = first.markers[-1]
+    assert [(p.x, p.y) for p in link.points] == [(0.0, 0.0), (10.0, 5.0)]
+    assert (link.colors[0].r, link.colors[0].g) == (0.25, 0.75)
+    again = markers.build(Instant(3.0, ['a'], mu[1:], R[1:]))
+    assert again.markers[0].id == 1 and not again.markers[-1].points  # 'a' keeps its id; no pair, no link
+    assert again.markers[0].lifetime.sec == 1
