@@ -26,6 +26,7 @@ from rosgraph_msgs.msg import Clock
 from track_core.ais import PairTable, default_path, evaluate
 from track_msgs_py.convert import position_to_pose_cov, sec_to_stamp, stamp_to_sec
 from track_msgs_py.qos import CLOCK_QOS, ESTIMATE_QOS, STATIC_QOS
+from track_msgs_py.records.fusion import AisTruthEntry, FusionPairScore
 from track_msgs_py.topics import CLOCK, FUSION_SCORES, ais_reports_topic, ais_truth_topic
 from track_nodes.fusion.fusion import FusionNode
 from track_nodes.sim.ais_source import AisSourceNode
@@ -105,11 +106,10 @@ def _node_scores(got, radar, patrol):
     for arr in got['scores']:
         t_report = round(stamp_to_sec(arr.header.stamp) - 0.5, 6)
         for st in arr.status:
-            a, b = st.name.split(' | ')
+            (a, b), v = FusionPairScore.read(st)
             if a in p_idx:
                 a, b = b, a
-            v = {kv.key: kv.value for kv in st.values}
-            out[(r_idx[a], p_idx[b], t_report)] = (float(v['score']), v['associated'] == 'true')
+            out[(r_idx[a], p_idx[b], t_report)] = (v.score, v.associated)
     return out
 
 
@@ -145,7 +145,7 @@ def test_sources_and_fusion_in_process(ais_run):
     assert len(frames) == len(a.ids) + len(b.ids)
     names = {f'{s.topic}/{i}' for s in (radar, patrol) for i in s.reports.ids}
     assert set(got['truth']) == names                              # named like the fusion track ids
-    mmsi = {int(next(kv.value for kv in st.values if kv.key == 'mmsi')) for st in got['truth'].values()}
+    mmsi = {AisTruthEntry.from_status(st).mmsi for st in got['truth'].values()}
     assert mmsi == set(a.mmsi) | set(b.mmsi)
 
     # 3. the summary of the recorded bag reports the core's precision/recall/F1
@@ -173,10 +173,10 @@ def test_reports_without_a_track_id_or_with_a_bad_frame_are_dropped(ros, repo):
     pubs['/ais/radar'].publish(position_to_pose_cov(t, np.zeros(2), R, 'map#r001'))
     pubs['/ais/patrol'].publish(position_to_pose_cov(t, np.array([5.0, 0.0]), R, 'map#p001'))
     assert ros.spin_until(lambda: fusion.dropped.get('/ais/radar/reports', 0) == 3
-                          and {'/ais/radar/reports/r001', '/ais/patrol/reports/p001'} <= set(fusion.table.latest))
-    assert fusion.source['/ais/radar/reports/r001'] == '/ais/radar/reports'
-    assert ros.spin_until(lambda: ('/ais/radar/reports/r001', '/ais/patrol/reports/p001') in fusion.history
-                          or ('/ais/patrol/reports/p001', '/ais/radar/reports/r001') in fusion.history)
+                          and {'/ais/radar/reports/r001', '/ais/patrol/reports/p001'} <= set(fusion.core.table.latest))
+    assert fusion.core.source['/ais/radar/reports/r001'] == '/ais/radar/reports'
+    assert ros.spin_until(lambda: ('/ais/radar/reports/r001', '/ais/patrol/reports/p001') in fusion.core.history
+                          or ('/ais/patrol/reports/p001', '/ais/radar/reports/r001') in fusion.core.history)
 
 
 @pytest.mark.parametrize(('over', 'match'), [

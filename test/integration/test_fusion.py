@@ -10,6 +10,7 @@ from rclpy.parameter import Parameter
 
 from track_msgs_py.convert import position_to_pose_cov
 from track_msgs_py.qos import ESTIMATE_QOS
+from track_msgs_py.records.fusion import FusionPairScore
 from track_msgs_py.topics import FUSION_SCORES
 from track_nodes.fusion.fusion import FusionNode
 from track_nodes.sim.report_source import ReportSourceNode
@@ -29,17 +30,16 @@ def _scenario_nodes(ros, repo, extra_fusion=None):
 
 
 def _collect_scores(ros, history=None):
-    latest: dict[tuple[str, str], dict] = {}
+    latest: dict[tuple[str, str], FusionPairScore] = {}
     decoy_ever_associated = []
 
     def on_scores(msg: DiagnosticArray) -> None:
         for st in msg.status:
-            v = {kv.key: kv.value for kv in st.values}
-            pair = tuple(st.name.split(' | '))
+            pair, v = FusionPairScore.read(st)
             latest[pair] = v
             if history is not None:
-                history.setdefault(pair, []).append(v['associated'] == 'true')
-            if '/radar/t2' in pair and v['associated'] == 'true':
+                history.setdefault(pair, []).append(v.associated)
+            if '/radar/t2' in pair and v.associated:
                 decoy_ever_associated.append(pair)
 
     sink = ros.add(Node('sink', context=ros.context))
@@ -61,7 +61,7 @@ def test_true_pairs_associated_and_decoy_rejected(ros, repo):
     true_pairs = [('/radar/t0', '/patrol/t0'), ('/radar/t1', '/patrol/t1')]
 
     def settled() -> bool:
-        return all(p in latest and int(latest[p]['instants']) >= 10 for p in true_pairs)
+        return all(p in latest and latest[p].instants >= 10 for p in true_pairs)
 
     assert ros.spin_until(settled, timeout=30), f'scores seen: {sorted(latest)}'
     history.clear()

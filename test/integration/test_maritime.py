@@ -21,6 +21,7 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from track_msgs_py.qos import ESTIMATE_QOS
+from track_msgs_py.records.fusion import FusionPairScore
 from track_msgs_py.topics import FUSION_SCORES, IDSQ_ESTIMATE, SONAR_ESTIMATE
 from track_nodes.fusion.fusion import FusionNode
 from track_nodes.launch.generate import maritime_yaml
@@ -43,8 +44,7 @@ def maritime_run(tmp_path_factory, env_factory):
 
 
 def _scores(msgs: list[DiagnosticArray]) -> list[tuple]:
-    return [(m.header.stamp.sec, m.header.stamp.nanosec, st.name, {kv.key: kv.value for kv in st.values})
-            for m in msgs for st in m.status]
+    return [(m.header.stamp.sec, m.header.stamp.nanosec, *FusionPairScore.read(st)) for m in msgs for st in m.status]
 
 
 def test_launcher_records_the_verdicts_and_the_picture(maritime_run):
@@ -132,5 +132,5 @@ def test_fusion_holds_a_track_whose_velocity_is_not_estimated(ros):
         pb.publish(cv_state_to_odometry(float(k), np.array([10.0 * k, 10.0, 0.0, 0.0]), P, 'map', 'b'))
         ros.spin_for(0.1)
     assert fusion.next_k == 4  # instants 1..3 scored, each once a report of the next instant arrived
-    _, mu, R = fusion.table.at(10.0)
+    _, mu, R = fusion.core.table.at(10.0)
     assert np.allclose(R, 4.0 * np.eye(2)) and np.allclose(mu[:, 0], 30.0)  # held, not predicted

@@ -26,7 +26,7 @@ The output then depends only on the reports' stamps and contents, not on when th
 long as every report stamped ≤ t_k arrives before any report stamped ≥ t_k + 1/``rate`` (sources
 on one clock, lagging each other by less than one period): a recorded bag replayed into a fresh
 node reproduces every score. The last instant of a run is scored only when a later report comes.
-The rule lives in ``track_core.fusion.StampSchedule``; the node applies and scores what it releases.
+The rule lives in ``track_core.fusion.StampSchedule``, run by the associator.
 
 At ``rate`` Hz it brings every live track to the current node time (``TrackTable``: Odometry
 tracks are predicted with their velocity, position reports are held until ``stale_after``),
@@ -41,33 +41,33 @@ combination zero, as the paper's means do), and publishes:
 | /fusion/associations | DiagnosticArray | the pairs whose combined score ≥ ``threshold`` |
 | /fusion/fused | Odometry | covariance intersection of each associated pair, child_frame_id ``A+B`` |
 | /fusion/markers | MarkerArray | 2σ ellipse per track, a link per pair coloured red→green by score |
+
+The pairing, masking, windows, thresholds and covariance intersection are
+``track_core.fusion.PairAssociator``; a pair's status is ``track_msgs_py.records.fusion.FusionPairScore``;
+the markers are built by ``track_msgs_py.markers.fusion``. This node validates and converts the
+messages, runs the timer, and publishes.
 """
 
 from __future__ import annotations
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
-from geometry_msgs.msg import Point, PoseWithCovarianceStamped
+from geometry_msgs.msg import PoseWithCovarianceStamped
 from nav_msgs.msg import Odometry
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
-from std_msgs.msg import ColorRGBA
-from visualization_msgs.msg import Marker, MarkerArray
+from visualization_msgs.msg import MarkerArray
 
-from track_core.filters.covariance_intersection import covariance_intersection
-from track_core.fusion import StampSchedule, TrackReport, TrackTable
-from track_core.geofeasibility import ScoreWindow, score
+from track_core.fusion import Instant, PairAssociator, TrackReport
 from track_msgs_py.convert import (
-    DIAG_OK,
     UNUSED_VARIANCE,
-    covariance_ellipse_marker,
     cv_state_to_odometry,
     diagnostic_array,
-    diagnostic_status,
     odometry_to_cv_state,
     pose_cov_to_position,
-    sec_to_stamp,
 )
+from track_msgs_py.markers.fusion import FusionMarkers
 from track_msgs_py.qos import ESTIMATE_QOS
+from track_msgs_py.records.fusion import FusionPairScore
 from track_msgs_py.topics import (
     FRAME_MAP,
     FUSION_ASSOCIATIONS,
@@ -110,6 +110,7 @@ PARAMS = (
 )
 
 
+
 class FusionNode(TrackNode):
     DEFAULT_NAME = 'fusion'
     PARAMS = PARAMS
@@ -123,14 +124,14 @@ class FusionNode(TrackNode):
         if not odo and not pose and not multi:
             raise ValueError('parameters odometry_topics, pose_topics and pose_track_topics are all empty: '
                              'nothing to fuse')
-        self.rng = np.random.default_rng(p.seed)
-        self.table = TrackTable(p.stale_after, p.max_prediction, p.q_s)
-        self.source: dict[str, str] = {}
-        self.history: dict[tuple[str, str], ScoreWindow] = {}
+        self.core = PairAssociator(p.method, p.threshold, p.combine, p.window, n_samples=p.n_samples,
+                                   same_source_pairs=p.same_source_pairs, stale_after=p.stale_after,
+                                   max_prediction=p.max_prediction, q_s=p.q_s, seed=p.seed,
+                                   stamp_rate=p.rate if p.schedule == 'stamps' else None)
+        self.markers = FusionMarkers(lifetime=2.0 / p.rate)
         self.stamps = StampMonotonic()
         self.dropped: dict[str, int] = {}
         self._last_warn: dict[str, float] = {}
-        self.marker_ids: dict[str, int] = {}
         self.subs = [self.create_subscription(Odometry, t, lambda m, t=t: self._on_odometry(t, m), TRACK_QOS)
                      for t in odo]
         self.subs += [self.create_subscription(PoseWithCovarianceStamped, t, lambda m, t=t: self._on_pose(t, m),
@@ -141,13 +142,12 @@ class FusionNode(TrackNode):
         self.pub_assoc = self.create_publisher(DiagnosticArray, FUSION_ASSOCIATIONS, ESTIMATE_QOS)
         self.pub_fused = self.create_publisher(Odometry, FUSION_FUSED, ESTIMATE_QOS)
         self.pub_markers = self.create_publisher(MarkerArray, FUSION_MARKERS, ESTIMATE_QOS)
-        self.stamp_schedule = StampSchedule(p.rate) if p.schedule == 'stamps' else None
         self.timer = self.create_timer(1.0 / p.rate, self.tick) if p.schedule == 'timer' else None
 
     @property
     def next_k(self) -> int | None:
         """schedule stamps: index of the next instant k/rate to score (None before the first report)."""
-        return None if self.stamp_schedule is None else self.stamp_schedule.next_k
+        return None if self.core.schedule is None else self.core.schedule.next_k
 
     # -- input ---------------------------------------------------------------------------
     def _now(self) -> float:
@@ -169,9 +169,9 @@ class FusionNode(TrackNode):
         t, x, P = odometry_to_cv_state(msg)
         Pv = P[np.ix_([1, 3], [1, 3])]
         if np.any(np.diag(Pv) >= UNUSED_VARIANCE):  # velocity not estimated: hold the position
-            self._store(topic, track_id, TrackReport(t, x[[0, 2]], P[np.ix_([0, 2], [0, 2])]))
+            self._push(topic, track_id, TrackReport(t, x[[0, 2]], P[np.ix_([0, 2], [0, 2])]))
             return
-        self._store(topic, track_id, TrackReport(t, x[[0, 2]], P[np.ix_([0, 2], [0, 2])], x[[1, 3]], Pv))
+        self._push(topic, track_id, TrackReport(t, x[[0, 2]], P[np.ix_([0, 2], [0, 2])], x[[1, 3]], Pv))
 
     def _on_pose(self, topic: str, msg: PoseWithCovarianceStamped) -> None:
         reason = pose_cov_problem(msg, KNOWN_FRAMES) or self.stamps.msg_problem(topic, msg)
@@ -180,7 +180,7 @@ class FusionNode(TrackNode):
             return
         t, z, R = pose_cov_to_position(msg)
         # One track per topic; a source publishes its tracks under one namespace (<source>/<track>).
-        self._store(topic.rsplit('/', 1)[0] or topic, topic, TrackReport(t, z, R))
+        self._push(topic.rsplit('/', 1)[0] or topic, topic, TrackReport(t, z, R))
 
     def _on_pose_track(self, topic: str, msg: PoseWithCovarianceStamped) -> None:
         frame, local = split_track_frame_id(msg.header.frame_id)
@@ -195,84 +195,31 @@ class FusionNode(TrackNode):
             self._drop(topic, reason)
             return
         t, z, R = pose_cov_to_position(msg)
-        self._store(topic, track_id, TrackReport(t, z, R))  # the topic is the source
+        self._push(topic, track_id, TrackReport(t, z, R))  # the topic is the source
 
-    def _store(self, source: str, track_id: str, report: TrackReport) -> None:
-        if self.stamp_schedule is None:
-            self._apply(source, track_id, report)
-            return
-        for t_k, released in self.stamp_schedule.push(report.t, track_id, (source, track_id, report)):
-            for item in released:
-                self._apply(*item)
-            self._score(t_k)
-
-    def _apply(self, source: str, track_id: str, report: TrackReport) -> None:
-        self.source[track_id] = source
-        self.table.update(track_id, report)
+    def _push(self, source: str, track_id: str, report: TrackReport) -> None:
+        for instant in self.core.push(source, track_id, report):
+            self._publish(instant)
 
     # -- scoring -------------------------------------------------------------------------
     def tick(self) -> None:
-        self._score(self._now())
+        instant = self.core.score(self._now())
+        if instant is not None:
+            self._publish(instant)
 
-    def _score(self, t: float) -> None:
-        ids, mu, R = self.table.at(t)
-        if len(ids) < 2:
+    def _publish(self, instant: Instant) -> None:
+        if instant.error is not None:  # inputs were validated; a failure here is a bug worth one line
+            self.get_logger().error(instant.error)
             return
-        i, j = np.triu_indices(len(ids), 1)
-        if not self.p.same_source_pairs:
-            src = np.array([self.source[k] for k in ids])
-            keep = src[i] != src[j]
-            i, j = i[keep], j[keep]
-        if i.size == 0:
-            return
-        try:
-            s = np.atleast_1d(score(mu[i], R[i], mu[j], R[j], self.p.method, n_samples=self.p.n_samples,
-                                    rng=self.rng, shared_samples=True))
-        except ValueError as exc:  # inputs were validated; a failure here is a bug worth one line
-            self.get_logger().error(f'scoring failed: {exc}')
-            return
-        stamp = sec_to_stamp(t)
-        statuses, assoc, links = [], [], []
-        for k, (a, b) in enumerate(zip(i, j, strict=True)):
-            pair = (ids[a], ids[b])
-            hist = self.history.setdefault(pair, ScoreWindow(self.p.combine, max_instants=self.p.window))
-            hist.add(t, float(np.clip(s[k], 0.0, 1.0)))
-            combined = hist.value()
-            associated = combined >= self.p.threshold
-            status = diagnostic_status(f'{pair[0]} | {pair[1]}', DIAG_OK,
-                                       'associated' if associated else 'not associated',
-                                       {'score': f'{s[k]:.6f}', 'combined': f'{combined:.6f}',
-                                        'instants': str(len(hist)), 'associated': str(associated).lower(),
-                                        'method': self.p.method}, hardware_id='fusion')
-            statuses.append(status)
-            links.append((a, b, combined))
-            if associated:
-                assoc.append(status)
-                self._publish_fused(t, pair, mu[a], R[a], mu[b], R[b])
+        t = instant.t
+        for f in instant.fused:
+            P4 = np.zeros((4, 4))
+            P4[np.ix_([0, 2], [0, 2])] = f.P
+            self.pub_fused.publish(cv_state_to_odometry(t, np.array([f.mu[0], 0.0, f.mu[1], 0.0]), P4, FRAME_MAP,
+                                                        f'{f.a}+{f.b}'))
+        statuses = [FusionPairScore(q.score, q.combined, q.instants, q.associated, self.p.method).pair_status(q.a, q.b)
+                    for q in instant.pairs]
         self.pub_scores.publish(diagnostic_array(t, statuses))
-        self.pub_assoc.publish(diagnostic_array(t, assoc))
-        self.pub_markers.publish(self._markers(stamp, t, ids, mu, R, links))
-
-    def _publish_fused(self, t, pair, mu1, R1, mu2, R2) -> None:
-        m, P, _ = covariance_intersection(mu1, R1, mu2, R2)
-        P4 = np.zeros((4, 4))
-        P4[np.ix_([0, 2], [0, 2])] = P
-        self.pub_fused.publish(cv_state_to_odometry(t, np.array([m[0], 0.0, m[1], 0.0]), P4, FRAME_MAP,
-                                                    f'{pair[0]}+{pair[1]}'))
-
-    def _markers(self, stamp, t, ids, mu, R, links) -> MarkerArray:
-        out = MarkerArray()
-        for k, track_id in enumerate(ids):
-            mid = self.marker_ids.setdefault(track_id, len(self.marker_ids))
-            out.markers.append(covariance_ellipse_marker(t, mu[k], R[k], FRAME_MAP, ns='fusion_tracks',
-                                                         marker_id=mid, lifetime=2.0 / self.p.rate))
-        link = Marker(ns='fusion_links', id=0, type=Marker.LINE_LIST, action=Marker.ADD)
-        link.header.stamp, link.header.frame_id = stamp, FRAME_MAP
-        link.scale.x = 0.5
-        link.pose.orientation.w = 1.0
-        for a, b, combined in links:
-            c = ColorRGBA(r=float(1.0 - combined), g=float(combined), b=0.0, a=1.0)
-            link.points += [Point(x=float(mu[a][0]), y=float(mu[a][1])), Point(x=float(mu[b][0]), y=float(mu[b][1]))]
-            link.colors += [c, c]
-        out.markers.append(link)
-        return out
+        self.pub_assoc.publish(diagnostic_array(t, [st for st, q in zip(statuses, instant.pairs, strict=True)
+                                                    if q.associated]))
+        self.pub_markers.publish(self.markers.build(instant))

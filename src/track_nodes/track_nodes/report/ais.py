@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from track_core.ais import Metrics, match_one_to_one
+from track_msgs_py.records.fusion import AisTruthEntry, FusionPairScore
 from track_msgs_py.topics import FUSION_SCORES
 from track_nodes.report.read import read_topics, topics_matching
 
@@ -28,20 +29,18 @@ def ais_metrics(bag: Path) -> list[str]:
     for topic in truth_topics:
         for arr in msgs.get(topic, [])[-1:]:
             for st in arr.status:
-                v = {kv.key: kv.value for kv in st.values}
-                mmsi[st.name] = int(v['mmsi'])
-                ships_by_source[topic].add(int(v['mmsi']))
+                mmsi[st.name] = AisTruthEntry.from_status(st).mmsi
+                ships_by_source[topic].add(mmsi[st.name])
     pairs: dict[tuple[str, str], list] = {}
     methods, evaluations = set(), 0
     for arr in msgs.get(FUSION_SCORES, []):
         for st in arr.status:
-            a, _, b = st.name.partition(' | ')
-            v = {kv.key: kv.value for kv in st.values}
-            rec = pairs.setdefault(tuple(sorted((a, b))), [0.0, 0, 0])  # fusion orders a pair by first report
-            rec[0] += float(v['score'])
-            rec[1] += v['associated'] == 'true'
+            pair, v = FusionPairScore.read(st)
+            rec = pairs.setdefault(tuple(sorted(pair)), [0.0, 0, 0])  # fusion orders a pair by first report
+            rec[0] += v.score
+            rec[1] += v.associated
             rec[2] += 1
-            methods.add(v.get('method', '?'))
+            methods.add(v.method)
             evaluations += 1
     if not mmsi or not pairs:
         return [f'ais: {"no truth tables" if not mmsi else "no fusion scores"} recorded']

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from track_msgs_py.records.fusion import FusionPairScore
 from track_msgs_py.topics import FUSION_SCORES
 from track_nodes.report.read import read_topics
 
@@ -15,11 +16,10 @@ def pair_verdicts(bag: Path, topic: str = FUSION_SCORES) -> dict[tuple[str, str]
     stats: dict[tuple[str, str], dict] = {}
     for arr in read_topics(bag, {topic}).get(topic, []):
         for st in arr.status:
-            a, _, b = st.name.partition(' | ')
-            v = {kv.key: kv.value for kv in st.values}
-            rec = stats.setdefault((a, b), {'scores': [], 'associated': []})
-            rec['scores'].append(float(v['score']))
-            rec['associated'].append(v['associated'] == 'true')
+            pair, v = FusionPairScore.read(st)
+            rec = stats.setdefault(pair, {'scores': [], 'associated': []})
+            rec['scores'].append(v.score)
+            rec['associated'].append(v.associated)
     return {pair: {'mean_score': float(np.mean(r['scores'])), 'fraction_associated': float(np.mean(r['associated'])),
                    'final': r['associated'][-1], 'instants': len(r['scores'])} for pair, r in stats.items()}
 

@@ -39,6 +39,7 @@ import numpy as np
 from track_core.filters import ellipse_points
 from track_core.metrics import match_stamps, rms
 from track_msgs_py.convert import odometry_to_cv_state, pointcloud2_to_table, pose_cov_to_position, stamp_to_sec
+from track_msgs_py.records.fusion import FusionPairScore
 from track_msgs_py.topics import (
     FUSION_SCORES,
     IDSQ_ESTIMATE,
@@ -104,10 +105,8 @@ def load(bag: Path) -> dict:
     for arr in msgs.get(FUSION_SCORES, []):
         t = stamp_to_sec(arr.header.stamp)
         for st in arr.status:
-            a, _, b = st.name.partition(' | ')
-            v = {kv.key: kv.value for kv in st.values}
-            scores.setdefault(tuple(sorted((a, b))), []).append(
-                (t, float(v['score']), float(v['combined']), v['associated'] == 'true'))
+            pair, v = FusionPairScore.read(st)
+            scores.setdefault(tuple(sorted(pair)), []).append((t, v.score, v.combined, v.associated))
     d['scores'] = {pair: np.array(rows) for pair, rows in scores.items()}  # columns t, score, combined, assoc
     return d
 

@@ -23,7 +23,8 @@ Topics (``prefix`` e.g. ``/ais/radar``, see ``track_msgs_py.topics``):
   ``header.frame_id = "map#<local id>"``. The MMSI is never sent.
 - ``<prefix>/truth`` (DiagnosticArray, transient-local, evaluation only; with
   ``publish_truth``): once at start, one status per local track named like the fusion node's
-  track id ``<prefix>/reports/<local id>``, values ``mmsi`` and ``reports``.
+  track id ``<prefix>/reports/<local id>``, values ``mmsi`` and ``reports``
+  (``track_msgs_py.records.fusion.AisTruthEntry``).
 
 The stamps ``offset + k·period`` let a fusion node that ticks at multiples of its own period
 see one fresh instant per tick: with ``offset`` = 4.5 s, ``period`` = 5 s and a fusion tick
@@ -41,8 +42,9 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 
 from track_core.ais import LocalTangentPlane, ShipTruth, SourceModel, read_ais, simulate_source
 from track_core.ais.sources import ORIENTATIONS
-from track_msgs_py.convert import DIAG_OK, diagnostic_array, diagnostic_status, position_to_pose_cov
+from track_msgs_py.convert import diagnostic_array, position_to_pose_cov
 from track_msgs_py.qos import STATIC_QOS
+from track_msgs_py.records.fusion import AisTruthEntry
 from track_msgs_py.topics import FRAME_MAP, ais_reports_topic, ais_truth_topic, track_frame_id
 from track_nodes.base import FixedRateSteps, Param, TrackNode
 
@@ -121,9 +123,7 @@ class AisSourceNode(TrackNode):
             self.pub_truth = self.create_publisher(DiagnosticArray, ais_truth_topic(p.prefix), STATIC_QOS)
             counts = np.bincount(rep.track, minlength=len(rep.ids))
             self.pub_truth.publish(diagnostic_array(0.0, [
-                diagnostic_status(f'{self.topic}/{tid}', DIAG_OK, 'evaluation only',
-                                  {'mmsi': str(int(rep.mmsi[k])), 'reports': str(int(counts[k]))},
-                                  hardware_id=self.get_name())
+                AisTruthEntry(int(rep.mmsi[k]), int(counts[k])).truth_status(f'{self.topic}/{tid}', self.get_name())
                 for k, tid in enumerate(rep.ids)]))
         self.steps = FixedRateSteps(self, p.tick, self._step, max_time=p.duration)
 

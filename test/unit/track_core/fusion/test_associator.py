@@ -1,0 +1,130 @@
+"""PairAssociator: the fusion node's pairing, masking, windows, thresholds and CI fusion, without ROS.
+
+``data/associator_cases.json`` holds 300 random sequences of track reports (and, for the timer
+schedule, scoring ticks) with what the pre-issue-12 fusion node (``FusionNode._store``/``_score``
+at commit 3ac9344) published for them: every pair's raw and combined score, window length and
+verdict, and every fused estimate. The core must reproduce them exactly (float equality).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from track_core.fusion import PairAssociator, TrackReport
+
+DATA = json.loads((Path(__file__).parent / 'data/associator_cases.json').read_text())
+
+
+def _report(ev: list) -> TrackReport:
+    _, _, _, t, mu, (xx, xy, yy), *vel = ev
+    R = np.array([[xx, xy], [xy, yy]], dtype=float)
+    if not vel:
+        return TrackReport(t, np.array(mu, dtype=float), R)
+    v, (vxx, vxy, vyy) = vel
+    return TrackReport(t, np.array(mu, dtype=float), R, np.array(v, dtype=float),
+                       np.array([[vxx, vxy], [vxy, vyy]], dtype=float))
+
+
+def _associator(p: dict) -> PairAssociator:
+    return PairAssociator(p['method'], p['threshold'], p['combine'], p['window'], n_samples=p['n_samples'],
+                          same_source_pairs=p['same_source_pairs'], stale_after=p['stale_after'],
+                          max_prediction=p['max_prediction'], q_s=p['q_s'], seed=p['seed'],
+                          stamp_rate=p['rate'] if p['schedule'] == 'stamps' else None)
+
+
+def _run(p: dict, events: list) -> list:
+    core = _associator(p)
+    instants = []
+    for ev in events:
+        if ev[0] == 's':
+            instant = core.score(ev[1])
+            instants += [] if instant is None else [instant]
+        else:
+            instants += core.push(ev[1], ev[2], _report(ev))
+    out = []
+    for inst in instants:
+        assert inst.error is None, inst.error
+        pairs = [[q.a, q.b, q.score, q.combined, q.instants, q.associated] for q in inst.pairs]
+        fused = [[f'{f.a}+{f.b}', float(f.mu[0]), float(f.mu[1]), float(f.P[0, 0]), float(f.P[0, 1]),
+                  float(f.P[1, 1])] for f in inst.fused]
+        out.append([inst.t, pairs, fused])
+    return out
+
+
+def test_the_saved_cases_cover_every_method_and_both_schedules():
+    params = [dict(zip(DATA['params'], c[0], strict=True)) for c in DATA['cases']]
+    assert len(params) >= 300
+    assert {p['method'] for p in params} == {'exact', 'glr', 'glr_thresholded', 'mc'}
+    assert {p['schedule'] for p in params} == {'timer', 'stamps'}
+    verdicts = [q[5] for c in DATA['cases'] for inst in c[2] for q in inst[1]]
+    assert 0.2 < np.mean(verdicts) < 0.8  # both verdicts occur often
+
+
+@pytest.mark.parametrize('k', range(len(DATA['cases'])))
+def test_identical_to_the_old_node_path(k):
+    values, events, expected = DATA['cases'][k]
+    p = dict(zip(DATA['params'], values, strict=True))
+    assert _run(p, events) == expected
+
+
+def test_same_source_pairs_are_masked_unless_asked_for():
+    R = np.eye(2) * 4.0
+    for same, want in ((False, [('/a/0', '/b/0'), ('/a/1', '/b/0')]),
+                       (True, [('/a/0', '/a/1'), ('/a/0', '/b/0'), ('/a/1', '/b/0')])):
+        core = PairAssociator(same_source_pairs=same)
+        for source, tid in (('/a', '/a/0'), ('/a', '/a/1'), ('/b', '/b/0')):
+            core.update(source, tid, TrackReport(0.0, np.zeros(2), R))
+        assert [(q.a, q.b) for q in core.score(0.0).pairs] == want
+
+
+def test_window_combination_threshold_and_fusion():
+    """Geometric mean over the last 2 instants; one far-apart instant drops the verdict; CI of the pair."""
+    core = PairAssociator('exact', threshold=0.5, combine='geometric', window=2)
+    R = np.eye(2) * 4.0
+
+    def at(t, xb):
+        core.update('/a', 'a', TrackReport(t, np.zeros(2), R))
+        core.update('/b', 'b', TrackReport(t, np.array([xb, 0.0]), R))
+        return core.score(t)
+
+    first = at(0.0, 0.0)
+    (q,) = first.pairs
+    assert q.score == 1.0 and q.combined == 1.0 and q.associated and q.instants == 1
+    (f,) = first.fused
+    np.testing.assert_allclose(f.mu, [0.0, 0.0])
+    np.testing.assert_allclose(f.P, R)  # CI of two equal estimates is the estimate
+    (q,) = at(1.0, 100.0).pairs  # ellipses do not intersect: instant score 0
+    assert q.score == 0.0 and q.combined == 0.0 and not q.associated and q.instants == 2
+    assert not core.score(1.0).fused
+    (q,) = at(2.0, 0.0).pairs
+    assert q.instants == 2 and q.combined == 0.0  # the zero instant is still in the window of 2
+    (q,) = at(3.0, 0.0).pairs
+    assert q.combined == 1.0 and q.associated
+
+
+def test_nothing_to_score_and_bad_settings():
+    core = PairAssociator()
+    assert core.score(0.0) is None
+    core.update('/a', 'a', TrackReport(0.0, np.zeros(2), np.eye(2)))
+    core.update('/a', 'b', TrackReport(0.0, np.zeros(2), np.eye(2)))
+    assert core.score(0.0) is None  # one source only
+    with pytest.raises(ValueError, match='method'):
+        PairAssociator('bogus')
+    with pytest.raises(ValueError, match='mean'):
+        PairAssociator(combine='bogus')
+    with pytest.raises(ValueError, match='threshold'):
+        PairAssociator(threshold=1.5)
+
+
+def test_stamp_schedule_scores_each_instant_once_with_the_reports_up_to_it():
+    core = PairAssociator(stamp_rate=1.0)
+    R = np.eye(2)
+    assert core.push('/a', 'a', TrackReport(1.0, np.zeros(2), R)) == []
+    assert core.push('/b', 'b', TrackReport(1.0, np.zeros(2), R)) == []
+    (inst,) = core.push('/a', 'a', TrackReport(2.0, np.ones(2), R))
+    assert inst.t == 1.0 and inst.ids == ['a', 'b'] and len(inst.pairs) == 1
+    np.testing.assert_array_equal(inst.mu, np.zeros((2, 2)))  # the 2 s report is not applied yet
