@@ -228,7 +228,7 @@ class SensorSetup:
     noise: SimNoise
     seed: int = 0
     selection: str = 'mi'
-    truth_topics: tuple[str, ...] = ('/idsq/vehicle/truth',)
+    truth_topics: tuple[str, ...] = ('truth',)  # names of the truth streams (the node's topics)
     ack_timeout: float = 2.0  # only named in the timeout warning; the node's timer measures it
 
 

@@ -148,7 +148,7 @@ def _ledger(me: int, n: int = 8, seed: int = 1) -> tuple[HandoffLedger, object, 
 
 
 def _truth(led, truth, step):
-    return led.on_truth(step, '/idsq/vehicle/truth', 'vehicle', truth[step])
+    return led.on_truth(step, 'truth', 'vehicle', truth[step])
 
 
 def test_start_leader_leads_step_0_and_hands_off_with_a_timer():
