@@ -43,18 +43,15 @@ from track_core.idsq import (
     simulate_measurement,
     uniform_belief,
 )
+from track_core.idsq.ledger import measurement_normal, start_leader_of, step_of_stamp
 from track_core.idsq.simulation import scenario_of
 from track_msgs_py.convert import handoff_to_uint8_array as handoff_msg
 from track_msgs_py.convert import layout_to_pointcloud2 as layout_to_cloud
 from track_msgs_py.convert import odometry_to_cv_state, sec_to_stamp, stamp_to_sec, xy_block
 from track_msgs_py.convert import pointcloud2_to_layout as cloud_to_layout
 from track_msgs_py.qos import CLOCK_QOS, ESTIMATE_QOS, HANDOFF_QOS
+from track_msgs_py.records.idsq import IdsqAck, IdsqLeaderEvent
 from track_msgs_py.topics import CLOCK, IDSQ_ESTIMATE, IDSQ_LEADER, idsq_ack_topic, idsq_handoff_topic
-from track_nodes.idsq.sensor import (
-    measurement_normal,
-    start_leader_of,
-    step_of_stamp,
-)
 from track_nodes.launch.generate import idsq_yaml as scenario_yaml
 from track_nodes.launch.scenario import load_scenario
 
@@ -97,7 +94,7 @@ class Network:
         self.sensors = {n.id: n for n in self.nodes.values() if hasattr(n, 'led')}
         self.probe = ros.add(Node('idsq_probe', context=ros.context))
         self.estimates: dict[int, Odometry] = {}
-        self.events: list[dict] = []
+        self.events: list[IdsqLeaderEvent] = []
         self.led: dict[int, int] = {}  # step → leader, from /idsq/leader
         self.warnings: list[Log] = []
         self.probe.create_subscription(Odometry, IDSQ_ESTIMATE, self._on_estimate, ESTIMATE_QOS)
@@ -120,10 +117,10 @@ class Network:
 
     def _on_leader(self, msg: DiagnosticArray) -> None:
         for st in msg.status:
-            e = {kv.key: kv.value for kv in st.values}
+            e = IdsqLeaderEvent.from_status(st)
             self.events.append(e)
-            if e['event'] == 'step':
-                self.led[int(e['step'])] = int(e['leader'])
+            if e.event == 'step':
+                self.led[e.step] = e.leader
 
     def _on_log(self, msg: Log) -> None:
         if msg.level >= Log.WARN:
@@ -203,14 +200,14 @@ def test_network_tracks_the_vehicle_and_equals_the_core_loop(ros, repo):
     ref_means, ref_covs, ref_leaders = reference_track(1, 24, n_steps)
     np.testing.assert_array_equal(means, ref_means)
     np.testing.assert_array_equal(covs, ref_covs)
-    assert [int(e['leader']) for e in net.events if e['event'] == 'step'] == ref_leaders
+    assert [e.leader for e in net.events if e.event == 'step'] == ref_leaders
     err = _error(means)
     print(f'K=24 in-process: RMSE {np.sqrt(np.mean(err ** 2)):.2f} m, max {err.max():.2f} m, '
           f'{len(set(ref_leaders))} leaders')
     # The uniform belief's centroid (the field centre) is 62 m off on average along this track: the
     # network must do far better, and never lose the vehicle.
     assert np.sqrt(np.mean(err ** 2)) < 35.0 and err.max() < 80.0, np.round(err, 1)
-    assert not any(e['event'] != 'step' for e in net.events)
+    assert not any(e.event != 'step' for e in net.events)
     assert all(s.refused == s.timeouts == s.nacks == 0 for s in net.sensors.values())
 
 
@@ -252,10 +249,10 @@ def test_killing_the_next_leader_mid_track_keeps_tracking(ros, tmp_path):
     net.run_to(end)
     means, _ = net.track()
     np.testing.assert_array_equal(means[:kill_step - 1], reference_track(1, k, kill_step - 1)[0])
-    resel = [e for e in net.events if e['event'] == 'reselect']
-    assert resel and resel[0]['failed'] == str(victim) and resel[0]['reason'] == 'timeout'
-    assert resel[0]['step'] == str(kill_step - 1) and resel[0]['leader'] == str(leaders[kill_step - 1])
-    step_leaders = [int(e['leader']) for e in net.events if e['event'] == 'step']
+    resel = [e for e in net.events if e.event == 'reselect']
+    assert resel and resel[0].failed == victim and resel[0].reason == 'timeout'
+    assert resel[0].step == kill_step - 1 and resel[0].leader == leaders[kill_step - 1]
+    step_leaders = [e.leader for e in net.events if e.event == 'step']
     assert victim not in step_leaders[kill_step:] and len(step_leaders) == end + 1
     assert any('no ack from sensor' in w.msg and f'sensor {victim}' in w.msg for w in net.warnings)
     err = _error(means, k)
@@ -298,7 +295,7 @@ def test_malformed_handoffs_are_refused_with_a_warning_and_a_nack(ros, k8_file):
                                                        for m in net.warnings[i:])), kind
     assert ros.spin_until(lambda: len(acks) == 3)  # garbage has no readable header: nobody to answer
     st = [a.status[0] for a in acks]
-    assert [{kv.key: kv.value for kv in s.values}['result'] for s in st] == ['nack'] * 3
+    assert [IdsqAck.from_status(s).result for s in st] == ['nack'] * 3
     assert all(s.message.startswith('refused: ') for s in st) and node.pending is None and not node.led
     mine = [w for w in net.warnings if w.name == f'sensor_{receiver}']
     assert len(mine) == 4 and all(m.msg.startswith('refused handoff') and '\n' not in m.msg for m in mine)
@@ -313,9 +310,9 @@ def test_a_refusing_sensor_makes_the_sender_reselect(ros, k8_file):
     refuser = next(k for k in leaders[1:] if k != leaders[0])  # first sensor the track hands to
     net = Network(ros, k8_file, {f'sensor_{refuser}': [Parameter('cell', value=10.0)]})
     net.run_to(K8_STEPS - 1)
-    resel = [e for e in net.events if e['event'] == 'reselect']
-    assert resel and all(e['failed'] == str(refuser) and e['reason'] == 'nack' for e in resel)
-    assert refuser not in [int(e['leader']) for e in net.events if e['event'] == 'step']
+    resel = [e for e in net.events if e.event == 'reselect']
+    assert resel and all(e.failed == refuser and e.reason == 'nack' for e in resel)
+    assert refuser not in [e.leader for e in net.events if e.event == 'step']
     assert net.sensors[refuser].refused == len(resel) and sum(s.nacks for s in net.sensors.values()) == len(resel)
     assert any('wrong grid' in w.msg for w in net.warnings if w.name == f'sensor_{refuser}')
     assert any('refused the handoff' in w.msg for w in net.warnings)
@@ -355,23 +352,9 @@ def test_sensor_disagreeing_with_the_layout_stays_passive(ros):
 
 # --- protocol helpers (no ROS graph) ------------------------------------------------------------------
 
-def test_handoff_order_ranks_by_mi_then_suspects_previous_and_self():
-    from track_nodes.idsq.sensor import handoff_order
-
-    cands, scores = np.array([3, 7, 9]), np.array([0.2, 0.9, 0.5])
-    assert handoff_order(cands, scores, np.array([3, 7, 9, 4]), 4, 5, first=7) == [7, 9, 3, 4, 5]
-    assert handoff_order(cands, scores, np.array([3, 7, 9]), 4, 5, first=7, last={7}) == [9, 3, 7, 5]
-    assert handoff_order(cands, scores, np.array([3, 7, 9]), None, 5, first=3) == [3, 7, 9, 5]  # random pick first
-
-
-def test_step_stamps_draws_and_header_peek():
+def test_header_peek():
+    """(The step stamps, draws and handoff order are tested with the ledger, test/unit/track_core/idsq.)"""
     from track_core.idsq.handoff import peek_header
-    from track_nodes.idsq.sensor import stamp_of_step
 
-    assert [step_of_stamp(stamp_of_step(s, DT), DT) for s in (0, 1, 71)] == [0, 1, 71]
-    assert step_of_stamp(0.0, DT) is None and step_of_stamp(0.75, DT) is None
-    # one draw per (seed, sensor, step): no draw depends on another sensor or step
-    assert measurement_normal(1, 3, 5) == measurement_normal(1, 3, 5)
-    assert len({measurement_normal(1, k, s) for k in range(3) for s in range(3)}) == 9
     data = encode_handoff(Handoff(9, 2, 4, GridSpec.for_field(), np.array([1, 5]), np.array([0.25, 0.75])))
     assert peek_header(data) == (2, 4, 9) and peek_header(b'IDSQ' + bytes(20)) is None and peek_header(b'x') is None

@@ -10,6 +10,7 @@ import numpy as np
 
 from track_core.metrics import match_stamps, rms
 from track_msgs_py.convert import odometry_to_cv_state
+from track_msgs_py.records.idsq import IdsqLeaderEvent
 from track_msgs_py.topics import IDSQ_ESTIMATE, IDSQ_HANDOFF_REGEX, IDSQ_LEADER, IDSQ_TRUTH
 from track_nodes.report.read import read_topics, topics_matching
 
@@ -29,9 +30,9 @@ def idsq_metrics(bag: Path) -> list[str]:
     it, ie = match_stamps(np.array([s[0] for s in truth]), np.array([s[0] for s in est]))
     err = np.array([s[1] for s in truth])[it][:, [0, 2]] - np.array([s[1] for s in est])[ie][:, [0, 2]]
     dist = np.hypot(err[:, 0], err[:, 1])
-    events = [{kv.key: kv.value for kv in st.values} for arr in msgs.get(IDSQ_LEADER, []) for st in arr.status]
-    leaders = [int(e['leader']) for e in events if e.get('event') == 'step']
-    reselect = sum(e.get('event') == 'reselect' for e in events)
+    events = [IdsqLeaderEvent.from_status(st) for arr in msgs.get(IDSQ_LEADER, []) for st in arr.status]
+    leaders = [e.leader for e in events if e.event == 'step']
+    reselect = sum(e.event == 'reselect' for e in events)
     sent = sum(len(m.data) for t in handoff_topics for m in msgs.get(t, []))
     n_msgs = sum(len(msgs.get(t, [])) for t in handoff_topics)
     return [

@@ -14,7 +14,7 @@
   vehicle leaves the field (``Scenario.n_steps``, 72 for §5.1) or after ``max_steps``.
 
 With ``publish_truth:=false`` it publishes only the layout: the maritime scenario's sensors hear
-other sources (``idsq_sensor``'s ``truth_topics``).
+other sources (the ``truth_topics`` of ``acoustic_sensor`` / ``doa_sensor``).
 
 The sensors are separate nodes whose ``id``/``position``/``type`` parameters must match this
 layout: ``track_nodes.launch.generate.idsq_yaml`` writes a launcher scenario with all of them from the same generator
@@ -47,7 +47,7 @@ PARAMS = (
     Param('max_steps', 0, 'stop after this many steps; 0 = when the vehicle leaves the field', 0, 10**7),
     Param('vehicle_id', 'vehicle', 'child_frame_id of the truth'),
     Param('publish_truth', True, 'publish the §5.1 vehicle; false: only the layout (the sensors then sense '
-          'other sources, see idsq_sensor truth_topics)'),
+          'other sources, see the truth_topics of the sensors)'),
 )
 
 

@@ -1,0 +1,388 @@
+"""One sensor's side of the IDSQ leader protocol, as a pure state machine (no ROS, no clock).
+
+``HandoffLedger`` is what an ``acoustic_sensor`` / ``doa_sensor`` node decides; the node only
+converts messages, keeps the endpoints and the steady-clock timers, and carries out the
+effects each call returns (``Reply``, ``Send``, ``Disarm``, ``Led``, ``Reselect``, ``SelfLead``,
+``Log``), in order.
+
+Protocol (Table 1 of Liu, Reich, Zhao 2002, one leader at a time):
+
+- A sensor sleeps until a handoff (the ``encode_handoff`` bytes: step, sender = previous leader,
+  receiver, grid, sparse belief) arrives. ``receive_handoff`` validates it (NaN / negative /
+  unnormalised mass, wrong grid, wrong receiver, bad indices); it is also refused when the
+  sensor already holds a belief (*busy*) or has led a later step (*stale*). The sender gets an
+  ack or a nack with the reason (``peek_header`` finds whom to refuse when the bytes are
+  unusable).
+- The accepted belief p(x⁽ᵗ⁾|z̄⁽ᵗ⁾) is held until the truth of step t + 1 is known; the sensor
+  then leads step t + 1 with ``leader_step``: diffuse, sense (its own measurement simulated from
+  the truth, see *Randomness*), update, MI of each neighbour except the previous leader
+  (triplet rule), choose the next leader, encode the handoff (``Led``, then ``Send``).
+- Start (§5.1): with the truth of step 0 every sensor computes every sensor's step-0 amplitude
+  reading (a function of the seed, the sensor and the step only); the acoustic sensor with the
+  highest reading leads step 0 from the uniform belief. All sensors agree without messages;
+  this stands in for the election the paper does not describe.
+- Leader failure (beyond the paper): a handoff not acknowledged before its timeout (the node's
+  steady-clock timer calls ``timeout``) or refused with a nack is re-sent to the next sensor of
+  ``handoff_order``: the other candidates by decreasing MI, then the previous leader (if a
+  neighbour), finally the sensor itself, which then leads the next step too, so the track never
+  stops. A neighbour that timed out is tried last afterwards, until it acknowledges again.
+  Outstanding handoffs are kept per step: a sensor may lead again before the ack of its
+  previous handoff arrives (a leader ring under load). An ack arriving after its timeout is
+  ignored (a slow rather than dead receiver would lead a forked track).
+- Several sources (beyond the paper): each truth topic carries one or more sources (one child
+  frame each); a step is sensed once every topic has delivered it, and each sensor hears the
+  loudest source at its position, the nearest one (same amplitude A, A/r falls with range).
+- Time: step s of the truth is stamped (s + 1)·Δt, and every leader output of step s carries
+  that stamp; a leader that falls behind uses the buffered truth, so the track does not
+  depend on timing.
+
+Randomness: the measurement of sensor k at step s uses one standard normal drawn from
+``SeedSequence(seed, spawn_key=(3, k, s))`` (``measurement_normal``), the ``random`` selection
+baseline a Generator from ``spawn_key=(4, k, s)`` (``selection_rng``): nothing depends on the
+process a sensor runs in or on callback order. (The core experiments draw one (T, K) matrix
+per run instead; keys 0-2 are theirs.)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from track_core.idsq.grid import GridSpec, SparseBelief, uniform_belief
+from track_core.idsq.handoff import Handoff, encode_handoff, peek_header, receive_handoff
+from track_core.idsq.models import SimNoise, TrackerParams, loudest_source, simulate_measurement
+from track_core.idsq.network import SensorLayout
+from track_core.idsq.network import handoff_targets as core_handoff_targets
+from track_core.idsq.simulation import start_leader_at
+from track_core.idsq.tracker import LeaderStepResult, leader_step
+
+MEASUREMENT_KEY, SELECTION_KEY = 3, 4
+MAX_TRUTH = 4096  # buffered truth steps per sensor (the §5.1 track has 72)
+
+
+# --- time, randomness, start, order ------------------------------------------------------------
+
+def stamp_of_step(step: int, dt: float) -> float:
+    """Time [s] of tracker step ``step``: (step + 1)·Δt (the first tick is one period after the origin)."""
+    return (int(step) + 1) * dt
+
+
+def step_of_stamp(t: float, dt: float) -> int | None:
+    """Tracker step of a truth stamp, or ``None`` when ``t`` is not (s + 1)·Δt for an s >= 0."""
+    s = round(t / dt) - 1
+    return s if s >= 0 and abs(stamp_of_step(s, dt) - t) <= 1e-6 else None
+
+
+def measurement_normal(seed: int, sensor: int, step: int) -> float:
+    """The standard normal of sensor ``sensor``'s measurement at ``step`` (independent of process layout)."""
+    ss = np.random.SeedSequence(int(seed), spawn_key=(MEASUREMENT_KEY, int(sensor), int(step)))
+    return float(np.random.default_rng(ss).standard_normal())
+
+
+def selection_rng(seed: int, sensor: int, step: int) -> np.random.Generator:
+    """Generator of the ``random`` selection baseline for ``sensor`` leading ``step``."""
+    return np.random.default_rng(np.random.SeedSequence(int(seed), spawn_key=(SELECTION_KEY, int(sensor), int(step))))
+
+
+loudest = loudest_source  # (sources (2,) or (M, 2), sensor (2,)) → the nearest source: what the sensor hears
+
+
+def start_leader_of(layout: SensorLayout, truth0: np.ndarray, noise: SimNoise, seed: int) -> int:
+    """§5.1 start as every sensor computes it: ``start_leader_at`` on the step-0 readings drawn with
+    ``measurement_normal``. ``truth0``: one source (2,) or several (M, 2), each sensor hears its loudest."""
+    normals = [measurement_normal(seed, k, 0) for k in range(layout.n)]  # one seeded draw per sensor
+    return start_leader_at(layout, truth0, noise, np.array(normals))
+
+
+def handoff_targets(layout: SensorLayout, k: int) -> set[int]:
+    """Every sensor ``k`` may hand off to (the core's ``network.handoff_targets``), as a set."""
+    return set(core_handoff_targets(layout, k).tolist())
+
+
+def handoff_order(cands: np.ndarray, scores: np.ndarray, neighbours: np.ndarray, previous: int | None,
+                  me: int, first: int | None = None, last: set[int] | frozenset = frozenset()) -> list[int]:
+    """Who to try, in order: ``first`` (the core's choice), the other candidates by decreasing score,
+    those in ``last`` (suspected dead) after them, then the previous leader if it is a neighbour,
+    and ``me`` at the end (the leader keeps the track)."""
+    ranked = [int(c) for c in np.asarray(cands)[np.argsort(-np.asarray(scores, dtype=float), kind='stable')]]
+    if first is not None and first in ranked:
+        ranked.remove(first)
+        ranked.insert(0, first)
+    ranked = [c for c in ranked if c not in last] + [c for c in ranked if c in last]
+    if previous is not None and previous != me and previous in set(np.asarray(neighbours).tolist()) \
+            and previous not in ranked:
+        ranked.append(int(previous))
+    return [*ranked, me]
+
+
+def layout_problem(layout: SensorLayout, me: int, position: np.ndarray, is_doa: bool) -> str | None:
+    """Why sensor ``me`` (at ``position``, of type DOA or not) disagrees with ``layout``, else ``None``."""
+    if me >= layout.n:
+        return f'id={me} is not in the layout of {layout.n} sensors'
+    if not np.allclose(layout.positions[me], position, rtol=0.0, atol=1e-6):
+        return f'position={np.asarray(position).tolist()} differs from the layout entry {layout.positions[me].tolist()}'
+    if bool(layout.is_doa[me]) != is_doa:
+        return f'type={"doa" if is_doa else "acoustic"} differs from the layout entry (DOA={bool(layout.is_doa[me])})'
+    return None
+
+
+# --- effects: what the node carries out, in order -------------------------------------------------
+
+@dataclass(frozen=True)
+class Reply:
+    """Answer ``sender``'s handoff of ``step``: an ack (``refusal`` None) or a nack with the reason."""
+
+    sender: int
+    step: int
+    refusal: str | None
+
+
+@dataclass(frozen=True)
+class Send:
+    """Publish ``payload`` to ``receiver`` and arm its ack timer for (``step``, ``receiver``)."""
+
+    step: int
+    receiver: int
+    payload: bytes
+
+
+@dataclass(frozen=True)
+class Disarm:
+    """Cancel the ack timer of (``step``, ``receiver``)."""
+
+    step: int
+    receiver: int
+
+
+@dataclass(frozen=True)
+class Led:
+    """This sensor led ``step`` (publish the estimate, belief, markers and the ``step`` event)."""
+
+    step: int
+    previous: int | None
+    z: float
+    result: LeaderStepResult
+    next: int  # first sensor of the handoff order (this sensor when no neighbour is left)
+
+
+@dataclass(frozen=True)
+class Reselect:
+    """The handoff of ``step`` goes to ``receiver`` after ``failed`` timed out or refused (``reason``)."""
+
+    step: int
+    receiver: int
+    failed: int
+    reason: str
+    handoff_bytes: int
+
+
+@dataclass(frozen=True)
+class SelfLead:
+    """No neighbour took the handoff of ``step`` (``tried``): this sensor leads step + 1 itself."""
+
+    step: int
+    tried: tuple[int, ...]
+
+
+@dataclass(frozen=True)
+class Log:
+    """One log line (``level`` ``info`` or ``warning``)."""
+
+    level: str
+    text: str
+
+
+Effect = Reply | Send | Disarm | Led | Reselect | SelfLead | Log
+
+
+@dataclass
+class Pending:
+    """A belief p(x⁽ᵗ⁻¹⁾|z̄) waiting for the truth of ``step`` = t, to be led by this sensor."""
+
+    belief: SparseBelief
+    step: int
+    previous: int | None
+
+
+@dataclass
+class Outgoing:
+    """The posterior of ``step`` being handed off: who is tried now and who is left."""
+
+    step: int
+    belief: SparseBelief
+    order: list[int]
+    receiver: int | None = None
+    tried: list[int] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class SensorSetup:
+    """What the ledger needs to know about its sensor and the tracker."""
+
+    me: int
+    position: np.ndarray
+    is_doa: bool
+    grid: GridSpec
+    tracker: TrackerParams
+    noise: SimNoise
+    seed: int = 0
+    selection: str = 'mi'
+    truth_topics: tuple[str, ...] = ('truth',)  # names of the truth streams (the node's topics)
+    ack_timeout: float = 2.0  # only named in the timeout warning; the node's timer measures it
+
+
+class HandoffLedger:
+    """The pending belief, the outgoing handoffs per step, suspects and the refusal rules of one sensor.
+
+    Every input method returns the effects to carry out, in order; ``timeout(step, receiver)`` is
+    called by the node's timer of a ``Send``.
+    """
+
+    def __init__(self, setup: SensorSetup) -> None:
+        if not setup.truth_topics:
+            raise ValueError('truth_topics is empty: allowed one or more topics')
+        self.s = setup
+        self.me = setup.me
+        self.layout: SensorLayout | None = None
+        self.truth: dict[int, np.ndarray] = {}  # step → (M, 2) source positions, once every topic has it
+        self._sources: dict[int, dict[tuple[str, str], np.ndarray]] = {}  # step → (topic, child) → xy
+        self.inbox: list[bytes] = []
+        self.pending: Pending | None = None
+        self.outgoing: dict[int, Outgoing] = {}  # step → handoff awaiting its ack (several if acks lag)
+        self.start_checked = False
+        self.last_led = -1
+        self.led: list[int] = []  # steps this sensor led
+        self.suspects: set[int] = set()
+        self.refused = self.timeouts = self.nacks = 0
+
+    # -- inputs ------------------------------------------------------------------------------------
+    def set_layout(self, layout: SensorLayout) -> list[Effect]:
+        """The (checked, see ``layout_problem``) network layout: the sensor starts working."""
+        self.layout = layout
+        return self.advance()
+
+    def on_truth(self, step: int, topic: str, child: str, xy: np.ndarray) -> list[Effect]:
+        """Source ``child`` of ``topic`` is at ``xy`` at ``step``."""
+        if step in self.truth:
+            return []  # this step was complete already: a source repeating it does not change it
+        got = self._sources.setdefault(step, {})
+        got[(topic, child)] = xy
+        if {tp for tp, _ in got} >= set(self.s.truth_topics):  # every topic has delivered this step
+            del self._sources[step]
+            self.truth[step] = np.array([got[k] for k in sorted(got)])
+            if len(self.truth) > MAX_TRUTH:
+                del self.truth[min(self.truth)]
+        while len(self._sources) > MAX_TRUTH:
+            del self._sources[min(self._sources)]
+        return self.advance()
+
+    def on_handoff(self, data: bytes) -> list[Effect]:
+        self.inbox.append(data)
+        return self.advance()
+
+    def on_reply(self, step: int, sender: int, receiver: int, result: str, message: str = '') -> list[Effect]:
+        """One ack (``result`` ``ack``) or nack (anything else, ``message`` the reason) from ``receiver``.
+        The node calls ``advance`` once after all replies of a message."""
+        out = self.outgoing.get(step)
+        if sender != self.me:
+            return []
+        if out is None or out.receiver != receiver:
+            return [Log('warning', f'late {result} from sensor {receiver} for the handoff of step {step} '
+                                   'ignored (already re-selected or done)')]
+        fx: list[Effect] = [Disarm(step, receiver)]
+        if result == 'ack':
+            self.suspects.discard(receiver)
+            del self.outgoing[step]
+            return fx
+        self.nacks += 1
+        fx.append(Log('warning', f'sensor {receiver} refused the handoff of step {step} ({message}); re-selecting'))
+        return fx + self._send_next(out, 'nack')
+
+    def timeout(self, step: int, receiver: int) -> list[Effect]:
+        """The ack timer of (``step``, ``receiver``) expired."""
+        out = self.outgoing.get(step)
+        if out is None or out.receiver != receiver:
+            return []
+        self.timeouts += 1
+        self.suspects.add(out.receiver)
+        fx: list[Effect] = [Disarm(step, receiver), Log(
+            'warning', f'no ack from sensor {out.receiver} for the handoff of step {out.step} within '
+                       f'{self.s.ack_timeout:g} s; re-selecting')]
+        return fx + self._send_next(out, 'timeout') + self.advance()
+
+    # -- the state machine -------------------------------------------------------------------------
+    def advance(self) -> list[Effect]:
+        """Answer the buffered handoffs, apply the start rule, lead every step whose truth is known."""
+        if self.layout is None:
+            return []
+        fx: list[Effect] = []
+        while self.inbox:
+            fx += self._receive(self.inbox.pop(0))
+        if not self.start_checked and 0 in self.truth:
+            self.start_checked = True
+            if start_leader_of(self.layout, self.truth[0], self.s.noise, self.s.seed) == self.me:
+                fx.append(Log('info', f'sensor {self.me} has the highest amplitude at step 0: leading from a '
+                                      'uniform belief'))
+                if self.pending is None:
+                    self.pending = Pending(uniform_belief(self.s.grid), 0, None)
+        while self.pending is not None and self.pending.step in self.truth:
+            pend, self.pending = self.pending, None
+            fx += self._lead(pend)
+        return fx
+
+    def _receive(self, data: bytes) -> list[Effect]:
+        h, why = receive_handoff(data, self.s.grid, self.layout.n, receiver=self.me)
+        head = peek_header(data)
+        if why is None and self.pending is not None:
+            why = f'busy: already holding the belief for step {self.pending.step}'
+        elif why is None and h.step + 1 <= self.last_led:
+            why = f'stale: step {h.step + 1} is not after step {self.last_led}, already led here'
+        if why is not None:
+            self.refused += 1
+            who = f'sensor {head[0]}, step {head[2]}' if head else 'an unreadable header'
+            fx: list[Effect] = [Log('warning', f'refused handoff from {who}: {why}')]
+            if head is not None and head[0] < self.layout.n:
+                fx.append(Reply(head[0], head[2], why))
+            return fx
+        self.pending = Pending(h.belief(), h.step + 1, h.sender)
+        return [Reply(h.sender, h.step, None)]
+
+    def _lead(self, pend: Pending) -> list[Effect]:
+        """Table 1 steps 1-5 for step ``pend.step`` (``leader_step``), then the handoff."""
+        s, step, layout, pos = self.s, pend.step, self.layout, self.s.position
+        z = simulate_measurement(loudest(self.truth[step], pos), pos, s.is_doa, s.noise,
+                                 measurement_normal(s.seed, self.me, step))
+        rng = selection_rng(s.seed, self.me, step) if s.selection == 'random' else None
+        res = leader_step(pend.belief, z, self.me, layout, s.tracker, step=step, previous=pend.previous,
+                          selection=s.selection, rng=rng)
+        self.last_led = step
+        self.led.append(step)
+        order = handoff_order(res.candidates, res.scores, layout.neighbours[self.me], pend.previous, self.me,
+                              first=res.next_leader, last=self.suspects)
+        self.outgoing[step] = out = Outgoing(step, res.belief, order)
+        return [Led(step, pend.previous, z, res, order[0]), *self._send_next(out, None)]
+
+    def _send_next(self, out: Outgoing, why: str | None) -> list[Effect]:
+        """Hand ``out`` to the next sensor in its order (``why``: reason of a re-selection)."""
+        if why is not None:
+            out.tried.append(out.receiver)
+        k = out.order.pop(0)
+        fx: list[Effect] = []
+        if k == self.me:
+            del self.outgoing[out.step]
+            if why is not None:
+                fx += [Log('warning', f'no neighbour took the handoff of step {out.step} (tried {out.tried}); '
+                                      f'sensor {self.me} leads step {out.step + 1} itself'),
+                       SelfLead(out.step, tuple(out.tried))]
+            if self.pending is not None:
+                fx.append(Log('warning', f'dropping the belief of step {out.step}: already holding the one for '
+                                         f'step {self.pending.step}'))
+                return fx
+            self.pending = Pending(out.belief, out.step + 1, None)
+            return fx
+        payload = encode_handoff(Handoff.from_belief(out.step, self.me, k, out.belief))
+        if why is not None:
+            fx.append(Reselect(out.step, k, out.receiver, why, len(payload)))
+        out.receiver = k
+        return [*fx, Send(out.step, k, payload)]

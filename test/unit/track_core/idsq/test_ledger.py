@@ -1,0 +1,244 @@
+"""``HandoffLedger``: the IDSQ sensor protocol without ROS.
+
+``data/ledger_cases.json`` holds 300 random event sequences (layout, truths of one or two topics
+in random orders, valid and malformed handoffs, acks, nacks, late replies, timeouts) that were
+run through the node logic before the ledger existed (``idsq_sensor`` at 3ac9344, with fake
+publishers, timers and logger); for each event it stores a digest of everything the node did
+(replies, handoffs sent, timers cancelled, led steps with their posterior, leader events, log
+lines). The replay asserts the ledger does exactly the same, event by event.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from track_core.idsq import GridSpec, Handoff, SimNoise, TrackerParams, encode_handoff
+from track_core.idsq.ledger import (
+    Disarm,
+    HandoffLedger,
+    Led,
+    Log,
+    Reply,
+    Reselect,
+    SelfLead,
+    Send,
+    SensorSetup,
+    handoff_order,
+    layout_problem,
+    measurement_normal,
+    stamp_of_step,
+    start_leader_of,
+    step_of_stamp,
+)
+from track_core.idsq.simulation import scenario_of
+
+CASES = json.loads((Path(__file__).parent / 'data' / 'ledger_cases.json').read_text())
+
+# --- the generator's helpers (the same code made the fixture from the old node path) ----------------
+FIELD = (150.0, 250.0)
+
+
+def make_handoff(cell, step, sender, receiver, variant, hseed):
+    """Deterministic handoff bytes of one case event (``variant``: ok nan neg grid garb short)."""
+    if variant == 'garb':
+        return b'IDSQ' + bytes(20)
+    if variant == 'short':
+        return b'x'
+    grid = GridSpec.for_field(*FIELD, cell * 2 if variant == 'grid' else cell)
+    r = np.random.default_rng(hseed)
+    k = int(r.integers(1, 40))
+    idx = np.sort(r.choice(grid.n_cells, size=k, replace=False)).astype(np.int64)
+    mass = r.random(k) + 0.01
+    mass /= mass.sum()
+    if variant == 'nan':
+        mass[0] = np.nan
+    elif variant == 'neg':
+        mass[0] = -0.2
+    return encode_handoff(Handoff(step, sender, receiver, grid, idx, mass), check=variant == 'ok')
+
+
+def led_digest(z, res):
+    """One digest of a led step: measurement, posterior, estimate, candidates, scores, payload."""
+    h = hashlib.sha1()
+    for a in (res.belief.idx.astype('<i8'), res.belief.mass.astype('<f8'), np.asarray(res.estimate.mean, '<f8'),
+              np.asarray(res.estimate.cov, '<f8'), np.asarray(res.candidates).astype('<i8'),
+              np.asarray(res.scores, '<f8')):
+        h.update(a.tobytes())
+    h.update(res.payload)
+    h.update(f'{float(z)!r} {bool(res.updated)} {int(res.estimate.size)} {float(res.estimate.spread)!r} '
+             f'{int(res.next_leader)}'.encode())
+    return h.hexdigest()[:12]
+
+
+def digest(outputs):
+    return hashlib.sha1(json.dumps(outputs, separators=(',', ':')).encode()).hexdigest()[:6]
+
+
+# --- replay ---------------------------------------------------------------------------------------
+
+CANONICAL = {  # effect → the generator's canonical form of it
+    Log: lambda f: ['log', f.level, f.text],
+    Reply: lambda f: ['reply', f.sender, f.step, f.refusal],
+    Send: lambda f: ['send', f.step, f.receiver, hashlib.sha1(f.payload).hexdigest()[:10]],
+    Disarm: lambda f: ['disarm', f.step, f.receiver],
+    Led: lambda f: ['led', f.step, f.previous, f.next, led_digest(f.z, f.result)],
+    Reselect: lambda f: ['reselect', f.step, f.receiver, f.failed, f.reason, f.handoff_bytes],
+    SelfLead: lambda f: ['self', f.step, list(f.tried)],
+}
+
+
+def replay(case: dict) -> tuple[list[str], list]:
+    _, layout, truth = scenario_of(case['lseed'], case['n'], 0.3)
+    truthb = truth + np.random.default_rng(case['bseed']).normal(0, 30.0, truth.shape)
+    me = case['me']
+    led = HandoffLedger(SensorSetup(me, layout.positions[me].copy(), bool(layout.is_doa[me]),
+                                    GridSpec.for_field(*FIELD, case['cell']), TrackerParams(), SimNoise(),
+                                    case['seed'], case['sel'], tuple(CASES['topics'][:case['topics']]), 0.3))
+    outs = []
+    for ev in case['events']:
+        match ev:
+            case ['L']:
+                assert layout_problem(layout, me, layout.positions[me], bool(layout.is_doa[me])) is None
+                fx = led.set_layout(layout)
+            case ['t', step, ti]:
+                fx = led.on_truth(step, CASES['topics'][ti], f'c{ti}', (truth if ti == 0 else truthb)[step].copy())
+            case ['h', step, sender, receiver, variant, hseed]:
+                fx = led.on_handoff(make_handoff(case['cell'], step, sender, receiver, variant, hseed))
+            case ['a', step, sender, receiver, result, message]:
+                fx = led.on_reply(step, sender, receiver, result, message) + led.advance()
+            case ['T', step, receiver]:
+                fx = led.timeout(step, receiver)
+        outs.append(digest([CANONICAL[type(f)](f) for f in fx]))
+    state = [led.refused, led.timeouts, led.nacks, led.led, led.last_led,
+             None if led.pending is None else led.pending.step, sorted(led.outgoing), sorted(led.suspects)]
+    return outs, state
+
+
+@pytest.mark.parametrize('i', range(0, len(CASES['cases']), 25))
+def test_ledger_replays_the_old_node_path(i):
+    """Every saved case, in blocks of 25: the same outputs at every event and the same final state."""
+    for case in CASES['cases'][i:i + 25]:
+        outs, state = replay(case)
+        want = [case['out'][j:j + 6] for j in range(0, len(case['out']), 6)]
+        first = next((j for j, (a, b) in enumerate(zip(outs, want, strict=True)) if a != b), None)
+        assert first is None, f'case {CASES["cases"].index(case)}: event {first} {case["events"][first]} differs'
+        assert state == case['state']
+
+
+def test_the_fixture_exercises_every_branch():
+    kinds = {ev[0] for c in CASES['cases'] for ev in c['events']}
+    assert kinds == {'L', 't', 'h', 'a', 'T'} and len(CASES['cases']) == 300
+    assert {ev[4] for c in CASES['cases'] for ev in c['events'] if ev[0] == 'h'} >= {'ok', 'nan', 'grid', 'garb'}
+    assert sum(c['state'][1] for c in CASES['cases']) > 50 and sum(len(c['state'][3]) for c in CASES['cases']) > 200
+
+
+# --- the protocol, step by step ---------------------------------------------------------------------
+
+def _ledger(me: int, n: int = 8, seed: int = 1) -> tuple[HandoffLedger, object, np.ndarray]:
+    _, layout, truth = scenario_of(seed, n, 0.3)
+    led = HandoffLedger(SensorSetup(me, layout.positions[me], bool(layout.is_doa[me]), GridSpec.for_field(),
+                                    TrackerParams(), SimNoise(), seed, 'mi'))
+    led.set_layout(layout)
+    return led, layout, truth
+
+
+def _truth(led, truth, step):
+    return led.on_truth(step, 'truth', 'vehicle', truth[step])
+
+
+def test_start_leader_leads_step_0_and_hands_off_with_a_timer():
+    _, layout, truth = scenario_of(1, 8, 0.3)
+    start = start_leader_of(layout, truth[0], SimNoise(), 1)
+    led, _, _ = _ledger(start)
+    fx = _truth(led, truth, 0)
+    kinds = [type(f).__name__ for f in fx]
+    assert kinds == ['Log', 'Led', 'Send'] and fx[1].step == 0 and fx[1].previous is None
+    assert fx[2].receiver == fx[1].next == fx[1].result.next_leader and led.outgoing[0].receiver == fx[2].receiver
+    other, _, _ = _ledger((start + 1) % 8)
+    assert _truth(other, truth, 0) == [] and other.led == []  # asleep: only buffers the truth
+
+
+def test_timeouts_walk_the_order_then_the_leader_keeps_the_track():
+    _, layout, truth = scenario_of(1, 8, 0.3)
+    start = start_leader_of(layout, truth[0], SimNoise(), 1)
+    led, _, _ = _ledger(start)
+    fx = _truth(led, truth, 0)
+    order = [fx[2].receiver, *led.outgoing[0].order]
+    assert order[-1] == start
+    tried = []
+    for k in order[:-1]:
+        fx = led.timeout(0, k)
+        tried.append(k)
+        assert isinstance(fx[0], Disarm) and fx[0] == Disarm(0, k) and 'no ack from sensor' in fx[1].text
+        assert led.timeout(0, k) == []  # a stale timer does nothing
+    assert isinstance(fx[-1], Log) or any(isinstance(f, SelfLead) for f in fx)
+    assert any(f == SelfLead(0, tuple(tried)) for f in fx) and led.suspects == set(tried)
+    _truth(led, truth, 1)
+    assert led.led == [0, 1]  # it led step 1 itself
+    assert next(f for f in led.timeout(1, led.outgoing[1].receiver) if isinstance(f, Reselect)).reason == 'timeout'
+
+
+def test_ack_clears_a_suspect_and_late_replies_are_only_logged():
+    _, layout, truth = scenario_of(1, 8, 0.3)
+    start = start_leader_of(layout, truth[0], SimNoise(), 1)
+    led, _, _ = _ledger(start)
+    k = _truth(led, truth, 0)[2].receiver
+    led.suspects.add(k)
+    assert led.on_reply(0, start, k, 'ack') == [Disarm(0, k)] and not led.outgoing and k not in led.suspects
+    late = led.on_reply(0, start, k, 'nack', 'refused: x')
+    assert len(late) == 1 and late[0].text.startswith('late nack from sensor')
+    assert led.on_reply(0, (start + 1) % 8, k, 'ack') == []  # not mine: silent
+
+
+def test_busy_and_stale_handoffs_are_refused_with_a_reason():
+    led, layout, truth = _ledger(0)
+    sender = int(next(j for j in range(8) if 0 in set(layout.neighbours[j].tolist())))
+    bel = encode_handoff(Handoff(3, sender, 0, GridSpec.for_field(), np.array([5, 6]), np.array([0.5, 0.5])))
+    assert led.on_handoff(bel) == [Reply(sender, 3, None)] and led.pending.step == 4
+    fx = led.on_handoff(bel)
+    assert fx[-1] == Reply(sender, 3, 'busy: already holding the belief for step 4') and led.refused == 1
+    for s in range(5):
+        _truth(led, truth, s)
+    assert led.led == [4] and led.pending is None
+    fx = led.on_handoff(bel)
+    assert fx[-1].refusal.startswith('stale: step 4 is not after step 4') and led.refused == 2
+
+
+def test_a_step_waits_for_every_truth_topic():
+    _, layout, truth = scenario_of(1, 8, 0.3)
+    start = start_leader_of(layout, np.array([truth[0], truth[0] + 50.0]), SimNoise(), 1)
+    led = HandoffLedger(SensorSetup(start, layout.positions[start], bool(layout.is_doa[start]), GridSpec.for_field(),
+                                    TrackerParams(), SimNoise(), 1, 'mi', ('/a', '/b')))
+    led.set_layout(layout)
+    assert led.on_truth(0, '/a', 'x', truth[0]) == [] and 0 not in led.truth
+    assert any(isinstance(f, Led) for f in led.on_truth(0, '/b', 'y', truth[0] + 50.0))
+    np.testing.assert_array_equal(led.truth[0], [truth[0], truth[0] + 50.0])
+    assert led.on_truth(0, '/b', 'y', truth[1]) == []  # a complete step is not changed
+
+
+def test_layout_problem_names_the_disagreement():
+    _, layout, _ = scenario_of(1, 8, 0.3)
+    k = int(np.flatnonzero(~layout.is_doa)[0])
+    assert layout_problem(layout, k, layout.positions[k], False) is None
+    assert 'not in the layout of 8' in layout_problem(layout, 8, layout.positions[k], False)
+    assert 'differs from the layout entry' in layout_problem(layout, k, layout.positions[k] + 1.0, False)
+    assert layout_problem(layout, k, layout.positions[k], True).startswith('type=doa differs')
+
+
+def test_handoff_order_ranks_by_mi_then_suspects_previous_and_self():
+    cands, scores = np.array([3, 7, 9]), np.array([0.2, 0.9, 0.5])
+    assert handoff_order(cands, scores, np.array([3, 7, 9, 4]), 4, 5, first=7) == [7, 9, 3, 4, 5]
+    assert handoff_order(cands, scores, np.array([3, 7, 9]), 4, 5, first=7, last={7}) == [9, 3, 7, 5]
+    assert handoff_order(cands, scores, np.array([3, 7, 9]), None, 5, first=3) == [3, 7, 9, 5]  # random pick first
+
+
+def test_step_stamps_and_draws():
+    assert [step_of_stamp(stamp_of_step(s, 0.5), 0.5) for s in (0, 1, 71)] == [0, 1, 71]
+    assert step_of_stamp(0.0, 0.5) is None and step_of_stamp(0.75, 0.5) is None
+    assert measurement_normal(1, 3, 5) == measurement_normal(1, 3, 5)
+    assert len({measurement_normal(1, k, s) for k in range(3) for s in range(3)}) == 9
