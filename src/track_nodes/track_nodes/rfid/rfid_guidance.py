@@ -5,7 +5,8 @@ Wraps ``track_core.rfid.guidance.RfidGuidance``: it consumes the step results of
 
 - ``/rfid/command`` (diagnostic_msgs/DiagnosticArray, one status ``<node>/command``): the next
   action, TURN by an angle or MOVE one step, or DONE at the end; values ``seq``, ``kind``
-  (turn|move|done), ``angle`` (rad, + = left; repr, exact), ``angle_deg``, ``repeat``, ``reason``.
+  (turn|move|done), ``angle`` (rad, + = left; repr, exact), ``angle_deg``, ``repeat``, ``reason``
+  (``track_msgs_py.records.rfid.RfidCommand``).
   Level WARN when the command repeats a step whose result was unusable;
 - after each filter update (a usable MOVE): ``/rfid/particles`` (geometry_msgs/PoseArray, the
   particles (x, y, a) in the filter's frame ``rfid_pf``, tag at the origin, orientation = a);
@@ -26,8 +27,8 @@ turn sum stay exactly as they were, and the next command repeats the step (``rep
 already used (``seq`` below the pending command's: the reader re-publishes its answer when a
 command is re-sent) is no bad input: it is dropped silently.
 
-Command/response loop, deterministic for a seed. Every ``period`` of node time (a /clock-driven
-timer under ``use_sim_time``) the node
+Command/response loop (``track_core.rfid.loop.CommandLoop``), deterministic for a seed. Every
+``period`` of node time (a /clock-driven timer under ``use_sim_time``) the node
 
 1. sends the first command (MOVE, seq 1) once the reader is seen (``/rfid/step`` has a publisher).
    Nothing is sent before that timer runs, so under the launcher nothing is published before the

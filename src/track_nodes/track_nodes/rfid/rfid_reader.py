@@ -13,15 +13,16 @@ publishes, in this order,
   the truth, for evaluation only (the guidance never reads them);
 - ``/rfid/step`` (diagnostic_msgs/DiagnosticArray): the step result, last. One status; its values
   are the fields of ``StepResult`` (``seq``, ``kind``, ``dphi``, ``turn``, ``n_reads``,
-  ``n_outliers``, ``ok``, ``reason``, ``found``) plus ``duration`` (see ``track_msgs_py.topics``).
+  ``n_outliers``, ``ok``, ``reason``, ``found``) plus ``duration``, the record
+  ``track_msgs_py.records.rfid.RfidStep``.
 
 The phase cloud and the step result of one MOVE carry the same header stamp.
 
-Exactly one answer per command (``seq``): a command whose ``seq`` was already answered (the
-guidance re-sends its pending command until it sees the answer, which covers discovery races) gets
-the cached step result again, nothing is re-executed; a command older than the last one is
-ignored. After DONE the search is over: the reader answers DONE and performs nothing more (one
-search per node lifetime).
+Exactly one answer per command (``seq``, ``track_core.rfid.loop.AnswerCache``): a command whose
+``seq`` was already answered (the guidance re-sends its pending command until it sees the answer,
+which covers discovery races) gets the cached step result again, nothing is re-executed; a command
+older than the last one is ignored. After DONE the search is over: the reader answers DONE and
+performs nothing more (one search per node lifetime).
 
 Time. The simulated user takes time: a MOVE lasts the walk (step length / ``walk_speed``), a TURN
 the ``turn_read_s`` of reads that follow it. With ``time_scale`` > 0 the answer is published when

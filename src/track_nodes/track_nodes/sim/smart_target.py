@@ -5,7 +5,8 @@ stamps t_k = origin + k·T) and publishes
 
 - ``/sonar/target/truth`` (nav_msgs/Odometry, zero covariance, ``child_frame_id`` = ``track_id``),
 - ``/sonar/target/status`` (diagnostic_msgs/DiagnosticArray, one status named ``track_id`` with the
-  values ``mode`` naive|cruise|evade, ``heard`` true|false, ``pings``, ``detections``).
+  values ``mode`` naive|cruise|evade, ``heard`` true|false, ``pings``, ``detections``:
+  ``track_msgs_py.records.sonar.SonarTargetStatus``).
 
 It subscribes to the observer's active-ping events (``/sonar/ping``, geometry_msgs/PointStamped)
 and to the observer's Odometry (``/sonar/observer/odom``): the range between the two sets the
@@ -13,16 +14,16 @@ detection probability of a ping (``SmartTargetParams.detection_probability``), a
 position sets the evasion heading. ``naive:=true`` is the paper's constant-velocity target (it
 still counts the pings it hears, but never reacts).
 
-Ordering rule (the same as the core's closed loop, ``experiments.run_closed_loop``): step k moves
-x_{k-1} → x_k. It uses the ping the observer emitted at t_{k-1} (if any) and the observer
-position at t_{k-1}; step 1 has no ping (the observer's first reading is at t_1). With
-``sync_observer`` (default) step k waits until the observer's Odometry stamped t_{k-1} has
-arrived: the observer publishes its ping event before its Odometry, so by then the target knows
-whether t_{k-1} was a ping. The observer in turn waits for the truth stamped t_k before it
-measures, so the two nodes alternate T1, O1, T2, O2, … whatever the executor's callback order,
-and a seed reproduces every payload. ``sync_observer:=false`` runs freely, for a target without
-an observer: step k takes a ping stamped t_{k-1} only if it has already arrived, and the latest
-observer position received.
+Ordering rule (``track_core.sonar.lockstep.TargetGate``, the same as the core's closed loop,
+``experiments.run_closed_loop``): step k moves x_{k-1} → x_k. It uses the ping the observer emitted
+at t_{k-1} (if any) and the observer position at t_{k-1}; step 1 has no ping (the observer's first
+reading is at t_1). With ``sync_observer`` (default) step k waits until the observer's Odometry
+stamped t_{k-1} has arrived: the observer publishes its ping event before its Odometry, so by then
+the target knows whether t_{k-1} was a ping. The observer in turn waits for the truth stamped t_k
+before it measures, so the two nodes alternate T1, O1, T2, O2, … whatever the executor's callback
+order, and a seed reproduces every payload. ``sync_observer:=false`` runs freely, for a target
+without an observer: step k takes a ping stamped t_{k-1} only if it has already arrived, and the
+latest observer position received.
 """
 
 from __future__ import annotations

@@ -17,20 +17,20 @@ Every ``period`` T of node time (``FixedRateSteps``, t_k = origin + k·T) the ob
      the selection step, so no weight field is needed);
    - ``/sonar/mode`` (diagnostic_msgs/DiagnosticArray, one status ``<node name>/sensor_mode``;
      message = the mode used at t_k; values ``mode``, ``next_mode`` (the scheduler's choice for
-     t_{k+1}), ``step``, ``ess``, and for ss-pf ``distance`` = ‖P_D − Cov‖ of eq. 7);
+     t_{k+1}), ``step``, ``ess``, and for ss-pf ``distance`` = ‖P_D − Cov‖ of eq. 7: ``records.sonar.SonarMode``);
    - ``/sonar/markers`` (visualization_msgs/MarkerArray: the 2σ position ellipse, ns
-     ``sonar_estimate``, id 0);
+     ``sonar_estimate``, id 0: ``track_msgs_py.markers.sonar``);
    - ``/sonar/observer/odom`` (nav_msgs/Odometry of the observer, zero covariance) last: it tells
      the smart target that step k is complete (see ``smart_target`` for the ordering rule).
 
-Determinism rule: step k is taken only when both its time has come (the timer) and the truth
-stamped t_k has arrived, whichever happens second; steps are taken strictly in order. The
-target's step k never depends on the observer's step k (only on k−1), so there is no deadlock,
-and the measurement and filter draws depend only on the seed and the truth sequence. Replaying a
-recorded ``/sonar/target/truth`` into a fresh observer with the same parameters therefore
-reproduces every estimate bit for bit. Both nodes must share the stamp origin: under
-``use_sim_time`` it is 0; on wall time it is the whole second of each node's first tick, so start
-them together (the launcher does).
+Determinism rule (``track_core.sonar.lockstep.TruthGate``): step k is taken only when both its time
+has come (the timer) and the truth stamped t_k has arrived, whichever happens second; steps are
+taken strictly in order. The target's step k never depends on the observer's step k (only on k−1),
+so there is no deadlock, and the measurement and filter draws depend only on the seed and the truth
+sequence. Replaying a recorded ``/sonar/target/truth`` into a fresh observer with the same
+parameters therefore reproduces every estimate bit for bit. Both nodes must share the stamp origin:
+under ``use_sim_time`` it is 0; on wall time it is the whole second of each node's first tick, so
+start them together (the launcher does).
 
 Parameters are checked at start; δ < 0, N < 1 or a P_D that is not symmetric PSD (4 values: a
 diagonal; 16: a row-major 4×4 matrix) stop the node with one line.
