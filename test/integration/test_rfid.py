@@ -33,8 +33,9 @@ from track_core.rfid.pf import PFParams
 from track_core.rfid.phase import PhaseModel
 from track_core.rfid.search import run_search
 from track_core.rfid.world import WorldParams
-from track_msgs_py.convert import diagnostic_array, diagnostic_status, pointcloud2_to_table, sec_to_stamp
+from track_msgs_py.convert import diagnostic_array, pointcloud2_to_table, sec_to_stamp
 from track_msgs_py.qos import CLOCK_QOS, ESTIMATE_QOS, SENSOR_QOS
+from track_msgs_py.records.rfid import RfidCommand, RfidStep
 from track_msgs_py.topics import (
     CLOCK,
     RFID_COMMAND,
@@ -79,8 +80,12 @@ def _node(ros, repo, cls, name, **over):
                        cli_args=['--ros-args', '--params-file', str(repo / 'config/rfid.yaml')]))
 
 
-def _values(msg: DiagnosticArray) -> dict[str, str]:
-    return {kv.key: kv.value for kv in msg.status[0].values}
+def _command(msg: DiagnosticArray) -> RfidCommand:
+    return RfidCommand.from_status(msg.status[0])
+
+
+def _step(msg: DiagnosticArray) -> RfidStep:
+    return RfidStep.from_status(msg.status[0])
 
 
 class Sink:
@@ -128,9 +133,9 @@ def search_run(ros, repo):
     clock = TestClock(ros)
     assert ros.spin_until(lambda: guide.pub_cmd.get_subscription_count() >= 2
                           and reader.pub_step.get_subscription_count() >= 2, timeout=10)
-    assert clock.run_until(lambda: guide.ended and guide.answered, timeout_s=120), \
-        f'search not over: {guide.moves} moves, last command {guide.cmd}'
-    assert ros.spin_until(lambda: len(sink.msgs[RFID_STEP]) >= guide.cmd.seq)
+    assert clock.run_until(lambda: guide.loop.ended and guide.loop.answered, timeout_s=120), \
+        f'search not over: {guide.loop.moves} moves, last command {guide.loop.cmd}'
+    assert ros.spin_until(lambda: len(sink.msgs[RFID_STEP]) >= guide.loop.cmd.seq)
     return reader, guide, sink
 
 
@@ -146,21 +151,21 @@ def test_the_two_nodes_find_the_tag(search_run, repo):
     assert (r.steps, r.turns, r.repeats) == (ref.steps, ref.turns, ref.repeats)
     assert r.distance == ref.distance_m and r.distance_to_tag() == ref.final_distance_m
     # one answer per command, in order, every seq once; the last command is DONE
-    cmds = [_values(m) for m in sink.msgs[RFID_COMMAND]]
-    steps = [_values(m) for m in sink.msgs[RFID_STEP]]
-    assert [int(c['seq']) for c in cmds] == list(range(1, len(cmds) + 1))
-    assert [int(s['seq']) for s in steps] == list(range(1, len(cmds) + 1))
-    assert [c['kind'] for c in cmds] == [s['kind'] for s in steps]
-    assert cmds[-1]['kind'] == 'done' and cmds[-1]['reason'] == 'tag found'
-    moves = [s for s in steps if s['kind'] == 'move']
-    assert len(moves) == ref.steps == guide.moves
+    cmds = [_command(m) for m in sink.msgs[RFID_COMMAND]]
+    steps = [_step(m) for m in sink.msgs[RFID_STEP]]
+    assert [c.seq for c in cmds] == list(range(1, len(cmds) + 1))
+    assert [s.seq for s in steps] == list(range(1, len(cmds) + 1))
+    assert [c.kind for c in cmds] == [s.kind for s in steps]
+    assert cmds[-1].kind == 'done' and cmds[-1].reason == 'tag found'
+    moves = [s for s in steps if s.kind == 'move']
+    assert len(moves) == ref.steps == guide.loop.moves
     # one phase cloud per MOVE with the stream's reads; particles after each usable MOVE
     assert len(sink.msgs[RFID_PHASE]) == ref.steps
     for cloud, s in zip(sink.msgs[RFID_PHASE], moves, strict=True):
         table = pointcloud2_to_table(cloud)
-        assert set(table) == {'t', 'phase', 'rssi'} and len(table['t']) == int(s['n_reads'])
+        assert set(table) == {'t', 'phase', 'rssi'} and len(table['t']) == s.n_reads
         assert np.all((table['phase'] > 0) & (table['phase'] <= math.pi + 1e-6))
-    usable = [s for s in moves if s['ok'] == 'true' and math.isfinite(float(s['dphi']))]
+    usable = [s for s in moves if s.ok and math.isfinite(s.dphi)]
     assert len(sink.msgs[RFID_PARTICLES]) == len(usable) == guide.guide.pf.n_updates
     assert len(sink.msgs[RFID_PARTICLES][-1].poses) == guide.p.n_particles
     assert sink.msgs[RFID_TAG_ESTIMATE] and all(m.header.frame_id == 'rfid_user' for m in sink.msgs[RFID_TAG_ESTIMATE])
@@ -176,14 +181,14 @@ class FakeReader:
     def __init__(self, ros) -> None:
         self.node = ros.add(Node('fake_reader', context=ros.context))
         self.pub = self.node.create_publisher(DiagnosticArray, RFID_STEP, ESTIMATE_QOS)
-        self.cmds: list[dict[str, str]] = []
-        self.node.create_subscription(DiagnosticArray, RFID_COMMAND, lambda m: self.cmds.append(_values(m)),
+        self.cmds: list[RfidCommand] = []
+        self.node.create_subscription(DiagnosticArray, RFID_COMMAND, lambda m: self.cmds.append(_command(m)),
                                       ESTIMATE_QOS)
 
-    def answer(self, seq: int, kind: str, **values) -> None:
-        v = {'seq': seq, 'kind': kind, 'dphi': 'nan', 'turn': '0.0', 'n_reads': 150, 'n_outliers': 1, 'ok': 'true',
-             'reason': '', 'found': 'false', 'duration': '0.5', **values}
-        self.pub.publish(diagnostic_array(0.0, [diagnostic_status('fake_reader/step', 0, '', v)]))
+    def answer(self, seq: int, kind: str, **fields) -> None:
+        v = {'dphi': math.nan, 'turn': 0.0, 'n_reads': 150, 'n_outliers': 1, 'ok': True, 'reason': '',
+             'found': False, 'duration': 0.5, **fields}
+        self.pub.publish(diagnostic_array(0.0, [RfidStep(seq, kind, **v).to_status('fake_reader/step')]))
 
 
 def _guidance_with_fake_reader(ros, repo, **over):
@@ -196,26 +201,26 @@ def _guidance_with_fake_reader(ros, repo, **over):
 
 
 @pytest.mark.parametrize(('values', 'needle'), [
-    ({'dphi': 'nan'}, "phase difference is nan"),
-    ({'dphi': '1.5', 'n_reads': 0}, 'empty phase stream'),
+    ({'dphi': math.nan}, "phase difference is nan"),
+    ({'dphi': 1.5, 'n_reads': 0}, 'empty phase stream'),
 ])
 def test_bad_step_result_warns_keeps_the_state_and_repeats(ros, repo, capfd, values, needle):
     guide, fake, clock = _guidance_with_fake_reader(ros, repo)
-    assert fake.cmds[0]['seq'] == '1' and fake.cmds[0]['kind'] == 'move'
-    fake.answer(1, 'move', dphi='-4.0')             # a usable first step: the filter exists
+    assert fake.cmds[0].seq == 1 and fake.cmds[0].kind == 'move'
+    fake.answer(1, 'move', dphi=-4.0)               # a usable first step: the filter exists
     assert clock.run_until(lambda: len(fake.cmds) >= 2)
-    assert fake.cmds[1]['kind'] == 'turn'
-    fake.answer(2, 'turn', turn='0.3')
+    assert fake.cmds[1].kind == 'turn'
+    fake.answer(2, 'turn', turn=0.3)
     assert clock.run_until(lambda: len(fake.cmds) >= 3)
-    assert fake.cmds[2]['kind'] == 'move' and fake.cmds[2]['repeat'] == 'false'
+    assert fake.cmds[2].kind == 'move' and not fake.cmds[2].repeat
     core = guide.guide
     before = (core.pf.snapshot(), core.pending_turn, core.pf.n_updates)
     capfd.readouterr()
     fake.answer(3, 'move', **values)
     assert clock.run_until(lambda: len(fake.cmds) >= 4)
     repeat = fake.cmds[3]
-    assert (repeat['kind'], repeat['seq'], repeat['repeat']) == ('move', '4', 'true')
-    assert needle in repeat['reason']
+    assert (repeat.kind, repeat.seq, repeat.repeat) == ('move', 4, True)
+    assert needle in repeat.reason
     # filter state exactly as it was (particles, weights, counters, generator), turn sum kept
     after = (core.pf.snapshot(), core.pending_turn, core.pf.n_updates)
     for a, b in zip(before[0][:2], after[0][:2], strict=True):
@@ -226,21 +231,21 @@ def test_bad_step_result_warns_keeps_the_state_and_repeats(ros, repo, capfd, val
     warn = [ln for ln in capfd.readouterr().err.splitlines() if 'WARN' in ln and 'rfid_guidance' in ln]
     assert len(warn) == 1 and needle in warn[0] and 'repeat' in warn[0], warn
     # the repeated step, answered properly, is used
-    fake.answer(4, 'move', dphi='-4.2')
+    fake.answer(4, 'move', dphi=-4.2)
     assert clock.run_until(lambda: len(fake.cmds) >= 5)
-    assert fake.cmds[4]['kind'] == 'turn' and core.pf.n_updates == 2 and core.pending_turn == 0.0
+    assert fake.cmds[4].kind == 'turn' and core.pf.n_updates == 2 and core.pending_turn == 0.0
 
 
 def test_command_resent_until_answered_and_replayed_answers_ignored(ros, repo):
     guide, fake, clock = _guidance_with_fake_reader(ros, repo, resend_after=0.5)
     assert clock.run_until(lambda: len(fake.cmds) >= 3, timeout_s=5)  # not answered: re-sent, unchanged
-    assert fake.cmds[0] == fake.cmds[1] == fake.cmds[2] and guide.resends >= 2
-    fake.answer(1, 'move', dphi='-4.0')
-    assert clock.run_until(lambda: fake.cmds[-1]['seq'] == '2')
+    assert fake.cmds[0] == fake.cmds[1] == fake.cmds[2] and guide.loop.resends >= 2
+    fake.answer(1, 'move', dphi=-4.0)
+    assert clock.run_until(lambda: fake.cmds[-1].seq == 2)
     n = len(fake.cmds)
-    fake.answer(1, 'move', dphi='-4.0')              # the reader's copy of an answer already used
+    fake.answer(1, 'move', dphi=-4.0)                # the reader's copy of an answer already used
     clock.run_until(lambda: False, timeout_s=0.3)
-    assert len(fake.cmds) == n and not guide.warnings and guide.stale == 1 and guide.guide.pf.n_updates == 1
+    assert len(fake.cmds) == n and not guide.warnings and guide.loop.stale == 1 and guide.guide.pf.n_updates == 1
 
 
 def test_reader_answers_each_seq_once(ros, repo):
@@ -252,8 +257,7 @@ def test_reader_answers_each_seq_once(ros, repo):
                           and pub.get_subscription_count() >= 1, timeout=10)
 
     def command(seq: int, kind: str, angle: float = 0.0) -> None:
-        v = {'seq': seq, 'kind': kind, 'angle': repr(angle), 'repeat': 'false', 'reason': ''}
-        pub.publish(diagnostic_array(0.0, [diagnostic_status('fake_guidance/command', 0, '', v)]))
+        pub.publish(diagnostic_array(0.0, [RfidCommand(seq, kind, angle).to_status('fake_guidance/command')]))
 
     command(1, 'move')
     assert ros.spin_until(lambda: len(sink.msgs[RFID_STEP]) == 1)
@@ -264,7 +268,7 @@ def test_reader_answers_each_seq_once(ros, repo):
     assert ros.spin_until(lambda: len(sink.msgs[RFID_STEP]) == 3)
     command(1, 'move')                                 # older than the last: ignored
     ros.spin_for(0.3)
-    assert len(sink.msgs[RFID_STEP]) == 3 and reader.reader.steps == 1 and reader.duplicates == 1
+    assert len(sink.msgs[RFID_STEP]) == 3 and reader.reader.steps == 1 and reader.cache.duplicates == 1
     assert len(sink.msgs[RFID_PHASE]) == 1 and len(sink.msgs[RFID_USER_POSE]) == 3  # start pose + 2 actions
 
 

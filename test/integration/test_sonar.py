@@ -39,6 +39,7 @@ from track_core.sonar import (
 )
 from track_msgs_py.convert import odometry_to_cv_state, sec_to_stamp, stamp_to_ns
 from track_msgs_py.qos import CLOCK_QOS, ESTIMATE_QOS
+from track_msgs_py.records.sonar import SonarMode
 from track_msgs_py.topics import (
     CLOCK,
     SONAR_ESTIMATE,
@@ -168,7 +169,7 @@ def test_nodes_equal_the_core_closed_loop(in_process_run, repo):
     ping_steps = [round(stamp_to_ns(m.header.stamp) / 1e9) for m in sink.msgs[SONAR_PING]]
     assert ping_steps == [k + 1 for k in np.flatnonzero(active)]
     assert (target.target.detections, target.target.mode) == (ref_target.detections, ref_target.mode)
-    modes = [{kv.key: kv.value for kv in m.status[0].values}['mode'] for m in sink.msgs[SONAR_MODE]]
+    modes = [SonarMode.from_status(m.status[0]).mode for m in sink.msgs[SONAR_MODE]]
     assert modes == ['active' if a else 'passive' for a in active]
 
 

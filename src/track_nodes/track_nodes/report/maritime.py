@@ -94,10 +94,11 @@ def load(bag: Path) -> dict:
         d['truth'][track_id] = _states(msgs.get(truth_topic, []), child)[:2]
     d['observer'] = _states(msgs.get(SONAR_OBSERVER, []))[1]
     d['pings'] = np.array([[m.point.x, m.point.y] for m in msgs.get(SONAR_PING, [])]).reshape(-1, 2)
+    from track_msgs_py.records.sonar import SonarTargetStatus
     detections = 0
     for arr in msgs.get(SONAR_TARGET_STATUS, []):
         for st in arr.status:
-            detections = int({kv.key: kv.value for kv in st.values}.get('detections', detections))
+            detections = SonarTargetStatus.from_status(st).detections
     d['detections'] = detections
     layout = msgs.get(IDSQ_LAYOUT, [])
     d['sensors'] = pointcloud2_to_table(layout[-1]) if layout else None

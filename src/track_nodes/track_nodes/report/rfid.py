@@ -15,32 +15,33 @@ def rfid_metrics(bag: Path) -> list[str]:
     the ``/rfid/found`` event and the commands (``/rfid/command``, counted once per seq: re-sent
     copies are not new commands).
     """
+    from track_msgs_py.records.rfid import RfidCommand, RfidUserStatus
     from track_msgs_py.topics import RFID_COMMAND, RFID_FOUND, RFID_USER_STATUS
 
     msgs = read_topics(bag, {RFID_COMMAND, RFID_FOUND, RFID_USER_STATUS})
-    status = [{kv.key: kv.value for kv in m.status[0].values} for m in msgs.get(RFID_USER_STATUS, []) if m.status]
+    status = [RfidUserStatus.from_status(m.status[0]) for m in msgs.get(RFID_USER_STATUS, []) if m.status]
     if not status:
         return ['rfid: no user status recorded']
     last = status[-1]
-    commands: dict[int, dict] = {}
+    commands: dict[int, RfidCommand] = {}
     for m in msgs.get(RFID_COMMAND, []):
         for st in m.status:
-            v = {kv.key: kv.value for kv in st.values}
-            commands.setdefault(int(v['seq']), v)
-    kinds = [v['kind'] for _, v in sorted(commands.items())]
-    done = [v for v in commands.values() if v['kind'] == 'done']
-    found = bool(msgs.get(RFID_FOUND)) or last.get('found') == 'true'
+            c = RfidCommand.from_status(st)
+            commands.setdefault(c.seq, c)
+    kinds = [c.kind for _, c in sorted(commands.items())]
+    done = [c for c in commands.values() if c.kind == 'done']
+    found = bool(msgs.get(RFID_FOUND)) or last.found
     if found:
         verdict = 'tag FOUND'
     elif done:
-        verdict = f'tag NOT found ({done[-1].get("reason", "")})'
+        verdict = f'tag NOT found ({done[-1].reason})'
     else:
         verdict = 'tag NOT found (the search was still running when the recording stopped)'
-    repeats = sum(v.get('repeat') == 'true' for v in commands.values())
+    repeats = sum(c.repeat for c in commands.values())
     return [
         f'rfid: {verdict}',
-        f'  steps {last["steps"]}, turns {last["turns"]}, distance walked {float(last["distance_m"]):.2f} m, '
-        f'final distance to the tag {float(last["distance_to_tag_m"]):.3f} m',
+        f'  steps {last.steps}, turns {last.turns}, distance walked {last.distance_m:.2f} m, '
+        f'final distance to the tag {last.distance_to_tag_m:.3f} m',
         f'  commands {len(commands)} (MOVE {kinds.count("move")}, TURN {kinds.count("turn")}), '
-        f'repeated steps {repeats}, steps undone by the user {last["repeats"]}',
+        f'repeated steps {repeats}, steps undone by the user {last.repeats}',
     ]

@@ -18,6 +18,7 @@ def sonar_metrics(bag: Path) -> list[str]:
     position error). Pings emitted: ``/sonar/ping`` events; detected: the target's last
     ``/sonar/target/status`` ``detections`` (a ping is heard one step after it is emitted).
     """
+    from track_msgs_py.records.sonar import SonarTargetStatus
     from track_msgs_py.topics import SONAR_ESTIMATE, SONAR_PING, SONAR_TARGET_STATUS, SONAR_TRUTH
 
     msgs = read_topics(bag, {SONAR_TRUTH, SONAR_ESTIMATE, SONAR_PING, SONAR_TARGET_STATUS})
@@ -27,9 +28,9 @@ def sonar_metrics(bag: Path) -> list[str]:
     detections, modes = 0, []
     for arr in msgs.get(SONAR_TARGET_STATUS, []):
         for st in arr.status:
-            v = {kv.key: kv.value for kv in st.values}
-            detections = int(v.get('detections', detections))
-            modes.append(v.get('mode', ''))
+            rec = SonarTargetStatus.from_status(st)
+            detections = rec.detections
+            modes.append(rec.mode)
     if not truth or not est:
         return ['sonar: no truth/estimate pairs recorded']
     it, ie = match_stamps(np.array([s[0] for s in truth]), np.array([s[0] for s in est]))

@@ -5,7 +5,8 @@ Wraps ``track_core.rfid.guidance.RfidGuidance``: it consumes the step results of
 
 - ``/rfid/command`` (diagnostic_msgs/DiagnosticArray, one status ``<node>/command``): the next
   action, TURN by an angle or MOVE one step, or DONE at the end; values ``seq``, ``kind``
-  (turn|move|done), ``angle`` (rad, + = left; repr, exact), ``angle_deg``, ``repeat``, ``reason``.
+  (turn|move|done), ``angle`` (rad, + = left; repr, exact), ``angle_deg``, ``repeat``, ``reason``
+  (``track_msgs_py.records.rfid.RfidCommand``).
   Level WARN when the command repeats a step whose result was unusable;
 - after each filter update (a usable MOVE): ``/rfid/particles`` (geometry_msgs/PoseArray, the
   particles (x, y, a) in the filter's frame ``rfid_pf``, tag at the origin, orientation = a);
@@ -26,8 +27,8 @@ turn sum stay exactly as they were, and the next command repeats the step (``rep
 already used (``seq`` below the pending command's: the reader re-publishes its answer when a
 command is re-sent) is no bad input: it is dropped silently.
 
-Command/response loop, deterministic for a seed. Every ``period`` of node time (a /clock-driven
-timer under ``use_sim_time``) the node
+Command/response loop (``track_core.rfid.loop.CommandLoop``), deterministic for a seed. Every
+``period`` of node time (a /clock-driven timer under ``use_sim_time``) the node
 
 1. sends the first command (MOVE, seq 1) once the reader is seen (``/rfid/step`` has a publisher).
    Nothing is sent before that timer runs, so under the launcher nothing is published before the
@@ -55,18 +56,13 @@ from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PointStamped, PoseArray
 
 from track_core.rfid.guidance import RfidGuidance
+from track_core.rfid.loop import CommandLoop, Tick, Use
 from track_core.rfid.pf import SUGGESTION_RULES, PFParams
 from track_core.rfid.phase import PhaseModel
-from track_core.rfid.protocol import Command, CommandKind, StepResult
-from track_msgs_py.convert import (
-    DIAG_OK,
-    DIAG_WARN,
-    diagnostic_array,
-    diagnostic_status,
-    positions_to_pose_array,
-    sec_to_stamp,
-)
+from track_core.rfid.protocol import Command, CommandKind
+from track_msgs_py.convert import DIAG_OK, DIAG_WARN, diagnostic_array, positions_to_pose_array, sec_to_stamp
 from track_msgs_py.qos import ESTIMATE_QOS, SENSOR_QOS
+from track_msgs_py.records.rfid import RfidCommand, RfidFound, read_step
 from track_msgs_py.topics import (
     RFID_COMMAND,
     RFID_FOUND,
@@ -110,43 +106,6 @@ def pf_params(p) -> PFParams:
         raise ParameterError(f'invalid filter parameters: {exc}') from None
 
 
-def _float(v: dict[str, str], key: str, default: float = math.nan) -> float:
-    try:
-        return float(v[key])
-    except (KeyError, ValueError):
-        return default
-
-
-def _int(v: dict[str, str], key: str) -> int | None:
-    try:
-        return int(v[key])
-    except (KeyError, ValueError):
-        return None
-
-
-def parse_step(msg: DiagnosticArray, pending: Command) -> tuple[StepResult, int | None]:
-    """A ``/rfid/step`` message → (StepResult, its seq or None when unreadable).
-
-    Missing or unreadable fields do not raise: numbers become NaN/0 and an unreadable kind or seq
-    becomes a result with ``ok`` False and the reason, so the core's bad-input rule handles it.
-    """
-    v = {kv.key: kv.value for kv in msg.status[0].values} if msg.status else {}
-    seq = _int(v, 'seq')
-    try:
-        kind = CommandKind(v.get('kind', ''))
-        bad = None
-    except ValueError:
-        kind, bad = pending.kind, f'malformed step result: kind {v.get("kind")!r}'
-    if seq is None:
-        bad = bad or f'malformed step result: seq {v.get("seq")!r}'
-    dphi, turn = (math.nan, math.nan) if bad else (_float(v, 'dphi'), _float(v, 'turn'))
-    res = StepResult(kind, pending.seq if seq is None else seq, dphi=dphi, turn=turn,
-                     n_reads=_int(v, 'n_reads') or 0, n_outliers=_int(v, 'n_outliers') or 0,
-                     ok=v.get('ok') == 'true' and bad is None, reason=bad or v.get('reason', ''),
-                     found=v.get('found') == 'true' and bad is None)
-    return res, seq
-
-
 class RfidGuidanceNode(TrackNode):
     DEFAULT_NAME = 'rfid_guidance'
     PARAMS = PARAMS
@@ -162,17 +121,11 @@ class RfidGuidanceNode(TrackNode):
                                       max_repeats=p.max_repeats)
         except ValueError as exc:
             raise ParameterError(f'invalid guidance parameters: {exc}') from None
-        self.cmd: Command | None = None          # the command sent last (pending until answered)
+        self.loop = CommandLoop(p.resend_after, p.max_steps)  # pending command, re-sends (track_core.rfid.loop)
         self.cmd_msg: DiagnosticArray | None = None
-        self.sent_at = 0.0
-        self.answered = False
-        self.ended = False                       # DONE sent
         self.found = False
-        self.moves = 0                           # MOVE results answering the pending command
         self.turns = 0                           # usable TURN results
         self.warnings: list[str] = []            # the bad-input warnings, in order
-        self.resends = 0
-        self.stale = 0
         self.pub_cmd = self.create_publisher(DiagnosticArray, RFID_COMMAND, ESTIMATE_QOS)
         self.pub_particles = self.create_publisher(PoseArray, RFID_PARTICLES, SENSOR_QOS)
         self.pub_estimate = self.create_publisher(PointStamped, RFID_TAG_ESTIMATE, ESTIMATE_QOS)
@@ -185,42 +138,29 @@ class RfidGuidanceNode(TrackNode):
 
     # -- sending --------------------------------------------------------------------------
     def _tick(self) -> None:
-        if self.cmd is None:
-            if self.count_publishers(RFID_STEP) > 0:
-                self._send(self.guide.start())
-            return
-        if not self.answered and self._now() - self.sent_at >= self.p.resend_after - 1e-9:
-            self.resends += 1
-            self.sent_at = self._now()
-            self.get_logger().debug(f'no answer to {self.cmd} yet: sending it again')
+        action = self.loop.tick(self._now(), self.count_publishers(RFID_STEP) > 0)
+        if action is Tick.START:
+            self._send(self.guide.start())
+        elif action is Tick.RESEND:
+            self.get_logger().debug(f'no answer to {self.loop.cmd} yet: sending it again')
             self.pub_cmd.publish(self.cmd_msg)
 
     def _send(self, cmd: Command) -> None:
         t = self._now()
-        values = {'seq': cmd.seq, 'kind': cmd.kind.value, 'angle': repr(float(cmd.angle)),
-                  'angle_deg': f'{math.degrees(cmd.angle):.2f}', 'repeat': str(cmd.repeat).lower(),
-                  'reason': cmd.reason}
         words = str(cmd) + (f': {cmd.reason}' if cmd.reason else '')
-        self.cmd, self.answered, self.sent_at = cmd, False, t
-        self.cmd_msg = diagnostic_array(t, [diagnostic_status(f'{self.get_name()}/command',
-                                                              DIAG_WARN if cmd.repeat else DIAG_OK, words, values)])
+        self.loop.sent(cmd, t)
+        status = RfidCommand.from_command(cmd).to_status(f'{self.get_name()}/command',
+                                                         DIAG_WARN if cmd.repeat else DIAG_OK, words)
+        self.cmd_msg = diagnostic_array(t, [status])
         self.pub_cmd.publish(self.cmd_msg)
 
     # -- results --------------------------------------------------------------------------
     def _on_step(self, msg: DiagnosticArray) -> None:
-        if self.cmd is None:
+        if self.loop.cmd is None:
             return  # nothing asked yet: not an answer
-        res, seq = parse_step(msg, self.cmd)
-        if seq is not None and (seq < self.cmd.seq or (seq == self.cmd.seq and self.answered)):
-            self.stale += 1  # a replayed answer that was already used
-            return
-        if self.ended:
-            self.answered = self.answered or seq == self.cmd.seq  # DONE acknowledged: stop re-sending
-            return
-        answers = seq == self.cmd.seq
-        self.answered = answers
-        if answers and res.kind is CommandKind.MOVE and self.cmd.kind is CommandKind.MOVE:
-            self.moves += 1
+        res, seq = read_step(msg, self.loop.cmd)
+        if self.loop.on_result(seq, res.kind) is not Use.USE:
+            return  # a replayed answer already used, or after DONE
         reply = self.guide.on_step(res)
         if reply.warning is not None:
             line = f'{RFID_STEP} #{res.seq}: {reply.warning}; filter state unchanged, asking for {reply.command}'
@@ -231,18 +171,15 @@ class RfidGuidanceNode(TrackNode):
         t = self._now()
         if reply.accepted:
             self._publish_estimate(t, res.kind is CommandKind.MOVE)
-        cmd = reply.command
-        if reply.found or (answers and res.found):
+        nxt = self.loop.next_command(reply.command, reply.found, res.found)
+        if nxt.outcome == 'found':
             self.found = self.guide.found = True
-            cmd = cmd if cmd.kind is CommandKind.DONE else Command(CommandKind.DONE, seq=cmd.seq, reason='tag found')
             self._publish_found(t, res.seq)
-        elif self.moves >= self.p.max_steps and cmd.kind is not CommandKind.DONE:
-            cmd = Command(CommandKind.DONE, seq=cmd.seq, reason=f'tag not found after {self.moves} steps')
-            self.get_logger().warning(f'search failed: {cmd.reason}')
-        if cmd.kind is CommandKind.DONE:
-            self.ended = True
-            self.guide.pending = cmd
-        self._send(cmd)
+        elif nxt.outcome == 'failed':
+            self.get_logger().warning(f'search failed: {nxt.command.reason}')
+        if nxt.command.kind is CommandKind.DONE:
+            self.guide.pending = nxt.command
+        self._send(nxt.command)
 
     def _publish_estimate(self, t: float, updated: bool) -> None:
         pf = self.guide.pf
@@ -259,9 +196,8 @@ class RfidGuidanceNode(TrackNode):
             self.pub_estimate.publish(msg)
 
     def _publish_found(self, t: float, seq: int) -> None:
-        pf = self.guide.pf
-        self.get_logger().info(f'tag found after {self.moves} steps and {self.turns} turns')
-        self.pub_found.publish(diagnostic_array(t, [diagnostic_status(
-            f'{self.get_name()}/found', DIAG_OK, 'tag found',
-            {'seq': seq, 'moves': self.moves, 'turns': self.turns, 'updates': pf.n_updates,
-             'resamples': pf.n_resamples, 'reinits': pf.n_reinits})]))
+        pf, moves = self.guide.pf, self.loop.moves
+        self.get_logger().info(f'tag found after {moves} steps and {self.turns} turns')
+        rec = RfidFound(seq, moves, self.turns, pf.n_updates, pf.n_resamples, pf.n_reinits)
+        self.pub_found.publish(diagnostic_array(t, [rec.to_status(f'{self.get_name()}/found', DIAG_OK,
+                                                                  'tag found')]))

@@ -13,15 +13,16 @@ publishes, in this order,
   the truth, for evaluation only (the guidance never reads them);
 - ``/rfid/step`` (diagnostic_msgs/DiagnosticArray): the step result, last. One status; its values
   are the fields of ``StepResult`` (``seq``, ``kind``, ``dphi``, ``turn``, ``n_reads``,
-  ``n_outliers``, ``ok``, ``reason``, ``found``) plus ``duration`` (see ``track_msgs_py.topics``).
+  ``n_outliers``, ``ok``, ``reason``, ``found``) plus ``duration``, the record
+  ``track_msgs_py.records.rfid.RfidStep``.
 
 The phase cloud and the step result of one MOVE carry the same header stamp.
 
-Exactly one answer per command (``seq``): a command whose ``seq`` was already answered (the
-guidance re-sends its pending command until it sees the answer, which covers discovery races) gets
-the cached step result again, nothing is re-executed; a command older than the last one is
-ignored. After DONE the search is over: the reader answers DONE and performs nothing more (one
-search per node lifetime).
+Exactly one answer per command (``seq``, ``track_core.rfid.loop.AnswerCache``): a command whose
+``seq`` was already answered (the guidance re-sends its pending command until it sees the answer,
+which covers discovery races) gets the cached step result again, nothing is re-executed; a command
+older than the last one is ignored. After DONE the search is over: the reader answers DONE and
+performs nothing more (one search per node lifetime).
 
 Time. The simulated user takes time: a MOVE lasts the walk (step length / ``walk_speed``), a TURN
 the ``turn_read_s`` of reads that follow it. With ``time_scale`` > 0 the answer is published when
@@ -49,24 +50,19 @@ from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import PointCloud2
 
+from track_core.rfid.loop import AnswerCache, Verdict
 from track_core.rfid.phase import PhaseModel
-from track_core.rfid.protocol import Command, CommandKind, StepResult
+from track_core.rfid.protocol import Command, CommandKind
 from track_core.rfid.world import SimReader, WorldParams, office_obstacles
-from track_msgs_py.convert import (
-    DIAG_OK,
-    DIAG_WARN,
-    diagnostic_array,
-    diagnostic_status,
-    sec_to_stamp,
-    table_to_pointcloud2,
-)
+from track_msgs_py.convert import DIAG_OK, DIAG_WARN, diagnostic_array, sec_to_stamp, table_to_pointcloud2
 from track_msgs_py.qos import ESTIMATE_QOS
+from track_msgs_py.records import RecordError
+from track_msgs_py.records.rfid import RfidStep, RfidUserStatus, read_command
 from track_msgs_py.topics import FRAME_MAP, RFID_COMMAND, RFID_PHASE, RFID_STEP, RFID_USER_POSE, RFID_USER_STATUS
 from track_nodes.base import Param, ParameterError, TrackNode
 from track_nodes.rfid.params import PHASE_PARAMS
 
 _W = WorldParams()
-KINDS = tuple(k.value for k in CommandKind)
 
 PARAMS = (
     Param('seed', 0, 'seed; the world/user draws use the first of SeedSequence(seed).spawn(2)', 0, 2**31 - 1),
@@ -98,18 +94,14 @@ PARAMS = (
 )
 
 
-@dataclass
+@dataclass(frozen=True)
 class _Answer:
-    """What one command produced, published together when due."""
+    """What one command produced, published together when due (the step result last)."""
 
-    seq: int
-    kind: CommandKind
-    due: float                          # node time [s]
     stream: PointCloud2 | None
     pose: PoseStamped
     status: DiagnosticArray
     step: DiagnosticArray
-    published: bool = False
 
 
 def world_params(p) -> WorldParams:
@@ -124,31 +116,6 @@ def world_params(p) -> WorldParams:
             obstacles=office_obstacles() if p.obstacles == 'office' else ())
     except ValueError as exc:
         raise ParameterError(f'invalid world parameters: {exc}') from None
-
-
-def parse_command(msg: DiagnosticArray) -> tuple[Command | None, str | None]:
-    """(command, None) from a ``/rfid/command`` message, or (None, why it is unusable)."""
-    if not msg.status:
-        return None, 'no status'
-    v = {kv.key: kv.value for kv in msg.status[0].values}
-    try:
-        seq = int(v['seq'])
-        kind = CommandKind(v['kind'])
-        angle = float(v.get('angle', '0.0'))
-    except (KeyError, ValueError) as exc:
-        return None, f'malformed command ({type(exc).__name__}: {exc}); needs seq, kind ({"|".join(KINDS)}), angle'
-    if seq < 1:
-        return None, f'seq {seq} < 1'
-    if not math.isfinite(angle):
-        return None, f'non-finite angle={angle}'
-    return Command(kind, angle, seq, v.get('repeat') == 'true', v.get('reason', '')), None
-
-
-def step_values(res: StepResult, duration: float) -> dict[str, object]:
-    """The values of a ``/rfid/step`` status (floats with repr: they round-trip exactly)."""
-    return {'seq': res.seq, 'kind': res.kind.value, 'dphi': repr(float(res.dphi)), 'turn': repr(float(res.turn)),
-            'n_reads': res.n_reads, 'n_outliers': res.n_outliers, 'ok': str(res.ok).lower(), 'reason': res.reason,
-            'found': str(res.found).lower(), 'duration': repr(float(duration))}
 
 
 def pose_stamped(t: float, pose: np.ndarray, frame_id: str = FRAME_MAP) -> PoseStamped:
@@ -179,11 +146,7 @@ class RfidReaderNode(TrackNode):
             self.reader = SimReader(self.world, np.random.default_rng(world_ss), start=start)
         except ValueError as exc:
             raise ParameterError(f'cannot start the search: {exc}') from None
-        self.last: _Answer | None = None
-        self.finished = False
-        self.duplicates = 0
-        self.ignored = 0
-        self._initial_sent = False
+        self.cache: AnswerCache[_Answer] = AnswerCache()  # one answer per seq (track_core.rfid.loop)
         self.pub_phase = self.create_publisher(PointCloud2, RFID_PHASE, ESTIMATE_QOS)
         self.pub_pose = self.create_publisher(PoseStamped, RFID_USER_POSE, ESTIMATE_QOS)
         self.pub_status = self.create_publisher(DiagnosticArray, RFID_USER_STATUS, ESTIMATE_QOS)
@@ -200,58 +163,45 @@ class RfidReaderNode(TrackNode):
     # -- truth ----------------------------------------------------------------------------
     def _truth(self, t: float, seq: int) -> tuple[PoseStamped, DiagnosticArray]:
         r = self.reader
-        status = diagnostic_status(f'{self.get_name()}/user', DIAG_OK, 'found' if r.found() else 'searching', {
-            'seq': seq, 'steps': r.steps, 'turns': r.turns, 'distance_m': repr(float(r.distance)),
-            'repeats': r.repeats, 'distance_to_tag_m': repr(r.distance_to_tag()), 'found': str(r.found()).lower(),
-            'x': repr(float(r.pose[0])), 'y': repr(float(r.pose[1])), 'heading': repr(float(r.pose[2]))})
+        rec = RfidUserStatus(seq, r.steps, r.turns, float(r.distance), r.repeats, r.distance_to_tag(), r.found(),
+                             float(r.pose[0]), float(r.pose[1]), float(r.pose[2]))
+        status = rec.to_status(f'{self.get_name()}/user', DIAG_OK, 'found' if r.found() else 'searching')
         return pose_stamped(t, r.pose), diagnostic_array(t, [status])
-
-    def _send_initial(self) -> None:
-        """The start pose (seq 0), once, before the first answer."""
-        if not self._initial_sent:
-            self._initial_sent = True
-            pose, status = self._truth(self._now(), 0)
-            self.pub_pose.publish(pose)
-            self.pub_status.publish(status)
 
     # -- commands -------------------------------------------------------------------------
     def _on_command(self, msg: DiagnosticArray) -> None:
-        cmd, problem = parse_command(msg)
-        if cmd is None:
-            self.ignored += 1
-            self.get_logger().warning(f'{RFID_COMMAND}: dropped command: {problem}')
+        try:
+            cmd = read_command(msg)
+        except RecordError as exc:
+            self.cache.reject()
+            self.get_logger().warning(f'{RFID_COMMAND}: dropped command: {exc}')
             return
-        last = self.last
-        if last is not None and cmd.seq == last.seq:
-            if last.published:  # the guidance has not seen the answer: send it again, nothing re-executed
-                self.duplicates += 1
-                self.pub_step.publish(last.step)
-            return
-        if last is not None and cmd.seq < last.seq:
-            self.ignored += 1
-            self.get_logger().debug(f'{RFID_COMMAND}: ignored stale command #{cmd.seq} (last #{last.seq})')
-            return
-        if self.finished:
-            self.ignored += 1
+        verdict = self.cache.on_command(cmd.seq)
+        if verdict is Verdict.REPLAY:  # the guidance has not seen the answer: send it again, nothing re-executed
+            self.pub_step.publish(self.cache.answer.step)
+        elif verdict is Verdict.STALE:
+            self.get_logger().debug(f'{RFID_COMMAND}: ignored stale command #{cmd.seq} (last #{self.cache.seq})')
+        elif verdict is Verdict.ENDED:
             self.get_logger().warning(f'{RFID_COMMAND}: ignored {cmd}: the search has ended')
-            return
-        self._send_initial()
-        self._execute(cmd)
-        if self.p.time_scale == 0.0:
-            self._tick()
+        elif verdict is Verdict.EXECUTE:
+            if self.cache.seq is None:  # the start pose (seq 0), once, before the first answer
+                pose, status = self._truth(self._now(), 0)
+                self.pub_pose.publish(pose)
+                self.pub_status.publish(status)
+            self._execute(cmd)
+            if self.p.time_scale == 0.0:
+                self._tick()
 
     def _execute(self, cmd: Command) -> None:
         r = self.reader
         t0 = r.t
         out = r.execute(cmd)
         duration = r.t - t0
-        now = self._now()
-        due = now + self.p.time_scale * duration
+        due = self._now() + self.p.time_scale * duration
         res = out.result
-        level = DIAG_OK if res.ok else DIAG_WARN
         words = f'{cmd}: ' + ('found' if res.found else 'ok' if res.ok else res.reason or 'unusable')
-        step = diagnostic_array(due, [diagnostic_status(f'{self.get_name()}/step', level, words,
-                                                        step_values(res, duration))])
+        step = RfidStep.from_result(res, duration).to_status(f'{self.get_name()}/step',
+                                                              DIAG_OK if res.ok else DIAG_WARN, words)
         stream = None
         if cmd.kind is CommandKind.MOVE:
             s = out.stream
@@ -259,17 +209,16 @@ class RfidReaderNode(TrackNode):
             stream = table_to_pointcloud2(due, self.get_name(), {'t': s.t - t_start, 'phase': s.phase,
                                                                  'rssi': s.rssi})
         pose, status = self._truth(due, cmd.seq)
-        self.last = _Answer(cmd.seq, cmd.kind, due, stream, pose, status, step)
-        if cmd.kind is CommandKind.DONE:
-            self.finished = True
+        done = cmd.kind is CommandKind.DONE
+        self.cache.store(cmd.seq, _Answer(stream, pose, status, diagnostic_array(due, [step])), due, done)
+        if done:
             self.get_logger().info(f'search over ({cmd.reason or "done"}): {r.steps} steps, {r.turns} turns, '
                                    f'{r.distance:.1f} m walked, {r.distance_to_tag():.2f} m from the tag')
 
     def _tick(self) -> None:
-        a = self.last
-        if a is None or a.published or self._now() + 1e-9 < a.due:
+        a = self.cache.take_due(self._now())
+        if a is None:
             return
-        a.published = True
         if a.stream is not None:
             self.pub_phase.publish(a.stream)
         self.pub_pose.publish(a.pose)

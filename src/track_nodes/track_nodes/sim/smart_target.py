@@ -5,7 +5,8 @@ stamps t_k = origin + k·T) and publishes
 
 - ``/sonar/target/truth`` (nav_msgs/Odometry, zero covariance, ``child_frame_id`` = ``track_id``),
 - ``/sonar/target/status`` (diagnostic_msgs/DiagnosticArray, one status named ``track_id`` with the
-  values ``mode`` naive|cruise|evade, ``heard`` true|false, ``pings``, ``detections``).
+  values ``mode`` naive|cruise|evade, ``heard`` true|false, ``pings``, ``detections``:
+  ``track_msgs_py.records.sonar.SonarTargetStatus``).
 
 It subscribes to the observer's active-ping events (``/sonar/ping``, geometry_msgs/PointStamped)
 and to the observer's Odometry (``/sonar/observer/odom``): the range between the two sets the
@@ -13,22 +14,21 @@ detection probability of a ping (``SmartTargetParams.detection_probability``), a
 position sets the evasion heading. ``naive:=true`` is the paper's constant-velocity target (it
 still counts the pings it hears, but never reacts).
 
-Ordering rule (the same as the core's closed loop, ``experiments.run_closed_loop``): step k moves
-x_{k-1} → x_k. It uses the ping the observer emitted at t_{k-1} (if any) and the observer
-position at t_{k-1}; step 1 has no ping (the observer's first reading is at t_1). With
-``sync_observer`` (default) step k waits until the observer's Odometry stamped t_{k-1} has
-arrived: the observer publishes its ping event before its Odometry, so by then the target knows
-whether t_{k-1} was a ping. The observer in turn waits for the truth stamped t_k before it
-measures, so the two nodes alternate T1, O1, T2, O2, … whatever the executor's callback order,
-and a seed reproduces every payload. ``sync_observer:=false`` runs freely, for a target without
-an observer: step k takes a ping stamped t_{k-1} only if it has already arrived, and the latest
-observer position received.
+Ordering rule (``track_core.sonar.lockstep.TargetGate``, the same as the core's closed loop,
+``experiments.run_closed_loop``): step k moves x_{k-1} → x_k. It uses the ping the observer emitted
+at t_{k-1} (if any) and the observer position at t_{k-1}; step 1 has no ping (the observer's first
+reading is at t_1). With ``sync_observer`` (default) step k waits until the observer's Odometry
+stamped t_{k-1} has arrived: the observer publishes its ping event before its Odometry, so by then
+the target knows whether t_{k-1} was a ping. The observer in turn waits for the truth stamped t_k
+before it measures, so the two nodes alternate T1, O1, T2, O2, … whatever the executor's callback
+order, and a seed reproduces every payload. ``sync_observer:=false`` runs freely, for a target
+without an observer: step k takes a ping stamped t_{k-1} only if it has already arrived, and the
+latest observer position received.
 """
 
 from __future__ import annotations
 
 import math
-from collections import deque
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
@@ -36,16 +36,17 @@ from geometry_msgs.msg import PointStamped
 from nav_msgs.msg import Odometry
 
 from track_core.sonar import SmartTarget, SmartTargetParams, SonarParams
+from track_core.sonar.lockstep import TargetGate
 from track_msgs_py.convert import (
     DIAG_OK,
     cv_state_to_odometry,
     diagnostic_array,
-    diagnostic_status,
     odometry_to_cv_state,
     sec_to_stamp,
     stamp_to_ns,
 )
 from track_msgs_py.qos import ESTIMATE_QOS
+from track_msgs_py.records.sonar import SonarTargetStatus
 from track_msgs_py.topics import FRAME_MAP, KNOWN_FRAMES, SONAR_OBSERVER, SONAR_PING, SONAR_TARGET_STATUS, SONAR_TRUTH
 from track_msgs_py.validate import header_problem, odometry_problem, xyz_problem
 from track_nodes.base import FixedRateSteps, Param, TrackNode
@@ -86,10 +87,8 @@ class SmartTargetNode(TrackNode):
                                    quiet_period=p.quiet_period, naive=p.naive)
         self.target = SmartTarget(x0, sonar=SonarParams(T=p.period, q_s=p.q_s), params=params)
         self.rng = np.random.default_rng(p.seed)
-        self.pending: deque[float] = deque()  # due step times not yet taken (waiting for the observer)
-        self.pings: dict[int, np.ndarray] = {}  # ping stamp [ns] → observer position
-        self.observer: dict[int, np.ndarray] = {}  # observer Odometry stamp [ns] → position
-        self.last_t: float | None = None  # stamp of the last step taken (t_{k-1})
+        # step k waits for the observer's step k-1 (track_core.sonar.lockstep)
+        self.gate = TargetGate(p.sync_observer, round(2e9 * p.period))
         self.rejected = 0
         self.pub_truth = self.create_publisher(Odometry, SONAR_TRUTH, ESTIMATE_QOS)
         self.pub_status = self.create_publisher(DiagnosticArray, SONAR_TARGET_STATUS, ESTIMATE_QOS)
@@ -108,7 +107,7 @@ class SmartTargetNode(TrackNode):
         if reason:
             self._reject(SONAR_PING, reason)
             return
-        self.pings[stamp_to_ns(msg.header.stamp)] = np.array([msg.point.x, msg.point.y])
+        self.gate.add_ping(stamp_to_ns(msg.header.stamp), np.array([msg.point.x, msg.point.y]))
 
     def _on_observer(self, msg: Odometry) -> None:
         reason = odometry_problem(msg, KNOWN_FRAMES)
@@ -116,43 +115,23 @@ class SmartTargetNode(TrackNode):
             self._reject(SONAR_OBSERVER, reason)
             return
         _, x, _ = odometry_to_cv_state(msg)
-        self.observer[stamp_to_ns(msg.header.stamp)] = np.array([x[0], x[2]])
-        self._advance()
+        self._take(self.gate.add_observer(stamp_to_ns(msg.header.stamp), np.array([x[0], x[2]])))
 
     # -- stepping -------------------------------------------------------------------------
     def _due(self, t: float) -> None:
-        self.pending.append(t)
-        self._advance()
+        self._take(self.gate.due(t, _ns(t)))
 
-    def _advance(self) -> None:
-        while self.pending:
-            key = None if self.last_t is None else _ns(self.last_t)  # t_{k-1}; None at step 1
-            if self.p.sync_observer and key is not None and key not in self.observer:
-                return  # the observer's step at t_{k-1} is not known yet
-            pinged = key is not None and key in self.pings
-            self._step(self.pending.popleft(), pinged, self._observer_at(key))
-
-    def _observer_at(self, key: int | None) -> np.ndarray:
-        """Observer position at t_{k-1}: its Odometry, else its ping, else the latest one before."""
-        if key is not None and key in self.observer:
-            return self.observer[key]
-        if key is not None and key in self.pings:
-            return self.pings[key]
-        older = [k for k in self.observer if key is None or k <= key]
-        return self.observer[max(older)] if older else np.zeros(2)  # none yet (step 1): no ping, no evasion
+    def _take(self, ready: list[tuple[float, bool, np.ndarray]]) -> None:
+        for t, pinged, obs_xy in ready:
+            self._step(t, pinged, obs_xy)
 
     def _step(self, t: float, pinged: bool, obs_xy: np.ndarray) -> None:
         tgt = self.target
         before = tgt.detections
         x = tgt.step(self.rng, pinged, obs_xy)
-        self.last_t = t
-        cutoff = _ns(t) - round(2e9 * self.p.period)  # keep what t_k and t_{k+1} may still need
-        self.pings = {k: v for k, v in self.pings.items() if k >= cutoff}
-        self.observer = {k: v for k, v in self.observer.items() if k >= cutoff}
         self.pub_truth.publish(cv_state_to_odometry(t, x, np.zeros((4, 4)), FRAME_MAP, self.p.track_id))
-        status = diagnostic_status(self.p.track_id, DIAG_OK, tgt.mode, {
-            'mode': tgt.mode, 'heard': 'true' if tgt.detections > before else 'false',
-            'pings': tgt.pings, 'detections': tgt.detections})
+        rec = SonarTargetStatus(tgt.mode, tgt.detections > before, tgt.pings, tgt.detections)
+        status = rec.to_status(self.p.track_id, DIAG_OK, tgt.mode)
         self.pub_status.publish(diagnostic_array(t, [status]))
 
 

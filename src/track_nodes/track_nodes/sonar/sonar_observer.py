@@ -17,20 +17,20 @@ Every ``period`` T of node time (``FixedRateSteps``, t_k = origin + k·T) the ob
      the selection step, so no weight field is needed);
    - ``/sonar/mode`` (diagnostic_msgs/DiagnosticArray, one status ``<node name>/sensor_mode``;
      message = the mode used at t_k; values ``mode``, ``next_mode`` (the scheduler's choice for
-     t_{k+1}), ``step``, ``ess``, and for ss-pf ``distance`` = ‖P_D − Cov‖ of eq. 7);
+     t_{k+1}), ``step``, ``ess``, and for ss-pf ``distance`` = ‖P_D − Cov‖ of eq. 7: ``records.sonar.SonarMode``);
    - ``/sonar/markers`` (visualization_msgs/MarkerArray: the 2σ position ellipse, ns
-     ``sonar_estimate``, id 0);
+     ``sonar_estimate``, id 0: ``track_msgs_py.markers.sonar``);
    - ``/sonar/observer/odom`` (nav_msgs/Odometry of the observer, zero covariance) last: it tells
      the smart target that step k is complete (see ``smart_target`` for the ordering rule).
 
-Determinism rule: step k is taken only when both its time has come (the timer) and the truth
-stamped t_k has arrived, whichever happens second; steps are taken strictly in order. The
-target's step k never depends on the observer's step k (only on k−1), so there is no deadlock,
-and the measurement and filter draws depend only on the seed and the truth sequence. Replaying a
-recorded ``/sonar/target/truth`` into a fresh observer with the same parameters therefore
-reproduces every estimate bit for bit. Both nodes must share the stamp origin: under
-``use_sim_time`` it is 0; on wall time it is the whole second of each node's first tick, so start
-them together (the launcher does).
+Determinism rule (``track_core.sonar.lockstep.TruthGate``): step k is taken only when both its time
+has come (the timer) and the truth stamped t_k has arrived, whichever happens second; steps are
+taken strictly in order. The target's step k never depends on the observer's step k (only on k−1),
+so there is no deadlock, and the measurement and filter draws depend only on the seed and the truth
+sequence. Replaying a recorded ``/sonar/target/truth`` into a fresh observer with the same
+parameters therefore reproduces every estimate bit for bit. Both nodes must share the stamp origin:
+under ``use_sim_time`` it is 0; on wall time it is the whole second of each node's first tick, so
+start them together (the launcher does).
 
 Parameters are checked at start; δ < 0, N < 1 or a P_D that is not symmetric PSD (4 values: a
 diagonal; 16: a row-major 4×4 matrix) stop the node with one line.
@@ -39,7 +39,6 @@ diagonal; 16: a row-major 4×4 matrix) stop the node with one line.
 from __future__ import annotations
 
 import math
-from collections import deque
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
@@ -58,20 +57,21 @@ from track_core.sonar import (
     make_tracker,
     simulate_measurement,
 )
+from track_core.sonar.lockstep import TruthGate
 from track_core.sonar.scenario import DEFAULT_LEGS
 from track_core.sonar.sspf import TRACKERS
 from track_msgs_py.convert import (
     DIAG_OK,
-    covariance_ellipse_marker,
     cv_state_to_odometry,
     diagnostic_array,
-    diagnostic_status,
     odometry_to_cv_state,
     positions_to_pose_array,
     sec_to_stamp,
     stamp_to_ns,
 )
+from track_msgs_py.markers.sonar import estimate_markers
 from track_msgs_py.qos import ESTIMATE_QOS, SENSOR_QOS
+from track_msgs_py.records.sonar import SonarMode
 from track_msgs_py.topics import (
     FRAME_MAP,
     KNOWN_FRAMES,
@@ -161,8 +161,7 @@ class SonarObserverNode(TrackNode):
         self.tracker = make_tracker(p.tracker, self.sonar, np.random.default_rng(filter_ss), P_D=P_D,
                                     delta=p.delta, metric=p.metric, regularize=p.regularize)
         self.tracker.initialize(m0, prior_cov)
-        self.pending: deque[float] = deque()  # due step times waiting for their truth
-        self.truth: dict[int, np.ndarray] = {}  # truth stamp [ns] → state
+        self.gate = TruthGate()  # step k waits for its time and the truth of t_k (track_core.sonar.lockstep)
         self.rejected = 0
         self.pings = 0
         self.k = 0  # steps taken
@@ -184,24 +183,18 @@ class SonarObserverNode(TrackNode):
             self.get_logger().warning(f'{SONAR_TRUTH}: dropped truth: {reason}')
             return
         _, x, _ = odometry_to_cv_state(msg)
-        self.truth[stamp_to_ns(msg.header.stamp)] = x
-        self._advance()
+        self._take(self.gate.add_truth(stamp_to_ns(msg.header.stamp), x))
 
     def _due(self, t: float) -> None:
-        self.pending.append(t)
-        self._advance()
+        self._take(self.gate.due(t, _ns(t)))
 
-    def _advance(self) -> None:
-        while self.pending:
-            key = _ns(self.pending[0])
-            if key not in self.truth:
-                if len(self.pending) > 2 and not self._waiting_logged:
-                    self._waiting_logged = True
-                    self.get_logger().warning(f'waiting for {SONAR_TRUTH} stamped {self.pending[0]:.9f} s '
-                                              '(is smart_target running on the same clock?)')
-                return
-            self._step(self.pending.popleft(), self.truth.pop(key))
-            self.truth = {k: v for k, v in self.truth.items() if k > key}
+    def _take(self, ready: list[tuple[float, np.ndarray]]) -> None:
+        for t, x_true in ready:
+            self._step(t, x_true)
+        stalled = self.gate.stalled()
+        if stalled is not None:
+            self.get_logger().warning(f'waiting for {SONAR_TRUTH} stamped {stalled:.9f} s '
+                                      '(is smart_target running on the same clock?)')
 
     # -- one step -------------------------------------------------------------------------
     def _step(self, t: float, x_true: np.ndarray) -> None:
@@ -219,12 +212,11 @@ class SonarObserverNode(TrackNode):
             self.pub_ping.publish(ping)
         self.pub_est.publish(cv_state_to_odometry(t, est.mean, est.cov, FRAME_MAP, self.p.track_id))
         self.pub_particles.publish(positions_to_pose_array(t, self.tracker.particles[:, [0, 2]]))
-        values = {'mode': est.mode.value, 'next_mode': est.next_mode.value, 'step': est.k, 'ess': est.ess}
+        distance = None
         if isinstance(self.tracker.scheduler, CovarianceScheduler):
-            values['distance'] = self.tracker.scheduler.distance(est.cov)
-        self.pub_mode.publish(diagnostic_array(t, [diagnostic_status(
-            f'{self.get_name()}/sensor_mode', DIAG_OK, est.mode.value, values)]))
-        pos = [0, 2]
-        self.pub_markers.publish(MarkerArray(markers=[covariance_ellipse_marker(
-            t, est.mean[pos], est.cov[np.ix_(pos, pos)], FRAME_MAP, ns='sonar_estimate', line_width=1.0)]))
+            distance = self.tracker.scheduler.distance(est.cov)
+        mode_rec = SonarMode(est.mode.value, est.next_mode.value, est.k, est.ess, distance)
+        self.pub_mode.publish(diagnostic_array(t, [mode_rec.to_status(f'{self.get_name()}/sensor_mode', DIAG_OK,
+                                                                      est.mode.value)]))
+        self.pub_markers.publish(estimate_markers(t, est.mean, est.cov))
         self.pub_odom.publish(cv_state_to_odometry(t, obs_state, np.zeros((4, 4)), FRAME_MAP, self.p.observer_id))

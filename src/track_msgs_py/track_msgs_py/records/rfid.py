@@ -1,0 +1,155 @@
+"""Typed records of the RFID search links (issue 5): command, step result, user truth, found event.
+
+- ``RfidCommand``: ``/rfid/command``, guidance → reader (one ``protocol.Command``);
+- ``RfidStep``: ``/rfid/step``, reader → guidance (one ``protocol.StepResult`` + ``duration``);
+- ``RfidUserStatus``: ``/rfid/user/status``, the reader's truth (evaluation only);
+- ``RfidFound``: ``/rfid/found``, the guidance's one event when the tag is reached.
+
+Floats are written with the shortest repr, so dφ, turns and angles round-trip exactly. Field
+order is the key order on the wire.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from diagnostic_msgs.msg import DiagnosticArray
+
+from track_core.rfid.protocol import Command, CommandKind, StepResult
+from track_msgs_py.records import RecordError, StatusRecord
+
+KINDS = tuple(k.value for k in CommandKind)
+
+
+def _kind(text: str) -> CommandKind:
+    try:
+        return CommandKind(text)
+    except ValueError:
+        raise RecordError(f'kind {text!r} is not one of {"|".join(KINDS)}') from None
+
+
+@dataclass(frozen=True)
+class RfidCommand(StatusRecord):
+    """One command: ``seq`` ≥ 1, ``kind`` turn|move|done, ``angle`` rad (+ = left), ``angle_deg`` for reading."""
+
+    KIND = 'rfid command'
+
+    seq: int
+    kind: str
+    angle: float = 0.0
+    angle_deg: float | None = field(default=None, metadata={'fmt': '{:.2f}'.format})
+    repeat: bool = False
+    reason: str = ''
+
+    @classmethod
+    def from_command(cls, cmd: Command) -> RfidCommand:
+        return cls(cmd.seq, cmd.kind.value, float(cmd.angle), math.degrees(cmd.angle), cmd.repeat, cmd.reason)
+
+    def command(self) -> Command:
+        """The core's ``Command``; ``RecordError`` when the kind, seq or angle is unusable."""
+        kind = _kind(self.kind)
+        if self.seq < 1:
+            raise RecordError(f'seq {self.seq} < 1')
+        if not math.isfinite(self.angle):
+            raise RecordError(f'non-finite angle={self.angle}')
+        return Command(kind, self.angle, self.seq, self.repeat, self.reason)
+
+
+def read_command(msg: DiagnosticArray) -> Command:
+    """The ``Command`` of a ``/rfid/command`` message, or ``RecordError`` with one line."""
+    if not msg.status:
+        raise RecordError('no status')
+    return RfidCommand.from_status(msg.status[0]).command()
+
+
+@dataclass(frozen=True)
+class RfidStep(StatusRecord):
+    """One step result (the fields of ``StepResult``) and the simulated ``duration`` of the action [s]."""
+
+    KIND = 'rfid step result'
+
+    seq: int
+    kind: str
+    dphi: float
+    turn: float
+    n_reads: int
+    n_outliers: int
+    ok: bool
+    reason: str
+    found: bool
+    duration: float
+
+    @classmethod
+    def from_result(cls, res: StepResult, duration: float) -> RfidStep:
+        return cls(res.seq, res.kind.value, float(res.dphi), float(res.turn), res.n_reads, res.n_outliers,
+                   bool(res.ok), res.reason, bool(res.found), float(duration))
+
+    def result(self) -> StepResult:
+        return StepResult(_kind(self.kind), self.seq, dphi=self.dphi, turn=self.turn, n_reads=self.n_reads,
+                          n_outliers=self.n_outliers, ok=self.ok, reason=self.reason, found=self.found)
+
+
+def read_step(msg: DiagnosticArray, pending: Command) -> tuple[StepResult, int | None]:
+    """A ``/rfid/step`` message → (StepResult, its seq, or None when the seq is unreadable).
+
+    Never raises: a message that does not hold a valid record becomes a result for ``pending``
+    with ``ok`` False, NaN dφ and turn and the reason ``malformed step result: …``, so the core's
+    bad-input rule (``protocol.step_result_problem``) warns and repeats the step. Its seq is the
+    message's own when that one is readable (then the malformed answer still answers it).
+    """
+    try:
+        if not msg.status:
+            raise RecordError('no status')
+        rec = RfidStep.from_status(msg.status[0])
+        return rec.result(), rec.seq
+    except RecordError as exc:
+        seq = _seq(msg)
+        bad = StepResult(pending.kind, pending.seq if seq is None else seq, dphi=math.nan, turn=math.nan,
+                         ok=False, reason=f'malformed step result: {exc}')
+        return bad, seq
+
+
+@dataclass(frozen=True)
+class _Seq(StatusRecord):
+    KIND = 'rfid step result'
+    seq: int
+
+
+def _seq(msg: DiagnosticArray) -> int | None:
+    try:
+        return _Seq.from_status(msg.status[0]).seq if msg.status else None
+    except RecordError:
+        return None
+
+
+@dataclass(frozen=True)
+class RfidUserStatus(StatusRecord):
+    """The user's truth after command ``seq`` (0: the start): counts, distances [m], pose (map, rad)."""
+
+    KIND = 'rfid user status'
+
+    seq: int
+    steps: int
+    turns: int
+    distance_m: float
+    repeats: int
+    distance_to_tag_m: float
+    found: bool
+    x: float
+    y: float
+    heading: float
+
+
+@dataclass(frozen=True)
+class RfidFound(StatusRecord):
+    """The found event: the step result's ``seq`` and the search's counters."""
+
+    KIND = 'rfid found'
+
+    seq: int
+    moves: int
+    turns: int
+    updates: int
+    resamples: int
+    reinits: int
