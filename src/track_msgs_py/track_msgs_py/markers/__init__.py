@@ -1,0 +1,1 @@
+"""MarkerArray builders for RViz/Foxglove, one module per system."""
