@@ -125,7 +125,7 @@ def test_slam_node_on_a_victoria_park_stretch(ros, vp_bag):
     player = ros.add(PlayerNode(context=ros.context, parameter_overrides=[
         Parameter('bag', value=str(vp_bag)), Parameter('rate', value=20.0)]))
     assert ros.spin_until(lambda: player.done.is_set() and slam.n_scans == n_scans and not len(slam.merger)
-                          and len(sink.msgs[SLAM_POSE]) == n_scans, timeout=90), \
+                          and len(sink.msgs[SLAM_POSE]) == len(sink.msgs[SLAM_MODE]) == n_scans, timeout=90), \
         f'processed {slam.n_scans}/{n_scans} scans, {len(sink.msgs[SLAM_POSE])} poses received'
     assert player.exit_code == 0
     assert ros.spin_until(lambda: sink.msgs[SLAM_MAP] and stamp_to_ns(sink.msgs[SLAM_MAP][-1].markers[0].header.stamp)
