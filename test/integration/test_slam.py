@@ -47,6 +47,7 @@ from track_msgs_py.convert import (
     table_to_pointcloud2,
 )
 from track_msgs_py.qos import ESTIMATE_QOS, STATIC_QOS
+from track_msgs_py.records.slam import SlamMode
 from track_msgs_py.topics import SLAM_EVENTS, SLAM_GPS, SLAM_INPUTS, SLAM_MAP, SLAM_MODE, SLAM_POSE, SLAM_SCAN
 from track_nodes.bag.api import msg_class
 from track_nodes.bag.player import PlayerNode
@@ -123,8 +124,8 @@ def test_slam_node_on_a_victoria_park_stretch(ros, vp_bag):
     n_scans = len(victoria.load(t_max=T_MAX).scans)
     player = ros.add(PlayerNode(context=ros.context, parameter_overrides=[
         Parameter('bag', value=str(vp_bag)), Parameter('rate', value=20.0)]))
-    assert ros.spin_until(lambda: player.done.is_set() and slam.n_scans == n_scans and not slam._heap
-                          and len(sink.msgs[SLAM_POSE]) == n_scans, timeout=90), \
+    assert ros.spin_until(lambda: player.done.is_set() and slam.n_scans == n_scans and not len(slam.merger)
+                          and len(sink.msgs[SLAM_POSE]) == len(sink.msgs[SLAM_MODE]) == n_scans, timeout=90), \
         f'processed {slam.n_scans}/{n_scans} scans, {len(sink.msgs[SLAM_POSE])} poses received'
     assert player.exit_code == 0
     assert ros.spin_until(lambda: sink.msgs[SLAM_MAP] and stamp_to_ns(sink.msgs[SLAM_MAP][-1].markers[0].header.stamp)
@@ -136,16 +137,16 @@ def test_slam_node_on_a_victoria_park_stretch(ros, vp_bag):
     x_est = np.array([e[1] for e in est])
     assert np.all(np.diff(t_est) > 0)
     assert all(np.all(np.linalg.eigvalsh(P) > 0) for _, _, P in est)
-    mode = {kv.key: kv.value for kv in sink.msgs[SLAM_MODE][-1].status[0].values}
-    assert int(mode['scans']) == n_scans and int(mode['landmarks']) >= 20
+    mode = SlamMode.from_msg(sink.msgs[SLAM_MODE][-1])
+    assert mode.scans == n_scans and mode.landmarks >= 20
     last_map = sink.msgs[SLAM_MAP][-1].markers
     means = next(m for m in last_map if m.ns == 'slam_landmarks')
-    assert len(means.points) == int(mode['landmarks'])
+    assert len(means.points) == mode.landmarks
     assert sum(m.ns == 'slam_ellipses' for m in last_map) == len(means.points)
     # near the GPS after the rigid alignment (the core reaches ~0.8 m on the first 60 s)
     gps = np.array([[stamp_to_sec(m.header.stamp), m.point.x, m.point.y] for m in sink.msgs[SLAM_GPS]])
     rmse, _, used = victoria.gps_rmse(t_est, x_est[:, :2], gps)
-    print(f'GPS RMSE {rmse:.3f} m over {len(used)} fixes, {int(mode["landmarks"])} landmarks')
+    print(f'GPS RMSE {rmse:.3f} m over {len(used)} fixes, {mode.landmarks} landmarks')
     assert len(used) > 100 and rmse < 2.0
     # the same as the core run offline on the same observations, in the same order
     t_ref, x_ref, h, _ = _offline_reference(T_MAX)
@@ -222,8 +223,8 @@ def test_bad_observations_are_dropped_and_backwards_stamps_refused(ros):
     assert ros.spin_until(lambda: slam.n_scans == 4 and len(sink.msgs[SLAM_POSE]) == pose_msgs + 1
                           and len(sink.msgs[SLAM_MODE]) == 4)
     assert odometry_to_pose(sink.msgs[SLAM_POSE][-1])[0] == 1.6
-    mode = {kv.key: kv.value for kv in sink.msgs[SLAM_MODE][-1].status[0].values}
-    assert (mode['dropped_observations'], mode['refused_messages'], mode['bad_inputs']) == ('7', '2', '1')
+    mode = SlamMode.from_msg(sink.msgs[SLAM_MODE][-1])
+    assert (mode.dropped_observations, mode.refused_messages, mode.bad_inputs, mode.bad_scans) == (7, 2, 1, 1)
     # one warning per kind: throttled
     assert ros.spin_until(lambda: len(sink.logs('slam', 'refused')) >= 1, timeout=5)
     assert len(sink.logs('slam', 'observations dropped')) == 1, sink.logs('slam', '')
@@ -387,7 +388,7 @@ def test_slam_node_publishes_the_cloud_of_a_one_scan_pf_episode(ros):
         inputs.publish(inputs_to_twist(run.t[k], *run.u_meas[k]))
     for ts, z, _ in run.scans[si:]:
         scans.publish(scan_to_pointcloud2(ts, z))
-    assert ros.spin_until(lambda: slam.n_scans == len(run.scans) and not slam._heap, timeout=60), \
+    assert ros.spin_until(lambda: slam.n_scans == len(run.scans) and not len(slam.merger), timeout=60), \
         f'processed {slam.n_scans}/{len(run.scans)} scans'
     h = slam.slam
     assert [(e.kind, e.scans) for e in h.events] == [('to_pf', 0), ('to_cekf', 1)]

@@ -21,10 +21,10 @@ from track_msgs_py.convert import (
     stamp_to_sec,
     twist_to_inputs,
 )
+from track_msgs_py.markers.slam import map_markers
 from track_msgs_py.topics import SLAM_GPS, SLAM_INPUTS, SLAM_SCAN, TOPICS
 from track_nodes.bag import dataset
 from track_nodes.bag.api import msg_class
-from track_nodes.slam.slam import map_markers
 
 INPUTS = [(0.973, 0.0, -0.0035), (0.998, 1.5, -0.0042), (1.023, 2.0, 0.01), (1.048, 2.1, 0.02), (2.5, 2.2, 0.03)]
 MEAS = [(0.852, 20.46202, 0.88575, 0.35404), (0.852, 29.59859, 1.02102, 0.25717),

@@ -6,6 +6,7 @@
 - ``pf``: re-referenced, de-correlated map (eqs. 10–11), helix initialisation (eqs. 12–13),
   association-free likelihood (eq. 9) and SIR localisation.
 - ``hybrid``: ``HybridSlam``, the switching architecture, driven one input / one scan at a time.
+- ``streams``: ``StreamMerger``, the watermark merge of the input and scan streams into stamp order.
 - ``sim``: the Fig. 1 loop-closure world; ``victoria``: the real-data loader and GPS evaluation.
 - ``experiments``: ``slam-loop``, ``victoria-park`` and ``track-bench cekf``.
 - ``blas``: ``single_threaded_blas``, the context the experiments run the filter in.

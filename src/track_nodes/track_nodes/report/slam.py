@@ -23,6 +23,7 @@ def slam_metrics(bag: Path) -> list[str]:
     from track_core.filters import wrap_angle
     from track_core.slam import victoria
     from track_msgs_py.convert import odometry_to_pose, stamp_to_sec
+    from track_msgs_py.records.slam import SlamEvent, SlamMode
     from track_msgs_py.topics import SLAM_EVENTS, SLAM_GPS, SLAM_MODE, SLAM_POSE, SLAM_TRUTH
 
     msgs = read_topics(bag, {SLAM_POSE, SLAM_TRUTH, SLAM_GPS, SLAM_EVENTS, SLAM_MODE})
@@ -52,18 +53,31 @@ def slam_metrics(bag: Path) -> list[str]:
                          'jumps skipped)')
         except ValueError as exc:
             lines.append(f'  vs GPS: {exc}')
-    kinds = [{kv.key: kv.value for kv in st.values} for a in msgs.get(SLAM_EVENTS, []) for st in a.status]
-    n_pf = sum(k.get('event') == 'to_pf' for k in kinds)
-    back = [int(k.get('pf_scans', 0)) for k in kinds if k.get('event') in ('to_cekf', 'pf_timeout')]
-    timeouts = sum(k.get('event') == 'pf_timeout' for k in kinds)
+    events = _records(SlamEvent, msgs.get(SLAM_EVENTS, []))
+    n_pf = sum(e.event == 'to_pf' for e in events)
+    back = [e.pf_scans for e in events if e.event in ('to_cekf', 'pf_timeout')]
+    timeouts = sum(e.event == 'pf_timeout' for e in events)
     line = f'  PF switches {n_pf}'
     if back:
         line += f', back to CEKF {len(back)} ({timeouts} by timeout), median {np.median(back):g} PF scans'
-    modes = [{kv.key: kv.value for kv in st.values} for a in msgs.get(SLAM_MODE, []) for st in a.status]
+    modes = _records(SlamMode, msgs.get(SLAM_MODE, []))
     if modes:
         last = modes[-1]
-        line += (f'; landmarks {last.get("landmarks")}, scans {last.get("scans")}, final mode {last.get("mode")}; '
-                 f'dropped observations {last.get("dropped_observations")}, refused messages '
-                 f'{last.get("refused_messages")}')
+        line += (f'; landmarks {last.landmarks}, scans {last.scans}, final mode {last.mode}; '
+                 f'dropped observations {last.dropped_observations}, refused messages {last.refused_messages}')
     lines.append(line)
     return lines
+
+
+def _records(cls, arrays) -> list:
+    """Every status of ``arrays`` that holds a ``cls`` record, as one (others skipped)."""
+    from track_msgs_py.records import RecordError
+
+    out = []
+    for a in arrays:
+        for st in a.status:
+            try:
+                out.append(cls.from_status(st))
+            except RecordError:
+                continue
+    return out

@@ -6,9 +6,9 @@ experiment). It then plays that run against node time: every ``world.dt`` (``Fix
 so under ``/clock`` the stamps are exact and a seed reproduces every payload) it publishes every
 item whose data time has come, stamped ``origin + data time`` (origin 0 under ``use_sim_time``):
 
-- ``/slam/scan`` (sensor_msgs/PointCloud2): fields ``range``, ``bearing`` (eq. 5), ``diameter`` (0:
-  point landmarks) and ``landmark`` (the true landmark index, for evaluation); one every
-  ``world.scan_every`` steps, also when empty;
+- ``/slam/scan`` (sensor_msgs/PointCloud2, ``records.slam.SlamScan``): fields ``range``, ``bearing``
+  (eq. 5), ``diameter`` (0: point landmarks) and ``landmark`` (the true landmark index, for
+  evaluation); one every ``world.scan_every`` steps, also when empty;
 - ``/slam/inputs`` (geometry_msgs/TwistStamped): the noisy inputs (speed, steering angle in
   ``angular.z``) applied from their stamp on;
 - ``/slam/truth`` (nav_msgs/Odometry): the true laser pose (x, y, yaw), zero covariance.
@@ -28,8 +28,9 @@ from nav_msgs.msg import Odometry
 from sensor_msgs.msg import PointCloud2
 
 from track_core.slam.sim import LoopWorld, simulate
-from track_msgs_py.convert import inputs_to_twist, pose_to_odometry, scan_to_pointcloud2
+from track_msgs_py.convert import inputs_to_twist, pose_to_odometry
 from track_msgs_py.qos import qos_for_topic
+from track_msgs_py.records.slam import SlamScan
 from track_msgs_py.topics import FRAME_MAP, SLAM_INPUTS, SLAM_SCAN, SLAM_TRUTH
 from track_nodes.base import FixedRateSteps, Param, ParameterError, TrackNode, declare_dataclass
 
@@ -92,8 +93,9 @@ class SlamSimNode(TrackNode):
             self.next += 1
             t = origin + t_data
             if kind == _SCAN:
-                z, ids = data
-                self.pub_scan.publish(scan_to_pointcloud2(t, z, landmark=np.asarray(ids, dtype=float)))
+                z = np.asarray(data[0], dtype=float).reshape(-1, 2)
+                extra = {'landmark': np.asarray(data[1], dtype=float)}  # the true landmark index (evaluation)
+                self.pub_scan.publish(SlamScan(t, z[:, 0], z[:, 1], np.zeros(len(z)), extra).to_msg())
             elif kind == _INPUT:
                 self.pub_inputs.publish(inputs_to_twist(t, *data))
             else:

@@ -1,0 +1,150 @@
+"""``StreamMerger``: the two SLAM input streams (vehicle inputs, laser scans) merged into stamp order.
+
+Why. The filter must see inputs and scans in stamp order (an input predicts from its stamp, a scan
+updates at its stamp), but a node receives the two streams on separate subscriptions and the
+executor takes one message per ready subscription per round, so with a backlog the (8× rarer)
+scans run ahead of the inputs that precede them. Events are therefore held in a buffer and released
+in stamp order (at equal stamps the scan first, as ``victoria.events``) up to the *watermark*: the
+older of the last input stamp and the last scan stamp received. Each stream is monotonic on its own
+(``offer`` refuses a stamp that goes backwards, or one older than what was already released), so
+nothing older than the watermark can still come.
+
+Pause rule. A stream that pauses (no trees in view; no scan publisher at all) must not stall the
+filter: it is left out of the watermark once it has been silent for ``pause_wall`` seconds *and*
+the other stream has delivered at least two events meanwhile. That is sound only if "silent"
+means "nothing queued", so the node offers everything waiting in both subscriptions before it
+asks for the watermark. When neither stream bounds the watermark (both paused, or one never heard
+from and not paused) ``watermark`` is ``None`` and a drain releases everything buffered; this is
+the behaviour of the node before issue 12, kept (the saved cases check it).
+
+Flush on idle. Everything buffered is released when no event has been offered for ``flush_idle``
+seconds (the end of a bag), counted from the end of the last message callback
+(``end_callback``), so that a node busy with a long update is not idle.
+
+Drain budget. One drain releases events for at most ``drain_budget`` seconds of the caller's
+clock; the next callbacks (and the idle timer) continue where it stopped, so a backlog never
+blocks an executor for long.
+
+Time enters only as arguments (``now`` in seconds of any monotonic clock, or a ``clock``
+callable that a drain reads between events); stamps are integer nanoseconds (exact comparisons).
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from track_core.slam.hybrid import valid_observations
+
+INPUT, SCAN = 'inputs', 'scan'
+_PRIORITY = {SCAN: 0, INPUT: 1}  # at equal stamps the scan first (victoria.events)
+_OTHER = {INPUT: SCAN, SCAN: INPUT}
+
+#: ``step(stream, t_ns, payload) -> bool``: feed one released event to the filter; False = the filter
+#: refused it (state unchanged), so it does not count as processed.
+Step = Callable[[str, int, Any], bool]
+
+
+class StreamMerger:
+    """Watermark merge of the ``INPUT`` and ``SCAN`` streams (module docstring)."""
+
+    def __init__(self, pause_wall: float, flush_idle: float, drain_budget: float, now: float) -> None:
+        self.pause_wall, self.flush_idle, self.drain_budget = pause_wall, flush_idle, drain_budget
+        self._heap: list = []
+        self._seq = 0
+        self.last_ns: dict[str, int | None] = {INPUT: None, SCAN: None}  # last accepted stamp per stream
+        self._arrival: dict[str, float | None] = {INPUT: None, SCAN: None}  # when it was offered
+        self._count = {INPUT: 0, SCAN: 0}  # events accepted per stream
+        self._other_at = {INPUT: 0, SCAN: 0}  # the other stream's count at this one's last event
+        self._first_arrival: float | None = None
+        self.processed_ns: int | None = None  # stamp of the last event the filter took
+        self.last_activity = now  # end of the last message callback
+
+    def __len__(self) -> int:
+        """Events buffered, not yet released."""
+        return len(self._heap)
+
+    def offer(self, stream: str, t_ns: int, payload: Any, now: float) -> str | None:
+        """Buffer one event; the reason it is refused (nothing changes then), or None."""
+        last = self.last_ns[stream]
+        if last is not None and t_ns < last:
+            return f'stamp {t_ns * 1e-9:.9f} s is before the previous one {last * 1e-9:.9f} s (time went backwards)'
+        if self.processed_ns is not None and t_ns < self.processed_ns:
+            return f'stamp {t_ns * 1e-9:.9f} s arrived after data up to {self.processed_ns * 1e-9:.9f} s was processed'
+        self.last_ns[stream] = t_ns
+        heapq.heappush(self._heap, (t_ns, _PRIORITY[stream], self._seq, stream, payload))
+        self._seq += 1
+        self._count[stream] += 1
+        self._other_at[stream] = self._count[_OTHER[stream]]
+        self._arrival[stream] = now
+        if self._first_arrival is None:
+            self._first_arrival = now
+        return None
+
+    def watermark(self, now: float) -> int | None:
+        """Stamp up to which nothing can still arrive; None when no stream bounds it (module docstring)."""
+        limits = []
+        for stream in (INPUT, SCAN):
+            since = self._arrival[stream] if self._arrival[stream] is not None else self._first_arrival
+            paused = (since is not None and now - since >= self.pause_wall
+                      and self._count[_OTHER[stream]] - self._other_at[stream] >= 2)
+            if paused:
+                continue
+            if self.last_ns[stream] is None:
+                return None
+            limits.append(self.last_ns[stream])
+        return min(limits) if limits else None
+
+    def drain(self, limit_ns: int | None, step: Step, clock: Callable[[], float]) -> int:
+        """Release buffered events with stamp ≤ ``limit_ns`` (all when None) to ``step``, in (stamp, scan
+        first) order, until ``drain_budget`` has passed on ``clock``; → the number released."""
+        heap = self._heap
+        deadline = clock() + self.drain_budget
+        n = 0
+        while heap and (limit_ns is None or heap[0][0] <= limit_ns) and clock() < deadline:
+            t_ns, _, _, stream, payload = heapq.heappop(heap)
+            n += 1
+            if step(stream, t_ns, payload):
+                self.processed_ns = t_ns
+        return n
+
+    def end_callback(self, step: Step, clock: Callable[[], float]) -> None:
+        """After a message callback has offered everything queued: drain up to the watermark, mark activity."""
+        self.drain(self.watermark(clock()), step, clock)
+        self.last_activity = clock()
+
+    def on_idle(self, now: float, took: bool, step: Step, clock: Callable[[], float]) -> bool:
+        """The periodic timer (``took``: it offered queued messages at ``now``): drain up to the watermark,
+        or everything once idle for ``flush_idle``. → True when idle with nothing left buffered."""
+        if took:
+            self.last_activity = now
+        idle = now - self.last_activity >= self.flush_idle
+        if self._heap:
+            self.drain(None if idle else self.watermark(now), step, clock)
+        return idle and not self._heap
+
+
+def input_ok(speed: float, steer: float) -> bool:
+    """An input the vehicle model can take: finite values and |steering| < π/2."""
+    return math.isfinite(speed) and math.isfinite(steer) and abs(steer) < math.pi / 2
+
+
+def scan_observations(r: np.ndarray, b: np.ndarray, d: np.ndarray, bearing_limits: tuple[float, float],
+                      tolerance: float, add_radius: bool) -> tuple[np.ndarray, np.ndarray]:
+    """(z (m, 2) of (range, bearing) for the filter, mask of the usable rows of the scan).
+
+    A row is usable by ``valid_observations`` with the limits widened by ``tolerance`` (float32
+    rounding puts π at 3.1415927 > π) and, with ``add_radius``, a finite diameter ≥ 0; its bearing
+    is clipped into the limits, and with ``add_radius`` the range is to the trunk centre,
+    range + diameter/2 (as ``victoria.load``).
+    """
+    lo, hi = bearing_limits
+    ok = valid_observations(np.stack([r, b], axis=1), (lo - tolerance, hi + tolerance))
+    if add_radius:
+        ok &= np.isfinite(d) & (d >= 0)
+    rng = r[ok] + (0.5 * d[ok] if add_radius else 0.0)
+    return np.stack([rng, np.clip(b[ok], lo, hi)], axis=1), ok
