@@ -164,10 +164,11 @@ def test_start_offset_skips_the_beginning(ros, bag):
 def test_cli_plays_to_the_end_and_exits_0(ros, bag, venv):
     path, content = bag
     sink = Sink(ros, {'/p/odom': Odometry})
-    proc = subprocess.Popen([venv / 'lib/track_nodes/player', str(path), '--rate', '10', '--topics', '/p/odom'],
+    proc = subprocess.Popen([venv / 'lib/track_nodes/player', str(path), '--rate', '10', '--topics', '/p/odom',
+                             '--wait-subscribers', '60'],  # discovery on a loaded machine can take seconds
                             env=ros.env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
-        assert ros.spin_until(lambda: proc.poll() is not None, 30.0)
+        assert ros.spin_until(lambda: proc.poll() is not None, 120.0)
         _, err = proc.communicate(timeout=10)
     finally:
         proc.kill()

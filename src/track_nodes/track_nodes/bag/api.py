@@ -167,7 +167,8 @@ def flush_mcap_writer(writer) -> bool:
     return wrote
 
 
-RECORD_DEPTH = 100_000  # queue of a recording subscription (Fast DDS allocates it as it fills)
+RECORD_DEPTH = 100_000  # queue of a reliable recording subscription (Fast DDS allocates it as it fills)
+RECORD_DEPTH_BEST_EFFORT = 1000  # queue of a best-effort one (nothing waits for it anyway)
 
 
 def recording_qos(publisher_profiles: Sequence) -> QoSProfile:
@@ -177,13 +178,14 @@ def recording_qos(publisher_profiles: Sequence) -> QoSProfile:
     KEEP_LAST ``RECORD_DEPTH``: a reliable reader acknowledges a sample when it is queued, not when
     it is taken, so a queue shallower than a burst overwrites what the recorder has not written
     yet, and the publishers' history depth cannot be known (discovery does not carry it).
-    Measured with a 10,000-message burst: depth 100 kept 1,000 of them... depth 1000 kept 1000;
-    KEEP_ALL stalls at Fast DDS's 5000-sample resource limit.
+    (KEEP_ALL readers stall at Fast DDS's default limit of 5000 samples instead: measured.)
+    Best-effort topics get ``RECORD_DEPTH_BEST_EFFORT``: their publishers never wait, so a deeper
+    queue only delays what is lost, which the sequence gaps count.
     """
     best_effort = any(p.reliability == ReliabilityPolicy.BEST_EFFORT for p in publisher_profiles)
     transient = bool(publisher_profiles) and all(
         p.durability == DurabilityPolicy.TRANSIENT_LOCAL for p in publisher_profiles)
     return QoSProfile(
-        history=HistoryPolicy.KEEP_LAST, depth=RECORD_DEPTH,
+        history=HistoryPolicy.KEEP_LAST, depth=RECORD_DEPTH_BEST_EFFORT if best_effort else RECORD_DEPTH,
         reliability=ReliabilityPolicy.BEST_EFFORT if best_effort else ReliabilityPolicy.RELIABLE,
         durability=DurabilityPolicy.TRANSIENT_LOCAL if transient else DurabilityPolicy.VOLATILE)

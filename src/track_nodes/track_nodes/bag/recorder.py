@@ -72,8 +72,7 @@ class RecorderNode(TrackNode):
     DEFAULT_NAME = 'recorder'
     PARAMS = PARAMS
 
-    def __init__(self, **kw) -> None:
-        super().__init__(**kw)
+    def setup(self) -> None:
         self._writer = None
         self._closed = False
         self._lock = threading.Lock()

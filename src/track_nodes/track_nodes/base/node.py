@@ -1,7 +1,7 @@
 """``TrackNode``, the base of every node, and ``run_node``, the ``main`` of every executable.
 
-A node subclass names itself (``DEFAULT_NAME``), lists its parameters (``PARAMS``) and, in its
-``__init__``, creates its core object and its endpoints; the base does the rest:
+A node subclass names itself (``DEFAULT_NAME``), lists its parameters (``PARAMS``) and, in
+``setup()``, creates its core object and its endpoints; the base does the rest:
 
 - the standard constructor (``node_name``, ``context``, ``parameter_overrides``, ``cli_args``,
   as the launcher and the tests call it), then ``declare_params(PARAMS)`` into ``self.p``;
@@ -56,6 +56,10 @@ class TrackNode(Node):
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._diagnostics = None  # publisher and timer made at the first refusal (most nodes never need them)
         self._diagnostics_dirty = False
+        self.setup()
+
+    def setup(self) -> None:
+        """The node's core object and endpoints (parameters are in ``self.p``); raise ValueError to refuse."""
 
     def steady_now(self) -> float:
         return self._steady.now().nanoseconds * 1e-9

@@ -30,8 +30,7 @@ class DemoTrackerNode(TrackNode):
     DEFAULT_NAME = 'demo_tracker'
     PARAMS = PARAMS
 
-    def __init__(self, **kw) -> None:
-        super().__init__(**kw)
+    def setup(self) -> None:
         self.tracker = CVKalmanTracker(q_s=self.p.q_s, sigma_v0=self.p.sigma_v0)
         self.stamps = StampMonotonic()
         self.rejected = 0

@@ -115,8 +115,7 @@ class FusionNode(TrackNode):
     DEFAULT_NAME = 'fusion'
     PARAMS = PARAMS
 
-    def __init__(self, **kw) -> None:
-        super().__init__(**kw)
+    def setup(self) -> None:
         p = self.p
         odo = [t for t in p.odometry_topics if t]
         pose = [t for t in p.pose_topics if t]

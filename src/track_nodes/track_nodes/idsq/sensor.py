@@ -71,8 +71,7 @@ class IdsqSensorNode(TrackNode):
     DEFAULT_NAME = 'idsq_sensor'
     SENSOR_TYPE = 'acoustic'
 
-    def __init__(self, **kw) -> None:
-        super().__init__(**kw)
+    def setup(self) -> None:
         self.p = p = declare_params(self, sensor_params(self.SENSOR_TYPE))
         if p.type != self.SENSOR_TYPE:
             raise ParameterError(f'parameter type={p.type!r} is invalid for {self.DEFAULT_NAME}: allowed '

@@ -25,7 +25,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import os
-import re
 import signal
 import subprocess
 import sys
@@ -43,13 +42,9 @@ from rclpy.executors import (
 )
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rosgraph_msgs.msg import Clock
 
-from track_msgs_py.convert import sec_to_stamp
-from track_msgs_py.qos import CLOCK_QOS
-from track_msgs_py.topics import CLOCK
-from track_nodes.bag.api import msg_class, recording_qos
 from track_nodes.base import EXIT_BAD_INPUT
+from track_nodes.launch.graph import LauncherNode
 from track_nodes.launch.processes import spawn_nodes, stop_processes
 from track_nodes.launch.scenario import Scenario, ScenarioError, load_scenario
 
@@ -62,58 +57,10 @@ QUIET = 2.0  # --processes: the graph is drained once no watched topic delivered
 DRAIN_MAX = 120.0  # ... waiting at most this long after the clock stopped
 WATCH_EVERY = 50  # clock steps between looks for new topics to watch (--processes)
 READY_TIMEOUT = 30.0
-IGNORED_TOPICS = ('/rosout', '/parameter_events', CLOCK)
 
 
 class LaunchError(RuntimeError):
     """The scenario could not be started; the message is one line."""
-
-
-class LauncherNode(Node):
-    """Publishes /clock and watches the graph. Always on wall time."""
-
-    def __init__(self, context: Context) -> None:
-        super().__init__('track_launcher', context=context, start_parameter_services=False)
-        self.clock_pub = self.create_publisher(Clock, CLOCK, CLOCK_QOS)
-        self.watched: dict[str, object] = {}
-        self.last_message = time.monotonic()
-
-    def watch(self, regex: str) -> None:
-        """Subscribe (raw, no decoding) to every published topic matching ``regex``, to see when work ends."""
-        pattern = re.compile(regex)
-        for topic, types in self.get_topic_names_and_types():
-            if topic in self.watched or topic in IGNORED_TOPICS or not pattern.search(topic):
-                continue
-            infos = self.get_publishers_info_by_topic(topic)
-            if not infos:
-                continue
-            try:
-                cls = msg_class(types[0])
-            except (ValueError, KeyError):
-                continue
-            self.watched[topic] = self.create_subscription(cls, topic, self._seen, recording_qos(
-                [i.qos_profile for i in infos]), raw=True)
-
-    def _seen(self, _data: bytes) -> None:
-        self.last_message = time.monotonic()
-
-    def publish_clock(self, t: float) -> None:
-        self.clock_pub.publish(Clock(clock=sec_to_stamp(t)))
-
-    def nodes_missing(self, names: list[str]) -> list[str]:
-        present = set(self.get_node_names())
-        return [n for n in names if n not in present]
-
-    def topics_unrecorded(self, regex: str, recorder: str) -> list[str]:
-        pattern = re.compile(regex)
-        missing = []
-        for topic, _ in self.get_topic_names_and_types():
-            if topic in IGNORED_TOPICS or not pattern.search(topic) or not self.count_publishers(topic):
-                continue
-            subs = {info.node_name for info in self.get_subscriptions_info_by_topic(topic)}
-            if recorder not in subs:
-                missing.append(topic)
-        return missing
 
 
 def _parse(argv: list[str] | None) -> argparse.Namespace:

@@ -110,8 +110,7 @@ class RfidGuidanceNode(TrackNode):
     DEFAULT_NAME = 'rfid_guidance'
     PARAMS = PARAMS
 
-    def __init__(self, **kw) -> None:
-        super().__init__(**kw)
+    def setup(self) -> None:
         p = self.p
         params = pf_params(p)
         _, pf_ss = np.random.SeedSequence(p.seed).spawn(2)

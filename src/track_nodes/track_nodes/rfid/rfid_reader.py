@@ -130,8 +130,7 @@ class RfidReaderNode(TrackNode):
     DEFAULT_NAME = 'rfid_reader'
     PARAMS = PARAMS
 
-    def __init__(self, **kw) -> None:
-        super().__init__(**kw)
+    def setup(self) -> None:
         p = self.p
         self.world = world_params(p)
         start = None

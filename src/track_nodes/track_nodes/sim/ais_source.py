@@ -89,8 +89,7 @@ class AisSourceNode(TrackNode):
     DEFAULT_NAME = 'ais_source'
     PARAMS = PARAMS
 
-    def __init__(self, **kw) -> None:
-        super().__init__(**kw)
+    def setup(self) -> None:
         p = self.p
         if p.sigma_minor > p.sigma_major:
             raise ValueError(f'parameter sigma_minor={p.sigma_minor} exceeds sigma_major={p.sigma_major}')

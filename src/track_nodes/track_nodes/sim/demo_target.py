@@ -17,7 +17,7 @@ from track_core.demo import CVTarget
 from track_msgs_py.convert import cv_state_to_odometry, position_to_pose_cov
 from track_msgs_py.qos import ESTIMATE_QOS, SENSOR_QOS
 from track_msgs_py.topics import DEMO_REPORTS, DEMO_TRUTH, FRAME_MAP
-from track_nodes.base import FixedRateSteps, Param, TrackNode
+from track_nodes.base import FixedRateSteps, Param, TrackNode, vector
 
 PARAMS = (
     Param('seed', 0, 'seed of the numpy Generator driving truth and report noise', 0, 2**31 - 1),
@@ -34,12 +34,9 @@ class DemoTargetNode(TrackNode):
     DEFAULT_NAME = 'demo_target'
     PARAMS = PARAMS
 
-    def __init__(self, **kw) -> None:
-        super().__init__(**kw)
+    def setup(self) -> None:
         p = self.p
-        x0 = np.asarray(p.x0, dtype=float)
-        if x0.shape != (4,) or not np.all(np.isfinite(x0)):
-            raise ValueError(f'parameter x0={list(p.x0)!r} is invalid: allowed 4 finite numbers [x, vx, y, vy]')
+        x0 = vector('x0', p.x0, 4)
         self.p = p
         self.rng = np.random.default_rng(p.seed)
         self.target = CVTarget(x0, T=p.period, q_s=p.q_s, R=np.eye(2) * p.sigma_r**2)

@@ -43,8 +43,7 @@ class ReportSourceNode(TrackNode):
     DEFAULT_NAME = 'report_source'
     PARAMS = PARAMS
 
-    def __init__(self, **kw) -> None:
-        super().__init__(**kw)
+    def setup(self) -> None:
         p = self.p
         x0 = np.asarray(p.targets, dtype=float)
         if x0.size == 0 or x0.size % 4 or not np.all(np.isfinite(x0)):

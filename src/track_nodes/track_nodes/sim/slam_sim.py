@@ -58,8 +58,7 @@ class SlamSimNode(TrackNode):
     DEFAULT_NAME = 'slam_sim'
     PARAMS = PARAMS
 
-    def __init__(self, **kw) -> None:
-        super().__init__(**kw)
+    def setup(self) -> None:
         p = self.p
         default = LoopWorld()
         self.world = w = declare_dataclass(self, 'world', default)

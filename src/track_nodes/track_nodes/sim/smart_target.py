@@ -49,7 +49,7 @@ from track_msgs_py.qos import ESTIMATE_QOS
 from track_msgs_py.records.sonar import SonarTargetStatus
 from track_msgs_py.topics import FRAME_MAP, KNOWN_FRAMES, SONAR_OBSERVER, SONAR_PING, SONAR_TARGET_STATUS, SONAR_TRUTH
 from track_msgs_py.validate import header_problem, odometry_problem, xyz_problem
-from track_nodes.base import FixedRateSteps, Param, TrackNode
+from track_nodes.base import FixedRateSteps, Param, TrackNode, vector
 
 _D = SmartTargetParams()
 PARAMS = (
@@ -76,12 +76,9 @@ class SmartTargetNode(TrackNode):
     DEFAULT_NAME = 'smart_target'
     PARAMS = PARAMS
 
-    def __init__(self, **kw) -> None:
-        super().__init__(**kw)
+    def setup(self) -> None:
         p = self.p
-        x0 = np.asarray(p.x0, dtype=float)
-        if x0.shape != (4,) or not np.all(np.isfinite(x0)):
-            raise ValueError(f'parameter x0={list(p.x0)!r} is invalid: allowed 4 finite numbers [x, vx, y, vy]')
+        x0 = vector('x0', p.x0, 4)
         params = SmartTargetParams(p_max=p.p_max, r_50=p.r_50, width=p.width, evade_speed=p.evade_speed,
                                    max_turn_rate=math.radians(p.max_turn_rate_deg), max_accel=p.max_accel,
                                    quiet_period=p.quiet_period, naive=p.naive)

@@ -55,8 +55,7 @@ class VehicleSimNode(TrackNode):
     DEFAULT_NAME = 'vehicle_sim'
     PARAMS = PARAMS
 
-    def __init__(self, **kw) -> None:
-        super().__init__(**kw)
+    def setup(self) -> None:
         p = self.p
         self.scenario, self.layout, self.truth = scenario_of(p.seed, p.n_sensors, p.doa_fraction, p.width, p.height,
                                                              p.jitter_var, p.speed, p.dt)

@@ -90,8 +90,7 @@ class SlamNode(TrackNode):
         with single_threaded_blas():
             return run_node(cls, argv, **kwargs)
 
-    def __init__(self, **kw) -> None:
-        super().__init__(**kw)
+    def setup(self) -> None:
         profile = PROFILES[declare_params(self, [PROFILE_PARAM]).profile]()
         self.p = p = declare_params(self, node_params(profile.pose0))
         cores = {attr: declare_dataclass(self, prefix, getattr(profile, attr)) for prefix, _, attr in CORE_GROUPS}

@@ -136,8 +136,7 @@ class SonarObserverNode(TrackNode):
     DEFAULT_NAME = 'sonar_observer'
     PARAMS = PARAMS
 
-    def __init__(self, **kw) -> None:
-        super().__init__(**kw)
+    def setup(self) -> None:
         p = self.p
         P_D = _p_d(p.P_D)
         m0 = np.asarray(p.prior_mean, dtype=float)

@@ -1,0 +1,64 @@
+"""The launcher's own node: publishes /clock and watches the graph (who is up, what is recorded, what still flows)."""
+
+from __future__ import annotations
+
+import re
+import time
+
+from rclpy.context import Context
+from rclpy.node import Node
+from rosgraph_msgs.msg import Clock
+
+from track_msgs_py.convert import sec_to_stamp
+from track_msgs_py.qos import CLOCK_QOS
+from track_msgs_py.topics import CLOCK
+from track_nodes.bag.api import msg_class, recording_qos
+
+IGNORED_TOPICS = ('/rosout', '/parameter_events', CLOCK)
+
+
+class LauncherNode(Node):
+    """Publishes /clock and watches the graph. Always on wall time."""
+
+    def __init__(self, context: Context) -> None:
+        super().__init__('track_launcher', context=context, start_parameter_services=False)
+        self.clock_pub = self.create_publisher(Clock, CLOCK, CLOCK_QOS)
+        self.watched: dict[str, object] = {}
+        self.last_message = time.monotonic()
+
+    def watch(self, regex: str) -> None:
+        """Subscribe (raw, no decoding) to every published topic matching ``regex``, to see when work ends."""
+        pattern = re.compile(regex)
+        for topic, types in self.get_topic_names_and_types():
+            if topic in self.watched or topic in IGNORED_TOPICS or not pattern.search(topic):
+                continue
+            infos = self.get_publishers_info_by_topic(topic)
+            if not infos:
+                continue
+            try:
+                cls = msg_class(types[0])
+            except (ValueError, KeyError):
+                continue
+            self.watched[topic] = self.create_subscription(cls, topic, self._seen, recording_qos(
+                [i.qos_profile for i in infos]), raw=True)
+
+    def _seen(self, _data: bytes) -> None:
+        self.last_message = time.monotonic()
+
+    def publish_clock(self, t: float) -> None:
+        self.clock_pub.publish(Clock(clock=sec_to_stamp(t)))
+
+    def nodes_missing(self, names: list[str]) -> list[str]:
+        present = set(self.get_node_names())
+        return [n for n in names if n not in present]
+
+    def topics_unrecorded(self, regex: str, recorder: str) -> list[str]:
+        pattern = re.compile(regex)
+        missing = []
+        for topic, _ in self.get_topic_names_and_types():
+            if topic in IGNORED_TOPICS or not pattern.search(topic) or not self.count_publishers(topic):
+                continue
+            subs = {info.node_name for info in self.get_subscriptions_info_by_topic(topic)}
+            if recorder not in subs:
+                missing.append(topic)
+        return missing
