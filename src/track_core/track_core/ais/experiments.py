@@ -16,9 +16,26 @@ ellipses are scaled by k (the same noise draws, scaled).
 ``--runs R`` pools R independent realisations of the sources' noise (default 3; ``--quick``: 1
 run on the first 15 minutes, noise scales 1 and 4 only). ``--json`` writes ``{"ships",
 "pairs_scored", "methods": {method: {"precision", "recall", "f1", ...}}, "noise_sweep",
-"rule_ablation", "threshold_sweep", "rows_skipped", ...}``; PNGs: ``ais-association.png`` (map,
+"rule_ablation", "short_pair_rule", "threshold_sweep", "rows_skipped", "skipped", "warnings",
+"derived_defaults", "peak_rss_mb", "chunks", ...}``; PNGs: ``ais-association.png`` (map,
 tracks coloured by association, wrong pairs in red, with a zoom on the densest 4 km) and
 ``ais-noise-sweep.png``.
+
+**Any AIS file** (``--set KEY=VALUE``, repeatable): ``file`` (a CSV; default the Solent file),
+``columns`` (a preset or ``"time=...;mmsi=...;lat=...;lon=...[;cog=;sog=;time_format=...]"``,
+:mod:`.reader`; default: detected from the header), ``max_distance_km`` (``auto`` | ``off`` | km),
+``max_gap`` (``auto`` | s), ``radar_site`` (``hull:<bearing>`` | ``origin`` | ``lat,lon``),
+``duration`` (s of data), ``sweep`` (noise scales, e.g. ``1,4``), ``prior_weight`` (ν of the
+short-pair rule, 0: plain majority) and ``max_pairs`` (pair-instants per scored chunk). The
+defaults derived from the data are printed and written under ``derived_defaults``: region
+radius, COG/SOG origin, column mapping, gap limits (min/median/max, share of gaps and of ship
+time bridged), the radar site (lat/lon), the projection origin. Reader rules that drop more
+than 2 % of the rows are printed as warnings and listed under ``warnings``.
+
+**Memory**: the pair-instants are scored in chunks of ``max_pairs`` (1,000,000) and folded into
+per-track-pair sums (:class:`~.association.StreamingDecisions`); the sources are simulated in
+blocks; only the first run keeps its reports (for the map). ``peak_rss_mb`` is the process's
+peak resident memory (``getrusage``) at the end of the experiment.
 
 Results (whole file, 84.5 min, 88 ships seen by both sources, seeds 0–2 pooled):
 
