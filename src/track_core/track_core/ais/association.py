@@ -49,7 +49,9 @@
    each pair's last W − 1 instant scores across chunk borders (all instants: running sums),
    so the decisions are those of one table over the whole run (exactly for the deterministic
    methods; ``mc`` draws its samples chunk by chunk). Memory: the chunk, plus a few numbers
-   per track pair, whatever the duration.
+   per track pair, whatever the duration. The per-pair sums are dense over the n_A × n_B
+   track pairs (256 × 256: 65,536 pairs, a few MB per rule); fleets of many thousands of
+   tracks would want a sparse pair index instead.
 6. **Truth and metrics** (:func:`evaluate`): a pair is truly the same ship when both local
    tracks carry the same MMSI. Only pairs with at least one common instant can be decided;
    precision = TP / declared, recall = TP / true pairs with a common instant, F1 their harmonic

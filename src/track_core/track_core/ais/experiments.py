@@ -307,7 +307,8 @@ def _pooled(results: list[RunResult], method: str, **rule) -> Metrics:
     return _pool([decide(r, method, **rule) for r in results])
 
 
-def _option_float(cfg: RunConfig, key: str, default, off=()):
+def _option_float(cfg: RunConfig, key: str, default, off: dict | None = None):
+    off = off or {}
     v = cfg.options.get(key)
     if v is None:
         return default
