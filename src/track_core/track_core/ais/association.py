@@ -30,12 +30,13 @@
    its per-instant association rate under a Beta prior worth ν instants centred on the rate
    r̄ of a true pair (``prior_rate``, 0.8: with the default sources, exact at threshold 0.5
    associates 80.5 % of the same-ship instants of the whole Solent file and scores 0 at
-   4.1 %, seeds 0–2). With ν = 2 it is the majority with 0.6 instant forgiven (k ≥ n/2 −
-   0.6), so one zero among 2–3 instants (e.g. 0.86, 0, 0.18: k = 1, n = 3) no longer
-   outvotes the rest, while long pairs need their majority as before; k ≥ 1 keeps pairs
-   that never associated out. ν = 0 (the default of :meth:`PairTable.decide`): the plain
-   majority. The experiment uses ν = 2 and the one-to-one step arbitrates the extra
-   candidates; its "short pairs" table gives both verdicts on the same scores.
+   4.1 %, seeds 0–2). With ν = 2 and any r̄ in [0.75, 1) the verdict is k ≥ ⌊n/2⌋ and k ≥ 1:
+   the plain majority, except that a pair with an odd number of instants is forgiven one of
+   them, so one zero among 3 instants (e.g. 0.86, 0, 0.18: k = 1, n = 3) no longer outvotes
+   the rest, while long pairs still need about half; k ≥ 1 keeps pairs that never associated
+   out. ν = 0 (the default of :meth:`PairTable.decide`): the plain majority. The experiment
+   uses ν = 2 and the one-to-one step arbitrates the extra candidates; its "short pairs"
+   table gives both verdicts on the same scores.
 4. **One-to-one** (``one_to_one=True``, :func:`match_one_to_one`): a source reports a ship
    under one local track, so a track may match at most one track of the other source. Among
    the declared pairs, the matching maximising the sum of the combined scores (Hungarian

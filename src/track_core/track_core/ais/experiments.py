@@ -44,7 +44,7 @@ defaults: region radius 33.6 km, gap limits 42 s–1 h per ship, radar at hull:2
 
 - 660,076 pair evaluations per method, i.e. 469,000 per hour of data: 4.7 times the paper's
   operational 100,000 per hour, from only two sources. The gate leaves 23,400 (3.5 %) that
-  need geometry; one chunk; peak resident memory of the whole experiment 396 MB.
+  need geometry; one chunk; peak resident memory of the whole experiment 400 MB.
 - F1 (one-to-one): exact 1.000, mc 1.000, glr_thresholded 0.844, glr 0.727. Before one-to-one
   exact has recall 1.0 but precision 0.74: ships moored 5–40 m apart are geometrically
   feasible with each other under the patrol's 2σ ellipses (120 m × 40 m).
@@ -78,7 +78,7 @@ defects; ``--set file=syn.csv --set sweep=1``, seeds 0–2 pooled):
   of longitude, 20 duplicates), region radius 148 km, every gap limit at the 3600 s cap,
   99.74 % of the gaps bridged, ships known 98.3 % of their lifetimes; radar on the hull.
 - 23,508,970 pair-instants per run (217,700 per hour), in 24 chunks; peak resident memory of
-  the 3 runs 1498 MB. F1 exact 0.997, mc 0.997, glr_thresholded 0.948, glr 0.713. The
+  the 3 runs 1457 MB. F1 exact 0.997, mc 0.997, glr_thresholded 0.948, glr 0.713. The
   short-pair prior changes exact nothing here (0.997 both) and lifts glr 0.700 → 0.713 and
   glr_thresholded 0.944 → 0.948.
 - The former fixed defaults on the same file (``--set max_distance_km=100 --set max_gap=400

@@ -143,6 +143,10 @@ def test_short_pair_rule():
     np.testing.assert_array_equal(got, [True, True, True, False, False, True, False, True, False, True])
     assert not got[3]                               # never associated: never declared, whatever the prior
     assert declare(np.array([3]), np.array([1]), 2.0, 0.75)[0] and not declare(np.array([3]), np.array([1]))[0]
+    nn, kk = (g.ravel() for g in np.meshgrid(np.arange(1, 60), np.arange(0, 60)))
+    kk, nn = kk[kk <= nn], nn[kk <= nn]
+    for rate in (0.75, 0.8, 0.95):                   # ν = 2: k ≥ ⌊n/2⌋ and k ≥ 1, for any r̄ in [0.75, 1)
+        np.testing.assert_array_equal(declare(nn, kk, 2.0, rate), (kk >= nn // 2) & (kk >= 1))
     with pytest.raises(ValueError, match='prior'):
         declare(n, k, prior_weight=-1.0)
 
