@@ -190,3 +190,18 @@ def test_bad_source_parameters_stop_the_node_with_one_line(ros, over, match):
     with pytest.raises((ValueError, OSError), match=match):
         AisSourceNode(node_name='radar', context=ros.context,
                       parameter_overrides=[Parameter(k, value=v) for k, v in over.items()])
+
+
+def test_a_source_on_another_export_with_a_column_mapping(ros, repo):
+    """The node reads any CSV through ``columns`` (and its default site is on that traffic's hull)."""
+    csv = repo / 'test/unit/track_core/ais/data/custom_semicolon.csv'
+    node = AisSourceNode(node_name='radar', context=ros.context, parameter_overrides=[
+        Parameter('file', value=str(csv)), Parameter('duration', value=200.0), Parameter('dropout', value=0.0),
+        Parameter('columns', value='time=ts;mmsi=ship;lat=lat;lon=lon;cog=;sog=;time_format=epoch_s;'
+                                   'delimiter=semicolon')])
+    try:
+        rep = node.reports
+        assert sorted(rep.mmsi.tolist()) == [211000001, 211000002] and len(rep) == 2 * 41   # every 5 s, 0..200 s
+        assert np.all(np.abs(rep.truth).max(0) < [3e3, 6e4])       # in this traffic's own tangent plane
+    finally:
+        node.destroy_node()

@@ -32,6 +32,7 @@ class RunConfig:
     quick: bool = False
     out: Path = Path('out')
     show_progress: bool = True
+    options: dict[str, str] = field(default_factory=dict)   # --set KEY=VALUE (entry-specific; see its docstring)
 
     def n_runs(self, full: int, quick: int) -> int:
         """The run count: ``--runs`` if given, else ``quick`` under ``--quick``, else ``full``."""
@@ -89,6 +90,13 @@ def best_time(fn: Callable[[], Any], repeat: int = 5, min_time: float = 0.05) ->
     return best
 
 
+def _key_value(text: str) -> tuple[str, str]:
+    key, sep, value = text.partition('=')
+    if not sep or not key.strip():
+        raise argparse.ArgumentTypeError(f'expected KEY=VALUE, got {text!r}')
+    return key.strip(), value
+
+
 def _main(kind: str, argv: list[str] | None) -> int:
     entries = registry(kind)
     prog = f'track-{kind}'
@@ -108,6 +116,8 @@ def _main(kind: str, argv: list[str] | None) -> int:
     parser.add_argument('--json', type=Path, default=None, metavar='FILE', help='write the result as JSON')
     parser.add_argument('--out', type=Path, default=Path('out') / kind, help='directory for PNG/JSON output')
     parser.add_argument('--no-progress', action='store_true', help='hide the progress bar')
+    parser.add_argument('--set', action='append', default=[], metavar='KEY=VALUE', type=_key_value,
+                        help='an entry-specific option (repeatable; the entry documents its keys)')
     args = parser.parse_args(argv)
 
     if args.list or not args.name:
@@ -120,9 +130,10 @@ def _main(kind: str, argv: list[str] | None) -> int:
         print(f'{prog}: --runs must be >= 1, got {args.runs}', file=sys.stderr)
         return 2
 
+    options = dict(args.set)
     logging.basicConfig(level=logging.WARNING, format='%(levelname)s %(name)s: %(message)s')
     cfg = RunConfig(seed=args.seed, runs=args.runs, quick=args.quick, out=args.out,
-                    show_progress=not args.no_progress)
+                    show_progress=not args.no_progress, options=options)
     try:
         cfg.out.mkdir(parents=True, exist_ok=True)
         fn = entries[args.name].load()
@@ -136,7 +147,7 @@ def _main(kind: str, argv: list[str] | None) -> int:
         print(f'figure: {fig}')
     if args.json is not None:
         payload = {'name': args.name, 'seed': args.seed, 'runs': args.runs, 'quick': args.quick,
-                   **outcome.data}
+                   **({'options': options} if options else {}), **outcome.data}
         try:
             args.json.parent.mkdir(parents=True, exist_ok=True)
             args.json.write_text(json.dumps(payload, indent=2, default=float) + '\n')

@@ -58,3 +58,27 @@ def test_run_config_counts_and_table():
     assert RunConfig(quick=True).n_runs(100, 5) == 5
     assert RunConfig(runs=7, quick=True).n_runs(100, 5) == 7
     assert format_table(['a', 'b'], [[1, 0.123456]]).splitlines()[2].split() == ['1', '0.1235']
+
+
+def test_set_options_reach_the_entry_and_the_json(tmp_path, monkeypatch):
+    from importlib.metadata import EntryPoint
+
+    from track_core import cli
+
+    seen = {}
+
+    def fake(cfg):
+        seen.update(cfg.options)
+        return cli.Outcome('ok', {})
+
+    monkeypatch.setattr(cli, 'registry', lambda kind: {'fake': EntryPoint('fake', 'x:y', 'g')})
+    monkeypatch.setattr(EntryPoint, 'load', lambda self: fake)
+    out = tmp_path / 'f.json'
+    assert experiment_main(['fake', '--set', 'file=/a=b.csv', '--set', ' k =', '--json', str(out),
+                            '--out', str(tmp_path)]) == 0
+    assert seen == {'file': '/a=b.csv', 'k': ''}
+    assert json.loads(out.read_text())['options'] == seen
+    assert RunConfig().options == {}
+    proc = subprocess.run([sys.executable, '-m', 'track_core.cli', 'demo-kf', '--set', 'novalue'],
+                          capture_output=True, text=True)
+    assert proc.returncode == 2 and 'KEY=VALUE' in proc.stderr

@@ -1,14 +1,20 @@
-"""A recognised maritime picture on real ships: the Solent AIS reports as truth (issue 8, part 2).
+"""A recognised maritime picture on real ships: AIS reports as truth (issue 8, part 2; any coast: issue 16).
 
-- :mod:`.reader` — :func:`read_ais`: the CSV with row validation (bad rows skipped and counted).
+- :mod:`.reader` — :func:`read_ais`: any AIS CSV through a :class:`ColumnMap` (presets, COG/SOG
+  from positions when absent) with row validation (bad rows skipped, counted, and loud past 2 %;
+  the region radius derived from the data).
 - :mod:`.projection` — :class:`LocalTangentPlane`: latitude/longitude → east/north metres in the
   WGS-84 tangent plane at the data centroid (accuracy documented there).
-- :mod:`.sources` — :class:`ShipTruth` (interpolated AIS tracks), :class:`SourceModel` and
+- :mod:`.sources` — :class:`ShipTruth` (interpolated AIS tracks, gap limits derived per ship),
+  :class:`SourceModel` (sites relative to the traffic: :func:`resolve_site`) and
   :func:`simulate_source`: simulated report sources (coastal radar, patrol) with their own 2σ
   ellipses, rates, dropouts and local track ids; the MMSI is kept as truth only.
 - :mod:`.association` — :class:`PairTable`: every cross-source pair scored at the common
-  instants (batched geofeasibility scores), per-pair decisions (threshold, majority, one-to-one)
-  and precision/recall/F1 against the MMSI.
+  instants (batched geofeasibility scores), per-pair decisions (threshold, majority or the
+  short-pair prior :func:`declare`, one-to-one) and precision/recall/F1 against the MMSI;
+  :func:`pair_tables` and :class:`StreamingDecisions` do the same in time chunks (bounded memory).
+- :mod:`.synthetic` — a seeded synthetic AIS file of another sea (long report intervals, a
+  large spread, planted defects) in any column layout.
 - :mod:`.experiments` — ``track-experiment ais-association``.
 """
 
@@ -17,12 +23,15 @@ from track_core.ais.association import (
     PairDecisions,
     PairInstants,
     PairTable,
+    StreamingDecisions,
+    declare,
     evaluate,
     match_one_to_one,
     pair_instants,
+    pair_tables,
 )
 from track_core.ais.projection import LocalTangentPlane
-from track_core.ais.reader import AisData, default_path, read_ais
+from track_core.ais.reader import PRESETS, AisData, ColumnMap, default_path, read_ais
 from track_core.ais.sources import (
     PATROL,
     RADAR,
@@ -30,13 +39,16 @@ from track_core.ais.sources import (
     SourceModel,
     SourceReports,
     report_times,
+    resolve_site,
     simulate_source,
 )
 
 __all__ = [
     'PATROL',
+    'PRESETS',
     'RADAR',
     'AisData',
+    'ColumnMap',
     'LocalTangentPlane',
     'Metrics',
     'PairDecisions',
@@ -45,11 +57,15 @@ __all__ = [
     'ShipTruth',
     'SourceModel',
     'SourceReports',
+    'StreamingDecisions',
+    'declare',
     'default_path',
     'evaluate',
     'match_one_to_one',
     'pair_instants',
+    'pair_tables',
     'read_ais',
     'report_times',
+    'resolve_site',
     'simulate_source',
 ]

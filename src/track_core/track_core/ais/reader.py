@@ -1,32 +1,65 @@
-"""Reader of the Solent AIS reports (``../shared/data/ais_solent/*.csv``) with row validation.
+"""Reader of AIS CSV exports (default: the Solent file ``../shared/data/ais_solent/*.csv``) with row validation.
 
-Columns: ``Time`` (UTC, ``YYYY-MM-DD HH:MM:SS.fff``; a plain number is read as milliseconds
-since the Unix epoch), ``MMSI``, ``Latitude_degrees``, ``Longitude_degrees``, ``COG_degrees``,
-``SOG_knots``. A row that cannot be used is **skipped and counted** under one reason, the first
-that applies:
+**Columns** (:class:`ColumnMap`). Columns are found by their header name, so their order
+(latitude before or after longitude, extra columns anywhere) does not matter. A mapping names
+the columns of ``time``, ``mmsi``, ``lat``, ``lon`` and, optionally, ``cog`` [degrees from
+north] and ``sog`` [knots], plus ``time_format`` and ``delimiter``. It is given as a
+:class:`ColumnMap`, a preset name, or a text ``"time=BaseDateTime;lat=LAT;lon=LON;cog=;sog="``
+(``key=value`` separated by ``;``, an empty value means "absent"; keys not given keep the
+Solent default; ``delimiter`` is one character or ``comma``, ``semicolon``, ``tab``, ``space``,
+``pipe``). ``columns=None`` detects the preset whose columns the header holds:
 
-- ``malformed row``: wrong number of columns;
-- ``bad time``: the time is missing, unparsable or not finite;
+| preset | time | mmsi | lat | lon | cog | sog | time format |
+|---|---|---|---|---|---|---|---|
+| ``solent`` (Stone Soup demo) | Time | MMSI | Latitude_degrees | Longitude_degrees | COG_degrees | SOG_knots | auto |
+| ``marinecadastre`` (US) | BaseDateTime | MMSI | LAT | LON | COG | SOG | iso |
+| ``dma`` (Danish Maritime Authority) | # Timestamp | MMSI | Latitude | Longitude | COG | SOG | %d/%m/%Y %H:%M:%S |
+
+``time_format``: ``auto`` (a plain number is epoch **milliseconds** when ≥ 10¹¹ and epoch
+seconds below: 10¹¹ s is the year 5138, 10¹¹ ms is 1973; anything else is ISO 8601),
+``iso`` (``YYYY-MM-DD HH:MM:SS[.fff]``, ``T`` separator allowed), ``epoch_ms``, ``epoch_s``, or
+a ``strptime`` format. Times without a zone are UTC. When the mapping has no ``cog``/``sog``
+column (or the header lacks it) they are **computed from positions**: course and speed over
+ground from each kept report to the ship's next kept report (the last report of a ship uses the
+segment before it; a ship with a single report gets NaN); ``AisData.derived['cog_sog']`` says so.
+Present COG/SOG columns keep their values; their "not available" codes (COG ≥ 360, SOG ≥
+102.3) and unparsable entries become NaN and the row is kept.
+
+**Rows that cannot be used** are skipped and counted under one reason, the first that applies:
+
+- ``malformed row``: a different number of fields from the header;
+- ``bad time``: missing, unparsable or not finite;
 - ``bad MMSI``: not a positive integer;
 - ``bad position``: latitude/longitude missing, unparsable, NaN/inf, or outside [−90, 90] /
   [−180, 180] (this includes AIS's "not available" values 91 and 181);
-- ``outside region``: more than ``max_distance_km`` (100 km) from the median position of the
-  file: a corrupted position that is still a valid coordinate (the Solent file has one:
-  longitude 54.83° for a ship moored at −1.092°);
+- ``outside region``: further from the median position of the file than the region radius:
+  a corrupted position that is still a valid coordinate (the Solent file has one: longitude
+  54.83° for a ship moored at −1.092°). ``max_distance_km='auto'`` (default) derives the radius
+  from the data: with the rows' distances from the median sorted, the first **jump** to more
+  than ``REGION_FACTOR`` (3) × the distance before it (and beyond ``REGION_FLOOR_KM``, 10 km)
+  after which at most ``REGION_TAIL`` (1 %) of the rows (at least one) remain ends the region;
+  without such a jump nothing is outside. Stray positions are few and isolated, traffic is
+  many rows with no gap of that size before it ends: a second port 150 km off with 31 % of
+  the rows stays, however far. Solent: the traffic reaches 33.6 km from the median, the
+  corrupt row is 3,835 km off: radius 33.6 km, one row outside. A number fixes the radius
+  (the former default was 100 km); ``None`` switches the rule off;
 - ``duplicate``: same MMSI and time as a row already kept;
 - ``implied speed``: the jump from the ship's previous kept report needs more than
   ``max_speed_kn`` (100 kn).
 
-COG and SOG are not needed for positions: their "not available" values (COG ≥ 360, SOG ≥
-102.3) and unparsable entries become NaN and the row is kept. :attr:`AisData.skipped` holds
-the counts, :meth:`AisData.describe` one line for reports. Kept rows are sorted by time.
+**Loud discards**: a rule that drops more than ``warn_fraction`` (2 %) of the rows logs a
+warning naming the rule, the count and the parameter that controls it; the same lines are in
+:attr:`AisData.warnings`. :attr:`AisData.skipped` holds the counts, :attr:`AisData.derived` the
+derived defaults (region radius, COG/SOG origin, column mapping), :meth:`AisData.describe` one
+line for reports. Kept rows are sorted by time.
 """
 
 from __future__ import annotations
 
 import csv
+import logging
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields, replace
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -34,10 +67,80 @@ import numpy as np
 
 from track_core.data import data_dir
 
+log = logging.getLogger(__name__)
+
 COLUMNS = ('Time', 'MMSI', 'Latitude_degrees', 'Longitude_degrees', 'COG_degrees', 'SOG_knots')
 DEFAULT_FILE = 'SolentAIS_20160112_130211.csv'
 KNOT = 1852.0 / 3600.0  # m/s
 REASONS = ('malformed row', 'bad time', 'bad MMSI', 'bad position', 'outside region', 'duplicate', 'implied speed')
+REGION_FACTOR = 3.0
+REGION_TAIL = 0.01
+REGION_FLOOR_KM = 10.0
+EARTH_R = 6_371_000.0
+CONTROLLED_BY = {
+    'malformed row': 'the column mapping (columns=..., delimiter)',
+    'bad time': 'the column mapping (time, time_format)',
+    'bad MMSI': 'the column mapping (mmsi)',
+    'bad position': 'the column mapping (lat, lon)',
+    'outside region': "max_distance_km ('auto': derived, None: off)",
+    'duplicate': 'none (a defect of the data: the same ship and time twice)',
+    'implied speed': 'max_speed_kn',
+}
+TIME_FORMATS = ('auto', 'iso', 'epoch_ms', 'epoch_s')
+DELIMITERS = {'comma': ',', 'semicolon': ';', 'tab': '\t', 'space': ' ', 'pipe': '|'}
+
+
+@dataclass(frozen=True)
+class ColumnMap:
+    """Header names of the columns used (``None``: absent) and the time format; see the module docstring."""
+
+    time: str = 'Time'
+    mmsi: str = 'MMSI'
+    lat: str = 'Latitude_degrees'
+    lon: str = 'Longitude_degrees'
+    cog: str | None = 'COG_degrees'
+    sog: str | None = 'SOG_knots'
+    time_format: str = 'auto'
+    delimiter: str = ','
+
+    @classmethod
+    def parse(cls, spec: str | ColumnMap | None) -> ColumnMap | None:
+        """A preset name, ``"key=value;..."`` text, a ColumnMap, or None/'' (detect from the header)."""
+        if spec is None or isinstance(spec, ColumnMap):
+            return spec
+        spec = spec.strip()
+        if not spec:
+            return None
+        if spec in PRESETS:
+            return PRESETS[spec]
+        names = {f.name for f in fields(cls)}
+        kw = {}
+        for item in spec.split(';'):
+            key, sep, value = item.partition('=')
+            key = key.strip()
+            if not sep or key not in names:
+                raise ValueError(f'column mapping {spec!r}: {item!r} is not key=value with key one of '
+                                 f'{", ".join(sorted(names))} (or give a preset: {", ".join(PRESETS)})')
+            value = value.strip()
+            if key == 'delimiter':
+                value = DELIMITERS.get(value, value)
+                if len(value) != 1:
+                    raise ValueError(f'column mapping {spec!r}: delimiter must be one character or one of '
+                                     f'{", ".join(DELIMITERS)}, got {value!r}')
+            if key in ('time', 'mmsi', 'lat', 'lon', 'time_format') and not value:
+                raise ValueError(f'column mapping {spec!r}: {key} cannot be empty')
+            kw[key] = value or None
+        return replace(cls(), **kw)
+
+    def required(self) -> tuple[str, ...]:
+        return (self.time, self.mmsi, self.lat, self.lon)
+
+
+PRESETS = {
+    'solent': ColumnMap(),
+    'marinecadastre': ColumnMap('BaseDateTime', 'MMSI', 'LAT', 'LON', 'COG', 'SOG', 'iso'),
+    'dma': ColumnMap('# Timestamp', 'MMSI', 'Latitude', 'Longitude', 'COG', 'SOG', '%d/%m/%Y %H:%M:%S'),
+}
 
 
 def default_path() -> Path:
@@ -59,6 +162,8 @@ class AisData:
     rows: int
     skipped: dict[str, int] = field(default_factory=dict)
     path: Path | None = None
+    derived: dict[str, object] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
 
     @property
     def n_skipped(self) -> int:
@@ -78,21 +183,32 @@ class AisData:
 
     def describe(self) -> str:
         why = ', '.join(f'{k}: {v}' for k, v in self.skipped.items() if v) or 'none'
+        r = self.derived.get('max_distance_km')
+        region = 'region gate off' if r is None else f'region radius {r:.1f} km'
+        if self.derived.get('region_rule') == 'auto':
+            region += ' (derived)'
         return (f'{self.rows} rows, {self.t.size} kept, {self.n_skipped} skipped ({why}); '
-                f'{self.ships.size} ships, {self.t[-1] if self.t.size else 0.0:.0f} s from {self.start_utc}')
+                f'{self.ships.size} ships, {self.t[-1] if self.t.size else 0.0:.0f} s from {self.start_utc}; '
+                f'{region}; COG/SOG {self.derived.get("cog_sog", "from the file")}')
 
 
-def _time(text: str) -> float:
+def _time(text: str, fmt: str) -> float:
     text = text.strip()
-    try:
-        v = float(text)  # epoch milliseconds
-    except ValueError:
-        v = None
-    if v is not None:
-        if not math.isfinite(v):
-            raise ValueError(text)
-        return v / 1000.0
-    return datetime.fromisoformat(text).replace(tzinfo=UTC).timestamp()
+    if fmt in ('auto', 'epoch_ms', 'epoch_s'):
+        try:
+            v = float(text)
+        except ValueError:
+            if fmt != 'auto':
+                raise
+            v = None
+        if v is not None:
+            if not math.isfinite(v):
+                raise ValueError(text)
+            ms = fmt == 'epoch_ms' or (fmt == 'auto' and abs(v) >= 1e11)
+            return v / 1000.0 if ms else v
+        fmt = 'iso'
+    d = datetime.fromisoformat(text) if fmt == 'iso' else datetime.strptime(text, fmt)
+    return (d.replace(tzinfo=UTC) if d.tzinfo is None else d).timestamp()
 
 
 def _angle(text: str, not_available: float) -> float:
@@ -104,38 +220,64 @@ def _angle(text: str, not_available: float) -> float:
 
 
 def _distance_m(lat1, lon1, lat2, lon2) -> np.ndarray:
-    """Great-circle (haversine, R = 6371 km) distance; only used by the coarse gates."""
+    """Great-circle (haversine, R = 6371 km) distance; only used by the coarse gates and COG/SOG."""
     p1, p2 = np.radians(lat1), np.radians(lat2)
     dp, dl = p2 - p1, np.radians(np.asarray(lon2) - np.asarray(lon1))
     h = np.sin(dp / 2) ** 2 + np.cos(p1) * np.cos(p2) * np.sin(dl / 2) ** 2
-    return 2 * 6_371_000.0 * np.arcsin(np.sqrt(np.clip(h, 0.0, 1.0)))
+    return 2 * EARTH_R * np.arcsin(np.sqrt(np.clip(h, 0.0, 1.0)))
 
 
 def _distance1_m(lat1: float, lon1: float, lat2: float, lon2: float) -> float:
     """Scalar haversine (the sequential speed gate runs once per row)."""
     p1, p2 = math.radians(lat1), math.radians(lat2)
     h = math.sin((p2 - p1) / 2) ** 2 + math.cos(p1) * math.cos(p2) * math.sin(math.radians(lon2 - lon1) / 2) ** 2
-    return 2 * 6_371_000.0 * math.asin(math.sqrt(min(max(h, 0.0), 1.0)))
+    return 2 * EARTH_R * math.asin(math.sqrt(min(max(h, 0.0), 1.0)))
 
 
-def _parse_row(row: list[str]) -> tuple | str:
-    """(t, mmsi, lat, lon, cog, sog) of one CSV row, or the reason it is skipped."""
-    if len(row) != len(COLUMNS):
-        return 'malformed row'
-    try:
-        t = _time(row[0])
-    except (ValueError, OverflowError, OSError):
-        return 'bad time'
-    mmsi = int(row[1]) if row[1].strip().isdigit() else 0
-    if mmsi <= 0:
-        return 'bad MMSI'
-    try:
-        lat, lon = float(row[2]), float(row[3])
-    except ValueError:
-        return 'bad position'
-    if not (math.isfinite(lat) and math.isfinite(lon) and -90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
-        return 'bad position'
-    return t, mmsi, lat, lon, _angle(row[4], 360.0), _angle(row[5], 102.3)
+class _RowParser:
+    """(t, mmsi, lat, lon, cog, sog) of one CSV row by header position, or the reason it is skipped."""
+
+    def __init__(self, header: list[str], cols: ColumnMap, p: Path) -> None:
+        names = [h.strip() for h in header]
+        missing = [c for c in cols.required() if c not in names]
+        if missing:
+            raise ValueError(f'{p}: expected columns {", ".join(cols.required())} (column mapping), missing '
+                             f'{", ".join(missing)}; header: {header}')
+        self.n = len(names)
+        self.it, self.im, self.ila, self.ilo = (names.index(c) for c in cols.required())
+        self.ic = names.index(cols.cog) if cols.cog in names else None
+        self.iv = names.index(cols.sog) if cols.sog in names else None
+        self.fmt = cols.time_format
+
+    def __call__(self, row: list[str]) -> tuple | str:
+        if len(row) != self.n:
+            return 'malformed row'
+        try:
+            t = _time(row[self.it], self.fmt)
+        except (ValueError, OverflowError, OSError):
+            return 'bad time'
+        m = row[self.im].strip()
+        mmsi = int(m) if m.isdigit() else 0
+        if mmsi <= 0:
+            return 'bad MMSI'
+        try:
+            lat, lon = float(row[self.ila]), float(row[self.ilo])
+        except ValueError:
+            return 'bad position'
+        if not (math.isfinite(lat) and math.isfinite(lon) and -90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
+            return 'bad position'
+        cog = _angle(row[self.ic], 360.0) if self.ic is not None else math.nan
+        sog = _angle(row[self.iv], 102.3) if self.iv is not None else math.nan
+        return t, mmsi, lat, lon, cog, sog
+
+
+def _detect(header: list[str], p: Path) -> ColumnMap:
+    names = {h.strip() for h in header}
+    for cols in PRESETS.values():
+        if set(cols.required()) <= names:
+            return cols
+    raise ValueError(f'{p}: header {header} matches no preset ({", ".join(PRESETS)}); give a column mapping '
+                     f'"time=...;mmsi=...;lat=...;lon=...[;cog=...;sog=...;time_format=...]"')
 
 
 def _sequential_gate(t, mmsi, lat, lon, keep, skipped, max_speed_kn: float) -> None:
@@ -143,7 +285,7 @@ def _sequential_gate(t, mmsi, lat, lon, keep, skipped, max_speed_kn: float) -> N
     order = np.lexsort((t, mmsi)).tolist()  # by ship, then time (stable)
     tl, ml, lal, lol = t.tolist(), mmsi.tolist(), lat.tolist(), lon.tolist()
     last_ship, last_t, last_lat, last_lon = None, 0.0, 0.0, 0.0
-    for i in order:  # sequential by nature
+    for i in order:  # sequential by nature: each report is compared with the last one *kept*
         if not keep[i]:
             continue
         if ml[i] == last_ship:
@@ -158,39 +300,111 @@ def _sequential_gate(t, mmsi, lat, lon, keep, skipped, max_speed_kn: float) -> N
         last_ship, last_t, last_lat, last_lon = ml[i], tl[i], lal[i], lol[i]
 
 
-def read_ais(path: str | Path | None = None, *, max_distance_km: float = 100.0,
-             max_speed_kn: float = 100.0) -> AisData:
-    """Read and validate an AIS CSV file (default: the Solent file); see the module docstring."""
-    p = Path(path) if path is not None else default_path()
-    if not p.is_file():
-        raise OSError(f'AIS file not found: {p} (set TRACK_DATA_DIR to the folder holding ais_solent/)')
-    skipped = dict.fromkeys(REASONS, 0)
+def region_radius_km(lat: np.ndarray, lon: np.ndarray) -> float:
+    """The derived region radius [km] (module docstring): the farthest distance before the first stray jump."""
+    d = np.sort(_distance_m(np.median(lat), np.median(lon), lat, lon)) / 1000.0
+    n = d.size
+    tail = n - 1 - np.arange(n - 1)                         # rows beyond a jump after sorted row j
+    jump = (d[1:] > REGION_FACTOR * np.maximum(d[:-1], REGION_FLOOR_KM)) & (tail <= max(1.0, REGION_TAIL * n))
+    j = np.flatnonzero(jump)
+    return float(d[j[0]]) if j.size else float(d[-1])
+
+
+def course_speed(t, mmsi, lat, lon) -> tuple[np.ndarray, np.ndarray]:
+    """COG [deg from north] and SOG [kn] from positions: each report to the ship's next (last: from the previous)."""
+    n = t.size
+    cog, sog = np.full(n, np.nan), np.full(n, np.nan)
+    if n < 2:
+        return cog, sog
+    o = np.lexsort((t, mmsi))
+    same = mmsi[o][1:] == mmsi[o][:-1]                 # segment k joins o[k] and o[k + 1]
+    la, lo, tt = lat[o], lon[o], t[o]
+    dy = np.radians(la[1:] - la[:-1]) * EARTH_R
+    dl = (lo[1:] - lo[:-1] + 180.0) % 360.0 - 180.0
+    dx = np.radians(dl) * EARTH_R * np.cos(np.radians(0.5 * (la[1:] + la[:-1])))
+    c = np.degrees(np.arctan2(dx, dy)) % 360.0
+    v = np.hypot(dx, dy) / np.maximum(tt[1:] - tt[:-1], 1e-9) / KNOT
+    seg = np.full(n, -1)                                # segment used by each sorted report
+    seg[:-1][same] = np.flatnonzero(same)               # forward segment
+    back = np.zeros(n, bool)
+    back[1:] = same
+    last = (seg < 0) & back                             # no forward segment but a backward one
+    seg[last] = np.flatnonzero(last) - 1
+    ok = seg >= 0
+    cog[o[ok]], sog[o[ok]] = c[seg[ok]], v[seg[ok]]
+    return cog, sog
+
+
+def _read_rows(p: Path, cols: ColumnMap | None, skipped: dict[str, int]):
+    """(rows, parsed tuples, the row parser, the column mapping used); skipped rows are counted."""
     parsed = []
     rows = 0
     with p.open(newline='') as fh:
-        reader = csv.reader(fh)
+        reader = csv.reader(fh, delimiter=cols.delimiter if cols is not None else ',')
         header = next(reader, None)
-        if header is None or [h.strip() for h in header[:6]] != list(COLUMNS):
-            raise ValueError(f'{p}: expected columns {", ".join(COLUMNS)}, got {header}')
+        if header is None:
+            raise ValueError(f'{p}: empty file, expected a header line')
+        cols = cols if cols is not None else _detect(header, p)
+        parse = _RowParser(header, cols, p)
         for row in reader:
             if not row or not any(c.strip() for c in row):
                 continue
             rows += 1
-            r = _parse_row(row)
+            r = parse(row)
             if isinstance(r, str):
                 skipped[r] += 1
             else:
                 parsed.append(r)
-    cols = list(zip(*parsed, strict=True)) if parsed else [()] * 6
-    t, lat, lon, cog, sog = (np.asarray(cols[k], float) for k in (0, 2, 3, 4, 5))
-    mmsi = np.asarray(cols[1], np.int64)
+    return rows, parsed, parse, cols
+
+
+def _warn_discards(data: AisData, warn_fraction: float) -> None:
+    """Loud discards: one warning per rule that dropped more than ``warn_fraction`` of the rows."""
+    for reason, n in data.skipped.items():
+        if data.rows and n > warn_fraction * data.rows:
+            name = data.path.name if data.path is not None else 'AIS data'
+            msg = (f'{name}: rule "{reason}" dropped {n} of {data.rows} rows ({100 * n / data.rows:.1f} %); '
+                   f'controlled by {CONTROLLED_BY[reason]}')
+            data.warnings.append(msg)
+            log.warning(msg)
+
+
+def read_ais(path: str | Path | None = None, *, columns: str | ColumnMap | None = None,
+             max_distance_km: float | str | None = 'auto', max_speed_kn: float = 100.0,
+             warn_fraction: float = 0.02) -> AisData:
+    """Read and validate an AIS CSV file (default: the Solent file); see the module docstring."""
+    p = Path(path) if path is not None else default_path()
+    if not p.is_file():
+        raise OSError(f'AIS file not found: {p} (set TRACK_DATA_DIR to the folder holding ais_solent/)')
+    if not (max_distance_km is None or max_distance_km == 'auto' or float(max_distance_km) > 0):
+        raise ValueError(f"max_distance_km must be 'auto', None or > 0, got {max_distance_km!r}")
+    skipped = dict.fromkeys(REASONS, 0)
+    rows, parsed, parse, cols = _read_rows(p, ColumnMap.parse(columns), skipped)
+    cols_ = list(zip(*parsed, strict=True)) if parsed else [()] * 6
+    t, lat, lon, cog, sog = (np.asarray(cols_[k], float) for k in (0, 2, 3, 4, 5))
+    mmsi = np.asarray(cols_[1], np.int64)
     keep = np.ones(t.size, bool)
-    if t.size:
-        far = _distance_m(np.median(lat), np.median(lon), lat, lon) > max_distance_km * 1000.0
+    radius = None
+    if t.size and max_distance_km is not None:
+        radius = region_radius_km(lat, lon) if max_distance_km == 'auto' else float(max_distance_km)
+        far = _distance_m(np.median(lat), np.median(lon), lat, lon) > radius * 1000.0
         skipped['outside region'] += int(far.sum())
         keep &= ~far
     _sequential_gate(t, mmsi, lat, lon, keep, skipped, max_speed_kn)
     idx = np.flatnonzero(keep)
     idx = idx[np.argsort(t[idx], kind='stable')]
     t0 = float(t[idx[0]]) if idx.size else 0.0
-    return AisData(t[idx] - t0, mmsi[idx], lat[idx], lon[idx], cog[idx], sog[idx], t0, rows, skipped, p)
+    derived = {'columns': {f.name: getattr(cols, f.name) for f in fields(cols)},
+               'region_rule': 'auto' if max_distance_km == 'auto' else ('off' if max_distance_km is None else 'fixed'),
+               'max_distance_km': radius, 'cog_sog': 'from the file'}
+    data = AisData(t[idx] - t0, mmsi[idx], lat[idx], lon[idx], cog[idx], sog[idx], t0, rows, skipped, p, derived)
+    if parse.ic is None or parse.iv is None:
+        c, v = course_speed(data.t, data.mmsi, data.lat, data.lon)
+        if parse.ic is None:
+            data.cog = c
+        if parse.iv is None:
+            data.sog = v
+        data.derived['cog_sog'] = 'computed from positions' if parse.ic is None and parse.iv is None else \
+            f'{"COG" if parse.ic is None else "SOG"} computed from positions'
+    _warn_discards(data, warn_fraction)
+    return data

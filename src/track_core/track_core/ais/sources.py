@@ -2,9 +2,16 @@
 
 :class:`ShipTruth` — the AIS reports of each ship projected to east/north metres
 (:mod:`.projection`) and linearly interpolated in time. A ship exists from its first to its
-last AIS report; inside a gap between two reports longer than ``max_gap`` (400 s: moored
-class-A ships report every 3 min, so one lost report is bridged) its position is unknown and no
-source reports it.
+last AIS report; inside a gap between two reports longer than the ship's gap limit its
+position is unknown and no source reports it. The gap limit is **derived per ship from its own
+report interval** (``max_gap=None``, default): ``gap_factor`` (20) × the median interval between
+its reports, at most ``gap_cap`` (3600 s: an hour of straight-line interpolation is the most we
+trust); a ship with a single report gets the median limit of the others. A number for
+``max_gap`` is one limit for every ship (the former default, 400 s, suited only Solent's ~10 s
+reports). Solent: limits 42 s–1 h (median 1208 s; median report interval 60 s, 2–1080 s per
+ship); 99.78 % of the gaps bridged (400 s: 99.77 %) and the ships known for 95.5 % of their
+lifetimes (400 s: 90.0 %: moored ships reporting every 3–18 min were lost between reports).
+:meth:`ShipTruth.gap_summary` reports the limits and the bridged share of the ships' time.
 
 :class:`SourceModel` — one surveillance source: a report grid ``t_start + offset + k·period``;
 at each instant it reports every ship it sees (position known, within ``max_range`` of its
@@ -23,9 +30,17 @@ Each source numbers the ships it reports with its **own local track ids** (``id_
 three digits, in an order shuffled by the source's generator); the MMSI is kept in
 :attr:`SourceReports.mmsi` as truth for evaluation and is never part of a report.
 
-Defaults (:data:`RADAR`, :data:`PATROL`): a coastal radar at Calshot (the mouth of
-Southampton Water) with 1σ 15 m × 8 m ellipses across the beam every 5 s, 2 % missed
-reports; a patrol aircraft with 1σ 60 m × 20 m ellipses at random bearings every 30 s, 25 %
+**Sites** (``SourceModel.site``): ``(lat, lon)`` in degrees, ``None`` for the projection origin
+(the data's median position), or ``'hull:<bearing>'``: the point where the ray from the mean
+report position at that bearing (degrees clockwise from north) leaves the **convex hull of the
+traffic** (``scipy.spatial.ConvexHull`` of every projected AIS report): a coastal sensor at
+the edge of the traffic, wherever the data are. :func:`resolve_site` gives the east/north
+position.
+
+Defaults (:data:`RADAR`, :data:`PATROL`): a coastal radar at ``'hull:280'`` (in the Solent: on
+the traffic's western edge at 50.8071° N, 1.3385° W, 2.5 km from Calshot at the mouth of
+Southampton Water, where the former fixed default sat) with 1σ 15 m × 8 m ellipses across the
+beam every 5 s, 2 % missed reports; a patrol aircraft with 1σ 60 m × 20 m ellipses at random bearings every 30 s, 25 %
 missed reports. The 30 s patrol grid falls on the 5 s radar grid, so the two share an instant
 every 30 s.
 """
@@ -33,6 +48,7 @@ every 30 s.
 from __future__ import annotations
 
 import itertools
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -42,25 +58,74 @@ from track_core.ais.reader import AisData
 from track_core.geofeasibility.ellipse import ellipse_to_gaussian
 
 ORIENTATIONS = ('fixed', 'radial', 'random')
-CALSHOT = (50.8184, -1.3072)  # lat, lon of the default radar site
+CALSHOT = (50.8184, -1.3072)  # lat, lon of the former fixed radar site (Solent only)
+GAP_FACTOR = 20.0
+GAP_CAP = 3600.0
+SIM_CELLS = 4_000_000  # ships × instants simulated per block (bounds simulate_source's memory)
+
+
+def _hull_bearing(site: str, name: str = 'site') -> float:
+    kind, _, value = site.partition(':')
+    try:
+        bearing = float(value)
+    except ValueError:
+        bearing = math.nan
+    if kind.strip() != 'hull' or not math.isfinite(bearing):
+        raise ValueError(f"{name}: site {site!r} is not (lat, lon), None or 'hull:<bearing in degrees>'")
+    return bearing
 
 
 class ShipTruth:
     """Per-ship interpolated east/north positions; ``positions(t)`` is vectorised over ships and times."""
 
-    def __init__(self, data: AisData, plane: LocalTangentPlane | None = None, max_gap: float = 400.0) -> None:
-        if not max_gap > 0:
-            raise ValueError(f'max_gap must be > 0 s, got {max_gap}')
+    def __init__(self, data: AisData, plane: LocalTangentPlane | None = None, max_gap: float | None = None, *,
+                 gap_factor: float = GAP_FACTOR, gap_cap: float = GAP_CAP) -> None:
+        if max_gap is not None and not max_gap > 0:
+            raise ValueError(f'max_gap must be > 0 s or None (derived per ship), got {max_gap}')
+        if not gap_factor > 0 or not gap_cap > 0:
+            raise ValueError(f'gap_factor and gap_cap must be > 0, got {gap_factor}, {gap_cap}')
         self.plane = plane if plane is not None else LocalTangentPlane(*data.centroid())
-        self.max_gap = float(max_gap)
         self.mmsi = data.ships
-        xy = self.plane.forward(data.lat, data.lon)
+        self.xy_all = xy = self.plane.forward(data.lat, data.lon)
         order = np.lexsort((data.t, data.mmsi))
         _, start = np.unique(data.mmsi[order], return_index=True)
         bounds = list(itertools.pairwise([*start.tolist(), order.size]))
         self.times = [data.t[order[a:b]] for a, b in bounds]
         self.xy = [xy[order[a:b]] for a, b in bounds]
         self.t_end = float(data.t[-1]) if data.t.size else 0.0
+        # per-ship median report interval (vectorised over all reports: segment medians by ship)
+        self.median_interval = np.full(len(self), np.nan)
+        dt = np.diff(data.t[order])
+        ship = np.searchsorted(start, np.arange(order.size), side='right') - 1
+        seg = ship[1:] == ship[:-1]
+        if seg.any():
+            s_seg, d_seg = ship[1:][seg], dt[seg]
+            o = np.lexsort((d_seg, s_seg))
+            s_seg, d_seg = s_seg[o], d_seg[o]
+            u, first, cnt = np.unique(s_seg, return_index=True, return_counts=True)
+            lo, hi = first + (cnt - 1) // 2, first + cnt // 2
+            self.median_interval[u] = 0.5 * (d_seg[lo] + d_seg[hi])
+        if max_gap is None:
+            lim = np.minimum(gap_factor * self.median_interval, gap_cap)
+            fill = float(np.nanmedian(lim)) if np.isfinite(lim).any() else gap_cap
+            self.gap_limit = np.where(np.isfinite(lim), lim, fill)
+            self.gap_rule = f'derived: min({gap_factor:g} × median interval, {gap_cap:g} s) per ship'
+        else:
+            self.gap_limit = np.full(len(self), float(max_gap))
+            self.gap_rule = f'fixed: {float(max_gap):g} s'
+        self.max_gap = float(np.max(self.gap_limit)) if len(self) else 0.0
+
+    def gap_summary(self) -> dict[str, float | str]:
+        """The gap rule, the limits (min/median/max) and the share of gaps and ship-time bridged."""
+        gaps = [np.diff(t) for t in self.times]
+        lims = [np.full(g.size, lim) for g, lim in zip(gaps, self.gap_limit, strict=True)]
+        g, lim = (np.concatenate(x) if x else np.zeros(0) for x in (gaps, lims))
+        span = float(g.sum())
+        return {'rule': self.gap_rule, 'limit_min_s': float(self.gap_limit.min()),
+                'limit_median_s': float(np.median(self.gap_limit)), 'limit_max_s': float(self.gap_limit.max()),
+                'median_interval_s': float(np.nanmedian(self.median_interval)) if g.size else float('nan'),
+                'gaps_bridged': float(np.mean(g <= lim)) if g.size else 1.0,
+                'time_known': float(g[g <= lim].sum() / span) if span > 0 else 1.0}
 
     def __len__(self) -> int:
         return self.mmsi.size
@@ -69,13 +134,13 @@ class ShipTruth:
         """(S, K, 2) positions at times ``t`` (K,); NaN where a ship's position is unknown."""
         t = np.atleast_1d(np.asarray(t, float))
         out = np.full((len(self), t.size, 2), np.nan)
-        for s, (ts, xy) in enumerate(zip(self.times, self.xy, strict=True)):  # loop over ships, not reports
+        for s, (ts, xy, max_gap) in enumerate(zip(self.times, self.xy, self.gap_limit, strict=True)):  # ships
             j = np.searchsorted(ts, t, side='right')          # ts[j-1] <= t < ts[j]
             inside = (t >= ts[0]) & (t <= ts[-1])
             lo = np.clip(j - 1, 0, ts.size - 1)
             hi = np.clip(j, 0, ts.size - 1)
             gap = ts[hi] - ts[lo]
-            ok = inside & ((gap <= self.max_gap) | (t == ts[lo]))   # a report itself is always known
+            ok = inside & ((gap <= max_gap) | (t == ts[lo]))   # a report itself is always known
             w = np.where(gap > 0, (t - ts[lo]) / np.where(gap > 0, gap, 1.0), 0.0)[:, None]
             p = (1.0 - w) * xy[lo] + w * xy[hi]
             out[s, ok] = p[ok]
@@ -94,7 +159,7 @@ class SourceModel:
     sigma_minor: float = 8.0
     orientation: str = 'radial'
     bearing_deg: float = 0.0
-    site: tuple[float, float] | None = CALSHOT   # (lat, lon) of the sensor; None: the projection origin
+    site: tuple[float, float] | str | None = 'hull:280'   # (lat, lon), 'hull:<bearing>' or None (origin)
     max_range: float | None = None
     dropout: float = 0.02
 
@@ -110,6 +175,8 @@ class SourceModel:
             raise ValueError(f'{self.name}: dropout must be in [0, 1), got {self.dropout}')
         if self.max_range is not None and not self.max_range > 0:
             raise ValueError(f'{self.name}: max_range must be > 0 or None, got {self.max_range}')
+        if isinstance(self.site, str):
+            _hull_bearing(self.site, self.name)
 
     def scaled(self, k: float) -> SourceModel:
         """The same source with both semi-axes multiplied by ``k`` (the noise sweep)."""
@@ -138,6 +205,35 @@ class SourceReports:
         return self.t.size
 
 
+def hull_point(xy: np.ndarray, bearing_deg: float) -> np.ndarray:
+    """Where the ray from the mean of ``xy`` (n, 2) at ``bearing_deg`` (from north) leaves their convex hull."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    c = xy.mean(0)
+    u = np.array([np.sin(np.radians(bearing_deg)), np.cos(np.radians(bearing_deg))])
+    try:
+        hull = ConvexHull(xy)
+    except (QhullError, ValueError):               # fewer than 3 distinct or collinear points
+        return c + u * max(float(np.max((xy - c) @ u)), 0.0)
+    p, q = xy[hull.simplices[:, 0]], xy[hull.simplices[:, 1]]
+    e, w = q - p, p - c
+    den = u[0] * e[:, 1] - u[1] * e[:, 0]           # cross(u, e)
+    with np.errstate(divide='ignore', invalid='ignore'):
+        s = (w[:, 0] * e[:, 1] - w[:, 1] * e[:, 0]) / den   # along the ray
+        r = (w[:, 0] * u[1] - w[:, 1] * u[0]) / den         # along the edge
+    ok = np.isfinite(s) & (s >= 0) & (r >= -1e-9) & (r <= 1 + 1e-9)
+    return c + u * float(np.max(s[ok])) if ok.any() else c
+
+
+def resolve_site(truth: ShipTruth, site) -> np.ndarray:
+    """East/north metres of a ``SourceModel.site`` (see the module docstring) in ``truth``'s plane."""
+    if site is None:
+        return np.zeros(2)
+    if isinstance(site, str):
+        return hull_point(truth.xy_all, _hull_bearing(site)) if len(truth.xy_all) else np.zeros(2)
+    return truth.plane.forward(*site)
+
+
 def report_times(model: SourceModel, t_start: float, t_end: float) -> np.ndarray:
     """The source's grid ``t_start + offset + k·period`` (k ≥ 0) up to ``t_end`` inclusive."""
     n = int(np.floor((t_end - t_start - model.offset) / model.period + 1e-9)) + 1
@@ -145,13 +241,42 @@ def report_times(model: SourceModel, t_start: float, t_end: float) -> np.ndarray
 
 
 def simulate_source(truth: ShipTruth, model: SourceModel, rng: np.random.Generator,
-                    t_start: float = 0.0, t_end: float | None = None) -> SourceReports:
-    """Every report of ``model`` on the real ships between ``t_start`` and ``t_end`` (default: the data's end)."""
+                    t_start: float = 0.0, t_end: float | None = None, *, block_cells: int = SIM_CELLS) -> SourceReports:
+    """Every report of ``model`` on the real ships between ``t_start`` and ``t_end`` (default: the data's end).
+
+    The grid is simulated in blocks of at most ``block_cells`` ships × instants (memory bounded by
+    the block, not the duration); within a block the draws are dropouts, bearings, noise in
+    that order, so a run that fits one block draws exactly what the unblocked simulation drew.
+    """
     t_end = truth.t_end if t_end is None else float(t_end)
     times = report_times(model, t_start, t_end)
-    pos = truth.positions(times)                                   # (S, K, 2)
+    site = resolve_site(truth, model.site)
+    step = max(1, int(block_cells) // max(len(truth), 1))
+    parts = []
+    for k0 in range(0, times.size, step):               # blocks of instants (a few, not one per instant)
+        parts.append(_simulate_block(truth, model, rng, times, k0, min(k0 + step, times.size), site))
+    ship, k, true_xy, mu, R = (np.concatenate([p[i] for p in parts]) if parts else np.zeros(0)
+                               for i in range(5))
+    ship, k = ship.astype(int), k.astype(int)
+    true_xy, mu, R = true_xy.reshape(-1, 2), mu.reshape(-1, 2), R.reshape(-1, 2, 2)
+    # local track ids: the ships this source ever reports, numbered in a shuffled order
+    seen_ships = np.unique(ship)
+    perm = rng.permutation(seen_ships.size)
+    local = np.empty(len(truth), int)
+    local[seen_ships] = perm
+    ids = [f'{model.id_prefix}{i:03d}' for i in range(seen_ships.size)]
+    mmsi = np.empty(seen_ships.size, np.int64)
+    mmsi[perm] = truth.mmsi[seen_ships]
+    order = np.lexsort((local[ship], k))                          # time, then local id
+    return SourceReports(model.name, ids, mmsi, times[k][order], local[ship][order], mu[order], R[order],
+                         true_xy[order])
+
+
+def _simulate_block(truth: ShipTruth, model: SourceModel, rng: np.random.Generator, times: np.ndarray,
+                    k0: int, k1: int, site: np.ndarray):
+    """(ship, instant index, true xy, reported xy, R) of the reports at ``times[k0:k1]``, ship-major order."""
+    pos = truth.positions(times[k0:k1])                            # (S, K, 2)
     seen = np.all(np.isfinite(pos), axis=-1)
-    site = np.zeros(2) if model.site is None else truth.plane.forward(*model.site)
     if model.max_range is not None:
         with np.errstate(invalid='ignore'):
             seen &= np.linalg.norm(pos - site, axis=-1) <= model.max_range
@@ -169,14 +294,4 @@ def simulate_source(truth: ShipTruth, model: SourceModel, rng: np.random.Generat
     _, R = ellipse_to_gaussian(np.zeros(m), np.zeros(m), 2 * model.sigma_major, 2 * model.sigma_minor, phi)
     R = R.reshape(m, 2, 2)
     noise = np.einsum('mij,mj->mi', np.linalg.cholesky(R), rng.standard_normal((m, 2)))
-    # local track ids: the ships this source ever reports, numbered in a shuffled order
-    seen_ships = np.unique(ship)
-    perm = rng.permutation(seen_ships.size)
-    local = np.empty(len(truth), int)
-    local[seen_ships] = perm
-    ids = [f'{model.id_prefix}{i:03d}' for i in range(seen_ships.size)]
-    mmsi = np.empty(seen_ships.size, np.int64)
-    mmsi[perm] = truth.mmsi[seen_ships]
-    order = np.lexsort((local[ship], k))                          # time, then local id
-    return SourceReports(model.name, ids, mmsi, times[k][order], local[ship][order], (true_xy + noise)[order],
-                         R[order], true_xy[order])
+    return ship, k + k0, true_xy, true_xy + noise, R

@@ -13,8 +13,10 @@ time (no ``use_sim_time``) node time 0 is the whole second at the first timer ti
 The source reports every ship it sees at ``offset + k·period`` (node time), each report missing
 with probability ``dropout``, as the true position plus Gaussian noise with its own 2σ ellipse
 (1σ ``sigma_major`` × ``sigma_minor``, major axis ``orientation``: ``fixed`` at ``bearing_deg``,
-``radial`` across the line of sight from ``site`` [lat, lon], or ``random`` per report). Ships
-beyond ``max_range`` of the site (0: no limit) are not seen.
+``radial`` across the line of sight from ``site`` [lat, lon]; ``[0.0]``: on the convex hull of the
+traffic at ``site_bearing_deg``, or ``random`` per report). Ships beyond ``max_range`` of the site
+(0: no limit) are not seen. ``columns`` maps another AIS export's columns and ``max_gap`` 0
+derives each ship's gap limit from its report interval (``track_core.ais.reader``, ``.sources``).
 
 Topics (``prefix`` e.g. ``/ais/radar``, see ``track_msgs_py.topics``):
 
@@ -54,11 +56,13 @@ REPORTS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliabilit
 
 PARAMS = (
     Param('file', '', 'AIS CSV file (empty: the Solent file in the shared data folder)'),
+    Param('columns', '', 'column mapping: a preset or "time=...;mmsi=...;lat=...;lon=..." (empty: detect; '
+          'see track_core.ais.reader)'),
     Param('start', 0.0, 'data time replayed at node time 0 [s after the first AIS report]', 0.0, 1e7),
     Param('duration', 600.0, 'length of the replayed data window [s]', 1.0, 1e7),
     Param('origin', [0.0], 'projection origin [lat, lon] in degrees; [0.0]: the data centroid (median)'),
-    Param('max_gap', 400.0, 'a ship is unknown inside a gap between its AIS reports longer than this [s]',
-          1.0, 1e6),
+    Param('max_gap', 0.0, 'a ship is unknown inside a gap between its AIS reports longer than this [s]; '
+          '0: derived per ship from its report interval', 0.0, 1e6),
     Param('period', 5.0, 'report interval [s]', 1e-3, 3600.0),
     Param('offset', 0.0, 'stamp of the first report [s]; reports at offset + k·period', 0.0, 3600.0),
     Param('tick', 0.5, 'publishing timer period [s]: a report goes out at the first tick at or after its stamp',
@@ -68,7 +72,10 @@ PARAMS = (
     Param('orientation', 'radial', 'major-axis bearing: fixed | radial (across the line of sight from site) | '
           'random (per report)', choices=ORIENTATIONS),
     Param('bearing_deg', 0.0, 'major-axis bearing for orientation fixed, clockwise from north [deg]', -360.0, 360.0),
-    Param('site', [50.8184, -1.3072], 'sensor position [lat, lon] in degrees (radial orientation, max_range)'),
+    Param('site', [0.0], 'sensor position [lat, lon] in degrees (radial orientation, max_range); [0.0]: on the '
+          'convex hull of the traffic at site_bearing_deg from its mean position'),
+    Param('site_bearing_deg', 280.0, 'bearing of the hull site from the traffic\'s mean position [deg from north]',
+          -360.0, 360.0),
     Param('max_range', 0.0, 'ships further than this from the site are not seen [m]; 0: no limit', 0.0, 1e7),
     Param('dropout', 0.02, 'probability that a report is missing', 0.0, 0.99),
     Param('seed', 1, 'seed of this source\'s noise, dropouts and local ids', 0, 2**31 - 1),
@@ -96,18 +103,21 @@ class AisSourceNode(TrackNode):
         if not p.id_prefix or '#' in p.id_prefix or '/' in p.id_prefix:
             raise ValueError(f'parameter id_prefix={p.id_prefix!r} is invalid: allowed a non-empty name without '
                              '"#" or "/"')
-        data = read_ais(p.file or None)
+        data = read_ais(p.file or None, columns=p.columns or None)
         if data.n_skipped:
             self.get_logger().warning(f'AIS file {data.path}: {data.describe()}')
         else:
             self.get_logger().info(f'AIS file {data.path}: {data.describe()}')
+        for line in data.warnings:
+            self.get_logger().warning(line)
         origin = data.centroid() if list(p.origin) == [0.0] else _latlon('origin', p.origin)
-        truth = ShipTruth(data, LocalTangentPlane(*origin), max_gap=p.max_gap)
+        truth = ShipTruth(data, LocalTangentPlane(*origin), max_gap=p.max_gap or None)
         if p.start >= truth.t_end:
             raise ValueError(f'parameter start={p.start} is after the end of the data ({truth.t_end:.0f} s)')
         model = SourceModel(name=self.get_name(), id_prefix=p.id_prefix, period=p.period, offset=p.offset,
                             sigma_major=p.sigma_major, sigma_minor=p.sigma_minor, orientation=p.orientation,
-                            bearing_deg=p.bearing_deg, site=_latlon('site', p.site),
+                            bearing_deg=p.bearing_deg,
+                            site=f'hull:{p.site_bearing_deg:g}' if list(p.site) == [0.0] else _latlon('site', p.site),
                             max_range=p.max_range or None, dropout=p.dropout)
         self.reports = rep = simulate_source(truth, model, np.random.default_rng(p.seed), p.start,
                                              p.start + p.duration)

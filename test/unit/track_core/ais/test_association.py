@@ -129,3 +129,113 @@ def test_metrics_edge_cases():
     m = Metrics(3, 1, 2, 0)
     assert m.precision == 0.75 and m.recall == 0.6 and m.f1 == pytest.approx(2 * 0.75 * 0.6 / 1.35)
     assert set(m.as_dict()) >= {'precision', 'recall', 'f1'}
+
+
+# ---- short pairs: the prior on the per-instant association rate ----
+
+def test_short_pair_rule():
+    from track_core.ais.association import declare
+
+    n = np.array([1, 2, 3, 3, 4, 10, 10, 40, 40, 3])
+    k = np.array([1, 1, 1, 0, 1, 5, 4, 20, 19, 2])
+    np.testing.assert_array_equal(declare(n, k), k / n >= 0.5)                    # ν = 0: the plain majority
+    got = declare(n, k, prior_weight=2.0, prior_rate=0.75)                       # (k + 1.5) / (n + 2) ≥ 1/2
+    np.testing.assert_array_equal(got, [True, True, True, False, False, True, False, True, False, True])
+    assert not got[3]                               # never associated: never declared, whatever the prior
+    assert declare(np.array([3]), np.array([1]), 2.0, 0.75)[0] and not declare(np.array([3]), np.array([1]))[0]
+    nn, kk = (g.ravel() for g in np.meshgrid(np.arange(1, 60), np.arange(0, 60)))
+    kk, nn = kk[kk <= nn], nn[kk <= nn]
+    for rate in (0.75, 0.8, 0.95):                   # ν = 2: k ≥ ⌊n/2⌋ and k ≥ 1, for any r̄ in [0.75, 1)
+        np.testing.assert_array_equal(declare(nn, kk, 2.0, rate), (kk >= nn // 2) & (kk >= 1))
+    with pytest.raises(ValueError, match='prior'):
+        declare(n, k, prior_weight=-1.0)
+
+
+def test_short_pair_rule_saves_the_issue_example():
+    """0.86, 0, 0.18: one zero instant no longer outvotes a true pair of three instants."""
+    times = np.array([0.0, 1.0, 2.0])
+    a = _reports('a', times, [0, 0, 0], np.zeros((3, 2)), 10.0, [1])
+    b = _reports('b', times, [0, 0, 0], np.zeros((3, 2)), 10.0, [1])
+    table = PairTable(a, b)
+    g = np.array([0.86, 0.0, 0.18])
+    assert not table.decide(g).declared[0]
+    assert table.decide(g, prior_weight=2.0).declared[0]
+
+
+# ---- bounded memory: chunked pair-instants, streamed decisions ----
+
+def test_chunks_cover_every_pair_instant_once(sources):
+    from track_core.ais.association import pair_tables
+
+    a, b = sources
+    whole = pair_instants(a, b)
+    for max_pairs in (1, 5000, 10**9):
+        tables = list(pair_tables(a, b, max_pairs=max_pairs))
+        assert sum(len(t) for t in tables) == len(whole)
+        biggest_instant = int(np.max(np.unique(a.t, return_counts=True)[1])) * \
+            int(np.max(np.unique(b.t, return_counts=True)[1]))
+        assert max(len(t) for t in tables) <= max_pairs + biggest_instant       # an instant is never split
+        last = [t.a.t.max() for t in tables]
+        assert np.all(np.diff(last) > 0)                                        # time order
+    assert len(tables) == 1
+    with pytest.raises(ValueError, match='max_pairs'):
+        list(pair_tables(a, b, max_pairs=0))
+
+
+@pytest.mark.parametrize('max_pairs', [3000, 40_000])
+def test_streamed_decisions_equal_one_table(sources, max_pairs):
+    """Chunks change nothing for a deterministic method: windows carry across chunk borders exactly."""
+    from track_core.ais.association import StreamingDecisions, pair_tables
+
+    a, b = sources
+    whole = PairTable(a, b)
+    g_all, _ = whole.score('exact')
+    rules = {(1, 'geometric'): [0.3, 0.5], (3, 'geometric'): [0.5], (10, 'harmonic'): [0.5],
+             (None, 'geometric'): [0.5]}
+    stream = StreamingDecisions(len(a.ids), len(b.ids), rules)
+    chunks = 0
+    for t in pair_tables(a, b, max_pairs=max_pairs):
+        stream.add(t, t.score('exact')[0])
+        chunks += 1
+    assert chunks >= 3
+    for (window, mean), ths in rules.items():
+        for th in ths:
+            for o2o, nu in ((False, 0.0), (True, 2.0)):
+                ref = whole.decide(g_all, window=window or 10**9, mean=mean, threshold=th, one_to_one=o2o,
+                                   prior_weight=nu)
+                got = stream.decide(window, mean, th, one_to_one=o2o, prior_weight=nu)
+                np.testing.assert_array_equal(got.a, ref.a)
+                np.testing.assert_array_equal(got.b, ref.b)
+                np.testing.assert_array_equal(got.instants, ref.instants)
+                np.testing.assert_array_equal(got.associated, ref.associated)
+                np.testing.assert_array_equal(got.declared, ref.declared)
+                np.testing.assert_allclose(got.combined, ref.combined, rtol=1e-9, atol=1e-12)   # sums in another order
+    with pytest.raises(ValueError, match='not accumulated'):
+        stream.decide(3, 'geometric', 0.7)
+
+
+def test_scoring_memory_does_not_grow_with_the_duration(synthetic):
+    """Peak traced memory of scoring 1 h vs 4 h of the same traffic: the pair-instants quadruple, the peak does not."""
+    import tracemalloc
+
+    from track_core.ais.association import StreamingDecisions, pair_tables
+
+    rng = np.random.default_rng(11)
+    ships = {100 + s: [(600.0 * k, 50.0 + 0.02 * np.sin(s), -1.0 + 0.03 * np.cos(s) + 1e-5 * k) for k in range(25)]
+             for s in range(40)}
+    tr = ShipTruth(synthetic(ships))
+    peaks, sizes = [], []
+    for hours in (1, 4):
+        a = simulate_source(tr, RADAR, rng, 0.0, 3600.0 * hours)
+        b = simulate_source(tr, PATROL, rng, 0.0, 3600.0 * hours)
+        stream = StreamingDecisions(len(a.ids), len(b.ids), {(1, 'geometric'): [0.5], (3, 'geometric'): [0.5]})
+        tracemalloc.start()
+        n = 0
+        for t in pair_tables(a, b, max_pairs=20_000):
+            stream.add(t, t.score('glr')[0])                               # glr: every pair-instant computed
+            n += len(t)
+        peaks.append(tracemalloc.get_traced_memory()[1])
+        tracemalloc.stop()
+        sizes.append(n)
+    assert sizes[1] > 3.5 * sizes[0] > 3.5 * 100_000
+    assert peaks[1] < 1.3 * peaks[0]

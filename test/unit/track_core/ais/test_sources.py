@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from track_core.ais import PATROL, RADAR, LocalTangentPlane, ShipTruth, SourceModel, report_times, simulate_source
+from track_core.ais.sources import resolve_site
 from track_core.geofeasibility import gaussian_to_ellipse
 
 LAT0, LON0 = 50.8, -1.1
@@ -60,7 +61,7 @@ def test_noise_is_consistent_with_the_reported_ellipse(solent, model):
     if model.orientation == 'fixed':
         np.testing.assert_allclose(phi, np.radians(30.0))
     elif model.orientation == 'radial':                                    # major axis ⟂ line of sight
-        los = rep.truth - tr.plane.forward(*model.site)
+        los = rep.truth - resolve_site(tr, model.site)
         axis = np.stack([np.sin(phi), np.cos(phi)], 1)
         cosang = np.abs(np.sum(axis * los, 1)) / np.linalg.norm(los, axis=1)
         assert np.all(cosang < 1e-9)
@@ -91,7 +92,7 @@ def test_max_range_and_bad_models(solent):
     m = replace(RADAR, max_range=5000.0, dropout=0.0)
     rep = simulate_source(tr, m, np.random.default_rng(5), 0.0, 600.0)
     assert len(rep) > 0
-    assert np.all(np.linalg.norm(rep.truth - tr.plane.forward(*m.site), axis=1) <= 5000.0)
+    assert np.all(np.linalg.norm(rep.truth - resolve_site(tr, m.site), axis=1) <= 5000.0)
     with pytest.raises(ValueError, match='sigma_minor'):
         SourceModel(sigma_major=5.0, sigma_minor=10.0)
     with pytest.raises(ValueError, match='orientation'):
@@ -107,3 +108,85 @@ def test_same_seed_same_reports(solent):
     b = simulate_source(tr, RADAR, np.random.default_rng(9), 0.0, 300.0)
     np.testing.assert_array_equal(a.mu, b.mu)
     assert a.ids == b.ids
+
+
+# ---- gap limits from each ship's own report interval ----
+
+def test_gap_limit_is_derived_per_ship(synthetic):
+    # ship 1 reports every 10 s, ship 2 every 600 s (a 12-minute-ish reporter), ship 3 once
+    reps = {1: [(10.0 * k, LAT0, LON0 + 1e-4 * k) for k in range(30)] + [(700.0, LAT0, LON0)],
+            2: [(600.0 * k, LAT0 + 0.01, LON0) for k in range(5)] + [(6100.0, LAT0 + 0.01, LON0)],
+            3: [(50.0, LAT0 - 0.01, LON0)]}
+    tr = ShipTruth(synthetic(reps), LocalTangentPlane(LAT0, LON0))
+    np.testing.assert_allclose(tr.median_interval[:2], [10.0, 600.0])
+    assert np.isnan(tr.median_interval[2])
+    np.testing.assert_allclose(tr.gap_limit, [200.0, 3600.0, 1900.0])   # 20 × median, capped; ship 3: the median
+    p = tr.positions([250.0, 500.0, 1300.0, 4000.0])
+    assert np.all(np.isnan(p[0, 1]))             # ship 1: the 410 s gap > 200 s is unknown
+    assert np.all(np.isfinite(p[1, :3]))         # ship 2: 600 s gaps bridged
+    assert np.all(np.isnan(p[1, 3]))             # ... but not its 3700 s gap (> the 3600 s cap)
+    g = tr.gap_summary()
+    assert g['rule'].startswith('derived') and g['limit_max_s'] == 3600.0
+    fixed = ShipTruth(synthetic(reps), LocalTangentPlane(LAT0, LON0), max_gap=400.0)
+    assert np.all(fixed.gap_limit == 400.0) and fixed.gap_summary()['rule'] == 'fixed: 400 s'
+    assert np.all(np.isnan(fixed.positions([1000.0])[1]))     # 400 s cannot bridge 600 s reports
+    with pytest.raises(ValueError, match='max_gap'):
+        ShipTruth(synthetic(reps), max_gap=0.0)
+
+
+def test_solent_gap_rule_bridges_what_400_s_did(solent):
+    """Derived limits bridge at least the gaps the former fixed 400 s bridged (Solent's fast reporters aside)."""
+    tr, old = ShipTruth(solent), ShipTruth(solent, max_gap=400.0)
+    g, g_old = tr.gap_summary(), old.gap_summary()
+    assert g['gaps_bridged'] >= g_old['gaps_bridged'] - 1e-3
+    assert g['time_known'] > g_old['time_known']
+
+
+# ---- sites relative to the data ----
+
+def test_hull_site_is_on_the_edge_of_the_traffic(synthetic):
+    from track_core.ais.sources import hull_point
+
+    sq = np.array([[0.0, 0.0], [1000.0, 0.0], [1000.0, 1000.0], [0.0, 1000.0], [500.0, 500.0]])
+    np.testing.assert_allclose(hull_point(sq, 90.0), [1000.0, 500.0])        # east edge
+    np.testing.assert_allclose(hull_point(sq, 45.0), [1000.0, 1000.0], atol=1e-9)
+    np.testing.assert_allclose(hull_point(sq, 180.0), [500.0, 0.0], atol=1e-9)
+    line = np.array([[0.0, 0.0], [100.0, 0.0], [200.0, 0.0]])                 # degenerate: no hull
+    np.testing.assert_allclose(hull_point(line, 90.0), [200.0, 0.0], atol=1e-9)
+    data = synthetic({1: [(0.0, LAT0, LON0), (10.0, LAT0, LON0 + 0.1)], 2: [(0.0, LAT0 + 0.05, LON0)]})
+    tr = ShipTruth(data, LocalTangentPlane(LAT0, LON0))
+    west = resolve_site(tr, 'hull:270')
+    assert west[0] == pytest.approx(0.0, abs=1e-6)                            # the westmost points are at LON0
+    np.testing.assert_allclose(resolve_site(tr, None), [0.0, 0.0])
+    np.testing.assert_allclose(resolve_site(tr, (LAT0, LON0 + 0.1)), tr.plane.forward(LAT0, LON0 + 0.1))
+    for bad in ('hull', 'hull:east', 'coast:90'):
+        with pytest.raises(ValueError, match='site'):
+            SourceModel(site=bad)
+
+
+def test_default_radar_site_follows_the_data(solent, synthetic):
+    from track_core.ais.sources import CALSHOT
+
+    tr = ShipTruth(solent)
+    assert np.linalg.norm(resolve_site(tr, RADAR.site) - tr.plane.forward(*CALSHOT)) < 5000.0   # near Calshot
+    far = synthetic({1: [(0.0, 10.0, 100.0), (60.0, 10.0, 100.2)], 2: [(0.0, 10.1, 100.1)]})
+    tf = ShipTruth(far)
+    assert np.linalg.norm(resolve_site(tf, RADAR.site)) < 30e3                # within the other traffic's extent
+
+
+# ---- simulation in blocks (bounded memory) ----
+
+def test_blocked_simulation_reports_the_same_ships_and_times(solent):
+    tr = ShipTruth(solent)
+    m = replace(RADAR, dropout=0.0)
+    one = simulate_source(tr, m, np.random.default_rng(6), 0.0, 600.0)
+    blocks = simulate_source(tr, m, np.random.default_rng(6), 0.0, 600.0, block_cells=len(tr) * 7)  # 7 instants
+    o1 = np.lexsort((one.mmsi[one.track], one.t))                          # local ids are shuffled differently
+    o2 = np.lexsort((blocks.mmsi[blocks.track], blocks.t))
+    np.testing.assert_array_equal(one.t[o1], blocks.t[o2])
+    np.testing.assert_array_equal(one.mmsi[one.track][o1], blocks.mmsi[blocks.track][o2])
+    np.testing.assert_array_equal(one.truth[o1], blocks.truth[o2])
+    np.testing.assert_array_equal(one.R[o1], blocks.R[o2])                  # radial: R depends on geometry only
+    w = np.linalg.solve(np.linalg.cholesky(blocks.R), (blocks.mu - blocks.truth)[..., None])[..., 0]
+    n = len(blocks)
+    assert abs(np.mean(np.sum(w * w, 1)) - 2.0) < 6 * 2 / np.sqrt(n)        # still consistent noise
