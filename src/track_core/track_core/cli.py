@@ -32,6 +32,7 @@ class RunConfig:
     quick: bool = False
     out: Path = Path('out')
     show_progress: bool = True
+    reading: str | None = None  # entry-specific interpretation switch (e.g. sonar-table2 --reading)
 
     def n_runs(self, full: int, quick: int) -> int:
         """The run count: ``--runs`` if given, else ``quick`` under ``--quick``, else ``full``."""
@@ -108,6 +109,9 @@ def _main(kind: str, argv: list[str] | None) -> int:
     parser.add_argument('--json', type=Path, default=None, metavar='FILE', help='write the result as JSON')
     parser.add_argument('--out', type=Path, default=Path('out') / kind, help='directory for PNG/JSON output')
     parser.add_argument('--no-progress', action='store_true', help='hide the progress bar')
+    parser.add_argument('--reading', default=None, metavar='WORDS',
+                        help='interpretation of the paper for entries that have several (e.g. sonar-table2: '
+                             'comma-separated variance|std, spectral|excess, full|position, posterior|predicted)')
     args = parser.parse_args(argv)
 
     if args.list or not args.name:
@@ -122,7 +126,7 @@ def _main(kind: str, argv: list[str] | None) -> int:
 
     logging.basicConfig(level=logging.WARNING, format='%(levelname)s %(name)s: %(message)s')
     cfg = RunConfig(seed=args.seed, runs=args.runs, quick=args.quick, out=args.out,
-                    show_progress=not args.no_progress)
+                    show_progress=not args.no_progress, reading=args.reading)
     try:
         cfg.out.mkdir(parents=True, exist_ok=True)
         fn = entries[args.name].load()
@@ -136,7 +140,7 @@ def _main(kind: str, argv: list[str] | None) -> int:
         print(f'figure: {fig}')
     if args.json is not None:
         payload = {'name': args.name, 'seed': args.seed, 'runs': args.runs, 'quick': args.quick,
-                   **outcome.data}
+                   **({'reading': args.reading} if args.reading is not None else {}), **outcome.data}
         try:
             args.json.parent.mkdir(parents=True, exist_ok=True)
             args.json.write_text(json.dumps(payload, indent=2, default=float) + '\n')

@@ -39,14 +39,69 @@ paper's δ = 5 operating point, which is why the closed-loop experiment and the 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from track_core.filters import check_covariance
-from track_core.sonar.models import SensorMode
+from track_core.sonar.models import SensorMode, SonarParams
 
 METRICS = ('spectral', 'excess')
+BLOCKS = ('full', 'position')
+COV_KINDS = ('posterior', 'predicted')
+P_D_UNITS = ('variance', 'std')
 DEFAULT_P_D = np.diag([5.0, 0.25, 5.0, 0.25])
+POS = [0, 2]
+
+
+@dataclass(frozen=True)
+class Reading:
+    """One reading of eq. 7 and Table 1's P_D (``sonar-table2 --reading``).
+
+    - ``p_d``: 'variance' (diag(5, 0.25, 5, 0.25), the default) or 'std' (Table 1's numbers as
+      standard deviations, P_D = diag(25, 0.0625, 25, 0.0625));
+    - ``metric``: 'spectral' ‖P_D − Cov‖₂ (eq. 7 as printed) or 'excess' λmax(Cov − P_D) (one-sided);
+    - ``block``: 'full' 4×4, or 'position' (the [x, y] blocks of P_D and Cov only);
+    - ``cov``: 'posterior' Cov(x_k) (Algorithm 3) or 'predicted' F Cov Fᵀ + Q (the covariance the
+      next step would have without a measurement).
+    """
+
+    p_d: str = 'variance'
+    metric: str = 'spectral'
+    block: str = 'full'
+    cov: str = 'posterior'
+
+    def __post_init__(self) -> None:
+        for name, allowed in (('p_d', P_D_UNITS), ('metric', METRICS), ('block', BLOCKS), ('cov', COV_KINDS)):
+            if getattr(self, name) not in allowed:
+                raise ValueError(f'reading {name} must be one of {allowed}, got {getattr(self, name)!r}')
+
+    @classmethod
+    def parse(cls, text: str | None) -> Reading:
+        """'std,excess,position' → Reading; words in any order, each one value of a field; ''/None = default."""
+        fields: dict[str, str] = {}
+        for word in (w.strip().lower() for w in (text or '').split(',')):
+            if not word:
+                continue
+            hits = [name for name, allowed in (('p_d', P_D_UNITS), ('metric', METRICS), ('block', BLOCKS),
+                                               ('cov', COV_KINDS)) if word in allowed]
+            if not hits:
+                raise ValueError(f'reading: unknown word {word!r}; allowed {P_D_UNITS + METRICS + BLOCKS + COV_KINDS}')
+            if hits[0] in fields:
+                raise ValueError(f'reading: two values for {hits[0]} ({fields[hits[0]]!r}, {word!r})')
+            fields[hits[0]] = word
+        return cls(**fields)
+
+    @property
+    def label(self) -> str:
+        return ','.join((self.p_d, self.metric, self.block, self.cov))
+
+    @property
+    def P_D(self) -> np.ndarray:  # noqa: N802 - the paper's symbol
+        return DEFAULT_P_D**2 if self.p_d == 'std' else DEFAULT_P_D.copy()
+
+    def scheduler_kwargs(self) -> dict:
+        return {'P_D': self.P_D, 'metric': self.metric, 'block': self.block, 'cov_kind': self.cov}
 
 
 def desired_covariance(P_D: np.ndarray | list | tuple | None) -> np.ndarray:
@@ -68,10 +123,17 @@ class CovarianceScheduler:
     """
 
     def __init__(self, P_D: np.ndarray | None = None, delta: float = 5.0,
-                 first: SensorMode | str = SensorMode.ACTIVE, metric: str = 'spectral') -> None:
+                 first: SensorMode | str = SensorMode.ACTIVE, metric: str = 'spectral', *,
+                 block: str = 'full', cov_kind: str = 'posterior', params: SonarParams | None = None) -> None:
         if metric not in METRICS:
             raise ValueError(f'metric must be one of {METRICS}, got {metric!r}')
-        self.metric = metric
+        if block not in BLOCKS:
+            raise ValueError(f'block must be one of {BLOCKS}, got {block!r}')
+        if cov_kind not in COV_KINDS:
+            raise ValueError(f'cov_kind must be one of {COV_KINDS}, got {cov_kind!r}')
+        self.metric, self.block, self.cov_kind = metric, block, cov_kind
+        p = params or SonarParams()
+        self._F, self._Q = p.F, p.Q
         if not (isinstance(delta, int | float | np.floating | np.integer) and math.isfinite(delta) and delta >= 0):
             raise ValueError(f'delta must be a finite number >= 0, got {delta!r}')
         self.P_D = desired_covariance(P_D)
@@ -83,8 +145,17 @@ class CovarianceScheduler:
         self.next_mode = self.first
 
     def distance(self, cov: np.ndarray) -> float:
-        """'spectral': ‖P_D − Cov‖₂ (largest singular value, eq. 7); 'excess': λ_max(Cov − P_D)."""
-        diff = self.P_D - np.asarray(cov, dtype=float)
+        """'spectral': ‖P_D − Cov‖₂ (largest singular value, eq. 7); 'excess': λ_max(Cov − P_D).
+
+        ``cov_kind='predicted'`` uses F Cov Fᵀ + Q; ``block='position'`` the [x, y] blocks only.
+        """
+        C = np.asarray(cov, dtype=float)
+        if self.cov_kind == 'predicted':
+            C = self._F @ C @ self._F.T + self._Q
+        P_D = self.P_D
+        if self.block == 'position':
+            C, P_D = C[np.ix_(POS, POS)], P_D[np.ix_(POS, POS)]
+        diff = P_D - C
         if self.metric == 'excess':
             return float(-np.linalg.eigvalsh(0.5 * (diff + diff.T))[0])
         return float(np.linalg.norm(diff, ord=2))
