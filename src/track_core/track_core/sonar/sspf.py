@@ -8,34 +8,65 @@ All N particles are processed at once: (N, 4) means, (N, 4, 4) covariances, (N, 
 
 Proposal covariance (a choice the paper leaves open). Algorithm 3 runs the RB-UKF "to x_kⁱ",
 i.e. from the particle itself; the covariance attached to the particle is not stated.
-- ``proposal='transition'`` (default): the particle is a point, P_kⁱ = 0, so the linear
-  prediction gives N(F x_kⁱ, Q) and the UKF update approximates the locally optimal proposal
-  p(x_{k+1} | x_kⁱ, z_{k+1}). The weights p(z|x)p(x|x_prev)/q(x) stay nearly uniform.
-- ``proposal='propagated'``: the unscented-particle-filter reading (van der Merwe et al. 2000):
-  each particle carries its UKF posterior covariance P_{k+1}ⁱ to the next step (resampled with
-  it). The proposal is then much wider than p(x|x_prev) (position var. ≈ q_s T³/3), so the weights
+- ``proposal='rb'`` (default since issue 18): every particle is a Gaussian N(mⁱ, Pⁱ) that carries
+  its own UKF covariance (the unscented particle filter's per-particle P, van der Merwe et al.
+  2000, Rao-Blackwellised as in Briers et al. 2003, the paper's ref. 11). Algorithm 2 updates each
+  one; the weight is its predictive likelihood wⁱ ∝ wⁱ_prev N(νⁱ; 0, Sⁱ) (x integrated out instead
+  of sampled: the expectation of Algorithm 3's p(z|x)p(x|x_prev)/q(x) under q). The prior is split
+  as N(m₀, P₀) = ∫ N(m; m₀, (1−b)P₀) N(x; m, bP₀) dm with b = ``split`` = 0.25, so the N means are
+  drawn from N(m₀, 0.75 P₀) and each Pⁱ = 0.25 P₀. Selection: systematic resampling, then the
+  Liu–West move of the means (below). Output: the mixture's moments, Algorithm 3's Cov plus the
+  particles' own covariances, Cov = Σ wⁱ (Pⁱ + (mⁱ − m̄)(mⁱ − m̄)ᵀ). ``split=1`` makes every particle
+  the whole prior, i.e. exactly the UKF peer (``ukf.UKFTracker``; tested).
+- ``proposal='transition'``: the particle is a point, P_kⁱ = 0, so the linear prediction gives
+  N(F x_kⁱ, Q) and the UKF update approximates the locally optimal proposal
+  p(x_{k+1} | x_kⁱ, z_{k+1}). The weights p(z|x)p(x|x_prev)/q(x) stay nearly uniform. (Default
+  before issue 18.)
+- ``proposal='propagated'``: each particle carries its UKF posterior covariance P_{k+1}ⁱ to the
+  next step, but the particle itself is the sample and the weight uses p(x|x_prev) = N(F x_prev, Q):
+  the proposal is much wider than that transition (position var. ≈ q_s T³/3), so the weights
   degenerate (ESS of a few particles); kept for comparison.
 
-First step. The prior p(x₀) = N(m₀, P₀) is Gaussian and the model linear, so the first
-proposal is one RB-UKF on N(m₀, P₀) itself and the transition density in the weight is the
-exact predicted prior N(F m₀, F P₀ Fᵀ + Q). Starting from N points drawn from a 20 m prior
-instead leaves only the few that land within a few metres of an active fix (ESS ≈ 1).
+Why the point-particle filter degenerated and was overconfident (issue 18, measured on Table 2's
+scenario, M = 20–50): with P_kⁱ = 0 the cloud's covariance is the only uncertainty the filter
+has, and at N = 200 it is a Monte-Carlo estimate that misses the error of the particle mean; the
+velocity is learnt only through selection, so the particles' histories coalesce. ANEES 5.1–9.3
+(band [2.86, 5.33] at M = 20), about half the steps inside, and on seed 11 run 16 (δ = 50) the
+filter drifts 69 m while the cloud shrinks to one particle (smallest eigenvalue 8e-32 m²). The cause is
+the point representation itself, not the weight formula (checked against brute-force densities)
+nor the regularisation, so the fix is at the representation: with 'rb' the within-particle
+covariances Pⁱ carry the uncertainty analytically. Measured (M = 20, seed 0): AcPF ANEES 3.77,
+SS-PF δ = 50 3.66, PaPF 4.05, all steps or nearly all inside; the same run's point-particle figures
+are 5.06, 9.26, 5.28. Variants of 'rb' tried (M = 30, seed 3): b = 0.1, 0.25, 0.5, resampling at every
+step or at ESS < N/2, with and without the Liu–West move: all within ±0.13 m of each other and of the
+UKF at equal pings (standard errors 0.01–0.14 m), so the defaults are kept. Tempering and adaptive
+roughening were not tried: with 'rb' no degeneracy is left for them to fix (no repair needed, ANEES
+in band), and the predictive likelihood's S already contains each particle's own P, so a sharp
+active fix after passive steps is tempered by construction.
+
+Collapse. 'rb' cannot collapse: each Pⁱ is a UKF posterior of a prediction ≥ Q, so Cov ≥ min Pⁱ > 0
+whatever the weights (smallest eigenvalue ≥ 0.1 m² in the tests). For the point-particle proposals
+a selected cloud whose covariance is singular (``collapsed``: λmin ≤ 1e-9·max(λmax, λmin(Q))) is
+re-spread with the particles' mean UKF covariance, counted in ``SSPF.repairs``, flagged in the
+estimate (``repaired``) and logged; the experiments report the count.
+
+Smart-target model (``target_model=SmartTargetParams(...)``, 'rb' only, beyond the paper). The
+observer knows when it pinged; each particle then draws whether its target heard the ping with
+P_det(range), and evading particles move by ``smart_target.evasive_transition``. The discrete part
+is sampled, the continuous part stays Gaussian (a Rao-Blackwellised jump-Markov filter), which a
+single UKF cannot represent. This is where the particle filter is ahead of the UKF (experiments).
+
+First step ('transition'/'propagated'). The prior p(x₀) = N(m₀, P₀) is Gaussian and the model
+linear, so the first proposal is one RB-UKF on N(m₀, P₀) itself and the transition density in the
+weight is the exact predicted prior N(F m₀, F P₀ Fᵀ + Q). Starting from N points drawn from a 20 m
+prior instead leaves only the few that land within a few metres of an active fix (ESS ≈ 1).
 
 Selection. ``resample_threshold=1.0`` (default) resamples systematically at every step, as
 Algorithm 3 does; a smaller value resamples only when ESS < threshold·N (weights carried).
-``regularize=True`` (default; not in the paper) moves the selected particles with a Liu–West
-shrinkage kernel, x ← a x + (1−a) x̄ + h L e, h = (4/(N(n+2)))^{1/(n+4)}, a = √(1−h²), L L' = Cov,
-which keeps the cloud's mean and covariance but restores the diversity that resampling
-removes. Without it the N = 200 cloud shrinks (AcPF ANEES ≈ 9 instead of ≈ 6) and the covariance
-that drives the scheduler is too small.
-
-Consistency. At N = 200 the filter is overconfident (AcPF ANEES ≈ 5.8–6.1 for 4 states, ≈ 2.8–3.0
-for the position block alone): a Monte-Carlo effect, not a model mismatch. The weights are
-checked against brute-force densities in the tests, the same AcPF gives 4.7 at N = 500 and 4.4
-at N = 2000, and a single UKF on the same data gives 4.2. The excess grows over the run: the
-velocity is learnt only through selection, so the particles' histories coalesce and the error of
-the particle mean (not in the cloud's covariance) becomes a sizeable part of the total error.
-Resampling only when ESS < N/2 does not change it.
+``regularize=True`` (default; not in the paper) moves the selected particles (their means, for
+'rb') with a Liu–West shrinkage kernel, x ← a x + (1−a) x̄ + h L e, h = (4/(N(n+2)))^{1/(n+4)},
+a = √(1−h²), L L' = the particles' (means') covariance, which keeps the cloud's mean and
+covariance but restores the diversity that resampling removes.
 """
 
 from __future__ import annotations

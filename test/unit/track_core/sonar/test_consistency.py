@@ -150,3 +150,17 @@ def test_readings_parse_and_change_the_distance():
     assert pred == pytest.approx(np.linalg.eigvalsh(p.F @ cov @ p.F.T + p.Q - DEFAULT_P_D)[-1])
     with pytest.raises(ValueError, match=r'^block must be'):
         CovarianceScheduler(block='velocity')
+
+
+def test_pcrlb_floors_on_the_noise_free_truth():
+    # the audit's figures: 17.45 m² (position) and 14.45 (eq. 7 distance) on the noise-free truth
+    from track_core.sonar.experiments import pcrlb_floor
+
+    sc = Scenario()
+    truths = np.array([sc.simulate_truth(np.random.default_rng(s)) for s in range(5)])
+    f = pcrlb_floor(sc, truths)
+    assert f['noise_free_min_lambda_max_pos_m2'] == pytest.approx(17.45, abs=0.01)
+    assert f['noise_free_eq7_distance_floor'] == pytest.approx(14.45, abs=0.01)
+    assert f['eq7_distance_floor'] >= f['weyl_floor'] > 10.0  # so δ = 5 and 10 keep the sonar active
+    fp = pcrlb_floor(sc, truths, Reading.parse('std,position').P_D, 'position')
+    assert fp['noise_free_eq7_distance_floor'] < 0  # with P_D as std the position floor is gone
