@@ -35,3 +35,16 @@ def test_smart_target_quick(tmp_path):
     assert out.data['trackers']['papf']['pings'] == 0
     assert out.data['trackers']['acpf']['pings'] == 40
     json.dumps(out.data)
+
+
+def test_cli_reading_flag(tmp_path, capsys):
+    from track_core.cli import experiment_main
+
+    out = tmp_path / 'r.json'
+    assert experiment_main(['sonar-table2', '--quick', '--runs', '1', '--no-progress', '--out', str(tmp_path),
+                            '--reading', 'std,excess,position', '--json', str(out)]) == 0
+    data = json.loads(out.read_text())
+    assert data['reading'] == 'std,excess,position,posterior'
+    assert experiment_main(['sonar-table2', '--quick', '--runs', '1', '--no-progress', '--out', str(tmp_path),
+                            '--reading', 'frobenius']) == 2
+    assert 'unknown word' in capsys.readouterr().err
