@@ -4,7 +4,8 @@
 ``estimate``), so ``scenario.run_once`` and the experiments drive both the same way on identical
 inputs. Prediction is eqs. 1–4 (``filters.kf_predict``), the update Algorithm 2's unscented
 transform (``filters.unscented_update`` with the wrapped bearing residual): it is the RB-UKF of
-one particle carrying the whole prior, and the SS-PF's ``proposal='rb'`` with N = 1 is exactly it.
+one particle carrying the whole prior: the SS-PF's ``proposal='rb'`` with ``split=1`` (every particle
+the whole prior) equals it to 1e-5 (tested).
 
 ``StoneSoupUKF`` wraps Stone Soup's ``UnscentedKalmanPredictor``/``UnscentedKalmanUpdater`` (the
 peer the issue compares against) behind the same interface; ``stonesoup_available()`` says whether
