@@ -33,6 +33,7 @@ class RunConfig:
     out: Path = Path('out')
     show_progress: bool = True
     options: dict[str, str] = field(default_factory=dict)   # --set KEY=VALUE (entry-specific; see its docstring)
+    reading: str | None = None  # entry-specific interpretation switch (e.g. sonar-table2 --reading)
 
     def n_runs(self, full: int, quick: int) -> int:
         """The run count: ``--runs`` if given, else ``quick`` under ``--quick``, else ``full``."""
@@ -118,6 +119,9 @@ def _main(kind: str, argv: list[str] | None) -> int:
     parser.add_argument('--no-progress', action='store_true', help='hide the progress bar')
     parser.add_argument('--set', action='append', default=[], metavar='KEY=VALUE', type=_key_value,
                         help='an entry-specific option (repeatable; the entry documents its keys)')
+    parser.add_argument('--reading', default=None, metavar='WORDS',
+                        help='interpretation of the paper for entries that have several (e.g. sonar-table2: '
+                             'comma-separated variance|std, spectral|excess, full|position, posterior|predicted)')
     args = parser.parse_args(argv)
 
     if args.list or not args.name:
@@ -133,7 +137,7 @@ def _main(kind: str, argv: list[str] | None) -> int:
     options = dict(args.set)
     logging.basicConfig(level=logging.WARNING, format='%(levelname)s %(name)s: %(message)s')
     cfg = RunConfig(seed=args.seed, runs=args.runs, quick=args.quick, out=args.out,
-                    show_progress=not args.no_progress, options=options)
+                    show_progress=not args.no_progress, options=options, reading=args.reading)
     try:
         cfg.out.mkdir(parents=True, exist_ok=True)
         fn = entries[args.name].load()
@@ -147,7 +151,8 @@ def _main(kind: str, argv: list[str] | None) -> int:
         print(f'figure: {fig}')
     if args.json is not None:
         payload = {'name': args.name, 'seed': args.seed, 'runs': args.runs, 'quick': args.quick,
-                   **({'options': options} if options else {}), **outcome.data}
+                   **({'options': options} if options else {}),
+                   **({'reading': args.reading} if args.reading is not None else {}), **outcome.data}
         try:
             args.json.parent.mkdir(parents=True, exist_ok=True)
             args.json.write_text(json.dumps(payload, indent=2, default=float) + '\n')

@@ -2,7 +2,8 @@
 
 - ``models``: CV target (eqs. 1–4), passive/active sonar (eqs. 5–6), ``SonarParams`` (Table 1).
 - ``sspf``: RB-UKF proposal (Algorithm 2, vectorised), ``SSPF`` (Algorithm 3), PaPF/AcPF.
-- ``scheduler``: covariance control (eq. 7), the P_D interpretation.
+- ``scheduler``: covariance control (eq. 7), the P_D interpretation, ``Reading`` (eq. 7 readings).
+- ``ukf``: the UKF peer (ours, from ``filters``) and Stone Soup's UKF behind the SS-PF interface.
 - ``scenario``: the Section 5 observer trajectory, truth, prior, one Monte-Carlo run.
 - ``smart_target``: a target that hears pings (range-dependent) and evades.
 - ``experiments``/``bench``: ``sonar-table2``, ``smart-target`` and ``track-bench sonar``.
@@ -10,9 +11,10 @@
 
 from track_core.sonar.models import SensorMode, SonarParams, bearing, measure, residual, simulate_measurement
 from track_core.sonar.scenario import ObserverTrajectory, RunResult, Scenario, run_once
-from track_core.sonar.scheduler import DEFAULT_P_D, CovarianceScheduler, FixedScheduler, desired_covariance
+from track_core.sonar.scheduler import DEFAULT_P_D, CovarianceScheduler, FixedScheduler, Reading, desired_covariance
 from track_core.sonar.smart_target import SmartTarget, SmartTargetParams
 from track_core.sonar.sspf import SSPF, SonarEstimate, make_tracker, rb_ukf
+from track_core.sonar.ukf import UKFTracker, make_ukf
 
 __all__ = [
     'DEFAULT_P_D',
@@ -20,6 +22,7 @@ __all__ = [
     'CovarianceScheduler',
     'FixedScheduler',
     'ObserverTrajectory',
+    'Reading',
     'RunResult',
     'Scenario',
     'SensorMode',
@@ -27,9 +30,11 @@ __all__ = [
     'SmartTargetParams',
     'SonarEstimate',
     'SonarParams',
+    'UKFTracker',
     'bearing',
     'desired_covariance',
     'make_tracker',
+    'make_ukf',
     'measure',
     'rb_ukf',
     'residual',

@@ -31,8 +31,8 @@ Z = np.array([math.atan2(300.0, 300.0), math.hypot(300.0, 300.0)])
 OBS = np.zeros(2)
 
 
-def _ours(n: int, seed: int) -> SSPF:
-    trk = make_tracker('acpf', SonarParams(n_particles=n), np.random.default_rng(seed))
+def _ours(n: int, seed: int, proposal: str = 'rb') -> SSPF:
+    trk = make_tracker('acpf', SonarParams(n_particles=n), np.random.default_rng(seed), proposal=proposal)
     trk.initialize(X0, P0)
     trk.step(Z, SensorMode.ACTIVE, OBS)
     return trk
@@ -130,12 +130,40 @@ def _stonesoup_step_fn(n: int, seed: int):
     return step
 
 
+def _ukf_step_fn(peer: str):
+    """One active step of the UKF peer ('ukf': ours from filters/; 'stonesoup-ukf'), or None if unavailable."""
+    from track_core.sonar.ukf import make_ukf, stonesoup_available
+
+    if peer == 'stonesoup-ukf' and not stonesoup_available():
+        log.warning('stonesoup unavailable')
+        return None
+    trk = make_ukf('acpf', SonarParams(), peer=peer)
+    trk.initialize(X0, P0)
+
+    def step():
+        trk.initialize(X0, P0)
+        trk.step(Z, SensorMode.ACTIVE, OBS)
+
+    return step
+
+
 def sonar_benchmark(cfg: RunConfig) -> Outcome:
+    """Times per active step: our SS-PF ('rb', the default, and 'transition'), the UKF peers, FilterPy, Stone Soup."""
     repeat = 3 if cfg.quick else 5
     t_ours = {}
     for n in (200, 2000):
         trk = _ours(n, cfg.seed)
         t_ours[n] = best_time(lambda trk=trk: trk.step(Z, SensorMode.ACTIVE, OBS), repeat=repeat)
+    trk_t = _ours(200, cfg.seed, 'transition')
+    t_transition = best_time(lambda: trk_t.step(Z, SensorMode.ACTIVE, OBS), repeat=repeat)
+    t_ukf = best_time(_ukf_step_fn('ukf'), repeat=repeat)
+    ss_ukf = _ukf_step_fn('stonesoup-ukf')
+    t_ss_ukf = None
+    if ss_ukf is not None:
+        try:
+            t_ss_ukf = best_time(ss_ukf, repeat=repeat)
+        except Exception as exc:  # a peer's API change must not break our benchmark
+            log.warning('stonesoup UKF step failed: %s', exc)
     fp = _filterpy_step_fn(200, cfg.seed)
     t_fp = best_time(fp, repeat=repeat) if fp is not None else None
     t_ss = None
@@ -148,6 +176,9 @@ def sonar_benchmark(cfg: RunConfig) -> Outcome:
     data = {
         'n200_ms': t_ours[200] * 1e3,
         'n2000_ms': t_ours[2000] * 1e3,
+        'transition_n200_ms': t_transition * 1e3,
+        'ukf_ms': t_ukf * 1e3,
+        'stonesoup_ukf_ms': None if t_ss_ukf is None else t_ss_ukf * 1e3,
         'filterpy_loop_n200_ms': None if t_fp is None else t_fp * 1e3,
         'stonesoup_n200_ms': None if t_ss is None else t_ss * 1e3,
         'speedup_vs_filterpy': None if t_fp is None else t_fp / t_ours[200],
@@ -157,8 +188,11 @@ def sonar_benchmark(cfg: RunConfig) -> Outcome:
     def fmt(v):
         return 'unavailable' if v is None else v
 
-    rows = [['SS-PF step (ours, vectorised)', 200, data['n200_ms'], 1.0],
-            ['SS-PF step (ours, vectorised)', 2000, data['n2000_ms'], '-'],
+    rows = [['SS-PF step, rb (ours, vectorised)', 200, data['n200_ms'], 1.0],
+            ['SS-PF step, rb (ours, vectorised)', 2000, data['n2000_ms'], '-'],
+            ['SS-PF step, transition (ours)', 200, data['transition_n200_ms'], '-'],
+            ['UKF peer step (ours, filters/)', 1, data['ukf_ms'], '-'],
+            ['Stone Soup UKF step', 1, fmt(data['stonesoup_ukf_ms']), '-'],
             ['FilterPy UKF per particle (loop)', 200, fmt(data['filterpy_loop_n200_ms']),
              fmt(data['speedup_vs_filterpy'])],
             ['Stone Soup ParticleUpdater + KalmanProposal(UKF)', 200, fmt(data['stonesoup_n200_ms']),

@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from track_core.filters import cv_transition
 from track_core.sonar.models import SonarParams
 
 
@@ -57,6 +58,31 @@ class SmartTargetParams:
     def detection_probability(self, r: float | np.ndarray) -> np.ndarray:
         """P_det(r), the probability that one ping at range r (m) is heard."""
         return self.p_max / (1.0 + np.exp((np.asarray(r, dtype=float) - self.r_50) / self.width))
+
+
+def evasive_transition(x: np.ndarray, evading: np.ndarray, observer_xy: np.ndarray, cruise_speed: np.ndarray,
+                       params: SmartTargetParams, T: float) -> np.ndarray:
+    """The commanded (noise-free) motion of N targets over one period, vectorised: (N, 4) → (N, 4).
+
+    ``evading`` (N,) bool: steer away from the observer towards ``evade_speed``; else hold the
+    heading and return to ``cruise_speed`` (N,). Turn and speed change are clipped to the rates;
+    the position integrates the mean of the old and new velocity. ``naive`` params give F x (eq. 1).
+    The truth (``SmartTarget``) and the SS-PF's target model (``SSPF(target_model=...)``) both use it.
+    """
+    x = np.asarray(x, dtype=float)
+    p = params
+    if p.naive:
+        return x @ cv_transition(T).T
+    vx, vy = x[:, 1], x[:, 3]
+    speed, heading = np.hypot(vx, vy), np.arctan2(vx, vy)
+    away = np.arctan2(x[:, 0] - observer_xy[0], x[:, 2] - observer_xy[1])
+    want_h = np.where(evading, away, heading)
+    want_v = np.where(evading, p.evade_speed, cruise_speed)
+    dh = (want_h - heading + np.pi) % (2 * np.pi) - np.pi
+    heading = heading + np.clip(dh, -p.max_turn_rate * T, p.max_turn_rate * T)
+    speed = speed + np.clip(want_v - speed, -p.max_accel * T, p.max_accel * T)
+    vxn, vyn = speed * np.sin(heading), speed * np.cos(heading)
+    return np.stack([x[:, 0] + 0.5 * T * (vx + vxn), vxn, x[:, 2] + 0.5 * T * (vy + vyn), vyn], axis=1)
 
 
 @dataclass
@@ -102,28 +128,14 @@ class SmartTarget:
         obs = np.asarray(observer_xy, dtype=float)[:2]
         if pinged:
             self.hear(rng, obs)
-        T, p = self.sonar.T, self.params
-        if p.naive:
-            x_det = self._F @ self.x
-        else:
+        p = self.params
+        if not p.naive:
             if self.last_detection_t is not None and self.t - self.last_detection_t < p.quiet_period:
                 self.evading = True
             elif self.evading:
                 self.evading = False
-            vx, vy = self.x[1], self.x[3]
-            speed = math.hypot(vx, vy)
-            heading = math.atan2(vx, vy)
-            if self.evading:
-                want_h = math.atan2(self.x[0] - obs[0], self.x[2] - obs[1])  # away from the observer
-                want_v = p.evade_speed
-            else:
-                want_h, want_v = heading, self.cruise_speed
-            dh = (want_h - heading + math.pi) % (2 * math.pi) - math.pi
-            heading += float(np.clip(dh, -p.max_turn_rate * T, p.max_turn_rate * T))
-            speed += float(np.clip(want_v - speed, -p.max_accel * T, p.max_accel * T))
-            v_new = np.array([speed * math.sin(heading), speed * math.cos(heading)])
-            pos = np.array([self.x[0], self.x[2]]) + 0.5 * T * (np.array([vx, vy]) + v_new)
-            x_det = np.array([pos[0], v_new[0], pos[1], v_new[1]])
+        x_det = evasive_transition(self.x[None], np.array([self.evading]), obs, np.array([self.cruise_speed]),
+                                   p, self.sonar.T)[0]
         self.x = x_det + self._L_Q @ rng.standard_normal(4)
-        self.t += T
+        self.t += self.sonar.T
         return self.x.copy()

@@ -8,34 +8,65 @@ All N particles are processed at once: (N, 4) means, (N, 4, 4) covariances, (N, 
 
 Proposal covariance (a choice the paper leaves open). Algorithm 3 runs the RB-UKF "to x_kⁱ",
 i.e. from the particle itself; the covariance attached to the particle is not stated.
-- ``proposal='transition'`` (default): the particle is a point, P_kⁱ = 0, so the linear
-  prediction gives N(F x_kⁱ, Q) and the UKF update approximates the locally optimal proposal
-  p(x_{k+1} | x_kⁱ, z_{k+1}). The weights p(z|x)p(x|x_prev)/q(x) stay nearly uniform.
-- ``proposal='propagated'``: the unscented-particle-filter reading (van der Merwe et al. 2000):
-  each particle carries its UKF posterior covariance P_{k+1}ⁱ to the next step (resampled with
-  it). The proposal is then much wider than p(x|x_prev) (position var. ≈ q_s T³/3), so the weights
+- ``proposal='rb'`` (default since issue 18): every particle is a Gaussian N(mⁱ, Pⁱ) that carries
+  its own UKF covariance (the unscented particle filter's per-particle P, van der Merwe et al.
+  2000, Rao-Blackwellised as in Briers et al. 2003, the paper's ref. 11). Algorithm 2 updates each
+  one; the weight is its predictive likelihood wⁱ ∝ wⁱ_prev N(νⁱ; 0, Sⁱ) (x integrated out instead
+  of sampled: the expectation of Algorithm 3's p(z|x)p(x|x_prev)/q(x) under q). The prior is split
+  as N(m₀, P₀) = ∫ N(m; m₀, (1−b)P₀) N(x; m, bP₀) dm with b = ``split`` = 0.25, so the N means are
+  drawn from N(m₀, 0.75 P₀) and each Pⁱ = 0.25 P₀. Selection: systematic resampling, then the
+  Liu–West move of the means (below). Output: the mixture's moments, Algorithm 3's Cov plus the
+  particles' own covariances, Cov = Σ wⁱ (Pⁱ + (mⁱ − m̄)(mⁱ − m̄)ᵀ). ``split=1`` makes every particle
+  the whole prior, i.e. exactly the UKF peer (``ukf.UKFTracker``; tested).
+- ``proposal='transition'``: the particle is a point, P_kⁱ = 0, so the linear prediction gives
+  N(F x_kⁱ, Q) and the UKF update approximates the locally optimal proposal
+  p(x_{k+1} | x_kⁱ, z_{k+1}). The weights p(z|x)p(x|x_prev)/q(x) stay nearly uniform. (Default
+  before issue 18.)
+- ``proposal='propagated'``: each particle carries its UKF posterior covariance P_{k+1}ⁱ to the
+  next step, but the particle itself is the sample and the weight uses p(x|x_prev) = N(F x_prev, Q):
+  the proposal is much wider than that transition (position var. ≈ q_s T³/3), so the weights
   degenerate (ESS of a few particles); kept for comparison.
 
-First step. The prior p(x₀) = N(m₀, P₀) is Gaussian and the model linear, so the first
-proposal is one RB-UKF on N(m₀, P₀) itself and the transition density in the weight is the
-exact predicted prior N(F m₀, F P₀ Fᵀ + Q). Starting from N points drawn from a 20 m prior
-instead leaves only the few that land within a few metres of an active fix (ESS ≈ 1).
+Why the point-particle filter degenerated and was overconfident (issue 18, measured on Table 2's
+scenario, M = 20–50): with P_kⁱ = 0 the cloud's covariance is the only uncertainty the filter
+has, and at N = 200 it is a Monte-Carlo estimate that misses the error of the particle mean; the
+velocity is learnt only through selection, so the particles' histories coalesce. ANEES 5.1–9.3
+(band [2.86, 5.33] at M = 20), about half the steps inside, and on seed 11 run 16 (δ = 50) the
+filter drifts 69 m while the cloud shrinks to one particle (smallest eigenvalue 8e-32 m²). The cause is
+the point representation itself, not the weight formula (checked against brute-force densities)
+nor the regularisation, so the fix is at the representation: with 'rb' the within-particle
+covariances Pⁱ carry the uncertainty analytically. Measured (M = 20, seed 0): AcPF ANEES 3.77,
+SS-PF δ = 50 3.66, PaPF 4.05, all steps or nearly all inside; the same run's point-particle figures
+are 5.06, 9.26, 5.28. Variants of 'rb' tried (M = 30, seed 3): b = 0.1, 0.25, 0.5, resampling at every
+step or at ESS < N/2, with and without the Liu–West move: all within ±0.13 m of each other and of the
+UKF at equal pings (standard errors 0.01–0.14 m), so the defaults are kept. Tempering and adaptive
+roughening were not tried: with 'rb' no degeneracy is left for them to fix (no repair needed, ANEES
+in band), and the predictive likelihood's S already contains each particle's own P, so a sharp
+active fix after passive steps is tempered by construction.
+
+Collapse. 'rb' cannot collapse: each Pⁱ is a UKF posterior of a prediction ≥ Q, so Cov ≥ min Pⁱ > 0
+whatever the weights (smallest eigenvalue ≥ 0.1 m² in the tests). For the point-particle proposals
+a selected cloud whose covariance is singular (``collapsed``: λmin ≤ 1e-9·max(λmax, λmin(Q))) is
+re-spread with the particles' mean UKF covariance, counted in ``SSPF.repairs``, flagged in the
+estimate (``repaired``) and logged; the experiments report the count.
+
+Smart-target model (``target_model=SmartTargetParams(...)``, 'rb' only, beyond the paper). The
+observer knows when it pinged; each particle then draws whether its target heard the ping with
+P_det(range), and evading particles move by ``smart_target.evasive_transition``. The discrete part
+is sampled, the continuous part stays Gaussian (a Rao-Blackwellised jump-Markov filter), which a
+single UKF cannot represent. This is where the particle filter is ahead of the UKF (experiments).
+
+First step ('transition'/'propagated'). The prior p(x₀) = N(m₀, P₀) is Gaussian and the model
+linear, so the first proposal is one RB-UKF on N(m₀, P₀) itself and the transition density in the
+weight is the exact predicted prior N(F m₀, F P₀ Fᵀ + Q). Starting from N points drawn from a 20 m
+prior instead leaves only the few that land within a few metres of an active fix (ESS ≈ 1).
 
 Selection. ``resample_threshold=1.0`` (default) resamples systematically at every step, as
 Algorithm 3 does; a smaller value resamples only when ESS < threshold·N (weights carried).
-``regularize=True`` (default; not in the paper) moves the selected particles with a Liu–West
-shrinkage kernel, x ← a x + (1−a) x̄ + h L e, h = (4/(N(n+2)))^{1/(n+4)}, a = √(1−h²), L L' = Cov,
-which keeps the cloud's mean and covariance but restores the diversity that resampling
-removes. Without it the N = 200 cloud shrinks (AcPF ANEES ≈ 9 instead of ≈ 6) and the covariance
-that drives the scheduler is too small.
-
-Consistency. At N = 200 the filter is overconfident (AcPF ANEES ≈ 5.8–6.1 for 4 states, ≈ 2.8–3.0
-for the position block alone): a Monte-Carlo effect, not a model mismatch. The weights are
-checked against brute-force densities in the tests, the same AcPF gives 4.7 at N = 500 and 4.4
-at N = 2000, and a single UKF on the same data gives 4.2. The excess grows over the run: the
-velocity is learnt only through selection, so the particles' histories coalesce and the error of
-the particle mean (not in the cloud's covariance) becomes a sizeable part of the total error.
-Resampling only when ESS < N/2 does not change it.
+``regularize=True`` (default; not in the paper) moves the selected particles (their means, for
+'rb') with a Liu–West shrinkage kernel, x ← a x + (1−a) x̄ + h L e, h = (4/(N(n+2)))^{1/(n+4)},
+a = √(1−h²), L L' = the particles' (means') covariance, which keeps the cloud's mean and
+covariance but restores the diversity that resampling removes.
 """
 
 from __future__ import annotations
@@ -53,6 +84,7 @@ from track_core.filters import (
     gaussian_logpdf,
     kf_predict,
     normalize_log_weights,
+    symmetrize,
     systematic_resample,
     unscented_update,
     unscented_weights,
@@ -61,11 +93,17 @@ from track_core.filters import (
 from track_core.filters.unscented import UnscentedWeights
 from track_core.sonar.models import SensorMode, SonarParams, measure, residual
 from track_core.sonar.scheduler import CovarianceScheduler, FixedScheduler
+from track_core.sonar.smart_target import SmartTargetParams, evasive_transition
 
 log = logging.getLogger(__name__)
 
-PROPOSALS = ('transition', 'propagated')
+PROPOSALS = ('rb', 'transition', 'propagated')
 TRACKERS = ('ss-pf', 'papf', 'acpf')
+DEFAULT_SPLIT = 0.25
+# A cloud has collapsed when its smallest covariance eigenvalue is below COLLAPSE_RTOL times its
+# largest or times the smallest eigenvalue of Q (one step of process noise: a cloud that is
+# narrower than that in every direction after the proposal has lost its spread).
+COLLAPSE_RTOL = 1e-9
 
 
 def rb_ukf(
@@ -104,6 +142,22 @@ def rb_ukf(
     return x_post, P_post
 
 
+def rb_ukf_innovation(x: np.ndarray, P: np.ndarray, z: np.ndarray, mode: SensorMode, observer_xy: np.ndarray,
+                      params: SonarParams, weights: UnscentedWeights, *,
+                      mu_p: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
+    """``rb_ukf`` that also returns the innovation ν (N, m) and its covariance S = P_u + R (N, m, m).
+
+    ν and S give each Gaussian particle's predictive likelihood N(ν; 0, S), the weight of the
+    Rao-Blackwellised ('rb') filter. ``mu_p`` (N, 4) replaces the predicted mean F x (a target
+    model with a commanded manoeuvre); the predicted covariance stays F P Fᵀ + Q.
+    """
+    mu_lin, P_p = kf_predict(x, P, params.F, params.Q)
+    mu_p = mu_lin if mu_p is None else mu_p
+    P_p = np.broadcast_to(P_p, (*mu_p.shape[:-1], 4, 4))
+    obs = np.asarray(observer_xy, dtype=float)
+    return unscented_update(mu_p, P_p, z, lambda chi: measure(chi, obs, mode), params.R(mode), weights, residual)
+
+
 @dataclass(frozen=True)
 class SonarEstimate:
     """Output of one filter step (Algorithm 3, 'Output')."""
@@ -114,6 +168,7 @@ class SonarEstimate:
     mode: SensorMode  # sensor used at this step
     next_mode: SensorMode  # sensor the scheduler chose for the next step
     ess: float  # effective sample size before the selection step
+    repaired: bool = False  # a collapsed cloud was detected at this step and re-spread ('transition' only)
 
 
 class SSPF:
@@ -129,10 +184,19 @@ class SSPF:
         scheduler: CovarianceScheduler | FixedScheduler | None = None,
         rng: np.random.Generator | None = None,
         *,
-        proposal: str = 'transition',
+        proposal: str = 'rb',
         resample_threshold: float = 1.0,
         regularize: bool = True,
+        split: float = DEFAULT_SPLIT,
+        target_model: SmartTargetParams | None = None,
     ) -> None:
+        if target_model is not None and proposal != 'rb':
+            raise ValueError(f"target_model needs proposal='rb', got proposal={proposal!r}")
+        self.target_model = target_model
+        if not 0.0 < split <= 1.0:
+            raise ValueError(f'split must be in (0, 1] (share of the prior covariance per particle), got {split!r}')
+        self.split = float(split)
+        self.repairs = 0
         if not 0.0 < resample_threshold <= 1.0:
             raise ValueError(f'resample_threshold must be in (0, 1] (fraction of N), got {resample_threshold!r}')
         self.resample_threshold = resample_threshold
@@ -168,13 +232,24 @@ class SSPF:
         if mean.shape != (4,) or not np.all(np.isfinite(mean)):
             raise ValueError(f'prior mean must be 4 finite numbers [x, vx, y, vy], got {mean!r}')
         cov = check_covariance(cov, 'prior covariance')
-        L = cholesky_jitter(cov)
-        self.particles = mean + self.rng.standard_normal((self.n, 4)) @ L.T
-        self.P = (np.broadcast_to(cov, (self.n, 4, 4)) if self.proposal == 'propagated'
-                  else np.zeros((self.n, 4, 4))).copy()
         self.k = 0
         self.weights = None
-        self._prior = (mean.copy(), cov.copy())
+        self.repairs = 0
+        if self.proposal == 'rb':
+            # N(m₀, P₀) = ∫ N(m; m₀, (1−b)P₀) N(x; m, bP₀) dm: N Gaussian particles N(mⁱ, bP₀).
+            L = cholesky_jitter((1.0 - self.split) * cov)
+            self.particles = mean + self.rng.standard_normal((self.n, 4)) @ L.T
+            self.P = np.broadcast_to(self.split * cov, (self.n, 4, 4)).copy()
+            self._prior = None
+            self._last_heard = np.full(self.n, -np.inf)  # per particle: time it last heard a ping
+            self._cruise = np.hypot(self.particles[:, 1], self.particles[:, 3])
+            self._prev: tuple[np.ndarray, bool] | None = None  # (observer xy, pinged) of the last step
+        else:
+            L = cholesky_jitter(cov)
+            self.particles = mean + self.rng.standard_normal((self.n, 4)) @ L.T
+            self.P = (np.broadcast_to(cov, (self.n, 4, 4)) if self.proposal == 'propagated'
+                      else np.zeros((self.n, 4, 4))).copy()
+            self._prior = (mean.copy(), cov.copy())
         self.scheduler.reset()
         self.estimate = None
 
@@ -191,6 +266,8 @@ class SSPF:
         if z.shape != (m,) or not np.all(np.isfinite(z)):
             raise ValueError(f'{mode.value} measurement must be {m} finite number(s), got {z!r}')
         obs = np.asarray(observer_xy, dtype=float)[:2]
+        if self.proposal == 'rb':
+            return self._step_rb(z, mode, obs)
 
         x_new, P_tilde, e, L, log_trans = self._propose(z, mode, obs)
 
@@ -222,11 +299,80 @@ class SSPF:
         else:
             self.particles, self.P, self.weights = x_new, P_keep, w
             mean, cov = weighted_mean_cov(x_new, w)
+        # A selected (equally weighted) cloud that has collapsed: all particles (nearly) identical.
+        # Re-spread it with the particles' mean UKF covariance, the spread the proposal had before
+        # selection removed it; counted in ``repairs`` and logged. (Carried weights are left alone:
+        # moving particles would invalidate them, and ESS ≈ 1 triggers selection at the next step.)
+        repaired = self.weights is None and collapsed(cov, self._Q)
+        if repaired:
+            self.repairs += 1
+            P_bar = P_tilde.mean(axis=0)
+            self.particles = self.particles + self.rng.standard_normal((self.n, 4)) @ cholesky_jitter(P_bar).T
+            mean, cov = weighted_mean_cov(self.particles)
+            log.warning('k=%d: particle cloud collapsed (ESS %.2f); re-spread with the UKF covariance',
+                        self.k + 1, ess)
+        self.k += 1
+        next_mode = self.scheduler.decide(cov)
+        self.estimate = SonarEstimate(self.k, mean, cov, mode, next_mode, ess, repaired)
+        log.debug('k=%d mode=%s ess=%.1f next=%s', self.k, mode.value, ess, next_mode.value)
+        return self.estimate
+
+    def _step_rb(self, z: np.ndarray, mode: SensorMode, obs: np.ndarray) -> SonarEstimate:
+        """Rao-Blackwellised step: every particle is a Gaussian N(mⁱ, Pⁱ) updated by Algorithm 2.
+
+        Weight: the predictive likelihood wⁱ ∝ wⁱ_prev N(νⁱ; 0, Sⁱ) (νⁱ, Sⁱ from the UKF, eqs. 5–6),
+        i.e. p(z | particle i) with x integrated out instead of sampled. Selection: systematic
+        resampling when ESS < threshold·N, then a Liu–West move of the means with the spread of
+        the means (keeps the mixture's mean and covariance). Output: mixture moments, eq. of
+        Algorithm 3's 'Output' with each particle's Pⁱ added, Cov = Σ wⁱ (Pⁱ + (mⁱ − m̄)(mⁱ − m̄)ᵀ).
+        Every Pⁱ is a UKF posterior of a prediction ≥ Q, so Cov ≥ min Pⁱ > 0: no collapse.
+        """
+        mu_p = self._smart_prediction(obs) if self.target_model is not None else None
+        x_post, P_post, nu, S = rb_ukf_innovation(self.particles, self.P, z, mode, obs, self.params, self._w,
+                                                  mu_p=mu_p)
+        self._prev = (obs.copy(), mode is SensorMode.ACTIVE)
+        prev_w = np.full(self.n, 1.0 / self.n) if self.weights is None else self.weights
+        w, _ = normalize_log_weights(np.log(prev_w) + gaussian_logpdf(nu, S))
+        ess = effective_sample_size(w)
+        if ess < self.resample_threshold * self.n:
+            idx = systematic_resample(w, self.rng)
+            m, P = x_post[idx], P_post[idx]
+            self._last_heard, self._cruise = self._last_heard[idx], self._cruise[idx]
+            self.weights = None
+            if self.regularize:
+                h = (4.0 / (self.n * (4 + 2))) ** (1.0 / (4 + 4))
+                a = np.sqrt(1.0 - h**2)
+                m_bar, B = weighted_mean_cov(m)
+                m = a * m + (1 - a) * m_bar + h * self.rng.standard_normal((self.n, 4)) @ cholesky_jitter(B).T
+            self.particles, self.P = m, P
+        else:
+            self.particles, self.P, self.weights = x_post, P_post, w
+        mean, cov = mixture_mean_cov(self.particles, self.P, self.weights)
         self.k += 1
         next_mode = self.scheduler.decide(cov)
         self.estimate = SonarEstimate(self.k, mean, cov, mode, next_mode, ess)
         log.debug('k=%d mode=%s ess=%.1f next=%s', self.k, mode.value, ess, next_mode.value)
         return self.estimate
+
+    def _smart_prediction(self, obs: np.ndarray) -> np.ndarray:
+        """Predicted means under the smart-target model (a jump-Markov model, sampled per particle).
+
+        If the last step pinged, each particle draws whether its target heard it, with
+        P_det(range of its mean) (``SmartTargetParams.detection_probability``); a particle is evading
+        while less than ``quiet_period`` has passed since it last heard one, and moves by
+        ``smart_target.evasive_transition`` (cruise: back to its own cruise speed, the speed of its
+        mean at the start). The discrete part is sampled, the continuous part stays Gaussian (a
+        Rao-Blackwellised jump-Markov filter), so the weight N(ν; 0, S) scores each particle's mode.
+        """
+        tm = self.target_model
+        t_prev = self.k * self.params.T
+        prev_obs, pinged = self._prev if self._prev is not None else (obs, False)
+        if pinged:
+            r = np.hypot(self.particles[:, 0] - prev_obs[0], self.particles[:, 2] - prev_obs[1])
+            heard = self.rng.random(self.n) < tm.detection_probability(r)
+            self._last_heard = np.where(heard, t_prev, self._last_heard)
+        evading = (t_prev - self._last_heard) < tm.quiet_period
+        return evasive_transition(self.particles, evading, prev_obs, self._cruise, tm, self.params.T)
 
     def _propose(self, z: np.ndarray, mode: SensorMode, obs: np.ndarray):
         """Draw x ~ q = N(x̃ⁱ, P̃ⁱ) (Algorithm 3) and return it with the pieces the weights need."""
@@ -258,6 +404,25 @@ class SSPF:
         return x_new, P_tilde, e, L, log_trans
 
 
+def mixture_mean_cov(m: np.ndarray, P: np.ndarray, weights: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and covariance of the Gaussian mixture Σ wⁱ N(mⁱ, Pⁱ) (uniform weights when None)."""
+    w = np.full(m.shape[0], 1.0 / m.shape[0]) if weights is None else weights
+    mean, between = weighted_mean_cov(m, w)
+    return mean, symmetrize(between + np.einsum('n,nij->ij', w, P))
+
+
+def collapsed(cov: np.ndarray, Q: np.ndarray | None = None) -> bool:
+    """True when a cloud covariance is (numerically) singular or not finite.
+
+    Singular: λmin ≤ COLLAPSE_RTOL·max(λmax, λmin(Q)) (``Q`` default: Table 1's eq. 4 with T = 1, q_s = 1).
+    """
+    if not np.all(np.isfinite(cov)):
+        return True
+    lam = np.linalg.eigvalsh(symmetrize(cov))
+    q_min = float(np.linalg.eigvalsh(SonarParams().Q if Q is None else Q)[0])
+    return bool(lam[0] <= COLLAPSE_RTOL * max(lam[-1], q_min))
+
+
 def make_tracker(
     kind: str,
     params: SonarParams | None = None,
@@ -266,13 +431,18 @@ def make_tracker(
     P_D: np.ndarray | None = None,
     delta: float = 5.0,
     metric: str = 'spectral',
-    proposal: str = 'transition',
+    proposal: str = 'rb',
     resample_threshold: float = 1.0,
     regularize: bool = True,
+    split: float = DEFAULT_SPLIT,
+    block: str = 'full',
+    cov_kind: str = 'posterior',
+    target_model: SmartTargetParams | None = None,
 ) -> SSPF:
     """'ss-pf' (eq. 7 scheduling), 'papf' (passive only) or 'acpf' (active only)."""
     if kind == 'ss-pf':
-        sched: CovarianceScheduler | FixedScheduler = CovarianceScheduler(P_D, delta, metric=metric)
+        sched: CovarianceScheduler | FixedScheduler = CovarianceScheduler(
+            P_D, delta, metric=metric, block=block, cov_kind=cov_kind, params=params)
     elif kind == 'papf':
         sched = FixedScheduler(SensorMode.PASSIVE)
     elif kind == 'acpf':
@@ -280,4 +450,4 @@ def make_tracker(
     else:
         raise ValueError(f'tracker must be one of {TRACKERS}, got {kind!r}')
     return SSPF(params, sched, rng, proposal=proposal, resample_threshold=resample_threshold,
-                regularize=regularize)
+                regularize=regularize, split=split, target_model=target_model)

@@ -1,0 +1,166 @@
+"""The UKF peer of the SS-PF: one unscented Kalman filter with the same eq. 7 scheduler.
+
+``UKFTracker`` has the interface of ``SSPF`` (``initialize``, ``step``, ``next_mode``,
+``estimate``), so ``scenario.run_once`` and the experiments drive both the same way on identical
+inputs. Prediction is eqs. 1–4 (``filters.kf_predict``), the update Algorithm 2's unscented
+transform (``filters.unscented_update`` with the wrapped bearing residual): it is the RB-UKF of
+one particle carrying the whole prior: the SS-PF's ``proposal='rb'`` with ``split=1`` (every particle
+the whole prior) equals it to 1e-5 (tested).
+
+``StoneSoupUKF`` wraps Stone Soup's ``UnscentedKalmanPredictor``/``UnscentedKalmanUpdater`` (the
+peer the issue compares against) behind the same interface; ``stonesoup_available()`` says whether
+it imports (it is an optional bench peer, ``requirements-bench.txt``). Stone Soup measures
+bearings counter-clockwise from the x axis, so z_ss = π/2 − z (wrapped) at its boundary.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from track_core.filters import (
+    check_covariance,
+    kf_predict,
+    unscented_update,
+    unscented_weights,
+    wrap_angle,
+)
+from track_core.sonar.models import SensorMode, SonarParams, measure, residual
+from track_core.sonar.scheduler import CovarianceScheduler, FixedScheduler
+from track_core.sonar.sspf import TRACKERS, SonarEstimate
+
+
+def _scheduler(kind: str, params: SonarParams, P_D, delta: float, metric: str, block: str, cov_kind: str):
+    if kind == 'ss-pf':
+        return CovarianceScheduler(P_D, delta, metric=metric, block=block, cov_kind=cov_kind, params=params)
+    if kind == 'papf':
+        return FixedScheduler(SensorMode.PASSIVE)
+    if kind == 'acpf':
+        return FixedScheduler(SensorMode.ACTIVE)
+    raise ValueError(f'tracker must be one of {TRACKERS}, got {kind!r}')
+
+
+class UKFTracker:
+    """One UKF (ours, from ``track_core.filters``) with a scheduler; ESS is reported as 1."""
+
+    def __init__(self, params: SonarParams | None = None, scheduler=None) -> None:
+        self.params = params or SonarParams()
+        self.scheduler = scheduler if scheduler is not None else CovarianceScheduler(params=self.params)
+        self._w = unscented_weights(4, self.params.ukf_alpha, self.params.ukf_beta, self.params.ukf_kappa)
+        self.x: np.ndarray | None = None
+        self.P: np.ndarray | None = None
+        self.k = 0
+        self.estimate: SonarEstimate | None = None
+
+    @property
+    def next_mode(self) -> SensorMode:
+        return self.scheduler.next_mode
+
+    def initialize(self, mean: np.ndarray, cov: np.ndarray) -> None:
+        self.x = np.asarray(mean, dtype=float).copy()
+        self.P = check_covariance(cov, 'prior covariance').copy()
+        self.k = 0
+        self.scheduler.reset()
+        self.estimate = None
+
+    def step(self, z: np.ndarray, mode: SensorMode | str, observer_xy: np.ndarray) -> SonarEstimate:
+        if self.x is None or self.P is None:
+            raise RuntimeError('UKFTracker.step called before initialize()')
+        mode = SensorMode.parse(mode)
+        z = np.atleast_1d(np.asarray(z, dtype=float))
+        obs = np.asarray(observer_xy, dtype=float)[:2]
+        x_p, P_p = kf_predict(self.x, self.P, self.params.F, self.params.Q)
+        self.x, self.P, _, _ = unscented_update(x_p, P_p, z, lambda chi: measure(chi, obs, mode),
+                                                self.params.R(mode), self._w, residual)
+        self.k += 1
+        next_mode = self.scheduler.decide(self.P)
+        self.estimate = SonarEstimate(self.k, self.x.copy(), self.P.copy(), mode, next_mode, 1.0)
+        return self.estimate
+
+
+def stonesoup_available() -> bool:
+    try:
+        import stonesoup  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+class StoneSoupUKF:
+    """Stone Soup 1.x UKF with our scheduler (a peer; needs ``stonesoup``)."""
+
+    def __init__(self, params: SonarParams | None = None, scheduler=None) -> None:
+        from stonesoup.models.transition.linear import CombinedLinearGaussianTransitionModel, ConstantVelocity
+        from stonesoup.predictor.kalman import UnscentedKalmanPredictor
+
+        self.params = p = params or SonarParams()
+        self.scheduler = scheduler if scheduler is not None else CovarianceScheduler(params=p)
+        tm = CombinedLinearGaussianTransitionModel([ConstantVelocity(p.q_s), ConstantVelocity(p.q_s)])
+        kw = {'alpha': p.ukf_alpha, 'beta': p.ukf_beta, 'kappa': p.ukf_kappa}
+        self._predictor = UnscentedKalmanPredictor(tm, **kw)
+        self._kw = kw
+        self.state = None
+        self.k = 0
+        self.estimate: SonarEstimate | None = None
+
+    @property
+    def next_mode(self) -> SensorMode:
+        return self.scheduler.next_mode
+
+    def initialize(self, mean: np.ndarray, cov: np.ndarray) -> None:
+        from datetime import datetime
+
+        from stonesoup.types.state import GaussianState
+
+        self.state = GaussianState(np.asarray(mean, float).reshape(4, 1), check_covariance(cov, 'prior covariance'),
+                                   timestamp=datetime(2009, 1, 1))
+        self.k = 0
+        self.scheduler.reset()
+        self.estimate = None
+
+    def step(self, z: np.ndarray, mode: SensorMode | str, observer_xy: np.ndarray) -> SonarEstimate:
+        from datetime import timedelta
+
+        from stonesoup.models.measurement.nonlinear import Cartesian2DToBearing, CartesianToBearingRange
+        from stonesoup.types.angle import Bearing
+        from stonesoup.types.detection import Detection
+        from stonesoup.types.hypothesis import SingleHypothesis
+        from stonesoup.updater.kalman import UnscentedKalmanUpdater
+
+        mode = SensorMode.parse(mode)
+        z = np.atleast_1d(np.asarray(z, dtype=float))
+        p = self.params
+        off = np.array([[observer_xy[0]], [observer_xy[1]]], dtype=float)
+        b_ss = float(wrap_angle(math.pi / 2 - z[0]))
+        if mode is SensorMode.ACTIVE:
+            mm = CartesianToBearingRange(ndim_state=4, mapping=(0, 2), noise_covar=p.R(mode), translation_offset=off)
+            zv = np.array([[Bearing(b_ss)], [z[1]]], dtype=object)
+        else:
+            mm = Cartesian2DToBearing(ndim_state=4, mapping=(0, 2), noise_covar=p.R(mode), translation_offset=off)
+            zv = np.array([[Bearing(b_ss)]], dtype=object)
+        ts = self.state.timestamp + timedelta(seconds=p.T)
+        pred = self._predictor.predict(self.state, timestamp=ts)
+        det = Detection(zv, timestamp=ts, measurement_model=mm)
+        self.state = UnscentedKalmanUpdater(mm, **self._kw).update(SingleHypothesis(pred, det))
+        mean = np.asarray(self.state.state_vector, dtype=float).ravel()
+        cov = np.asarray(self.state.covar, dtype=float)
+        self.k += 1
+        next_mode = self.scheduler.decide(cov)
+        self.estimate = SonarEstimate(self.k, mean, cov, mode, next_mode, 1.0)
+        return self.estimate
+
+
+FILTERS = ('pf', 'ukf', 'stonesoup-ukf')
+
+
+def make_ukf(kind: str, params: SonarParams | None = None, *, peer: str = 'ukf', P_D=None, delta: float = 5.0,
+             metric: str = 'spectral', block: str = 'full', cov_kind: str = 'posterior'):
+    """'ss-pf'/'papf'/'acpf' scheduling on a UKF: ``peer='ukf'`` (ours) or 'stonesoup-ukf'."""
+    p = params or SonarParams()
+    sched = _scheduler(kind, p, P_D, delta, metric, block, cov_kind)
+    if peer == 'ukf':
+        return UKFTracker(p, sched)
+    if peer == 'stonesoup-ukf':
+        return StoneSoupUKF(p, sched)
+    raise ValueError(f"peer must be 'ukf' or 'stonesoup-ukf', got {peer!r}")
