@@ -95,7 +95,9 @@ class RfidGuidance:
         upd = None
         if result.kind is CommandKind.MOVE:
             t0 = time.perf_counter()
-            self.pf.update(result.dphi, self.pending_turn)
+            # the reader's own dφ std (online noise) replaces s_θ in eq. 11; NaN keeps the paper's fixed s_θ
+            kw = {'dphi_std': result.dphi_std} if math.isfinite(result.dphi_std) else {}
+            self.pf.update(result.dphi, self.pending_turn, **kw)
             a_sug = self.pf.suggested_turn()
             upd = time.perf_counter() - t0
             self.last_update_s = upd
