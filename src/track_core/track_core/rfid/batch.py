@@ -9,9 +9,11 @@ origin facing +x) and the measured dφ of each MOVE. The tag T minimises
 
 with Sⱼ, Eⱼ the start and end of MOVE j. J is evaluated on a grid (vectorised over the cells,
 ``cell`` metres, ``extent`` metres around the path), and the best cell is refined by Gauss–Newton
-(``scipy.optimize.least_squares``, Levenberg–Marquardt). A straight path gives J(T) = J(T′) for the
-mirror image T′ of T across the walking line, so the fit reports the mirror too, and ``ambiguous``
-when the path is straight to within ``straight_tol`` metres (the mirror's cost is then the same).
+(``scipy.optimize.least_squares``, Levenberg–Marquardt), kept when it stays on the grid's square (a
+tag far ahead of a short straight path is barely observable and the refinement may run off). A
+straight path gives J(T) = J(T′) for the mirror image T′ of T across the walking line, so the fit
+reports the mirror too, and ``ambiguous`` when the path is straight to within ``straight_tol`` metres
+(the mirror's cost is then the same).
 
 ``tag_in_user_frame`` turns a tag position of the path frame into the frame of the user at the
 path's end (x forward along the last heading, y left), the frame of ``pf.TagEstimate``.
@@ -78,7 +80,8 @@ def fit_tag(positions: np.ndarray, dphi: np.ndarray, k: float, *, extent: float 
         if cost[i] < best_cost:
             best, best_cost = tags[i], float(cost[i])
     sol = least_squares(lambda tag: _predicted(positions, tag, k) - dphi, best, method='lm')
-    xy = sol.x if 2.0 * sol.cost <= best_cost else best
+    inside = bool(np.all(np.abs(sol.x - c) <= extent))      # an ill-posed fit may run off to infinity
+    xy = sol.x if inside and 2.0 * sol.cost <= best_cost else best
     cost = float(np.sum(np.square(_predicted(positions, xy, k) - dphi)))
     mirror, dev = _line_mirror(positions, xy)
     return BatchFit(np.asarray(xy, dtype=float), mirror, cost, dev <= straight_tol)

@@ -9,7 +9,7 @@ Three parts, all seeded from ``--seed`` (one ``SeedSequence`` spawned per part a
    The reader is a commercial one (``READER``: LLRP sign, (0, 2π], 920.625 MHz, 0.015 rad per read)
    unless the row says otherwise; the effects (lasting phase steps: size and rate; hopping over
    ``CHANNELS`` with a dwell; per-read noise) are switched on one or a few at a time. Every MOVE's
-   stream is processed four ways: *ours* (``UnwrapConfig.for_model(reader, noise='online')``, learning
+   stream is processed four ways: *ours* (``UnwrapConfig.real_reader(reader)``: re-lock, online noise, learning
    its noise over the trial's MOVEs), *join* (the same with ``step_bridge='join'``), *old* (the
    processing as it was before issue 14: fixed noise, no re-lock, the carriers ignored; given the
    right sign, so that only the unwrapping differs) and *naive* (``signal.naive_dphi``: ``np.unwrap``
@@ -22,10 +22,13 @@ Three parts, all seeded from ``--seed`` (one ``SeedSequence`` spawned per part a
    with the LLRP reader's stream fed as-is (processed with the paper's sign). The same run seeds for
    all three. Success rate and mean steps.
 3. **Filter against the batch fit.** ``trials`` walks of 5 straight MOVEs of 0.2 m with small motion
-   errors (s_r 2 mm, s_a 0.5°) toward a tag 1–4 m away (within ± 69° of the heading), read by the
+   errors (s_r 2 mm, s_a 0.5°) past a tag beside the track (0.5–2 m to the side, 0–1.5 m ahead at the
+   start, like the issue's bench with tags at known positions along a 1 m track), read by the
    commercial reader with hopping (0.2 s dwell). The filter (``PF_PARTICLES`` particles, Gaussian
-   weights, its s_step, s_r and s_a set to the walk's, ``dphi_std`` from the reader, no re-initialisation)
-   and ``batch.fit_tag`` get the same five dφ; the batch uses the commanded path. Error: the distance
+   weights, its s_step, s_r and s_a set to the walk's, ``dphi_std`` from the reader, prior distance
+   0.3–5 m, the read range of such a set-up, and no re-initialisation) and ``batch.fit_tag`` get the
+   same five dφ; the batch uses the commanded path. A tag far ahead of a short straight walk is barely
+   observable (the distance enters only through the bearing's change), so the set-up puts it beside. Error: the distance
    between the estimated and the true tag in the final user frame, mirror side folded (the smaller of
    the errors of (x, y) and (x, −y)), median over the trials. Also the paper's 1/m² weights with the
    same settings, and how often ``tag_posterior`` says the posterior is bimodal.
@@ -54,6 +57,7 @@ CHANNELS = tuple(920.625e6 + 0.5e6 * j for j in range(8))   # 920.625 MHz and 7 
 READER = PhaseModel(carrier_hz=920.625e6, wrap_period=2.0 * math.pi, s_theta=0.015, convention='llrp')
 MOVES_PER_TRIAL = 6
 PF_PARTICLES = 20_000
+PF_INIT_RANGE = (0.3, 5.0)          # prior distance: the read range of a bench set-up (m)
 
 
 @dataclass(frozen=True)
@@ -89,7 +93,7 @@ def _start(rng: np.random.Generator, lo: float, hi: float, psi: float) -> np.nda
 def move_trials(world: WorldParams, seeds: list[np.random.SeedSequence], moves: int = MOVES_PER_TRIAL) -> dict:
     """Part 1 for one configuration: per MOVE, the truth and the four methods' dφ (NaN: discarded)."""
     ph = world.phase
-    ours_cfg = UnwrapConfig.for_model(ph, noise='online')
+    ours_cfg = UnwrapConfig.real_reader(ph)
     join_cfg = replace(ours_cfg, step_bridge='join')
     old_cfg = UnwrapConfig.for_model(ph, relock_reads=0)
     out = {k: [] for k in ('truth', 'ours', 'join', 'old', 'naive', 'relocks', 'hops')}
@@ -147,18 +151,22 @@ def sign_runs(seeds: list[np.random.SeedSequence], n_particles: int = 100) -> di
 
 def pf_batch_trial(ss: np.random.SeedSequence, n_particles: int = PF_PARTICLES, weighting: str = 'gaussian',
                    n_moves: int = 5, step: float = 0.2, s_r: float = 0.002, s_a: float = math.radians(0.5),
-                   reader: PhaseModel = READER, hop_dwell_s: float = 0.2) -> tuple[float, float, bool] | None:
+                   reader: PhaseModel = READER, hop_dwell_s: float = 0.2,
+                   init_range: tuple[float, float] = PF_INIT_RANGE) -> tuple[float, float, bool] | None:
     """Part 3, one walk: (filter error, batch error, filter says bimodal), errors mirror-folded (m).
 
-    None when a MOVE was unusable (the walk is then skipped).
+    The tag is beside the track, as in a bench set-up: 0.5–2 m to the left or right of the walking
+    line, 0–1.5 m along it from the start (so it is in front at the start). None when a MOVE was
+    unusable (the walk is then skipped).
     """
     rw, rp = (np.random.default_rng(s) for s in ss.spawn(2))
-    start = _start(rw, 1.0, 4.0, 1.2)
+    along, side = rw.uniform(0.0, 1.5), rw.uniform(0.5, 2.0) * rw.choice([-1.0, 1.0])
+    start = np.array([-along, -side, 0.0])            # the tag at the origin, the user walking along +x
     world = WorldParams(phase=reader, s_step=step, s_r=s_r, s_a=s_a, beam_width=2.0 * math.pi,
                         channels_hz=CHANNELS if hop_dwell_s > 0 else (), hop_dwell_s=hop_dwell_s)
-    sim = SimReader(world, rw, start=start, unwrap=UnwrapConfig.for_model(reader, noise='online'))
+    sim = SimReader(world, rw, start=start, unwrap=UnwrapConfig.real_reader(reader))
     pf = RfidParticleFilter(PFParams(n_particles=n_particles, s_step=step, s_r=s_r, s_a=s_a, weighting=weighting,
-                                     reinit_factor=None), reader, rp)
+                                     reinit_factor=None, init_range=init_range), reader, rp)
     dphi = []
     for j in range(n_moves):
         res = sim.execute(Command(CommandKind.MOVE, seq=j + 1)).result

@@ -70,7 +70,7 @@ def test_llrp_phase_rises_with_distance_and_dphi_keeps_eq6_sign():
 @pytest.mark.parametrize('size', [0.8, 1.0, 1.5, 2.5, -2.5])
 def test_a_lasting_step_relocks_and_is_bridged_by_its_wrapped_difference(period, size):
     pm = replace(LLRP, wrap_period=period)
-    cfg = UnwrapConfig.for_model(pm)
+    cfg = UnwrapConfig.for_model(pm, relock_reads=5)
     rng = np.random.default_rng(3)
     for _ in range(5):
         stream, truth = walk_stream(pm, rng, steps=[(0.2, size)], outlier_prob=0.01)
@@ -90,7 +90,7 @@ def test_a_lasting_step_relocks_and_is_bridged_by_its_wrapped_difference(period,
 
 
 def test_isolated_outliers_do_not_relock_and_real_gaps_still_lose_the_lock():
-    cfg = UnwrapConfig.for_model(LLRP)
+    cfg = UnwrapConfig.for_model(LLRP, relock_reads=5)
     rng = np.random.default_rng(4)
     relocks = 0
     for _ in range(20):
@@ -109,7 +109,7 @@ def test_isolated_outliers_do_not_relock_and_real_gaps_still_lose_the_lock():
 # -- hopping ----------------------------------------------------------------------------------------
 @pytest.mark.parametrize('dwell', [0.1, 0.2])
 def test_hopping_combines_the_channels_with_their_own_wavelength(dwell):
-    cfg = UnwrapConfig.for_model(LLRP)
+    cfg = UnwrapConfig.for_model(LLRP, relock_reads=5)
     rng = np.random.default_rng(5)
     errs, old_ok = [], 0
     for _ in range(10):
@@ -182,7 +182,7 @@ def test_simulated_reader_hops_steps_and_keeps_its_moves():
     world = WorldParams(phase=LLRP, beam_width=2 * math.pi, channels_hz=CH, hop_dwell_s=0.2, phase_step_rate=2.0,
                         phase_step_size=(0.8, 2.5))
     sim = SimReader(world, np.random.default_rng(2), start=np.array([-8.0, 0.5, 0.0]),
-                    unwrap=UnwrapConfig.for_model(LLRP, noise='online', step_bridge='join'))
+                    unwrap=UnwrapConfig.real_reader(LLRP, step_bridge='join'))
     relocks, naive_err, ours_err = 0, [], []
     for j in range(12):
         out = sim.execute(Command(CommandKind.MOVE, seq=j + 1))
