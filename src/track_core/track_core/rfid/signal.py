@@ -83,8 +83,11 @@ Table I's 200 searches at N = 100 (seed 0) take another route, and the mean step
   'wrapped' (default, the issue's rule): the unwrapped curve jumps by δ, the wrapped difference,
   the branch ``np.unwrap`` takes; 'join': δ is taken as a multipath offset of the channel and a new
   segment starts, so the line fits on both sides bridge it and δ does not enter dφ. A run of
-  rejected reads that do not agree is still a run of outliers (``max_consecutive_outliers``), and
-  a gap in time longer than ``max_gap_s`` is still "phase lock lost".
+  rejected reads that do not agree is still a run of outliers: the lock is lost after
+  ``max_consecutive_outliers`` + ``relock_reads`` of them (the limit leaves a whole re-lock window
+  after up to 8 bad reads: two steps close together, or an outlier among the reads after a step,
+  lost 0.7 % of the MOVEs with steps at 1/s otherwise). A gap in time longer than ``max_gap_s`` is
+  still "phase lock lost".
 - **Noise from the data** (``noise='online'``, used through ``PhaseProcessor``). The per-read
   noise σ̂ is the median, over the last ``noise_memory`` MOVEs, of each MOVE's robust estimate:
   1.4826·MAD of the residuals of the line fits over the first and last ``smooth_window`` reads of
@@ -402,8 +405,9 @@ def _track(tl: list, pl: list, rho: list, ch: list, start: int, v: float, dtn: f
             u = pred + a * _wrap_c(pl[i] - (rc * pred + off[c]), p, half) / rc
             t_last, cand = tl[i], []
             continue
-        if len(cand) > cfg.max_consecutive_outliers:
-            out.reason = f'phase lock lost: more than {cfg.max_consecutive_outliers} outliers in a row'
+        if len(cand) > cfg.max_consecutive_outliers + cfg.relock_reads:
+            limit = cfg.max_consecutive_outliers + cfg.relock_reads
+            out.reason = f'phase lock lost: more than {limit} outliers in a row'
             return out
     return out
 
