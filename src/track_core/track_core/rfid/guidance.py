@@ -7,6 +7,9 @@ created at the first one, ``pf`` module doc) with the turns reported since the p
 result adds the reported turn to that sum and the next command is MOVE. A result with ``found``
 ends the search (DONE).
 
+A MOVE result with a finite ``dphi_std`` (a reader with online noise, ``signal.PhaseProcessor``)
+passes it to the filter update as θ_d's std of eq. 11; NaN (the paper's fixed noise) passes nothing.
+
 Bad input: a result that ``protocol.step_result_problem`` rejects (NaN dφ, an empty phase stream,
 a reader failure such as "signal lost", a NaN turn, or a result for another command) leaves the
 filter and the turn sum exactly as they were. The reply carries the warning, and its command

@@ -60,10 +60,13 @@ Real readers (issue 14; additions, off by default):
   5.5°. Without it (the paper, Table I) m₀ is fixed.
 - ``weighting='gaussian'``: f_w(m) = exp(−m²/(2m₀²)) instead of the paper's 1/m² (computed in logs,
   so that it cannot underflow to all zeros). The paper's f_w has heavy tails: a particle 10 m₀ off
-  keeps 1 % of the weight of one that fits, which spreads the posterior far beyond what the dφ
-  noise allows; when the noise settings match the reader (small s_r, s_a and the reader's σ) the
-  Gaussian is the likelihood of eq. 11's noise, and the tag estimate gets as good as a batch fit
-  of the same dφ (``batch``).
+  keeps 1 % of the weight of one that fits; the Gaussian is the likelihood of eq. 11's noise.
+  Measured (``rfid-reader`` part 3: 100 walks of 5 MOVEs of 0.2 m past a tag beside the track,
+  N = 20000, the filter's s_r and s_a set to the walk's): the median mirror-folded tag error is
+  1.08× the batch least-squares fit's with Gaussian weights, 1.02× with the paper's 1/m², and
+  1.12× with 1/m² and the fixed s_θ = 5.5° instead of the reader's dφ std. So in that set-up
+  neither the Gaussian nor the reader's noise is what brings the filter to the batch fit; the
+  option is kept for readers whose noise is well known.
 - ``tag_posterior()``: the tag in the user's frame. A straight walk cannot tell the tag from its
   mirror image across the walking line, so the posterior may have two modes, at (x, ±y). The
   weighted mean of both would put the tag on the walking line. The particles are split by the side

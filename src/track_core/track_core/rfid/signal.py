@@ -50,8 +50,9 @@ noise). Re-locking is off by default because it also acts in the paper's own sim
 user passes within centimetres of the tag, the phase turns faster than the α–β tracker follows and
 the reads after the turn agree with each other; it re-locks there where the paper's rule drops
 reads. That changes a dφ in most searches and so the route after it: with re-locking on, 194 of
-Table I's 200 searches at N = 100 (seed 0) take another route, and the mean steps go from 29.5 to
-30.0 (paired difference +0.44 ± 0.68 steps: no measurable effect, but not the same runs).
+200 searches at N = 100 (``run_search`` with ``SeedSequence(0).spawn(200)``) take another route,
+and the mean steps go from 29.5 to 30.0 (paired difference +0.44 ± 0.68 steps: no measurable
+effect, but not the same runs).
 
 - **Sign** (``sign`` s, ``phase.PhaseModel.sign``): φ = s·k·d + φ₀, so dφ = s·(φ_end − φ_start)·(…);
   s = +1 for LLRP/Impinj readers, whose phase rises with distance.

@@ -132,5 +132,5 @@ def test_reader_experiment_quick(tmp_path):
     for m in out.data['moves']:
         assert m['moves'] == 2 * 6 and 0.0 <= m['ours']['kept'] <= 1.0
     assert set(out.data['sign']) == {'paper reader', 'LLRP reader, sign set', 'LLRP reader fed as-is'}
-    assert set(out.data['pf_batch']) == {'gaussian', 'inverse_square'}
+    assert set(out.data['pf_batch']) == {'gaussian', 'inverse_square', 'inverse_square, fixed s_θ 5.5°'}
     assert 'naive' in out.table and 'batch LS' in out.table
