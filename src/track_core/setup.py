@@ -29,6 +29,7 @@ setup(
             'sonar-table2 = track_core.sonar.experiments:table2',
             'smart-target = track_core.sonar.experiments:smart_target',
             'rfid-table1 = track_core.rfid.experiments:table1',
+            'rfid-reader = track_core.rfid.reader_experiments:reader_experiment',
             'idsq-table4 = track_core.idsq.experiments:table4',
             'idsq-table5 = track_core.idsq.experiments:table5',
             'idsq-selection = track_core.idsq.experiments:selection',

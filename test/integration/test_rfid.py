@@ -163,7 +163,7 @@ def test_the_two_nodes_find_the_tag(search_run, repo):
     assert len(sink.msgs[RFID_PHASE]) == ref.steps
     for cloud, s in zip(sink.msgs[RFID_PHASE], moves, strict=True):
         table = pointcloud2_to_table(cloud)
-        assert set(table) == {'t', 'phase', 'rssi'} and len(table['t']) == s.n_reads
+        assert set(table) == {'t', 'phase', 'rssi', 'carrier_mhz'} and len(table['t']) == s.n_reads
         assert np.all((table['phase'] > 0) & (table['phase'] <= math.pi + 1e-6))
     usable = [s for s in moves if s.ok and math.isfinite(s.dphi)]
     assert len(sink.msgs[RFID_PARTICLES]) == len(usable) == guide.guide.pf.n_updates
@@ -322,3 +322,27 @@ def test_launcher_records_the_search_and_the_summary_says_found(tmp_path, env_fa
     assert 'rfid: tag FOUND' in out, out
     assert f'steps {ref.steps}, turns {ref.turns}, distance walked {ref.distance_m:.2f} m' in out, out
     assert f'final distance to the tag {ref.final_distance_m:.3f} m' in out, out
+
+
+# --- a commercial reader (issue 14) ----------------------------------------------------------------
+
+def test_an_llrp_hopping_reader_with_relock_and_online_noise_finds_the_tag(ros, repo):
+    """The real-reader options pass through both nodes: LLRP sign, hopping, lasting steps, re-lock, online noise."""
+    reader = _node(ros, repo, RfidReaderNode, 'rfid_reader', time_scale=0.0, convention='llrp', hop_dwell_s=0.2,
+                   phase_step_rate=0.5, relock_reads=5, noise='online', s_theta_deg=1.0)
+    guide = _node(ros, repo, RfidGuidanceNode, 'rfid_guidance', convention='llrp', weighting='inverse_square')
+    sink = Sink(ros)
+    clock = TestClock(ros)
+    assert ros.spin_until(lambda: guide.pub_cmd.get_subscription_count() >= 2
+                          and reader.pub_step.get_subscription_count() >= 2, timeout=10)
+    assert clock.run_until(lambda: guide.ended and guide.answered, timeout_s=120)
+    assert ros.spin_until(lambda: len(sink.msgs[RFID_STEP]) >= guide.cmd.seq)
+    assert guide.found and reader.reader.found()
+    channels = set(reader.p.hop_channels_mhz)
+    for cloud in sink.msgs[RFID_PHASE]:
+        table = pointcloud2_to_table(cloud)
+        assert {round(float(f), 3) for f in np.unique(table['carrier_mhz'])} <= channels
+    moves = [_step(m) for m in sink.msgs[RFID_STEP] if _step(m).kind == 'move']
+    stds = [m.dphi_std for m in moves if m.ok]
+    assert stds and all(math.isfinite(s) and s > 0 for s in stds)       # online noise: the filter gets it
+    assert all(m.relocks >= 0 for m in moves)

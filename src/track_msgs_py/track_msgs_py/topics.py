@@ -129,12 +129,14 @@ TOPICS.update({
                          'values seq (of the command answered), kind (turn|move|done), dphi (MOVE: eq. 6 phase '
                          'difference, rad; nan when unusable), turn (TURN: turn the user made and reports, rad, '
                          '+ = left), n_reads, n_outliers, ok (true|false), reason (signal processing), found '
-                         '(true|false), duration (s of the action). Exactly one answer per seq; a repeated '
-                         'command gets the same answer again'),
+                         '(true|false), duration (s of the action), dphi_std (rad, the reader\'s own std of '
+                         'dphi; nan: unknown), relocks (re-locks after lasting phase steps). Exactly one answer '
+                         'per seq; a repeated command gets the same answer again'),
     RFID_PHASE: TopicSpec('sensor_msgs/msg/PointCloud2', 'estimate',
                           'raw wrapped phase reads of one MOVE (height 1, one point per read, float32 fields t = s '
-                          'since the step started, phase = wrapped rad in (0, P], rssi = dBm); header.stamp equals '
-                          'the stamp of the step result it belongs to; frame_id = reader node name'),
+                          'since the step started, phase = wrapped rad in (0, P], rssi = dBm, carrier_mhz = the '
+                          'read\'s carrier, MHz); header.stamp equals the stamp of the step result it belongs to; '
+                          'frame_id = reader node name'),
     RFID_USER_POSE: TopicSpec('geometry_msgs/msg/PoseStamped', 'estimate',
                               'evaluation only: true user pose in map (tag at the origin), orientation = facing '
                               'direction (yaw), after each action'),

@@ -8,23 +8,43 @@
 - ``guidance``: ``RfidGuidance``: step results in, next command out (the ``rfid_guidance`` node's core).
 - ``world``: ``SimReader``: simulated world, user and reader (the ``rfid_reader`` node's core).
 - ``search``: one search, start to end; ``experiments``/``bench``: ``rfid-table1`` and ``track-bench rfid``.
+- ``batch``: the batch least-squares tag fit (the baseline of the filter's tag estimate).
+- ``reader_experiments``: ``rfid-reader``, a commercial reader's phase stream in simulation (issue 14).
 """
 
+from track_core.rfid.batch import BatchFit, fit_tag, path_from_moves, tag_in_user_frame
 from track_core.rfid.guidance import GuidanceReply, RfidGuidance
-from track_core.rfid.pf import PFParams, RfidParticleFilter, UpdateInfo, guarded_inverse_square, suggested_turn
+from track_core.rfid.pf import (
+    PFParams,
+    RfidParticleFilter,
+    TagEstimate,
+    UpdateInfo,
+    guarded_inverse_square,
+    suggested_turn,
+)
 from track_core.rfid.phase import PhaseModel
 from track_core.rfid.protocol import Command, CommandKind, StepResult, step_result_problem
 from track_core.rfid.search import SearchOutcome, run_search
-from track_core.rfid.signal import DphiEstimate, PhaseStream, StreamStatus, UnwrapConfig, process_move
+from track_core.rfid.signal import (
+    DphiEstimate,
+    PhaseProcessor,
+    PhaseStream,
+    StreamStatus,
+    UnwrapConfig,
+    naive_dphi,
+    process_move,
+)
 from track_core.rfid.world import ReaderOutput, Rect, SimReader, WorldParams, office_obstacles, read_mask
 
 __all__ = [
+    'BatchFit',
     'Command',
     'CommandKind',
     'DphiEstimate',
     'GuidanceReply',
     'PFParams',
     'PhaseModel',
+    'PhaseProcessor',
     'PhaseStream',
     'ReaderOutput',
     'Rect',
@@ -34,14 +54,19 @@ __all__ = [
     'SimReader',
     'StepResult',
     'StreamStatus',
+    'TagEstimate',
     'UnwrapConfig',
     'UpdateInfo',
     'WorldParams',
+    'fit_tag',
     'guarded_inverse_square',
+    'naive_dphi',
     'office_obstacles',
+    'path_from_moves',
     'process_move',
     'read_mask',
     'run_search',
     'step_result_problem',
     'suggested_turn',
+    'tag_in_user_frame',
 ]

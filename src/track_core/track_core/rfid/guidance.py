@@ -7,6 +7,9 @@ created at the first one, ``pf`` module doc) with the turns reported since the p
 result adds the reported turn to that sum and the next command is MOVE. A result with ``found``
 ends the search (DONE).
 
+A MOVE result with a finite ``dphi_std`` (a reader with online noise, ``signal.PhaseProcessor``)
+passes it to the filter update as θ_d's std of eq. 11; NaN (the paper's fixed noise) passes nothing.
+
 Bad input: a result that ``protocol.step_result_problem`` rejects (NaN dφ, an empty phase stream,
 a reader failure such as "signal lost", a NaN turn, or a result for another command) leaves the
 filter and the turn sum exactly as they were. The reply carries the warning, and its command
@@ -95,7 +98,9 @@ class RfidGuidance:
         upd = None
         if result.kind is CommandKind.MOVE:
             t0 = time.perf_counter()
-            self.pf.update(result.dphi, self.pending_turn)
+            # the reader's own dφ std (online noise) replaces s_θ in eq. 11; NaN keeps the paper's fixed s_θ
+            kw = {'dphi_std': result.dphi_std} if math.isfinite(result.dphi_std) else {}
+            self.pf.update(result.dphi, self.pending_turn, **kw)
             a_sug = self.pf.suggested_turn()
             upd = time.perf_counter() - t0
             self.last_update_s = upd

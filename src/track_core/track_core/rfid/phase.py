@@ -13,6 +13,17 @@ Conventions (used by every module of this package):
   unwrapped phase change, dφ = −(φ_E − φ_S); ``signal.process_move`` returns it in this sign.
 - s_θ is the hardware phase noise of one read (rad), "the variability of measured data at a fixed
   set-up" (Section VI).
+
+Reader conventions (issue 14; the defaults are the paper's):
+
+- ``convention``: 'paper' is eq. 3, the phase *falls* with distance (sign s = −1). 'llrp' is what
+  LLRP/Impinj-class readers report: the phase *rises* with distance, φ = +(4π/λ)·d + φ₀ (s = +1;
+  a commercial reader's fitted slope was +1.05 × 4π/λ). In both, φ = s·k·d + φ₀ and the step's dφ
+  keeps eq. 6's sign: dφ = k(|E| − |S|) = s·(φ_E − φ_S). Only the reader side (the simulator and
+  ``signal``) uses s; the filter sees eq. 6 either way.
+- Per-read carrier (frequency hopping): a read on carrier f_c has k_c = 4π f_c / c (``k_at``). The
+  model's ``carrier_hz`` is the reference carrier: dφ is always expressed as k_ref·Δd with k_ref =
+  ``k``, which is what eq. 22 in the filter uses.
 """
 
 from __future__ import annotations
@@ -25,6 +36,7 @@ import numpy as np
 SPEED_OF_LIGHT = 299_792_458.0
 CARRIER_RANGE_HZ = (865e6, 928e6)
 WRAP_PERIODS = (math.pi, 2.0 * math.pi)
+CONVENTIONS = {'paper': -1.0, 'llrp': 1.0}   # sign s of φ = s·k·d + φ₀
 
 
 @dataclass(frozen=True)
@@ -34,6 +46,7 @@ class PhaseModel:
     carrier_hz: float = 866.3e6        # an ETSI channel (865.7/866.3/866.9/867.5 MHz)
     wrap_period: float = math.pi       # π (Sargas, as in the paper) or 2π
     s_theta: float = math.radians(5.5)  # per-read phase noise (rad), Section VI
+    convention: str = 'paper'          # 'paper' (eq. 3: falls with distance) or 'llrp' (rises)
 
     def __post_init__(self) -> None:
         lo, hi = CARRIER_RANGE_HZ
@@ -44,6 +57,8 @@ class PhaseModel:
             raise ValueError(f'wrap_period must be π or 2π, got {self.wrap_period!r}')
         if not (self.s_theta >= 0.0 and math.isfinite(self.s_theta)):
             raise ValueError(f's_theta must be finite and >= 0, got {self.s_theta!r}')
+        if self.convention not in CONVENTIONS:
+            raise ValueError(f'convention must be one of {tuple(CONVENTIONS)}, got {self.convention!r}')
 
     @classmethod
     def with_wrap(cls, wrap: str | float, **kw) -> PhaseModel:
@@ -65,9 +80,23 @@ class PhaseModel:
         """4π/λ: phase change per metre of antenna–tag distance (rad/m); ≈ 36.3 at 866.3 MHz."""
         return 4.0 * math.pi / self.wavelength
 
-    def phase(self, d: np.ndarray | float, offset: float = 0.0) -> np.ndarray:
-        """Unwrapped round-trip phase −(4π/λ)·d + φ₀ (eq. 3)."""
-        return -self.k * np.asarray(d, dtype=float) + offset
+    @property
+    def sign(self) -> float:
+        """s of φ = s·k·d + φ₀: −1 for the paper's eq. 3, +1 for LLRP readers."""
+        return CONVENTIONS[self.convention]
+
+    @staticmethod
+    def k_at(carrier_hz: np.ndarray | float) -> np.ndarray:
+        """4π f / c for each carrier (rad/m)."""
+        return 4.0 * math.pi * np.asarray(carrier_hz, dtype=float) / SPEED_OF_LIGHT
+
+    def phase(self, d: np.ndarray | float, offset: float = 0.0, carrier_hz: np.ndarray | float | None = None
+              ) -> np.ndarray:
+        """Unwrapped round-trip phase s·(4π/λ)·d + φ₀ (eq. 3 for s = −1), at ``carrier_hz`` (per read) if given."""
+        k = self.k if carrier_hz is None else self.k_at(carrier_hz)
+        if self.sign < 0:
+            return -k * np.asarray(d, dtype=float) + offset
+        return k * np.asarray(d, dtype=float) + offset
 
     def wrap(self, phi: np.ndarray | float) -> np.ndarray:
         """Wrap into (0, P]: P itself stays P, 0 maps to P."""

@@ -46,7 +46,8 @@ class StepResult:
     stream, ``ok``/``reason`` from the signal processing (False with a reason when the signal was
     lost or the stream was unusable). TURN: ``turn`` is the turn the user reports having made (the
     suggested one, or another when the way was blocked or the tag was not read that way).
-    ``found``: the user is at the tag.
+    ``found``: the user is at the tag. ``dphi_std``: the dφ's std from the reader's own noise estimate
+    (NaN: unknown, the filter uses its fixed s_θ); ``relocks``: re-locks after lasting phase steps.
     """
 
     kind: CommandKind
@@ -58,6 +59,8 @@ class StepResult:
     ok: bool = True
     reason: str = ''
     found: bool = False
+    dphi_std: float = math.nan
+    relocks: int = 0
 
 
 def step_result_problem(result: StepResult, expected: Command | None = None) -> str | None:

@@ -14,6 +14,7 @@ import numpy as np
 from track_core.rfid.guidance import RfidGuidance
 from track_core.rfid.pf import PFParams
 from track_core.rfid.protocol import CommandKind
+from track_core.rfid.signal import UnwrapConfig
 from track_core.rfid.world import SimReader, WorldParams
 
 
@@ -31,13 +32,16 @@ class SearchOutcome:
 
 
 def run_search(world: WorldParams, pf: PFParams, rng: np.random.Generator, max_steps: int = 200,
-               start: np.ndarray | None = None) -> SearchOutcome:
-    """Run one search with independent streams for the world and the filter drawn from ``rng``."""
+               start: np.ndarray | None = None, unwrap: UnwrapConfig | None = None) -> SearchOutcome:
+    """Run one search with independent streams for the world and the filter drawn from ``rng``.
+
+    ``unwrap``: the reader's signal processing (default: ``UnwrapConfig.for_model(world.phase)``).
+    """
     if max_steps < 1:
         raise ValueError(f'max_steps must be >= 1, got {max_steps}')
     r_world, r_pf = (np.random.default_rng(s) for s in rng.bit_generator.seed_seq.spawn(2)) \
         if hasattr(rng.bit_generator, 'seed_seq') else (rng, rng)
-    reader = SimReader(world, r_world, start=start)
+    reader = SimReader(world, r_world, start=start, unwrap=unwrap)
     start_pose = reader.pose.copy()
     guide = RfidGuidance(pf, world.phase, r_pf, log_warnings=False)
     cmd = guide.start()

@@ -41,11 +41,75 @@ Signal lost: no reads at all (tag in the antenna's back lobe or out of range), f
 ``min_reads``, or reads that do not cover the step (the first read more than ``max_edge_gap_s``
 after the step started, or the last one that long before it ended, when those times are given).
 An outlier fraction above ``max_outlier_fraction`` is also invalid.
+
+Real readers (issue 14). Every addition below is off by default, or identical to the rules above
+for the paper's reader (one carrier, ``noise='fixed'``, ``relock_reads`` 0, ``sign`` −1): there the
+output is bit for bit what the rules above give, so Table I and the recordings do not move.
+``UnwrapConfig.real_reader(phase)`` switches on what a commercial reader needs (re-lock, online
+noise). Re-locking is off by default because it also acts in the paper's own simulation: when the
+user passes within centimetres of the tag, the phase turns faster than the α–β tracker follows and
+the reads after the turn agree with each other; it re-locks there where the paper's rule drops
+reads. That changes a dφ in most searches and so the route after it: with re-locking on, 194 of
+200 searches at N = 100 (``run_search`` with ``SeedSequence(0).spawn(200)``) take another route,
+and the mean steps go from 29.5 to 30.0 (paired difference +0.44 ± 0.68 steps: no measurable
+effect, but not the same runs).
+
+- **Sign** (``sign`` s, ``phase.PhaseModel.sign``): φ = s·k·d + φ₀, so dφ = s·(φ_end − φ_start)·(…);
+  s = +1 for LLRP/Impinj readers, whose phase rises with distance.
+- **Carriers** (``PhaseStream.carrier_hz``, per read). The tracker's state is the unwrapped phase U
+  in the units of the reference carrier (``carrier_hz``, k_ref), i.e. s·k_ref·(d − d₀). A read on
+  carrier f_c (ρ_c = k_c/k_ref) is predicted as ρ_c·Û + Δ_c, with Δ_c the channel's phase offset in
+  this MOVE. Δ_c is constant over a MOVE: it is the channel's hardware offset plus s·k_c·d₀ at the
+  lock, so it holds the per-channel offset *and* the λ-dependent part of the absolute range. It is
+  estimated online, when the channel is first read in the MOVE: its reads are held back until
+  ``channel_lock_reads`` (3) consecutive ones agree (as for a re-lock, below), and Δ_c is their mean
+  innovation.
+  A channel read again later in the MOVE is predicted with its known Δ_c.
+- **Segments and dφ.** A run of accepted reads on one channel is a segment. Its change is the
+  difference of the two end fits (as above, in the channel's units, divided by ρ_c), evaluated at
+  the segment's boundaries: the button presses at the MOVE's ends, and the midpoint of the gap
+  between two segments. dφ = s·Σ_segments (end fit − start fit)/ρ_c: the channels are combined in
+  range, each with its own λ, and a hop is bridged by the two lines extrapolated to the hop (no
+  offset enters). Segments with fewer than ``min_segment_reads`` accepted reads are dropped (the
+  neighbours' lines bridge them).
+- **Re-lock after a lasting phase step** (``relock_reads``: 0 = never, the default and the paper's
+  processing; 5 in ``UnwrapConfig.real_reader``). The rejected reads since
+  the last accepted one are kept with their innovations rᵢ. When the last ``relock_reads`` of them,
+  consecutive and on the current channel, agree with the newest one (|wrap(rᵢ − r)| ≤ g/2), the phase
+  has stepped and stayed:
+  the tracker re-locks on them (they are accepted) and the re-lock is counted (``relocks``). Wild
+  reads rarely agree like that: uniform outliers fall within g/2 of a read with probability g/P
+  (0.15), so five consecutive ones do with 0.15⁴ ≈ 5·10⁻⁴ per check. The
+  step δ (their mean innovation, in (−P/2, P/2]) is bridged by ``step_bridge``:
+  'wrapped' (default, the issue's rule): the unwrapped curve jumps by δ, the wrapped difference,
+  the branch ``np.unwrap`` takes; 'join': δ is taken as a multipath offset of the channel and a new
+  segment starts, so the line fits on both sides bridge it and δ does not enter dφ. A run of
+  rejected reads that do not agree is still a run of outliers: the lock is lost after
+  ``max_consecutive_outliers`` + ``relock_reads`` of them (the limit leaves a whole re-lock window
+  after up to 8 bad reads: two steps close together, or an outlier among the reads after a step,
+  lost 0.7 % of the MOVEs with steps at 1/s otherwise). A gap in time longer than ``max_gap_s`` is
+  still "phase lock lost".
+- **Noise from the data** (``noise='online'``, used through ``PhaseProcessor``). The per-read
+  noise σ̂ is the median, over the last ``noise_memory`` MOVEs, of each MOVE's robust estimate:
+  1.4826·MAD of the residuals of the line fits over the first and last ``smooth_window`` reads of
+  every segment, each residual scaled by √(n/(n − 2)) for the two fitted parameters. Before any
+  MOVE it is ``noise_prior``. It sets (i) the gate g = min(``gate``·P, max(``min_gate``,
+  ``gate_sigmas``·σ̂)), from the MOVEs before this one; (ii) the end-fit window: the fewest reads W
+  whose end value has noise 2σ̂/√W ≤ ``end_noise``, between ``min_segment_reads`` (5) and
+  ``smooth_window`` (0.015 rad of read noise gives 9 reads, the paper's 0.096 rad keeps 20; a long
+  window on a low-noise reader only adds the curvature of a real walk: a walk that accelerates at
+  2 m/s² from the button press puts ≈ 0.05 rad of bias on a 20-read fit at 300 reads/s, ≈ 0.01 rad on
+  a 9-read one. The simulated user walks at constant speed, so there the shorter window only costs
+  noise: ≈ +0.006 rad of median |dφ error|, measured in ``rfid-reader``); (iii) ``dphi_std``, the
+  dφ's standard deviation from the fits' own variances (σ̂²·(1/n + (t − t̄)²/Σ(tᵢ − t̄)²) for each
+  end value), which the filter uses as θ_d's std in eq. 11. With ``noise='fixed'`` (the paper,
+  Table I) none of this changes and ``dphi_std`` is NaN: the filter keeps its fixed s_θ.
 """
 
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass, field
 from enum import Enum
 
@@ -60,13 +124,18 @@ class StreamStatus(Enum):
 
 @dataclass(frozen=True)
 class PhaseStream:
-    """Reads of one action: times (s), wrapped phases (rad), RSSI (dBm), all the same length."""
+    """Reads of one action: times (s), wrapped phases (rad), RSSI (dBm), all the same length.
+
+    ``carrier_hz``: the carrier of each read (Hz) for a hopping reader; None = every read on the
+    reference carrier of the processing (``UnwrapConfig.carrier_hz``).
+    """
 
     t: np.ndarray
     phase: np.ndarray
     rssi: np.ndarray
     t_start: float | None = None   # when the user pressed the button (start of the action)
     t_end: float | None = None     # when the action was confirmed
+    carrier_hz: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         for name in ('t', 'phase', 'rssi'):
@@ -74,6 +143,11 @@ class PhaseStream:
         if not (self.t.size == self.phase.size == self.rssi.size):
             raise ValueError(f'PhaseStream: t, phase, rssi lengths differ ({self.t.size}, {self.phase.size}, '
                              f'{self.rssi.size})')
+        if self.carrier_hz is not None:
+            c = np.asarray(self.carrier_hz, dtype=float).reshape(-1)
+            if c.size != self.t.size:
+                raise ValueError(f'PhaseStream: carrier_hz has {c.size} values for {self.t.size} reads')
+            object.__setattr__(self, 'carrier_hz', c)
 
     def __len__(self) -> int:
         return int(self.t.size)
@@ -84,9 +158,18 @@ class PhaseStream:
         return cls(z, z, z, t_start, t_end)
 
 
+BRIDGES = ('wrapped', 'join')
+NOISE_MODES = ('fixed', 'online')
+REAL_READER = {'relock_reads': 5, 'noise': 'online'}   # ``UnwrapConfig.real_reader``
+
+
 @dataclass(frozen=True)
 class UnwrapConfig:
-    """Parameters of ``process_move``; ``period`` is the reader's wrap period P (π or 2π)."""
+    """Parameters of ``process_move``; ``period`` is the reader's wrap period P (π or 2π).
+
+    The defaults are the paper's reader; ``for_model`` takes period, sign and carrier from a
+    ``PhaseModel``. See the module doc for the real-reader options.
+    """
 
     period: float = math.pi
     gate: float = 0.15                 # outlier gate g as a fraction of P
@@ -98,6 +181,18 @@ class UnwrapConfig:
     max_gap_s: float = 0.15
     max_edge_gap_s: float = 0.15
     max_outlier_fraction: float = 0.3
+    sign: float = -1.0                 # s of φ = s·k·d + φ₀: −1 the paper (eq. 3), +1 LLRP readers
+    carrier_hz: float = 866.3e6        # reference carrier: dφ is k_ref·Δd; reads without a carrier are on it
+    relock_reads: int = 0              # agreeing rejected reads that re-lock after a lasting step; 0 = never
+    step_bridge: str = 'wrapped'       # 'wrapped' (the wrapped difference enters dφ) or 'join' (fits bridge it)
+    channel_lock_reads: int = 3        # agreeing reads that lock a channel first read in this MOVE
+    min_segment_reads: int = 5         # shorter segments are dropped
+    noise: str = 'fixed'               # 'fixed': the paper's gate and fits; 'online': σ̂ from the data
+    noise_prior: float = math.radians(5.5)  # σ̂ before the first MOVE (online)
+    gate_sigmas: float = 6.0           # online gate: gate_sigmas·σ̂, within [min_gate, gate·P]
+    min_gate: float = 0.15             # rad
+    end_noise: float = 0.01            # online end-fit window: 2σ̂/√W ≤ end_noise (rad)
+    noise_memory: int = 10             # MOVEs in the online noise estimate
 
     def __post_init__(self) -> None:
         if not (0.0 < self.gate < 0.5):
@@ -106,6 +201,29 @@ class UnwrapConfig:
             raise ValueError(f'period must be > 0, got {self.period}')
         if self.smooth_window < 2 or self.min_reads < 3:
             raise ValueError('smooth_window must be >= 2 and min_reads >= 3')
+        if self.sign not in (-1.0, 1.0):
+            raise ValueError(f'sign must be -1 (paper) or +1 (LLRP), got {self.sign}')
+        if self.step_bridge not in BRIDGES:
+            raise ValueError(f'step_bridge must be one of {BRIDGES}, got {self.step_bridge!r}')
+        if self.noise not in NOISE_MODES:
+            raise ValueError(f'noise must be one of {NOISE_MODES}, got {self.noise!r}')
+        if self.relock_reads < 0 or self.channel_lock_reads < 1 or self.min_segment_reads < 2:
+            raise ValueError('relock_reads must be >= 0, channel_lock_reads >= 1, min_segment_reads >= 2')
+        if not (self.carrier_hz > 0.0 and self.noise_prior > 0.0 and self.end_noise > 0.0 and self.min_gate > 0.0
+                and self.gate_sigmas > 0.0 and self.noise_memory >= 1):
+            raise ValueError('carrier_hz, noise_prior, end_noise, min_gate, gate_sigmas must be > 0, '
+                             'noise_memory >= 1')
+
+    @classmethod
+    def for_model(cls, phase, **kw) -> UnwrapConfig:
+        """Period, sign and reference carrier of a ``phase.PhaseModel``; the other fields from ``kw``."""
+        kw.setdefault('noise_prior', max(phase.s_theta, 1e-4))
+        return cls(period=phase.wrap_period, sign=phase.sign, carrier_hz=phase.carrier_hz, **kw)
+
+    @classmethod
+    def real_reader(cls, phase, **kw) -> UnwrapConfig:
+        """``for_model`` with the real-reader processing on: re-lock after 5 reads, online noise."""
+        return cls.for_model(phase, **{**REAL_READER, **kw})
 
 
 @dataclass(frozen=True)
@@ -117,8 +235,12 @@ class DphiEstimate:
     reason: str = ''
     n_reads: int = 0
     n_outliers: int = 0
-    unwrapped: np.ndarray = field(default_factory=lambda: np.empty(0))  # per read; NaN for outliers
+    unwrapped: np.ndarray = field(default_factory=lambda: np.empty(0))  # per read (its channel's units); NaN: not used
     accepted: np.ndarray = field(default_factory=lambda: np.empty(0, bool))
+    relocks: int = 0                  # re-locks after a lasting phase step
+    hops: int = 0                     # channel changes between the segments used
+    dphi_std: float = math.nan        # std of dφ from the read noise (online noise only)
+    noise_std: float = math.nan       # per-read noise σ̂ used (online noise only)
 
     @property
     def ok(self) -> bool:
@@ -137,20 +259,46 @@ def _line(t: np.ndarray, u: np.ndarray) -> tuple[float, float, float]:
     return tm, um, (float(tc @ (u - um)) / den if den > 0 else 0.0)
 
 
-def _end_value(t: np.ndarray, u: np.ndarray, at: float) -> float:
-    """Line through (t, u) at ``at``: least squares, then once more without reads off by > 3 MAD-σ."""
+def _end_keep(t: np.ndarray, u: np.ndarray) -> np.ndarray | None:
+    """The reads kept by the end fit's refit (None: all): those within 3 MAD-σ of the first line."""
     tm, um, b = _line(t, u)
     res = u - (um + b * (t - tm))
     keep = np.abs(res) <= max(3.0 * 1.4826 * float(np.median(np.abs(res - np.median(res)))), 1e-3)
-    if 3 <= keep.sum() < t.size:
-        tm, um, b = _line(t[keep], u[keep])
+    return keep if 3 <= keep.sum() < t.size else None
+
+
+def _end_value(t: np.ndarray, u: np.ndarray, at: float) -> float:
+    """Line through (t, u) at ``at``: least squares, then once more without reads off by > 3 MAD-σ."""
+    keep = _end_keep(t, u)
+    if keep is not None:
+        t, u = t[keep], u[keep]
+    tm, um, b = _line(t, u)
     return um + b * (at - tm)
 
 
-def _fail(status: StreamStatus, reason: str, n: int, n_out: int = 0, un=None, acc=None) -> DphiEstimate:
+def _end_var_factor(t: np.ndarray, u: np.ndarray, at: float) -> float:
+    """Var(end value)/σ² of the fit ``_end_value`` makes: 1/n + (at − t̄)²/Σ(tᵢ − t̄)²."""
+    keep = _end_keep(t, u)
+    if keep is not None:
+        t = t[keep]
+    tc = t - t.mean()
+    den = float(tc @ tc)
+    return 1.0 / t.size + ((at - float(t.mean())) ** 2 / den if den > 0 else 0.0)
+
+
+def _fit_residuals(t: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """Residuals of a line fit, scaled by √(n/(n − 2)) (two fitted parameters); empty below 4 reads."""
+    if t.size < 4:
+        return np.empty(0)
+    tm, um, b = _line(t, u)
+    return (u - (um + b * (t - tm))) * math.sqrt(t.size / (t.size - 2.0))
+
+
+def _fail(status: StreamStatus, reason: str, n: int, n_out: int = 0, un=None, acc=None, relocks: int = 0
+          ) -> DphiEstimate:
     return DphiEstimate(status, math.nan, reason, n, n_out,
                         np.full(n, np.nan) if un is None else un,
-                        np.zeros(n, bool) if acc is None else acc)
+                        np.zeros(n, bool) if acc is None else acc, relocks)
 
 
 def _precheck(stream: PhaseStream, cfg: UnwrapConfig) -> DphiEstimate | None:
@@ -162,6 +310,8 @@ def _precheck(stream: PhaseStream, cfg: UnwrapConfig) -> DphiEstimate | None:
                    'of range)')
     elif not (np.all(np.isfinite(t)) and np.all(np.isfinite(stream.phase))):
         problem = (StreamStatus.INVALID, 'non-finite time or phase in the stream')
+    elif stream.carrier_hz is not None and not np.all(stream.carrier_hz > 0.0):
+        problem = (StreamStatus.INVALID, 'non-positive or non-finite carrier in the stream')
     elif np.any(np.diff(t) < 0):
         problem = (StreamStatus.INVALID, 'read times are not in order')
     elif n < cfg.min_reads:
@@ -175,76 +325,198 @@ def _precheck(stream: PhaseStream, cfg: UnwrapConfig) -> DphiEstimate | None:
     return None if problem is None else _fail(*problem, n)
 
 
-def _lock(tl: list, pl: list, p: float, g: float) -> tuple[int, float]:
-    """Step 1: the first read agreeing with its two successors, and the initial slope (rad/s)."""
+def _lock(tl: list, pl: list, ch: list, p: float, g: float) -> tuple[int, float]:
+    """Step 1: the first read agreeing with its two successors (same channel), and the initial slope (rad/s)."""
     half = 0.5 * p
     n = len(pl)
-    start = next((i for i in range(n - 2) if abs(_wrap_c(pl[i + 1] - pl[i], p, half)) <= g
+    start = next((i for i in range(n - 2) if ch[i] == ch[i + 1] == ch[i + 2]
+                  and abs(_wrap_c(pl[i + 1] - pl[i], p, half)) <= g
                   and abs(_wrap_c(pl[i + 2] - pl[i + 1], p, half)) <= g), -1)
     if start < 0:
         return -1, 0.0
     # median over the first reads of wrapped 5-read differences per second (robust to outliers)
     inc = [_wrap_c(pl[i + 5] - pl[i], p, half) / (tl[i + 5] - tl[i])
-           for i in range(start, min(n - 5, start + 20)) if tl[i + 5] > tl[i]]
+           for i in range(start, min(n - 5, start + 20)) if tl[i + 5] > tl[i] and ch[i + 5] == ch[i]]
     return start, float(np.median(inc)) if inc else 0.0
 
 
-def _track(tl: list, pl: list, start: float, v: float, dtn: float, cfg: UnwrapConfig) -> tuple[list, list, str]:
-    """Steps 2–5: the α–β tracker with the outlier gate. Returns (unwrapped, accepted, failure reason)."""
+@dataclass
+class _Track:
+    """What the sequential pass produces (lists, one entry per read)."""
+
+    un: list
+    acc: list
+    seg: list
+    relocks: int = 0
+    reason: str = ''
+
+
+def _track(tl: list, pl: list, rho: list, ch: list, start: int, v: float, dtn: float, cfg: UnwrapConfig,
+           g: float) -> _Track:
+    """Steps 2–5 with the real-reader additions (module doc): α–β tracker on U, per-channel offsets,
+    outlier gate, re-lock after a lasting step. ``rho`` = k_c/k_ref per read, ``ch`` a channel key per read."""
     n = len(pl)
-    p = float(cfg.period)
-    half, g = 0.5 * p, cfg.gate * p
-    un, acc = [math.nan] * n, [False] * n
-    u = pl[start]
-    un[start], acc[start] = u, True
-    t_last, run = tl[start], 0
+    p, half = float(cfg.period), 0.5 * float(cfg.period)
+    out = _Track([math.nan] * n, [False] * n, [-1] * n)
+    un, acc, seg = out.un, out.acc, out.seg
+    off = {ch[start]: 0.0}
+    u = pl[start] / rho[start]          # state in reference units (exactly pl[start] on the reference carrier)
+    v = v / rho[start]
+    un[start], acc[start], seg[start] = pl[start], True, 0
+    t_last, cur, sid = tl[start], ch[start], 0
+    cand: list[tuple[int, float]] = []  # rejected reads since the last accepted one: (index, innovation)
     a, b = cfg.alpha, cfg.beta
     for i in range(start + 1, n):
         dt = tl[i] - t_last
         if dt > cfg.max_gap_s:
-            return un, acc, f'phase lock lost: {1e3 * dt:.0f} ms without a usable read (> {1e3 * cfg.max_gap_s:.0f} ms)'
+            out.reason = (f'phase lock lost: {1e3 * dt:.0f} ms without a usable read '
+                          f'(> {1e3 * cfg.max_gap_s:.0f} ms)')
+            return out
+        c, rc = ch[i], rho[i]
+        known = c in off
         pred = u + v * dt
-        r = _wrap_c(pl[i] - pred, p, half)
-        if abs(r) > g:
-            run += 1
-            if run > cfg.max_consecutive_outliers:
-                return un, acc, f'phase lock lost: more than {cfg.max_consecutive_outliers} outliers in a row'
+        pc = rc * pred + off.get(c, 0.0)
+        r = _wrap_c(pl[i] - pc, p, half)
+        if known and abs(r) <= g:
+            if c != cur:                 # back on a channel read earlier in this MOVE
+                sid, cur = sid + 1, c
+            cand = []
+            un[i], acc[i], seg[i] = pc + r, True, sid
+            u = pred + a * r / rc
+            if dtn > 0:
+                v += b * r / rc / dtn
+            t_last = tl[i]
             continue
-        run = 0
-        un[i], acc[i] = pred + r, True
-        u = pred + a * r
-        if dtn > 0:
-            v += b * r / dtn
-        t_last = tl[i]
-    return un, acc, ''
+        cand.append((i, r))
+        need = cfg.relock_reads if known else cfg.channel_lock_reads
+        agree = cand[-need:] if need else []
+        if need and len(agree) == need and all(ch[j] == c and abs(_wrap_c(rj - r, p, half)) <= 0.5 * g
+                                               for j, rj in agree):
+            delta = r + sum(_wrap_c(rj - r, p, half) for _, rj in agree) / len(agree)
+            if not known or cfg.step_bridge == 'join' or c != cur:
+                off[c] = off.get(c, 0.0) + delta      # a new channel, or a step taken as an offset
+                sid, cur = sid + 1, c
+            else:
+                u += delta / rc                      # 'wrapped': the curve crosses the step by δ
+            out.relocks += int(known)
+            for j, _ in agree:
+                pj = rho[j] * (u + v * (tl[j] - t_last)) + off[c]
+                un[j], acc[j], seg[j] = pj + _wrap_c(pl[j] - pj, p, half), True, sid
+            pred = u + v * (tl[i] - t_last)
+            u = pred + a * _wrap_c(pl[i] - (rc * pred + off[c]), p, half) / rc
+            t_last, cand = tl[i], []
+            continue
+        if len(cand) > cfg.max_consecutive_outliers + cfg.relock_reads:
+            limit = cfg.max_consecutive_outliers + cfg.relock_reads
+            out.reason = f'phase lock lost: more than {limit} outliers in a row'
+            return out
+    return out
+
+
+class PhaseProcessor:
+    """The MOVE stream → dφ for one reader over a search: ``process_move`` plus the online noise state.
+
+    With ``noise='fixed'`` it is ``process_move`` exactly. With ``noise='online'`` it keeps the last
+    ``noise_memory`` MOVEs' noise estimates (module doc); ``noise_std`` is their median.
+    """
+
+    def __init__(self, cfg: UnwrapConfig | None = None) -> None:
+        self.cfg = cfg or UnwrapConfig()
+        self._samples: deque[float] = deque(maxlen=self.cfg.noise_memory)
+
+    @property
+    def noise_std(self) -> float:
+        return float(np.median(self._samples)) if self._samples else self.cfg.noise_prior
+
+    def process(self, stream: PhaseStream) -> DphiEstimate:
+        return _process(stream, self.cfg, self if self.cfg.noise == 'online' else None)
+
+    def _add(self, sample: float) -> None:
+        if math.isfinite(sample) and sample > 0.0:
+            self._samples.append(sample)
 
 
 def process_move(stream: PhaseStream, cfg: UnwrapConfig | None = None) -> DphiEstimate:
-    """Unwrap, reject outliers, smooth; return the step's dφ (eq. 6 sign) or why there is none."""
+    """Unwrap, reject outliers, smooth; return the step's dφ (eq. 6 sign) or why there is none.
+
+    Stateless: with ``noise='online'`` it uses ``noise_prior`` as σ̂ (use ``PhaseProcessor`` to learn it).
+    """
     cfg = cfg or UnwrapConfig()
+    return _process(stream, cfg, PhaseProcessor(cfg) if cfg.noise == 'online' else None)
+
+
+def _process(stream: PhaseStream, cfg: UnwrapConfig, noise: PhaseProcessor | None) -> DphiEstimate:
     bad = _precheck(stream, cfg)
     if bad is not None:
         return bad
     n, t = len(stream), stream.t
+    p = float(cfg.period)
+    g = cfg.gate * p
+    if noise is not None:
+        g = min(g, max(cfg.min_gate, cfg.gate_sigmas * noise.noise_std))
     tl, pl = t.tolist(), stream.phase.tolist()
-    start, v = _lock(tl, pl, float(cfg.period), cfg.gate * float(cfg.period))
+    if stream.carrier_hz is None:
+        rho, ch = [1.0] * n, [0.0] * n
+    else:
+        rho, ch = (stream.carrier_hz / cfg.carrier_hz).tolist(), stream.carrier_hz.tolist()
+    start, v = _lock(tl, pl, ch, p, g)
     if start < 0:
         return _fail(StreamStatus.INVALID, 'no three consecutive consistent reads: cannot lock on the phase', n, n)
     dtn = float(np.median(np.diff(t)))          # nominal read interval for the β gain
-    un, acc, reason = _track(tl, pl, start, v, dtn, cfg)
-    unw, acc_a = np.array(un), np.array(acc)
+    tr = _track(tl, pl, rho, ch, start, v, dtn, cfg, g)
+    unw, acc_a, seg_a = np.array(tr.un), np.array(tr.acc), np.array(tr.seg)
+    # segments: runs of accepted reads; drop the short ones (the neighbours' lines bridge them)
+    ids = np.unique(seg_a[acc_a])
+    if ids.size > 1:
+        counts = np.bincount(seg_a[acc_a], minlength=int(ids.max()) + 1)
+        short = acc_a & (counts[np.maximum(seg_a, 0)] < cfg.min_segment_reads)
+        acc_a = acc_a & ~short
+        ids = np.unique(seg_a[acc_a])
     n_out = n - int(acc_a.sum())
+    reason = tr.reason
     if not reason and n_out > cfg.max_outlier_fraction * n:
         reason = f'{n_out} of {n} reads are outliers (> {cfg.max_outlier_fraction:.0%})'
+    if not reason and ids.size == 0:
+        reason = 'no segment long enough to fit'
     if reason:
-        return _fail(StreamStatus.INVALID, reason, n, n_out, unw, acc_a)
-    ta, ua = t[acc_a], unw[acc_a]
-    w = min(cfg.smooth_window, ta.size)
-    t_first = ta[0] if stream.t_start is None else min(ta[0], stream.t_start)
-    t_end = ta[-1] if stream.t_end is None else max(ta[-1], stream.t_end)
-    first = _end_value(ta[:w], ua[:w], t_first)
-    last = _end_value(ta[-w:], ua[-w:], t_end)
-    return DphiEstimate(StreamStatus.OK, -(last - first), '', n, n_out, unw, acc_a)
+        return _fail(StreamStatus.INVALID, reason, n, n_out, unw, acc_a, tr.relocks)
+    return _combine(stream, cfg, noise, t, unw, acc_a, seg_a, ids, rho, ch, n, n_out, tr.relocks)
+
+
+def _combine(stream: PhaseStream, cfg: UnwrapConfig, noise: PhaseProcessor | None, t, unw, acc_a, seg_a, ids,
+             rho: list, ch: list, n: int, n_out: int, relocks: int) -> DphiEstimate:
+    """dφ from the segments: end fits at the boundaries, each segment in range with its own λ (module doc)."""
+    segs = [(t[acc_a & (seg_a == k)], unw[acc_a & (seg_a == k)], rho[int(np.flatnonzero(seg_a == k)[0])],
+             ch[int(np.flatnonzero(seg_a == k)[0])]) for k in ids]
+    sigma = math.nan
+    w = cfg.smooth_window
+    if noise is not None:
+        res = [_fit_residuals(ts[:cfg.smooth_window], us[:cfg.smooth_window]) for ts, us, _, _ in segs]
+        res += [_fit_residuals(ts[-cfg.smooth_window:], us[-cfg.smooth_window:]) for ts, us, _, _ in segs
+                if ts.size > cfg.smooth_window]
+        r = np.concatenate(res)
+        if r.size >= 4:
+            noise._add(1.4826 * float(np.median(np.abs(r - np.median(r)))))
+        sigma = noise.noise_std
+        w_noise = math.ceil(4.0 * sigma * sigma / (cfg.end_noise * cfg.end_noise))
+        w = int(min(cfg.smooth_window, max(cfg.min_segment_reads, w_noise)))
+    # boundaries: the button presses at the ends, the middle of the gap between two segments
+    bounds = [segs[0][0][0] if stream.t_start is None else min(segs[0][0][0], stream.t_start)]
+    bounds += [0.5 * (segs[k][0][-1] + segs[k + 1][0][0]) for k in range(len(segs) - 1)]
+    bounds.append(segs[-1][0][-1] if stream.t_end is None else max(segs[-1][0][-1], stream.t_end))
+    total, var = 0.0, 0.0
+    for k, (ts, us, rk, _) in enumerate(segs):
+        wk = min(w, ts.size)
+        first = _end_value(ts[:wk], us[:wk], bounds[k])
+        last = _end_value(ts[-wk:], us[-wk:], bounds[k + 1])
+        total += (last - first) / rk
+        if noise is not None:
+            var += (_end_var_factor(ts[:wk], us[:wk], bounds[k])
+                    + _end_var_factor(ts[-wk:], us[-wk:], bounds[k + 1])) / (rk * rk)
+    hops = sum(int(segs[k][3] != segs[k + 1][3]) for k in range(len(segs) - 1))
+    dphi_std = sigma * math.sqrt(var) if noise is not None else math.nan
+    return DphiEstimate(StreamStatus.OK, cfg.sign * total, '', n, n_out, unw, acc_a, relocks, hops,
+                        dphi_std, sigma)
 
 
 def naive_unwrap(phase: np.ndarray, period: float) -> np.ndarray:
@@ -253,3 +525,14 @@ def naive_unwrap(phase: np.ndarray, period: float) -> np.ndarray:
     d = np.diff(ph)
     d = 0.5 * period - np.mod(0.5 * period - d, period)
     return np.concatenate([ph[:1], ph[0] + np.cumsum(d)])
+
+
+def naive_dphi(stream: PhaseStream, cfg: UnwrapConfig) -> float:
+    """The naive baseline's dφ: ``naive_unwrap`` of all reads, last minus first, in eq. 6's sign (NaN: < 2 reads).
+
+    It ignores carriers (one curve across hops, in the reference units), as ``np.unwrap`` on a reader's log would.
+    """
+    if len(stream) < 2:
+        return math.nan
+    u = naive_unwrap(stream.phase, cfg.period)
+    return cfg.sign * float(u[-1] - u[0])

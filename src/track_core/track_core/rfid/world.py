@@ -33,6 +33,21 @@ MOVE: the facing direction gets an error n_a ~ N(0, s_a²). The step is eqs. 1�
 ``'eq20'`` is eq. 20's (s_step + r) along the heading. The user walks at ``walk_speed``. A step
 that would enter an obstacle stops 5 cm before it.
 
+Real readers (issue 14; every option is off by default, and then not one extra random draw is
+made, so the paper's runs are unchanged bit for bit):
+
+- ``phase.convention`` 'llrp': the phase rises with distance (``phase.PhaseModel``).
+- Hopping: ``channels_hz`` (≥ 2 carriers) and ``hop_dwell_s``. The reader's clock is cut into dwells
+  of ``hop_dwell_s`` (with a random phase drawn once per run); each dwell is on a channel drawn
+  uniformly among the others than the previous dwell's. Channel c has its own k_c = 4π f_c/c and its
+  own phase offset o_c, uniform in [0, 2π), drawn once per run: φ = s·k_c·d + φ₀ + o_c. The stream
+  carries each read's carrier.
+- Lasting multipath phase steps: ``phase_step_rate`` steps per second of reader time (Poisson, TURNs
+  included), each of size ±U[``phase_step_size``] (random sign). A step is added to every read after
+  it and stays for the rest of the run (a fade that moves the phase and "stays there").
+- Low per-read noise: ``phase.s_theta`` (a real reader: ≈ 0.015 rad).
+- ``ReaderOutput.truth_dphi``: the step's geometric dφ (eq. 6, reference carrier), for evaluation.
+
 Found: the user is within ``found_radius`` (0.2 m, Fig. 8) of the tag at the end of a MOVE. A
 MOVE whose result is unusable (``protocol.step_result_problem``) is undone: the user goes back to
 where the step started (counted in the distance walked) so that the repeated step starts where
@@ -47,9 +62,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from track_core.filters import wrap_angle
-from track_core.rfid.phase import PhaseModel
+from track_core.rfid.phase import CARRIER_RANGE_HZ, PhaseModel
 from track_core.rfid.protocol import Command, CommandKind, StepResult, step_result_problem
-from track_core.rfid.signal import DphiEstimate, PhaseStream, UnwrapConfig, process_move
+from track_core.rfid.signal import DphiEstimate, PhaseProcessor, PhaseStream, UnwrapConfig
 
 
 @dataclass(frozen=True)
@@ -136,6 +151,10 @@ class WorldParams:
     found_radius: float = 0.2
     obstacles: tuple[Rect, ...] = ()
     step_model: str = 'eq1'                # 'eq1': eqs. 1–2; 'eq20': eq. 20's (s_step + r) along the heading
+    channels_hz: tuple[float, ...] = ()    # hopping carriers (Hz); () = one carrier, phase.carrier_hz
+    hop_dwell_s: float = 0.0               # dwell per channel when hopping (s)
+    phase_step_rate: float = 0.0           # lasting multipath phase steps per second of reads
+    phase_step_size: tuple[float, float] = (0.0, 0.0)   # step magnitude uniform in [lo, hi] (rad), random sign
 
     def __post_init__(self) -> None:
         if not (0.0 < self.beam_width <= 2.0 * math.pi):
@@ -148,6 +167,18 @@ class WorldParams:
             raise ValueError(f'outlier_prob must be in [0, 1), got {self.outlier_prob}')
         if not (0.0 < self.scan_step <= math.pi and 0.0 < self.detour_step <= math.pi):
             raise ValueError('scan_step and detour_step must be in (0, π]')
+        if self.channels_hz and (len(self.channels_hz) < 2 or not self.hop_dwell_s > 0.0):
+            raise ValueError('hopping needs at least 2 channels_hz and hop_dwell_s > 0')
+        lo, hi = CARRIER_RANGE_HZ
+        if any(not (lo <= f <= hi) for f in self.channels_hz):
+            raise ValueError(f'channels_hz must be within {lo / 1e6:g}–{hi / 1e6:g} MHz, got {self.channels_hz}')
+        a, b = self.phase_step_size
+        if self.phase_step_rate < 0.0 or not (0.0 <= a <= b):
+            raise ValueError('phase_step_rate must be >= 0 and phase_step_size 0 <= lo <= hi')
+
+    @property
+    def hopping(self) -> bool:
+        return len(self.channels_hz) >= 2
 
 
 @dataclass(frozen=True)
@@ -156,6 +187,7 @@ class ReaderOutput:
     stream: PhaseStream
     pose: np.ndarray               # true (x, y, heading) after the action, for evaluation only
     estimate: DphiEstimate | None = None
+    truth_dphi: float = math.nan   # MOVE: geometric dφ of the step walked (eq. 6, reference carrier)
 
 
 def read_mask(params: WorldParams, xy: np.ndarray, heading: np.ndarray | float) -> np.ndarray:
@@ -174,7 +206,8 @@ class SimReader:
                  unwrap: UnwrapConfig | None = None) -> None:
         self.params = params
         self.rng = rng
-        self.unwrap = unwrap or UnwrapConfig(period=params.phase.wrap_period)
+        self.unwrap = unwrap or UnwrapConfig.for_model(params.phase)
+        self.processor = PhaseProcessor(self.unwrap)
         if start is None:
             for _ in range(1000):
                 th = rng.uniform(-math.pi, math.pi)
@@ -194,6 +227,11 @@ class SimReader:
         self.route = [self.pose[:2].copy()]
         self._detour_sign = 0.0
         self._initial_scan()
+        self.step_offset = 0.0                    # lasting multipath phase steps so far (rad)
+        if params.hopping:                        # drawn only when hopping: the paper's runs draw nothing more
+            self.channel_offsets = rng.uniform(0.0, 2.0 * math.pi, len(params.channels_hz))
+            self._hop_phase = float(rng.uniform(0.0, params.hop_dwell_s))
+            self._dwell = (-1, int(rng.integers(len(params.channels_hz))))   # (dwell index, channel)
 
     # -- geometry -----------------------------------------------------------------------------
     def _blocked_point(self, xy: np.ndarray) -> bool:
@@ -250,12 +288,45 @@ class SimReader:
         keep = read_mask(p, xy, heading)
         times, xy = times[keep], xy[keep]
         d = np.hypot(xy[:, 0], xy[:, 1])
-        ph = p.phase.phase(d, self.offset) + rng.normal(0.0, p.phase.s_theta, d.size)
+        noise = rng.normal(0.0, p.phase.s_theta, d.size)
         out = rng.random(d.size) < p.outlier_prob
-        ph[out] = rng.uniform(0.0, p.phase.wrap_period, int(out.sum()))
+        wild = rng.uniform(0.0, p.phase.wrap_period, int(out.sum()))
         rssi = p.rssi_1m - 40.0 * np.log10(np.maximum(d, 0.05)) + rng.normal(0.0, 2.0, d.size)
+        carrier, extra = None, 0.0
+        if p.hopping:
+            chan = self._channels(t0 + times)
+            carrier = np.asarray(p.channels_hz)[chan]
+            extra = self.channel_offsets[chan]
+        if p.phase_step_rate > 0.0:
+            extra = extra + self._phase_steps(times, duration)
+        ph = p.phase.phase(d, self.offset, carrier) + noise + extra
+        ph[out] = wild
         self.t = t0 + duration
-        return PhaseStream(t0 + times, p.phase.wrap(ph), rssi, t0, t0 + duration)
+        return PhaseStream(t0 + times, p.phase.wrap(ph), rssi, t0, t0 + duration, carrier)
+
+    def _channels(self, times: np.ndarray) -> np.ndarray:
+        """Channel index of each read: one channel per dwell, each dwell on another channel than the last."""
+        p = self.params
+        dwell = np.floor((times + self._hop_phase) / p.hop_dwell_s).astype(int)
+        keys = np.unique(dwell)
+        chans = np.empty(keys.size, dtype=int)
+        for j, k in enumerate(keys):      # one draw per new dwell (a few per step), not per read
+            if k > self._dwell[0]:
+                c = int(self.rng.integers(len(p.channels_hz) - 1))
+                self._dwell = (int(k), c + int(c >= self._dwell[1]))
+            chans[j] = self._dwell[1]
+        return chans[np.searchsorted(keys, dwell)]
+
+    def _phase_steps(self, times: np.ndarray, duration: float) -> np.ndarray:
+        """The lasting phase step offset of each read (rad): earlier steps plus those during this action."""
+        p, rng = self.params, self.rng
+        k = int(rng.poisson(p.phase_step_rate * duration))
+        at = np.sort(rng.uniform(0.0, duration, k))
+        size = rng.uniform(*p.phase_step_size, k) * rng.choice([-1.0, 1.0], k)
+        cum = np.concatenate([[0.0], np.cumsum(size)])
+        offs = self.step_offset + cum[np.searchsorted(at, times, side='right')]
+        self.step_offset += float(cum[-1])
+        return offs
 
     # -- actions -------------------------------------------------------------------------------
     def execute(self, cmd: Command) -> ReaderOutput:
@@ -326,15 +397,17 @@ class SimReader:
                 b = a + f * (b - a)
                 length = float(np.hypot(*(b - a)))
         stream = self._stream(a, b, head, max(length, 1e-3) / p.walk_speed)
-        est = process_move(stream, self.unwrap)
+        est = self.processor.process(stream)
         self.pose = np.array([b[0], b[1], head])
         self.steps += 1
         self.distance += length
         res = StepResult(CommandKind.MOVE, cmd.seq, dphi=est.dphi, n_reads=est.n_reads, n_outliers=est.n_outliers,
-                         ok=est.ok, reason=est.reason, found=self.found())
+                         ok=est.ok, reason=est.reason, found=self.found(), dphi_std=est.dphi_std,
+                         relocks=est.relocks)
+        truth = p.phase.k * (float(np.hypot(*b)) - float(np.hypot(*a)))
         if not res.found and step_result_problem(res) is not None:
             self.pose = start                     # unusable step: go back to where it started
             self.distance += length
             self.repeats += 1
         self.route.append(self.pose[:2].copy())
-        return ReaderOutput(res, stream, self.pose.copy(), est)
+        return ReaderOutput(res, stream, self.pose.copy(), est, truth)

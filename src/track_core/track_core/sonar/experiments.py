@@ -249,7 +249,7 @@ def table2(cfg: RunConfig) -> Outcome:
 
 
 def _fig_tradeoff(rows: list[dict], peers: tuple[str, ...], base: dict, path: Path) -> Path:
-    plt = _plt()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(6, 4))
     ax.plot([r['active_epochs'] for r in rows], [r['rtams_m'] for r in rows], 'o-', label='SS-PF (ours)')
     for peer in peers:

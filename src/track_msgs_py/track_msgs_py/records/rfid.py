@@ -79,15 +79,18 @@ class RfidStep(StatusRecord):
     reason: str
     found: bool
     duration: float
+    dphi_std: float = math.nan  # the reader's own dφ std (issue 14); NaN: unknown
+    relocks: int = 0  # re-locks after lasting phase steps in this MOVE (issue 14)
 
     @classmethod
     def from_result(cls, res: StepResult, duration: float) -> RfidStep:
         return cls(res.seq, res.kind.value, float(res.dphi), float(res.turn), res.n_reads, res.n_outliers,
-                   bool(res.ok), res.reason, bool(res.found), float(duration))
+                   bool(res.ok), res.reason, bool(res.found), float(duration), float(res.dphi_std), int(res.relocks))
 
     def result(self) -> StepResult:
         return StepResult(_kind(self.kind), self.seq, dphi=self.dphi, turn=self.turn, n_reads=self.n_reads,
-                          n_outliers=self.n_outliers, ok=self.ok, reason=self.reason, found=self.found)
+                          n_outliers=self.n_outliers, ok=self.ok, reason=self.reason, found=self.found,
+                          dphi_std=self.dphi_std, relocks=self.relocks)
 
 
 def read_step(msg: DiagnosticArray, pending: Command) -> tuple[StepResult, int | None]:

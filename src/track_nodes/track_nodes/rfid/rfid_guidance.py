@@ -57,7 +57,7 @@ from geometry_msgs.msg import PointStamped, PoseArray
 
 from track_core.rfid.guidance import RfidGuidance
 from track_core.rfid.loop import CommandLoop, Tick, Use
-from track_core.rfid.pf import SUGGESTION_RULES, PFParams
+from track_core.rfid.pf import SUGGESTION_RULES, WEIGHTINGS, PFParams
 from track_core.rfid.phase import PhaseModel
 from track_core.rfid.protocol import Command, CommandKind
 from track_msgs_py.convert import DIAG_OK, DIAG_WARN, diagnostic_array, positions_to_pose_array, sec_to_stamp
@@ -88,6 +88,8 @@ PARAMS = (
           1e-3, 360.0),
     Param('suggestion', _PF.suggestion, 'turn rule: mean (eq. 24, circular), side, auto (track_core.rfid.pf)',
           choices=SUGGESTION_RULES),
+    Param('weighting', _PF.weighting, 'f_w: inverse_square (Section V) or gaussian (track_core.rfid.pf)',
+          choices=WEIGHTINGS),
     Param('reinit_factor', 3.0, 're-initialise when min |m| > factor · m₀; 0 = never', 0.0, 1e6),
     Param('max_repeats', 2, 'unusable MOVEs in a row before asking for a half turn', 1, 1000),
     Param('max_steps', 200, 'MOVE results (repeats included) before the search ends as a failure', 1, 1_000_000),
@@ -100,7 +102,7 @@ PARAMS = (
 def pf_params(p) -> PFParams:
     try:
         return PFParams(n_particles=p.n_particles, s_step=p.s_step, s_r=p.s_r, s_a=math.radians(p.s_a_deg),
-                        beam_width=math.radians(p.beam_width_deg), suggestion=p.suggestion,
+                        beam_width=math.radians(p.beam_width_deg), suggestion=p.suggestion, weighting=p.weighting,
                         reinit_factor=p.reinit_factor if p.reinit_factor > 0 else None)
     except ValueError as exc:
         raise ParameterError(f'invalid filter parameters: {exc}') from None
@@ -115,7 +117,8 @@ class RfidGuidanceNode(TrackNode):
         params = pf_params(p)
         _, pf_ss = np.random.SeedSequence(p.seed).spawn(2)
         try:
-            phase = PhaseModel.with_wrap(p.wrap, carrier_hz=p.carrier_hz, s_theta=math.radians(p.s_theta_deg))
+            phase = PhaseModel.with_wrap(p.wrap, carrier_hz=p.carrier_hz, s_theta=math.radians(p.s_theta_deg),
+                                         convention=p.convention)
             self.guide = RfidGuidance(params, phase, np.random.default_rng(pf_ss), log_warnings=False,
                                       max_repeats=p.max_repeats)
         except ValueError as exc:

@@ -7,7 +7,8 @@ reader reads the tag ~300 times a second and processes the MOVE's phase stream i
 publishes, in this order,
 
 - ``/rfid/phase`` (sensor_msgs/PointCloud2, MOVE only): the raw wrapped reads of the step, float32
-  fields ``t`` (s since the step started), ``phase`` (rad, wrapped into (0, P]), ``rssi`` (dBm);
+  fields ``t`` (s since the step started), ``phase`` (rad, wrapped into (0, P]), ``rssi`` (dBm),
+  ``carrier_mhz`` (the read's carrier: hopping readers change it between dwells);
 - ``/rfid/user/pose`` (geometry_msgs/PoseStamped in ``map``, tag at the origin) and
   ``/rfid/user/status`` (diagnostic_msgs/DiagnosticArray: steps, turns, distance walked, ...):
   the truth, for evaluation only (the guidance never reads them);
@@ -53,6 +54,7 @@ from sensor_msgs.msg import PointCloud2
 from track_core.rfid.loop import AnswerCache, Verdict
 from track_core.rfid.phase import PhaseModel
 from track_core.rfid.protocol import Command, CommandKind
+from track_core.rfid.signal import UnwrapConfig
 from track_core.rfid.world import SimReader, WorldParams, office_obstacles
 from track_msgs_py.convert import DIAG_OK, DIAG_WARN, diagnostic_array, sec_to_stamp, table_to_pointcloud2
 from track_msgs_py.qos import ESTIMATE_QOS
@@ -88,6 +90,14 @@ PARAMS = (
           1e-3, 100.0),
     Param('obstacles', 'none', 'none, or office: the obstacle variant (track_core.rfid.world.office_obstacles)',
           choices=('none', 'office')),
+    Param('hop_dwell_s', 0.0, 'frequency hopping: dwell per channel; 0 = one carrier (carrier_hz) [s]', 0.0, 60.0),
+    Param('hop_channels_mhz', [920.625 + 0.5 * j for j in range(8)], 'hopping carriers when hop_dwell_s > 0 [MHz]'),
+    Param('phase_step_rate', 0.0, 'simulated lasting multipath phase steps per second; 0 = none [1/s]', 0.0, 1e3),
+    Param('phase_step_size', [0.8, 2.5], 'their size, uniform in [lo, hi], random sign [rad]'),
+    Param('relock_reads', 0, 'signal processing: agreeing reads that re-lock after a lasting phase step; 0 = never',
+          0, 1000),
+    Param('noise', 'fixed', 'signal processing: fixed (the paper) or online (per-read noise from the data)',
+          choices=('fixed', 'online')),
     Param('time_scale', 1.0, 'node seconds per second of the simulated action before answering; 0 = at once',
           0.0, 1e3),
     Param('tick', 0.05, 'period of the timer that publishes due answers [node s]', 1e-3, 10.0),
@@ -107,13 +117,16 @@ class _Answer:
 def world_params(p) -> WorldParams:
     """``WorldParams`` from the node parameters (ParameterError with one line when inconsistent)."""
     try:
-        phase = PhaseModel.with_wrap(p.wrap, carrier_hz=p.carrier_hz, s_theta=math.radians(p.s_theta_deg))
+        phase = PhaseModel.with_wrap(p.wrap, carrier_hz=p.carrier_hz, s_theta=math.radians(p.s_theta_deg),
+                                     convention=p.convention)
         return WorldParams(
             phase=phase, start_distance=p.start_distance, beam_width=math.radians(p.beam_width_deg),
             max_range=p.max_range, back_lobe_range=p.back_lobe_range, read_rate=p.read_rate,
             outlier_prob=p.outlier_prob, walk_speed=p.walk_speed, turn_read_s=p.turn_read_s, s_step=p.s_step,
             s_r=p.s_r, s_a=math.radians(p.s_a_deg), found_radius=p.found_radius, step_model=p.step_model,
-            obstacles=office_obstacles() if p.obstacles == 'office' else ())
+            obstacles=office_obstacles() if p.obstacles == 'office' else (), hop_dwell_s=p.hop_dwell_s,
+            channels_hz=tuple(1e6 * f for f in p.hop_channels_mhz) if p.hop_dwell_s > 0 else (),
+            phase_step_rate=p.phase_step_rate, phase_step_size=tuple(p.phase_step_size))
     except ValueError as exc:
         raise ParameterError(f'invalid world parameters: {exc}') from None
 
@@ -142,7 +155,8 @@ class RfidReaderNode(TrackNode):
             start = np.array([s[0], s[1], math.radians(s[2])])
         world_ss, _ = np.random.SeedSequence(p.seed).spawn(2)
         try:
-            self.reader = SimReader(self.world, np.random.default_rng(world_ss), start=start)
+            unwrap = UnwrapConfig.for_model(self.world.phase, relock_reads=p.relock_reads, noise=p.noise)
+            self.reader = SimReader(self.world, np.random.default_rng(world_ss), start=start, unwrap=unwrap)
         except ValueError as exc:
             raise ParameterError(f'cannot start the search: {exc}') from None
         self.cache: AnswerCache[_Answer] = AnswerCache()  # one answer per seq (track_core.rfid.loop)
@@ -205,8 +219,9 @@ class RfidReaderNode(TrackNode):
         if cmd.kind is CommandKind.MOVE:
             s = out.stream
             t_start = s.t_start if s.t_start is not None else t0
+            carrier = np.full(len(s), self.world.phase.carrier_hz) if s.carrier_hz is None else s.carrier_hz
             stream = table_to_pointcloud2(due, self.get_name(), {'t': s.t - t_start, 'phase': s.phase,
-                                                                 'rssi': s.rssi})
+                                                                 'rssi': s.rssi, 'carrier_mhz': carrier / 1e6})
         pose, status = self._truth(due, cmd.seq)
         done = cmd.kind is CommandKind.DONE
         self.cache.store(cmd.seq, _Answer(stream, pose, status, diagnostic_array(due, [step])), due, done)

@@ -105,13 +105,36 @@ def test_too_few_reads_and_uncovered_step_are_signal_lost():
 
 
 def test_a_burst_of_outliers_loses_the_lock():
+    """Reads that disagree with the track and with each other (uniform phases) are a run of outliers."""
     pm = PhaseModel()
     rng = np.random.default_rng(5)
     stream, _ = make_stream(pm, (-4.0, 0.0), (-3.5, 0.0), rng, noise=0.0)
     ph = stream.phase.copy()
-    ph[40:60] = pm.wrap(ph[40:60] + math.pi / 2)
+    ph[40:60] = rng.uniform(0.0, pm.wrap_period, 20)
     est = process_move(PhaseStream(stream.t, ph, stream.rssi, stream.t_start, stream.t_end))
     assert est.status is StreamStatus.INVALID and 'lock lost' in est.reason
+
+
+def test_a_consistent_burst_relocks_in_and_out():
+    """20 reads shifted by the same 1 rad agree with each other: a lasting step, and a step back (issue 14).
+
+    The paper's processing (``relock_reads`` 0, the default) loses the lock (more than 8 outliers in a
+    row); with re-locking on, both steps re-lock and,
+    bridged by their wrapped differences (+1 then −1 rad), cancel in dφ.
+    """
+    pm = PhaseModel()
+    rng = np.random.default_rng(5)
+    stream, _ = make_stream(pm, (-4.0, 0.0), (-3.5, 0.0), rng, noise=0.0)
+    truth = float(pm.dphi(np.array([-4.0, 0.0]), np.array([-3.5, 0.0])))
+    ph = stream.phase.copy()
+    ph[40:60] = pm.wrap(ph[40:60] + 1.0)
+    est = process_move(PhaseStream(stream.t, ph, stream.rssi, stream.t_start, stream.t_end),
+                       UnwrapConfig(relock_reads=5))
+    assert est.ok and est.relocks == 2
+    assert est.dphi == pytest.approx(truth, abs=0.02)
+    old = process_move(PhaseStream(stream.t, ph, stream.rssi, stream.t_start, stream.t_end),
+                       UnwrapConfig(relock_reads=0))
+    assert old.status is StreamStatus.INVALID and 'lock lost' in old.reason
 
 
 def test_a_long_gap_is_invalid():

@@ -1,0 +1,198 @@
+"""Real UHF readers (issue 14): sign convention, re-lock after lasting phase steps, hopping, online noise."""
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from track_core.rfid.phase import PhaseModel
+from track_core.rfid.protocol import Command, CommandKind
+from track_core.rfid.signal import PhaseProcessor, PhaseStream, UnwrapConfig, naive_dphi, process_move
+from track_core.rfid.world import SimReader, WorldParams
+
+CH = tuple(920.625e6 + 0.5e6 * j for j in range(8))
+LLRP = PhaseModel(carrier_hz=920.625e6, wrap_period=2 * math.pi, s_theta=0.015, convention='llrp')
+
+
+def walk_stream(pm: PhaseModel, rng, *, start=(-5.0, 1.0), end=(-4.55, 0.8), rate=300.0, noise=None,
+                steps=(), hop_dwell=0.0, channels=CH, outlier_prob=0.0, t0=3.0):
+    """Reads along a straight walk (tag at the origin), 1 m/s, Poisson times.
+
+    ``steps``: (time from the start, size) of lasting phase steps. ``hop_dwell`` > 0: hopping over
+    ``channels``, each with its own offset. Returns (stream, geometric dφ at the model's carrier).
+    """
+    start, end = np.asarray(start, float), np.asarray(end, float)
+    dur = float(np.hypot(*(end - start)))
+    t = np.cumsum(rng.exponential(1.0 / rate, int(rate * dur * 2 + 20)))
+    t = t[t <= dur]
+    xy = start + (t / dur)[:, None] * (end - start)
+    d = np.hypot(xy[:, 0], xy[:, 1])
+    carrier = None
+    extra = np.zeros(d.size)
+    if hop_dwell > 0:
+        seq = rng.permutation(len(channels))
+        chan = seq[np.floor(t / hop_dwell).astype(int) % len(channels)]
+        carrier = np.asarray(channels)[chan]
+        extra += rng.uniform(0, 2 * math.pi, len(channels))[chan]
+    for at, size in steps:
+        extra[t > at] += size
+    ph = pm.phase(d, 0.7, carrier) + extra + rng.normal(0.0, pm.s_theta if noise is None else noise, d.size)
+    out = rng.random(d.size) < outlier_prob
+    ph[out] = rng.uniform(0, pm.wrap_period, out.sum())
+    truth = float(pm.dphi(start, end))
+    return PhaseStream(t0 + t, pm.wrap(ph), np.full(d.size, -50.0), t0, t0 + dur, carrier), truth
+
+
+def wrap_c(x, p):
+    return 0.5 * p - (0.5 * p - x) % p
+
+
+# -- sign convention ------------------------------------------------------------------------------
+def test_llrp_phase_rises_with_distance_and_dphi_keeps_eq6_sign():
+    pm = replace(LLRP, s_theta=0.0)
+    assert pm.sign == 1.0 and PhaseModel().sign == -1.0
+    assert float(pm.phase(1.0) - pm.phase(0.5)) == pytest.approx(0.5 * pm.k)
+    assert float(PhaseModel().phase(1.0) - PhaseModel().phase(0.5)) < 0
+    with pytest.raises(ValueError, match='convention'):
+        PhaseModel(convention='impinj')
+    rng = np.random.default_rng(0)
+    stream, truth = walk_stream(LLRP, rng, start=(-3.0, 0.0), end=(-3.5, 0.0))   # walking away: dφ > 0
+    assert truth > 0
+    ok = process_move(stream, UnwrapConfig.for_model(LLRP))
+    assert ok.ok and ok.dphi == pytest.approx(truth, abs=0.05)
+    fed_as_is = process_move(stream, UnwrapConfig(period=LLRP.wrap_period, carrier_hz=LLRP.carrier_hz))
+    assert fed_as_is.dphi == pytest.approx(-truth, abs=0.05)          # the issue's −19.3 instead of +19.3
+
+
+# -- re-lock ----------------------------------------------------------------------------------------
+@pytest.mark.parametrize('period', [math.pi, 2 * math.pi])
+@pytest.mark.parametrize('size', [0.8, 1.0, 1.5, 2.5, -2.5])
+def test_a_lasting_step_relocks_and_is_bridged_by_its_wrapped_difference(period, size):
+    pm = replace(LLRP, wrap_period=period)
+    cfg = UnwrapConfig.for_model(pm, relock_reads=5)
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        stream, truth = walk_stream(pm, rng, steps=[(0.2, size)], outlier_prob=0.01)
+        est = process_move(stream, cfg)
+        jump = wrap_c(size, period)
+        if abs(jump) <= cfg.gate * period:      # inside the gate: tracked like motion, no re-lock needed
+            assert est.ok and est.relocks == 0
+        else:
+            assert est.ok and est.relocks == 1, est.reason
+        # 'wrapped': the step enters dφ as its wrapped difference, like np.unwrap (s = +1: dφ = +Δφ)
+        assert est.dphi == pytest.approx(truth + pm.sign * jump, abs=0.06)
+        if abs(jump) > cfg.gate * period:
+            joined = process_move(stream, replace(cfg, step_bridge='join'))
+            assert joined.ok and joined.dphi == pytest.approx(truth, abs=0.06)   # the line fits bridge it
+            old = process_move(stream, replace(cfg, relock_reads=0))
+            assert not old.ok and 'outliers in a row' in old.reason          # the failure the issue reports
+
+
+def test_isolated_outliers_do_not_relock_and_real_gaps_still_lose_the_lock():
+    cfg = UnwrapConfig.for_model(LLRP, relock_reads=5)
+    rng = np.random.default_rng(4)
+    relocks = 0
+    for _ in range(20):
+        stream, truth = walk_stream(LLRP, rng, outlier_prob=0.03)
+        est = process_move(stream, cfg)
+        assert est.ok and est.dphi == pytest.approx(truth, abs=0.05)
+        relocks += est.relocks
+    assert relocks == 0
+    stream, _ = walk_stream(LLRP, rng)
+    keep = (stream.t - stream.t_start < 0.15) | (stream.t - stream.t_start > 0.35)    # 200 ms without reads
+    gap = PhaseStream(stream.t[keep], stream.phase[keep], stream.rssi[keep], stream.t_start, stream.t_end)
+    est = process_move(gap, cfg)
+    assert not est.ok and 'without a usable read' in est.reason
+
+
+# -- hopping ----------------------------------------------------------------------------------------
+@pytest.mark.parametrize('dwell', [0.1, 0.2])
+def test_hopping_combines_the_channels_with_their_own_wavelength(dwell):
+    cfg = UnwrapConfig.for_model(LLRP, relock_reads=5)
+    rng = np.random.default_rng(5)
+    errs, old_ok = [], 0
+    for _ in range(10):
+        stream, truth = walk_stream(LLRP, rng, hop_dwell=dwell, outlier_prob=0.01)
+        est = process_move(stream, cfg)
+        assert est.ok, est.reason
+        assert est.hops >= 1 and est.relocks == 0
+        errs.append(est.dphi - truth)
+        bare = PhaseStream(stream.t, stream.phase, stream.rssi, stream.t_start, stream.t_end)
+        old_ok += process_move(bare, replace(cfg, relock_reads=0)).ok
+    # each hop adds two end values extrapolated to the hop (≈ 2·0.015·2/√9 rad each)
+    assert np.max(np.abs(errs)) < 0.1
+    assert old_ok <= 5                         # without carriers, each hop is a random jump of up to π
+
+
+def test_one_carrier_in_range_units_is_the_reference_carrier_scaled():
+    """A whole MOVE on another carrier than the reference gives k_ref/k_c times its phase change."""
+    f = CH[5]
+    pm_f = replace(LLRP, carrier_hz=f, s_theta=0.0)
+    rng = np.random.default_rng(6)
+    stream, truth_f = walk_stream(pm_f, rng)
+    on_f = PhaseStream(stream.t, stream.phase, stream.rssi, stream.t_start, stream.t_end, np.full(len(stream), f))
+    est = process_move(on_f, UnwrapConfig.for_model(LLRP))
+    assert est.dphi == pytest.approx(truth_f * LLRP.carrier_hz / f, abs=1e-3)   # the lines on a curved d(t)
+
+
+# -- online noise -----------------------------------------------------------------------------------
+def test_online_noise_learns_the_read_noise_and_predicts_the_dphi_spread():
+    sigma = 0.015
+    proc = PhaseProcessor(UnwrapConfig.for_model(replace(LLRP, s_theta=math.radians(5.5)), noise='online'))
+    assert proc.noise_std == pytest.approx(math.radians(5.5))        # the prior, before any MOVE
+    rng = np.random.default_rng(7)
+    errs, stds = [], []
+    for _ in range(80):
+        stream, truth = walk_stream(LLRP, rng, noise=sigma, hop_dwell=0.2)
+        est = proc.process(stream)
+        assert est.ok
+        errs.append(est.dphi - truth)
+        stds.append(est.dphi_std)
+    # the median of 10 MAD estimates of ≈ 80 residuals each: ≈ 3 % relative std; 20 % is > 6 of those
+    assert proc.noise_std == pytest.approx(sigma, rel=0.2)
+    # 80 errors: the sample std's relative std is 1/√160 ≈ 8 %; [0.7, 1.4] is beyond 3.5 of those
+    ratio = float(np.std(errs[10:]) / np.mean(stds[10:]))
+    assert 0.7 < ratio < 1.4
+    fixed = process_move(stream, UnwrapConfig.for_model(LLRP))
+    assert math.isnan(fixed.dphi_std) and math.isnan(fixed.noise_std)
+
+
+def test_fixed_noise_processor_is_process_move():
+    cfg = UnwrapConfig()
+    rng = np.random.default_rng(8)
+    proc = PhaseProcessor(cfg)
+    for _ in range(5):
+        stream, _ = walk_stream(PhaseModel(), rng, outlier_prob=0.01)
+        a, b = proc.process(stream), process_move(stream, cfg)
+        assert a.dphi == b.dphi and np.array_equal(a.accepted, b.accepted)
+
+
+# -- simulator --------------------------------------------------------------------------------------
+def test_simulator_defaults_draw_nothing_more():
+    """The paper's world: no carriers in the stream and the same draws as a world with the options at 0."""
+    a = SimReader(WorldParams(), np.random.default_rng(1))
+    b = SimReader(replace(WorldParams(), phase_step_rate=0.0, channels_hz=()), np.random.default_rng(1))
+    oa, ob = (r.execute(Command(CommandKind.MOVE, seq=1)) for r in (a, b))
+    assert oa.stream.carrier_hz is None and np.array_equal(oa.stream.phase, ob.stream.phase)
+    assert oa.result.dphi == pytest.approx(oa.truth_dphi, abs=0.3)
+
+
+def test_simulated_reader_hops_steps_and_keeps_its_moves():
+    world = WorldParams(phase=LLRP, beam_width=2 * math.pi, channels_hz=CH, hop_dwell_s=0.2, phase_step_rate=2.0,
+                        phase_step_size=(0.8, 2.5))
+    sim = SimReader(world, np.random.default_rng(2), start=np.array([-8.0, 0.5, 0.0]),
+                    unwrap=UnwrapConfig.real_reader(LLRP, step_bridge='join'))
+    relocks, naive_err, ours_err = 0, [], []
+    for j in range(12):
+        out = sim.execute(Command(CommandKind.MOVE, seq=j + 1))
+        s = out.stream
+        assert out.result.ok, out.result.reason
+        assert set(np.unique(s.carrier_hz)) <= set(CH)
+        change = s.t[1:][np.diff(s.carrier_hz) != 0]
+        assert np.all(np.diff(change) > 0.2 - 0.02)                      # one channel per dwell
+        relocks += out.result.relocks
+        ours_err.append(abs(out.result.dphi - out.truth_dphi))
+        naive_err.append(abs(naive_dphi(s, sim.unwrap) - out.truth_dphi))
+    assert relocks >= 3                              # 2 steps/s over 6 s of walking, most outside the gate
+    assert np.median(ours_err) < 0.1 < np.median(naive_err)
