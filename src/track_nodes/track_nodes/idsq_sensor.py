@@ -111,6 +111,7 @@ from track_core.idsq import (
 from track_core.idsq.handoff import peek_header
 from track_core.idsq.models import DEG, loudest_source
 from track_core.idsq.network import handoff_targets as core_handoff_targets
+from track_core.idsq.prediction import PREDICTIONS
 from track_core.idsq.simulation import start_leader_at
 from track_core.idsq.tracker import SELECTIONS
 from track_msgs_py.convert import (
@@ -260,6 +261,8 @@ def sensor_params(sensor_type: str) -> tuple[Param, ...]:
         Param('noise_sigma_doa_deg', noise.sigma_doa / DEG, 'simulated DOA noise std (§5.1: 3°) [deg]', 0.0, 180.0),
         Param('comm_range', 40.0, 'radio range of the §5.1 neighbour rule (else the two nearest) [m]', 1e-3, 1e6),
         Param('selection', 'mi', 'next-leader rule: mi (Table 1), nearest or random (baselines)', choices=SELECTIONS),
+        Param('prediction', 'diffusion', 'belief prediction: diffusion (§2.1) or drift (velocity-aware, '
+              'track_core.idsq.prediction)', choices=PREDICTIONS),
         Param('ack_timeout', 2.0, 'steady-clock wait for an ack before re-selecting [s]', 1e-3, 600.0),
         Param('track_id', 'idsq_track', 'child_frame_id of the estimate'),
         Param('truth_topics', [IDSQ_TRUTH], 'Odometry truth topics of the sources; each sensor senses the loudest '
@@ -307,7 +310,8 @@ class IdsqSensorNode(Node):
             raise ParameterError(f'parameter position={list(p.position)!r} is invalid: allowed 2 finite numbers')
         self.id, self.position, self.is_doa = int(p.id), pos, p.type == 'doa'
         self.tp = TrackerParams(v_max=p.v_max, dt=p.dt, a_lo=p.a_lo, a_hi=p.a_hi, sigma_a=p.sigma_k,
-                                r_near=p.r_near, r_far=p.r_far, sigma_doa=p.sigma_doa_deg * DEG)
+                                r_near=p.r_near, r_far=p.r_far, sigma_doa=p.sigma_doa_deg * DEG,
+                                prediction=p.prediction)
         self.noise = SimNoise(amplitude=p.amplitude, sigma_a=p.noise_sigma_a, sigma_doa=p.noise_sigma_doa_deg * DEG)
         self.grid = GridSpec.for_field(p.width, p.height, p.cell)
         self.layout: SensorLayout | None = None

@@ -400,6 +400,7 @@ _SENSOR = '''
     cell: 5.0
     comm_range: 40.0
     selection: mi
+    prediction: drift
     ack_timeout: 2.0
     truth_topics: [/sonar/target/truth, /radar/truth]
 '''

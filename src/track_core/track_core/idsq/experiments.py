@@ -1,6 +1,9 @@
 """``track-experiment`` entries of the IDSQ system: ``idsq-table4``, ``idsq-table5``, ``idsq-selection``.
 
 - idsq-table4: K ∈ {24, 28, …, 64}, 20 runs each, 30 % DOA (Table 4, Fig. 9); quick: K ∈ {24, 40, 64}.
+  Printed with the paper's diffusion prediction and, as a second column on the same runs, with
+  the velocity-aware drift prediction (``prediction.py``, beyond the paper), each with its
+  bytes per handoff step and the paired per-run difference drift − diffusion (± 2 SE).
 - idsq-table5: DOA fraction 0, 0.1, …, 1 at K = 40 (Table 5); quick: {0, 0.5, 1}.
 - idsq-selection: MI (eq. 15) vs nearest-to-estimate vs random leader selection vs the
   centralized all-sensor filter (§2.2), on the same runs (common random numbers), K = 40,
@@ -31,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from track_core.cli import Outcome, RunConfig, format_table
+from track_core.idsq.models import TrackerParams
 from track_core.idsq.simulation import Scenario, TrackResult, draw_run, run_centralized, run_idsq, summary
 
 log = logging.getLogger(__name__)
@@ -109,12 +113,14 @@ def snapshot_figure(path: Path, seed: int = 0, n_sensors: int = 40, doa_fraction
 
 
 def _error_figure(path: Path, xs: list[float], per_run: list[np.ndarray], paper: list[float], xlabel: str,
-                  title: str) -> Path:
+                  title: str, extra: dict[str, list[np.ndarray]] | None = None) -> Path:
     plt = _plt()
     fig, ax = plt.subplots(figsize=(6.5, 4.2))
     for x, e in zip(xs, per_run, strict=True):
         ax.plot(np.full(e.size, x), e, 'o', mfc='none', color='0.5', ms=4)
     ax.plot(xs, [float(np.mean(e)) for e in per_run], 'b*-', label='ours: mean over runs')
+    for name, runs in (extra or {}).items():
+        ax.plot(xs, [float(np.mean(e)) for e in runs], 's-', color='tab:green', label=f'{name}: mean over runs')
     ax.plot(xs, paper, 'k--', label='paper')
     ax.set_xlabel(xlabel)
     ax.set_ylabel('avg ‖x̂_MMSE − x‖ (m)')
@@ -127,26 +133,43 @@ def _error_figure(path: Path, xs: list[float], per_run: list[np.ndarray], paper:
 
 
 def table4(cfg: RunConfig) -> Outcome:
+    """Table 4 with the paper's diffusion prediction, and the velocity-aware drift (``prediction.py``) as a
+    second column on the same runs (common random numbers: the prediction does not enter the draws)."""
     ks = [24, 40, 64] if cfg.quick else list(range(24, 65, 4))
     n_runs = cfg.n_runs(full=20, quick=3)
-    rows, trows, per_run = [], [], []
+    rows, trows, per_run, per_run_drift = [], [], [], []
     for k in cfg.progress(ks, desc='idsq-table4'):
         res = run_config(Scenario(n_sensors=k, doa_fraction=0.3), n_runs, cfg.seed)['mi']
-        s = summary(res)
+        drift = run_config(Scenario(n_sensors=k, doa_fraction=0.3, tracker=TrackerParams(prediction='drift')),
+                           n_runs, cfg.seed)['mi']
+        s, sd = summary(res), summary(drift)
         per_run.append(np.array([r.error.mean() for r in res]))
+        per_run_drift.append(np.array([r.error.mean() for r in drift]))
+        diff = per_run_drift[-1] - per_run[-1]
+        se = diff.std(ddof=1) / np.sqrt(n_runs) if n_runs > 1 else float('nan')
         rows.append({'sensors': k, 'mmse_error_m': s['mmse_error_m'], 'belief_spread_m2': s['belief_spread_m2'],
-                     'belief_size': s['belief_size'], 'neighborhood_size': s['neighborhood_size']})
+                     'belief_size': s['belief_size'], 'neighborhood_size': s['neighborhood_size'],
+                     'bytes_per_step': s['bytes_per_step'], 'drift_mmse_error_m': sd['mmse_error_m'],
+                     'drift_belief_spread_m2': sd['belief_spread_m2'], 'drift_belief_size': sd['belief_size'],
+                     'drift_bytes_per_step': sd['bytes_per_step'], 'drift_minus_diffusion_m': float(diff.mean()),
+                     'drift_minus_diffusion_2se_m': float(2 * se)})
         pe, ps, pb, pn = PAPER_TABLE4[k]
         trows.append([k, s['mmse_error_m'], pe, f'{100 * (s["mmse_error_m"] / pe - 1):+.0f}%', s['belief_spread_m2'],
-                      ps, s['belief_size'], pb, s['neighborhood_size'], pn])
+                      ps, s['belief_size'], pb, s['neighborhood_size'], pn, s['bytes_per_step'],
+                      sd['mmse_error_m'], f'{diff.mean():+.2f} ± {2 * se:.2f}', sd['belief_size'],
+                      sd['bytes_per_step']])
     ratio = rows[0]['mmse_error_m'] / rows[-1]['mmse_error_m']
     paper_ratio = PAPER_TABLE4[ks[0]][0] / PAPER_TABLE4[ks[-1]][0]
-    table = (format_table(['K', 'err m', 'paper', 'Δ', 'spread m²', 'paper', 'cells', 'paper', '|N|', 'paper'], trows)
+    table = (format_table(['K', 'err m', 'paper', 'Δ', 'spread m²', 'paper', 'cells', 'paper', '|N|', 'paper',
+                           'bytes/step', 'drift err m', 'drift − diff. (±2 SE)', 'drift cells', 'drift bytes'],
+                          trows)
              + f'\n{n_runs} runs per K, 30% DOA. error ratio K={ks[0]}/K={ks[-1]}: {ratio:.2f} '
-             f'(paper {paper_ratio:.2f})')
+             f'(paper {paper_ratio:.2f}). Columns up to "bytes/step": the paper\'s diffusion prediction; '
+             '"drift": the velocity-aware prediction (ours, beyond the paper) on the same runs.')
     cfg.out.mkdir(parents=True, exist_ok=True)
     figs = [_error_figure(cfg.out / 'idsq-fig9-error-vs-k.png', ks, per_run, [PAPER_TABLE4[k][0] for k in ks],
-                          'number of sensors K', f'Fig. 9: error vs K ({n_runs} runs, 30% DOA)'),
+                          'number of sensors K', f'Fig. 9: error vs K ({n_runs} runs, 30% DOA)',
+                          extra={'ours, drift prediction': per_run_drift}),
             snapshot_figure(cfg.out / 'idsq-fig8-snapshot.png', cfg.seed)]
     return Outcome(table, {'rows': rows}, figs)
 

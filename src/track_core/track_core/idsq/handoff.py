@@ -10,6 +10,11 @@ Wire format (little-endian, our choice; the paper only says the sparse belief is
 so a handoff costs ``HEADER_BYTES + 8·n`` bytes (``payload_bytes``): this is the communication
 cost per step we report. The sender is the receiver's *previous leader* (triplet rule).
 
+Version 2 (the velocity-aware ``prediction='drift'``, ``prediction.py``): the same header with
+version 2, then ``'<ffH'`` = 10 bytes of motion (v̂x, v̂y f32 [m/s], observation count u16), then
+the same body: ``HEADER_BYTES + MOTION_BYTES + 8·n``. A belief without motion (the paper's
+diffusion) is sent as version 1, byte for byte as before.
+
 ``validate_handoff`` returns ``None`` or a one-line reason (never raises) so that a node can
 refuse a malformed package with a warning and let the sender re-select; ``decode_handoff``
 raises ``ValueError`` with the same kind of one-line reason for undecodable bytes, and
@@ -25,9 +30,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from track_core.idsq.grid import GridSpec, SparseBelief
+from track_core.idsq.prediction import Motion
 
 MAGIC = b'IDSQ'
 VERSION = 1
+VERSION_MOTION = 2
+_MOTION = struct.Struct('<ffH')
+MOTION_BYTES = _MOTION.size
 _ADDRESS = struct.Struct('<4sBxHHI')  # the header up to the step: magic, version, sender, receiver, step
 _HEADER = struct.Struct(_ADDRESS.format + 'dddHHI')
 HEADER_BYTES = _HEADER.size
@@ -44,20 +53,21 @@ class Handoff:
     grid: GridSpec
     idx: np.ndarray
     mass: np.ndarray
+    motion: Motion | None = None
 
     @classmethod
     def from_belief(cls, step: int, sender: int, receiver: int, belief: SparseBelief) -> Handoff:
-        return cls(step, sender, receiver, belief.grid, belief.idx, belief.mass)
+        return cls(step, sender, receiver, belief.grid, belief.idx, belief.mass, belief.motion)
 
     def belief(self) -> SparseBelief:
         """The carried belief in float64, renormalised (call only after ``validate_handoff``)."""
         m = np.asarray(self.mass, dtype=float)
-        return SparseBelief(self.grid, np.asarray(self.idx, dtype=np.int64), m / m.sum())
+        return SparseBelief(self.grid, np.asarray(self.idx, dtype=np.int64), m / m.sum(), self.motion)
 
 
-def payload_bytes(n_cells: int) -> int:
-    """Bytes on the wire for a belief of ``n_cells`` stored cells (header + 8 bytes per cell)."""
-    return HEADER_BYTES + 8 * int(n_cells)
+def payload_bytes(n_cells: int, motion: bool = False) -> int:
+    """Bytes on the wire for a belief of ``n_cells`` stored cells (header [+ motion] + 8 bytes per cell)."""
+    return HEADER_BYTES + (MOTION_BYTES if motion else 0) + 8 * int(n_cells)
 
 
 def _header_problem(h: Handoff, grid: GridSpec, n_sensors: int | None, receiver: int | None) -> str | None:
@@ -115,7 +125,10 @@ def encode_handoff(h: Handoff, check: bool = True) -> bytes:
         if why is not None:
             raise ValueError(f'refusing to encode handoff: {why}')
     g = h.grid
-    head = _HEADER.pack(MAGIC, VERSION, h.sender, h.receiver, h.step, g.x0, g.y0, g.cell, g.nx, g.ny, len(h.idx))
+    ver = VERSION if h.motion is None else VERSION_MOTION
+    head = _HEADER.pack(MAGIC, ver, h.sender, h.receiver, h.step, g.x0, g.y0, g.cell, g.nx, g.ny, len(h.idx))
+    if h.motion is not None:
+        head += _MOTION.pack(*(float(v) for v in h.motion.velocity), h.motion.count)
     return (head + np.asarray(h.idx, dtype='<u4').tobytes() + np.asarray(h.mass, dtype='<f4').tobytes())
 
 
@@ -124,17 +137,27 @@ def decode_handoff(data: bytes) -> Handoff:
     if len(data) < HEADER_BYTES:
         raise ValueError(f'handoff of {len(data)} bytes is shorter than the {HEADER_BYTES}-byte header')
     magic, ver, sender, receiver, step, x0, y0, cell, nx, ny, n = _HEADER.unpack_from(data)
-    if magic != MAGIC or ver != VERSION:
-        raise ValueError(f'bad handoff magic/version {magic!r}/{ver}, expected {MAGIC!r}/{VERSION}')
-    if len(data) != payload_bytes(n):
-        raise ValueError(f'handoff length {len(data)} != {payload_bytes(n)} for {n} cells')
+    if magic != MAGIC or ver not in (VERSION, VERSION_MOTION):
+        raise ValueError(f'bad handoff magic/version {magic!r}/{ver}, expected {MAGIC!r}/{VERSION} or '
+                         f'{VERSION_MOTION}')
+    has_motion = ver == VERSION_MOTION
+    if len(data) != payload_bytes(n, has_motion):
+        raise ValueError(f'handoff length {len(data)} != {payload_bytes(n, has_motion)} for {n} cells')
     try:
         grid = GridSpec(x0, y0, cell, nx, ny)
     except ValueError as exc:
         raise ValueError(f'bad grid in handoff: {exc}') from None
-    body = np.frombuffer(data, offset=HEADER_BYTES, dtype='<u4', count=n).astype(np.int64)
-    mass = np.frombuffer(data, offset=HEADER_BYTES + 4 * n, dtype='<f4', count=n).astype(float)
-    return Handoff(step, sender, receiver, grid, body, mass)
+    motion, off = None, HEADER_BYTES
+    if has_motion:
+        vx, vy, count = _MOTION.unpack_from(data, HEADER_BYTES)
+        try:
+            motion = Motion(np.array([vx, vy]), count)
+        except ValueError as exc:
+            raise ValueError(f'bad motion in handoff: {exc}') from None
+        off += MOTION_BYTES
+    body = np.frombuffer(data, offset=off, dtype='<u4', count=n).astype(np.int64)
+    mass = np.frombuffer(data, offset=off + 4 * n, dtype='<f4', count=n).astype(float)
+    return Handoff(step, sender, receiver, grid, body, mass, motion)
 
 
 def receive_handoff(data: bytes, grid: GridSpec, n_sensors: int | None = None,
@@ -155,4 +178,4 @@ def peek_header(data: bytes) -> tuple[int, int, int] | None:
     if len(data) < _ADDRESS.size:
         return None
     magic, version, sender, receiver, step = _ADDRESS.unpack_from(data)
-    return (sender, receiver, step) if (magic, version) == (MAGIC, VERSION) else None
+    return (sender, receiver, step) if magic == MAGIC and version in (VERSION, VERSION_MOTION) else None

@@ -51,6 +51,10 @@ class TrackerParams:
     far_slope: float = 0.2 * DEG   # rad per m, beyond r_far
     sigma_doa_max: float = 90.0 * DEG
     sparsity: float = SPARSITY_THRESHOLD  # relative threshold of §2.3 (see grid.py)
+    prediction: str = 'diffusion'  # 'diffusion' (§2.1, the paper's) or 'drift' (ours, prediction.py)
+    drift_gain: float = 0.3        # β of the v̂ average (prediction.py)
+    drift_gate: float = 4.0        # v̂ observed only when both spreads < drift_gate·(v_max·Δt)² [m²]
+    drift_speed: float | None = None  # |v − v̂| bound of the drift disk [m/s]; None = v_max
 
     def __post_init__(self) -> None:
         pos = {'v_max': self.v_max, 'dt': self.dt, 'sigma_a': self.sigma_a, 'sigma_doa': self.sigma_doa,
@@ -64,6 +68,16 @@ class TrackerParams:
             raise ValueError(f'r_near={self.r_near}, r_far={self.r_far} must satisfy 0 <= r_near < r_far < inf')
         if not 0.0 <= self.sparsity < 1.0:
             raise ValueError(f'sparsity={self.sparsity} must be in [0, 1)')
+        if self.prediction not in ('diffusion', 'drift'):
+            raise ValueError(f"prediction={self.prediction!r} must be 'diffusion' or 'drift'")
+        if not (np.isfinite(self.drift_gain) and 0.0 < self.drift_gain <= 1.0):
+            raise ValueError(f'drift_gain={self.drift_gain} must be in (0, 1]')
+        if not (np.isfinite(self.drift_gate) and self.drift_gate > 0):
+            raise ValueError(f'drift_gate={self.drift_gate} must be finite and > 0')
+        if self.drift_speed is None:
+            object.__setattr__(self, 'drift_speed', self.v_max)
+        elif not (np.isfinite(self.drift_speed) and self.drift_speed >= 0):
+            raise ValueError(f'drift_speed={self.drift_speed} must be finite and >= 0 m/s')
         for k in ('near_slope', 'far_slope'):
             v = getattr(self, k)
             if not (np.isfinite(v) and v >= 0):

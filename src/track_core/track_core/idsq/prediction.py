@@ -1,0 +1,117 @@
+"""Prediction step of the grid belief: the paper's diffusion (§2.1) or a velocity-aware drift (beyond the paper).
+
+``prediction='diffusion'`` (default, the Table 4/5 reproduction): p(x⁽ᵗ⁺¹⁾|x⁽ᵗ⁾) is the uniform
+disk of radius v_max·Δt centred on x⁽ᵗ⁾ (``grid.diffuse``). It has no drift, so the MMSE mean
+of a belief that follows a steadily moving vehicle lags it (``experiments`` module docstring).
+
+``prediction='drift'`` (ours): the belief also carries a velocity estimate v̂ (``Motion``), and
+the dynamics pdf is the same kind of uniform disk, radius ``drift_speed``·Δt, centred on
+x⁽ᵗ⁾ + v̂·Δt, i.e. the grid is shifted by v̂·Δt while it is diffused (one convolution with a
+shifted, area-weighted disk kernel, ``shifted_disk_kernel``; sub-cell shifts are exact to the
+kernel's supersampling). v̂ is an exponential average of the MMSE velocity
+(x̂⁽ᵗ⁾ − x̂⁽ᵗ⁻¹⁾)/Δt of consecutive posteriors (eq. 2 means), with gain ``drift_gain``:
+
+    v̂⁽ᵗ⁾ = v̂⁽ᵗ⁻¹⁾ + β · ((x̂⁽ᵗ⁾ − x̂⁽ᵗ⁻¹⁾)/Δt − v̂⁽ᵗ⁻¹⁾),   β = drift_gain, first observation taken whole,
+
+clipped to |v̂| ≤ v_max. An observation is used only when both posteriors are concentrated
+(spread, the trace of the belief covariance, below ``drift_gate``·(v_max·Δt)²): during the
+discovery phase from a uniform start the mean jumps across the field and says nothing about
+the vehicle's velocity. Until the first accepted observation (v̂ unknown) the drift prediction is
+the paper's disk of radius v_max·Δt, so the belief can follow any motion until a velocity is known.
+
+Interpretations and choices (measured, see ``experiments`` and the package README):
+
+- The velocity is not a grid dimension: the belief handed off is (sparse position grid, v̂, the
+  number of accepted observations), ``Motion`` rides with ``SparseBelief`` and in the handoff
+  (version 2 of the wire format, +10 bytes, ``handoff.py``), so the receiver can predict and
+  keep averaging. The whole belief is still handed off.
+- ``drift_speed`` (m/s) bounds |v − v̂|, the target's deviation from the estimated velocity over
+  one step (manoeuvre plus estimation error). Its default is v_max, so the drift kernel has the
+  paper's disk size and only its centre moves; a smaller disk concentrates the belief more but
+  follows an evasion worse (measured in the README).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from track_core.idsq.grid import SparseBelief, convolve, disk_kernel, estimate
+
+PREDICTIONS = ('diffusion', 'drift')
+
+
+@dataclass(frozen=True)
+class Motion:
+    """Velocity estimate v̂ [m/s] (ENU) carried with a belief, and how many MMSE velocities went into it."""
+
+    velocity: np.ndarray
+    count: int = 0
+
+    def __post_init__(self) -> None:
+        v = np.asarray(self.velocity, dtype=float).reshape(-1)
+        if v.shape != (2,) or not np.all(np.isfinite(v)):
+            raise ValueError(f'velocity={self.velocity!r} must be 2 finite numbers [m/s]')
+        if int(self.count) != self.count or self.count < 0:
+            raise ValueError(f'count={self.count} must be an integer >= 0')
+        object.__setattr__(self, 'velocity', v)
+
+
+NO_MOTION = Motion(np.zeros(2), 0)
+
+
+def shifted_disk_kernel(radius: float, offset: np.ndarray, cell: float, supersample: int = 16) -> np.ndarray:
+    """(2m+1, 2m+1) kernel, rows = y: area fraction of each cell inside the disk of ``radius`` centred at
+    ``offset`` (x, y) [m] from the kernel's centre cell; sums to 1. ``offset = 0`` is ``disk_kernel``."""
+    off = np.asarray(offset, dtype=float).reshape(2)
+    if not (np.isfinite(radius) and radius >= 0 and np.all(np.isfinite(off))):
+        raise ValueError(f'radius={radius}, offset={off} must be finite, radius >= 0 m')
+    if not off.any():
+        return disk_kernel(float(radius), cell, supersample)
+    m = max(int(np.ceil((radius + np.abs(off).max()) / cell - 0.5 - 1e-9)), 0)
+    c = np.arange(-m, m + 1) * cell
+    sub = (np.arange(supersample) + 0.5) / supersample * cell - cell / 2
+    px = (c[:, None] + sub[None, :]) - off[0]   # (2m+1, s) sample x relative to the disk centre
+    py = (c[:, None] + sub[None, :]) - off[1]
+    inside = (py[:, None, :, None] ** 2 + px[None, :, None, :] ** 2) <= radius ** 2
+    k = inside.mean(axis=(2, 3))
+    if k.sum() == 0.0:  # disk smaller than the supersampling: all mass in the cell holding the centre
+        iy, ix = (np.clip(np.floor(off[::-1] / cell + 0.5).astype(int), -m, m) + m)
+        k[iy, ix] = 1.0
+    return k / k.sum()
+
+
+def drift_radius(p) -> float:
+    """Radius of the drift kernel: ``drift_speed``·Δt [m]."""
+    return p.drift_speed * p.dt
+
+
+def predict(belief: SparseBelief, p) -> SparseBelief:
+    """p(x⁽ᵗ⁺¹⁾|z̄⁽ᵗ⁾) by ``p.prediction`` (module docstring); the result carries ``belief.motion``."""
+    if p.prediction not in PREDICTIONS:
+        raise ValueError(f'prediction={p.prediction!r} must be one of {PREDICTIONS}')
+    mo = belief.motion
+    if p.prediction == 'diffusion' or mo is None or mo.count == 0:
+        k = disk_kernel(float(p.radius), belief.grid.cell)
+    else:
+        k = shifted_disk_kernel(drift_radius(p), mo.velocity * p.dt, belief.grid.cell)
+    return convolve(belief, k, p.sparsity).with_motion(mo)
+
+
+def update_motion(prior: SparseBelief, posterior: SparseBelief, p) -> Motion | None:
+    """v̂ after one step (module docstring): ``prior`` is the handed-off posterior of t − 1, ``posterior``
+    that of t. ``None`` under the paper's diffusion (nothing is carried)."""
+    if p.prediction != 'drift':
+        return None
+    mo = prior.motion or NO_MOTION
+    a, b = estimate(prior), estimate(posterior)
+    gate = p.drift_gate * p.radius ** 2
+    if not (a.spread < gate and b.spread < gate):
+        return mo
+    obs = (b.mean - a.mean) / p.dt
+    v = obs if mo.count == 0 else mo.velocity + p.drift_gain * (obs - mo.velocity)
+    speed = float(np.hypot(*v))
+    if speed > p.v_max:
+        v = v * (p.v_max / speed)
+    return Motion(v, min(mo.count + 1, 65535))

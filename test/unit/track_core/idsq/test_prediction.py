@@ -1,0 +1,133 @@
+"""Velocity-aware drift prediction (``track_core.idsq.prediction``, beyond the paper) against the paper's diffusion."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from track_core.idsq.experiments import run_config
+from track_core.idsq.grid import GridSpec, SparseBelief, diffuse, disk_kernel, estimate, sparsify
+from track_core.idsq.handoff import (
+    HEADER_BYTES,
+    MOTION_BYTES,
+    Handoff,
+    decode_handoff,
+    encode_handoff,
+    payload_bytes,
+    peek_header,
+)
+from track_core.idsq.models import TrackerParams
+from track_core.idsq.prediction import NO_MOTION, Motion, predict, shifted_disk_kernel, update_motion
+from track_core.idsq.simulation import Scenario
+
+GRID = GridSpec.for_field(150.0, 250.0, 5.0)
+DRIFT = TrackerParams(prediction='drift')
+
+
+def _blob(cx: float, cy: float, s: float = 6.0, motion: Motion | None = None) -> SparseBelief:
+    """A Gaussian-shaped belief centred at (cx, cy), well inside the field."""
+    idx = np.arange(GRID.n_cells)
+    d = GRID.centers(idx) - [cx, cy]
+    return sparsify(GRID, idx, np.exp(-0.5 * (d ** 2).sum(axis=1) / s ** 2)).with_motion(motion)
+
+
+def test_shifted_kernel_is_the_disk_moved_by_the_offset():
+    np.testing.assert_array_equal(shifted_disk_kernel(7.5, [0.0, 0.0], 5.0), disk_kernel(7.5, 5.0))
+    k = shifted_disk_kernel(7.5, [3.0, -4.2], 5.0)
+    m = k.shape[0] // 2
+    c = (np.arange(-m, m + 1) * 5.0)
+    assert np.isclose(k.sum(), 1.0) and np.all(k >= 0)
+    # centroid = offset to the supersampling (cell/16) accuracy; rows are y
+    assert abs((k.sum(axis=0) * c).sum() - 3.0) < 5.0 / 16 and abs((k.sum(axis=1) * c).sum() + 4.2) < 5.0 / 16
+    # a whole-cell shift is the centred disk moved by one cell
+    k1 = shifted_disk_kernel(7.5, [5.0, 0.0], 5.0)
+    d = disk_kernel(7.5, 5.0)
+    q = k1.shape[0] // 2 - d.shape[0] // 2
+    np.testing.assert_allclose(k1[q:q + d.shape[0], q + 1:q + 1 + d.shape[0]], d, atol=1e-12)
+
+
+def test_diffusion_default_is_the_papers_disk_bit_for_bit():
+    assert TrackerParams().prediction == 'diffusion'
+    b = _blob(70.0, 120.0, motion=Motion(np.array([0.0, 7.0]), 5))
+    p = TrackerParams()
+    want = diffuse(b, p.radius, p.sparsity)
+    for got in (predict(b, p), predict(b.with_motion(None), DRIFT), predict(b.with_motion(NO_MOTION), DRIFT)):
+        np.testing.assert_array_equal(got.idx, want.idx)
+        np.testing.assert_array_equal(got.mass, want.mass)
+    assert update_motion(b, b, p) is None  # the paper's tracker carries nothing
+
+
+def test_drift_moves_the_mean_by_v_dt_and_keeps_the_disk_spread():
+    v = np.array([2.0, 7.0])
+    b = _blob(70.0, 120.0, motion=Motion(v, 3))
+    got, plain = predict(b, DRIFT), diffuse(b, DRIFT.radius, DRIFT.sparsity)
+    np.testing.assert_allclose(estimate(got).mean, estimate(b).mean + v * DRIFT.dt, atol=0.15)
+    assert abs(estimate(got).spread - estimate(plain).spread) < 0.05 * estimate(plain).spread
+    assert got.motion is b.motion
+    small = predict(b, replace(DRIFT, drift_speed=5.0))
+    assert estimate(small).spread < estimate(got).spread
+
+
+def test_velocity_average_gate_and_clip():
+    p = DRIFT
+    a, b = _blob(70.0, 120.0), _blob(71.0, 123.5)  # moved (1, 3.5) m in Δt = 0.5 s
+    first = update_motion(a, b, p)
+    np.testing.assert_allclose(first.velocity, [2.0, 7.0], atol=0.05)  # first observation taken whole
+    assert first.count == 1
+    nxt = update_motion(a.with_motion(Motion(np.array([0.0, 5.0]), 4)), b, p)
+    np.testing.assert_allclose(nxt.velocity, [0.0, 5.0] + p.drift_gain * (np.array([2.0, 7.0]) - [0.0, 5.0]),
+                               atol=0.05)
+    assert nxt.count == 5
+    wide = _blob(70.0, 120.0, s=40.0)  # spread ≫ drift_gate·(v_max·Δt)²: not observed
+    assert update_motion(wide, b, p) == NO_MOTION
+    far = _blob(100.0, 120.0)  # 60 m/s > v_max: clipped to v_max
+    assert np.isclose(np.hypot(*update_motion(a, far, p).velocity), p.v_max)
+
+
+def test_handoff_v2_carries_the_motion_and_v1_is_unchanged():
+    b = _blob(70.0, 120.0)
+    plain = encode_handoff(Handoff.from_belief(3, 1, 2, b))
+    assert plain[4] == 1 and len(plain) == payload_bytes(b.size) == HEADER_BYTES + 8 * b.size
+    mo = Motion(np.array([1.25, -6.5]), 7)
+    data = encode_handoff(Handoff.from_belief(3, 1, 2, b.with_motion(mo)))
+    assert data[4] == 2 and len(data) == payload_bytes(b.size, motion=True) == len(plain) + MOTION_BYTES
+    assert MOTION_BYTES == 10 and peek_header(data) == (1, 2, 3)
+    h = decode_handoff(data)
+    np.testing.assert_array_equal(h.belief().motion.velocity, np.float32(mo.velocity))
+    assert h.belief().motion.count == 7
+    np.testing.assert_array_equal(h.idx, b.idx)
+    with pytest.raises(ValueError, match='length'):
+        decode_handoff(data[:-1])
+    bad = bytearray(data)
+    bad[HEADER_BYTES:HEADER_BYTES + 4] = np.float32(np.nan).tobytes()
+    with pytest.raises(ValueError, match='motion'):
+        decode_handoff(bytes(bad))
+
+
+def test_bad_prediction_settings_raise():
+    for kw in ({'prediction': 'kalman'}, {'drift_gain': 0.0}, {'drift_gate': -1.0}, {'drift_speed': -1.0}):
+        with pytest.raises(ValueError):
+            TrackerParams(**kw)
+    assert DRIFT.drift_speed == DRIFT.v_max
+
+
+N_RUNS = 4
+
+
+def test_drift_removes_the_lag_on_the_same_runs():
+    """§5.1 runs (K = 40, 30 % DOA), paired by common random numbers: the drift's per-run mean error is
+    below the diffusion's by more than 2 standard errors of the paired difference over N_RUNS runs, and
+    the diffusion's along-track lag is at least halved."""
+    diff = run_config(Scenario(), N_RUNS, 0)['mi']
+    drift = run_config(Scenario(tracker=DRIFT), N_RUNS, 0)['mi']
+    d = np.array([a.error.mean() - b.error.mean() for a, b in zip(drift, diff, strict=True)])
+    assert d.mean() + 2 * d.std(ddof=1) / np.sqrt(N_RUNS) < 0, d
+    # along-track lag: mean signed north error after the discovery phase (step 10 on)
+    truth = Scenario().truth()
+    lag = [np.mean(r.estimates[10:, 1] - truth[10:, 1]) for r in diff]
+    lag_drift = [np.mean(r.estimates[10:, 1] - truth[10:, 1]) for r in drift]
+    assert np.mean(lag) < -2 * np.std(lag, ddof=1) / np.sqrt(N_RUNS)      # the paper's prediction lags
+    assert abs(np.mean(lag_drift)) < abs(np.mean(lag)) / 2                  # the drift much less
+    # bytes per step: every drift handoff carries the 10 motion bytes
+    assert all(np.all((r.bytes - HEADER_BYTES) % 8 == 0) for r in diff)
+    assert all(np.all((r.bytes - HEADER_BYTES - MOTION_BYTES) % 8 == 0) for r in drift)
