@@ -37,7 +37,7 @@ from track_core.idsq.handoff import Handoff, encode_handoff
 from track_core.idsq.mi import DZ_PER_SIGMA, neighbour_mi
 from track_core.idsq.models import TrackerParams, likelihood
 from track_core.idsq.network import SensorLayout, candidates
-from track_core.idsq.prediction import predict, update_motion
+from track_core.idsq.prediction import Bank, predict, reweight_bank, update_motion
 
 log = logging.getLogger(__name__)
 
@@ -63,10 +63,13 @@ def update(belief: SparseBelief, z: float, sensor: np.ndarray, is_doa: bool,
     """Eq. 3 / Table 1 step 3: posterior ∝ p(z|x)·prior on the support, re-sparsified; (belief, applied)."""
     if not np.isfinite(z):
         raise ValueError(f'measurement z={z} must be finite')
-    post = belief.mass * likelihood(z, belief.centers(), sensor, is_doa, p)
+    lik = likelihood(z, belief.centers(), sensor, is_doa, p)
+    post = belief.mass * lik
     if not (np.all(np.isfinite(post)) and post.max() > 0.0):
         log.warning('measurement z=%.4g has zero likelihood on the whole belief; update skipped', z)
         return belief, False
+    if isinstance(belief.motion, Bank):  # joint position-velocity belief (prediction='bank')
+        return reweight_bank(belief, lik, p.sparsity), True
     return sparsify(belief.grid, belief.idx, post, p.sparsity), True
 
 

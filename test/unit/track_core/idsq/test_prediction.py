@@ -17,7 +17,17 @@ from track_core.idsq.handoff import (
     peek_header,
 )
 from track_core.idsq.models import TrackerParams
-from track_core.idsq.prediction import NO_MOTION, Motion, predict, shifted_disk_kernel, update_motion
+from track_core.idsq.prediction import (
+    NO_MOTION,
+    Bank,
+    Motion,
+    bank_velocities,
+    bank_velocity,
+    predict,
+    reweight_bank,
+    shifted_disk_kernel,
+    update_motion,
+)
 from track_core.idsq.simulation import Scenario
 
 GRID = GridSpec.for_field(150.0, 250.0, 5.0)
@@ -131,3 +141,54 @@ def test_drift_removes_the_lag_on_the_same_runs():
     # bytes per step: every drift handoff carries the 10 motion bytes
     assert all(np.all((r.bytes - HEADER_BYTES) % 8 == 0) for r in diff)
     assert all(np.all((r.bytes - HEADER_BYTES - MOTION_BYTES) % 8 == 0) for r in drift)
+
+
+BANK = TrackerParams(prediction='bank')
+
+
+def test_bank_lattice_and_prediction_keep_mass_and_move_each_hypothesis():
+    vel, adj = bank_velocities(5.0, 15.0)
+    assert vel.shape == (29, 2) and np.all(np.hypot(*vel.T) <= 15.0 + 1e-9)  # 5 m/s lattice inside |v| ≤ 15
+    assert np.all(adj == adj.T) and adj.sum(axis=1).min() >= 1
+    b = _blob(70.0, 120.0)
+    pred = predict(b, BANK)  # from a plain belief: every hypothesis equally likely
+    assert isinstance(pred.motion, Bank) and np.isclose(pred.mass.sum(), 1.0)
+    np.testing.assert_allclose(bank_velocity(pred, BANK.v_max), [0.0, 0.0], atol=1e-9)  # symmetric lattice
+    # one hypothesis only (no switching): the marginal mean moves by v_j·Δt
+    j = int(np.flatnonzero((vel == [0.0, 10.0]).all(axis=1))[0])
+    one = Bank(5.0, vel.shape[0], j * GRID.n_cells + b.idx, b.mass)
+    got = predict(SparseBelief(GRID, b.idx, b.mass, one), replace(BANK, bank_switch=0.0))
+    np.testing.assert_allclose(estimate(got).mean, estimate(b).mean + np.array([0.0, 10.0 * BANK.dt]), atol=0.15)
+    np.testing.assert_allclose(bank_velocity(got, BANK.v_max), [0.0, 10.0], atol=1e-9)
+
+
+def test_bank_update_weights_hypotheses_by_the_likelihood():
+    """Two hypotheses predict different positions; a measurement near one of them makes it dominate."""
+    vel, _ = bank_velocities(5.0, 15.0)
+    b = _blob(72.5, 122.5, s=2.0)
+    ja, jb = (int(np.flatnonzero((vel == v).all(axis=1))[0]) for v in ([0.0, 10.0], [0.0, -10.0]))
+    key = np.concatenate([ja * GRID.n_cells + b.idx, jb * GRID.n_cells + b.idx])
+    mass = np.concatenate([b.mass, b.mass]) / 2
+    order = np.argsort(key)
+    prior = predict(SparseBelief(GRID, b.idx, b.mass, Bank(5.0, vel.shape[0], key[order], mass[order])),
+                    replace(BANK, bank_switch=0.0))
+    lik = np.exp(-0.5 * ((prior.centers() - [72.5, 127.5]) ** 2).sum(axis=1) / 3.0 ** 2)  # near the +10 m/s one
+    post = reweight_bank(prior, lik, BANK.sparsity)
+    assert bank_velocity(post, BANK.v_max)[1] > 9.0
+
+
+def test_handoff_v3_carries_the_joint_belief():
+    b = predict(_blob(70.0, 120.0), BANK)
+    data = encode_handoff(Handoff.from_belief(3, 1, 2, b))
+    bank = b.motion
+    assert data[4] == 3 and len(data) == payload_bytes(bank.key.size, bank=True) == HEADER_BYTES + 6 + 8 * bank.key.size
+    h = decode_handoff(data)
+    got = h.belief()
+    np.testing.assert_array_equal(got.motion.key, bank.key)
+    np.testing.assert_allclose(got.motion.mass, bank.mass, rtol=1e-6)
+    np.testing.assert_array_equal(got.idx, b.idx)
+    np.testing.assert_allclose(got.mass, b.mass, rtol=1e-5)
+    bad = bytearray(data)
+    bad[HEADER_BYTES + 6:HEADER_BYTES + 10] = (bank.n_hyp * GRID.n_cells + 5).to_bytes(4, 'little')
+    with pytest.raises(ValueError, match='joint'):
+        decode_handoff(bytes(bad))
