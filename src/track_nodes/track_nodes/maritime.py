@@ -11,6 +11,8 @@ What runs (``config/maritime.yaml``, written by ``scenario_yaml`` below):
   ``acoustic_sensor``/``doa_sensor`` node per sensor, with ``truth_topics`` = the smart target's
   and the decoy's truth: each sensor senses the loudest (nearest) source, so the network tracks
   whatever is loudest in its field with IDSQ; track ``/idsq/estimate`` (child ``idsq_track``).
+  The sensors predict with the velocity-hypothesis bank (``prediction: bank``, issue 17,
+  ``track_core.idsq.prediction``) on a grid reaching 300 m north.
   The decoy sails well east of the field, so the loudest source in the field is the smart target.
   Every node steps at Δt = T = 1 s: the truth stamped k·T is the network's step k − 1.
 - ``report_source`` named ``radar``: a coastal radar that sees only the decoy, a constant-velocity
@@ -417,7 +419,7 @@ _SENSOR = '''
     cell: 5.0
     comm_range: 40.0
     selection: mi
-    prediction: drift
+    prediction: bank
     ack_timeout: 2.0
     truth_topics: [/sonar/target/truth, /radar/truth]
 '''

@@ -7,9 +7,11 @@ calls); the node keeps the step number and the previous leader (from the handoff
 
 Interpretations:
 
-- Prediction (Table 1 step 1): ``p.prediction`` selects the paper's diffusion (default) or the
-  velocity-aware drift (``prediction.py``, beyond the paper); with the drift the posterior carries
-  the updated velocity estimate, and the MI prediction of step 4 and the handoff use it.
+- Prediction (Table 1 step 1): ``p.prediction`` selects the paper's diffusion (default) or a
+  velocity-aware one (``prediction.py``, beyond the paper: ``drift`` or the hypothesis ``bank``);
+  the posterior then carries its motion state (v̂, or the joint position-velocity belief), and the
+  MI prediction of step 4 and the handoff use it. The update of a bank belief weights every
+  (hypothesis, cell) mass by the likelihood of its cell.
 - Table 1 step 4 scores I(x⁽ᵗ⁺²⁾; z_k⁽ᵗ⁺²⁾|z̄⁽ᵗ⁺¹⁾): the posterior is diffused once more (Table 3
   step 1) before the MI of each candidate is computed; the *posterior* (not the diffused
   belief) is handed off, and the receiver diffuses it (Table 1 steps 0-1).
