@@ -42,7 +42,7 @@ from scipy.signal import fftconvolve
 from track_core.filters import weighted_mean_cov
 
 if TYPE_CHECKING:
-    from track_core.idsq.prediction import Motion
+    from track_core.idsq.prediction import Bank, Motion
 
 SPARSITY_THRESHOLD = 1e-3
 """Cells with mass < SPARSITY_THRESHOLD × (largest cell mass) are dropped (§2.3)."""
@@ -100,9 +100,9 @@ class SparseBelief:
     grid: GridSpec
     idx: np.ndarray
     mass: np.ndarray
-    motion: Motion | None = field(default=None, compare=False)  # velocity estimate (prediction='drift')
+    motion: Motion | Bank | None = field(default=None, compare=False)  # motion state (prediction.py)
 
-    def with_motion(self, motion: Motion | None) -> SparseBelief:
+    def with_motion(self, motion: Motion | Bank | None) -> SparseBelief:
         """The same cells and masses carrying ``motion`` (see ``prediction.py``)."""
         return self if motion is self.motion else replace(self, motion=motion)
 

@@ -63,7 +63,7 @@ class Handoff:
     grid: GridSpec
     idx: np.ndarray
     mass: np.ndarray
-    motion: Motion | None = None
+    motion: Motion | Bank | None = None
 
     @classmethod
     def from_belief(cls, step: int, sender: int, receiver: int, belief: SparseBelief) -> Handoff:
