@@ -261,7 +261,7 @@ def sensor_params(sensor_type: str) -> tuple[Param, ...]:
         Param('noise_sigma_doa_deg', noise.sigma_doa / DEG, 'simulated DOA noise std (§5.1: 3°) [deg]', 0.0, 180.0),
         Param('comm_range', 40.0, 'radio range of the §5.1 neighbour rule (else the two nearest) [m]', 1e-3, 1e6),
         Param('selection', 'mi', 'next-leader rule: mi (Table 1), nearest or random (baselines)', choices=SELECTIONS),
-        Param('prediction', 'diffusion', 'belief prediction: diffusion (§2.1) or drift (velocity-aware, '
+        Param('prediction', 'diffusion', 'belief prediction: diffusion (§2.1), or drift / bank (velocity-aware, '
               'track_core.idsq.prediction)', choices=PREDICTIONS),
         Param('ack_timeout', 2.0, 'steady-clock wait for an ack before re-selecting [s]', 1e-3, 600.0),
         Param('track_id', 'idsq_track', 'child_frame_id of the estimate'),
