@@ -15,6 +15,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
@@ -58,7 +59,13 @@ def test_launcher_records_the_verdicts_and_the_picture(maritime_run):
     v = maritime.verdicts(d)
     assert set(v) == {SONAR_NET, *(tuple(sorted((maritime.RADAR_DECOY, t)))
                                    for t in (maritime.SONAR_TRACK, maritime.NETWORK_TRACK))}
-    assert v[SONAR_NET]['associated'] and v[SONAR_NET]['fraction'] > 0.5, v[SONAR_NET]
+    # issue 17: the true pair at >= 95 % of the instants after both converged, the decoy never. Tolerance
+    # from the instant count n: the fraction may fall 2 binomial standard errors of p = 0.95 below 0.95.
+    n = v[SONAR_NET]['instants_after']
+    assert n >= 8 and v[SONAR_NET]['associated'], v[SONAR_NET]
+    assert v[SONAR_NET]['fraction'] >= 0.95 - 2 * np.sqrt(0.95 * 0.05 / n), v[SONAR_NET]
+    assert not any(r['ever'] for p, r in v.items() if maritime.RADAR_DECOY in p), v
+    assert 'true pair (sonar | network) associated at' in stdout
     assert v[SONAR_NET]['instants'] >= DURATION - 2
     for pair, r in v.items():
         if pair != SONAR_NET:

@@ -1,6 +1,7 @@
 """Leader-based IDSQ tracking in an acoustic-amplitude + DOA sensor field (Liu, Reich, Zhao 2002).
 
-Public API for nodes: ``leader_step`` (Table 1 for one sensor), ``receive_handoff`` /
+Public API for nodes: ``leader_step`` (Table 1 for one sensor; ``TrackerParams.prediction`` selects the
+paper's diffusion or a velocity-aware prediction, ``prediction.py``), ``receive_handoff`` /
 ``encode_handoff`` / ``validate_handoff`` (the handoff package), ``simulate_measurement``.
 """
 
@@ -25,15 +26,19 @@ from track_core.idsq.handoff import (
 from track_core.idsq.mi import mutual_information, neighbour_mi
 from track_core.idsq.models import SimNoise, TrackerParams, simulate_measurement
 from track_core.idsq.network import SensorLayout, start_leader
+from track_core.idsq.prediction import PREDICTIONS, Bank, Motion, predict
 from track_core.idsq.tracker import LeaderStepResult, centralized_step, leader_step, select_next, update
 
 __all__ = [
     'HEADER_BYTES',
+    'PREDICTIONS',
     'SPARSITY_THRESHOLD',
+    'Bank',
     'Estimate',
     'GridSpec',
     'Handoff',
     'LeaderStepResult',
+    'Motion',
     'SensorLayout',
     'SimNoise',
     'SparseBelief',
@@ -47,6 +52,7 @@ __all__ = [
     'mutual_information',
     'neighbour_mi',
     'payload_bytes',
+    'predict',
     'receive_handoff',
     'select_next',
     'simulate_measurement',

@@ -1,6 +1,9 @@
 """``track-experiment`` entries of the IDSQ system: ``idsq-table4``, ``idsq-table5``, ``idsq-selection``.
 
 - idsq-table4: K ∈ {24, 28, …, 64}, 20 runs each, 30 % DOA (Table 4, Fig. 9); quick: K ∈ {24, 40, 64}.
+  Printed with the paper's diffusion prediction and, as further columns on the same runs, with
+  the velocity-aware predictions ``drift`` and ``bank`` (``prediction.py``, beyond the paper),
+  each with its bytes per handoff step and the paired per-run difference to the diffusion (± 2 SE).
 - idsq-table5: DOA fraction 0, 0.1, …, 1 at K = 40 (Table 5); quick: {0, 0.5, 1}.
 - idsq-selection: MI (eq. 15) vs nearest-to-estimate vs random leader selection vs the
   centralized all-sensor filter (§2.2), on the same runs (common random numbers), K = 40,
@@ -15,7 +18,8 @@ Known residual difference from the paper (seed 0, 20 runs): our Table 4 errors a
 the paper's at every K (ratio K=24/K=64 2.21 vs 1.94) and the |N| column matches, but our belief
 spread is only 40-46 % of the paper's and the cell count 60-70 %. The error is mostly an
 along-track lag (mean north error −21 / −13 / −9 m at K = 24 / 40 / 64 after step 5, cross-track
-mean ≈ 0): the disk prediction has no drift, the vehicle does. The paper's posterior is wider in
+mean ≈ 0): the disk prediction has no drift, the vehicle does (the velocity-aware predictions of
+``prediction.py`` remove most of it: the extra columns of idsq-table4). The paper's posterior is wider in
 its core; neither the sparsity threshold (grid.py) nor the Fig. 6 slopes (models.py) account for
 it, and Table 5 points the same way: our DOA sensors help more (all-DOA 5.8 m vs the paper's
 10.8 m, all-amplitude 23.3 vs 18.5 m). We found no statement in the paper that would explain it
@@ -31,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from track_core.cli import Outcome, RunConfig, format_table
+from track_core.idsq.models import TrackerParams
 from track_core.idsq.simulation import Scenario, TrackResult, draw_run, run_centralized, run_idsq, summary
 from track_core.plotting import pyplot
 
@@ -102,12 +107,14 @@ def snapshot_figure(path: Path, seed: int = 0, n_sensors: int = 40, doa_fraction
 
 
 def _error_figure(path: Path, xs: list[float], per_run: list[np.ndarray], paper: list[float], xlabel: str,
-                  title: str) -> Path:
+                  title: str, extra: dict[str, list[np.ndarray]] | None = None) -> Path:
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(6.5, 4.2))
     for x, e in zip(xs, per_run, strict=True):
         ax.plot(np.full(e.size, x), e, 'o', mfc='none', color='0.5', ms=4)
     ax.plot(xs, [float(np.mean(e)) for e in per_run], 'b*-', label='ours: mean over runs')
+    for (name, runs), c in zip((extra or {}).items(), ('tab:green', 'tab:orange', 'tab:red'), strict=False):
+        ax.plot(xs, [float(np.mean(e)) for e in runs], 's-', color=c, label=f'{name}: mean over runs')
     ax.plot(xs, paper, 'k--', label='paper')
     ax.set_xlabel(xlabel)
     ax.set_ylabel('avg ‖x̂_MMSE − x‖ (m)')
@@ -119,27 +126,52 @@ def _error_figure(path: Path, xs: list[float], per_run: list[np.ndarray], paper:
     return path
 
 
+VELOCITY_PREDICTIONS = ('drift', 'bank')  # the velocity-aware predictions of prediction.py (beyond the paper)
+
+
 def table4(cfg: RunConfig) -> Outcome:
+    """Table 4 with the paper's diffusion prediction, and the velocity-aware predictions (``prediction.py``)
+    as further columns on the same runs (common random numbers: the prediction does not enter the draws)."""
     ks = [24, 40, 64] if cfg.quick else list(range(24, 65, 4))
     n_runs = cfg.n_runs(full=20, quick=3)
     rows, trows, per_run = [], [], []
+    per_run_v: dict[str, list[np.ndarray]] = {v: [] for v in VELOCITY_PREDICTIONS}
     for k in cfg.progress(ks, desc='idsq-table4'):
         res = run_config(Scenario(n_sensors=k, doa_fraction=0.3), n_runs, cfg.seed)['mi']
         s = summary(res)
         per_run.append(np.array([r.error.mean() for r in res]))
-        rows.append({'sensors': k, 'mmse_error_m': s['mmse_error_m'], 'belief_spread_m2': s['belief_spread_m2'],
-                     'belief_size': s['belief_size'], 'neighborhood_size': s['neighborhood_size']})
+        row = {'sensors': k, 'mmse_error_m': s['mmse_error_m'], 'belief_spread_m2': s['belief_spread_m2'],
+               'belief_size': s['belief_size'], 'neighborhood_size': s['neighborhood_size'],
+               'bytes_per_step': s['bytes_per_step']}
         pe, ps, pb, pn = PAPER_TABLE4[k]
-        trows.append([k, s['mmse_error_m'], pe, f'{100 * (s["mmse_error_m"] / pe - 1):+.0f}%', s['belief_spread_m2'],
-                      ps, s['belief_size'], pb, s['neighborhood_size'], pn])
+        trow = [k, s['mmse_error_m'], pe, f'{100 * (s["mmse_error_m"] / pe - 1):+.0f}%', s['belief_spread_m2'],
+                ps, s['belief_size'], pb, s['neighborhood_size'], pn, s['bytes_per_step']]
+        for v in VELOCITY_PREDICTIONS:
+            sc = Scenario(n_sensors=k, doa_fraction=0.3, tracker=TrackerParams(prediction=v))
+            rv = run_config(sc, n_runs, cfg.seed)['mi']
+            sv = summary(rv)
+            per_run_v[v].append(np.array([r.error.mean() for r in rv]))
+            diff = per_run_v[v][-1] - per_run[-1]
+            se = diff.std(ddof=1) / np.sqrt(n_runs) if n_runs > 1 else float('nan')
+            row.update({f'{v}_mmse_error_m': sv['mmse_error_m'], f'{v}_belief_spread_m2': sv['belief_spread_m2'],
+                        f'{v}_belief_size': sv['belief_size'], f'{v}_bytes_per_step': sv['bytes_per_step'],
+                        f'{v}_minus_diffusion_m': float(diff.mean()), f'{v}_minus_diffusion_2se_m': float(2 * se)})
+            trow += [sv['mmse_error_m'], f'{diff.mean():+.2f} ± {2 * se:.2f}', sv['bytes_per_step']]
+        rows.append(row)
+        trows.append(trow)
     ratio = rows[0]['mmse_error_m'] / rows[-1]['mmse_error_m']
     paper_ratio = PAPER_TABLE4[ks[0]][0] / PAPER_TABLE4[ks[-1]][0]
-    table = (format_table(['K', 'err m', 'paper', 'Δ', 'spread m²', 'paper', 'cells', 'paper', '|N|', 'paper'], trows)
+    heads = ['K', 'err m', 'paper', 'Δ', 'spread m²', 'paper', 'cells', 'paper', '|N|', 'paper', 'bytes/step']
+    for v in VELOCITY_PREDICTIONS:
+        heads += [f'{v} err m', f'{v} − diff. (±2 SE)', f'{v} bytes']
+    table = (format_table(heads, trows)
              + f'\n{n_runs} runs per K, 30% DOA. error ratio K={ks[0]}/K={ks[-1]}: {ratio:.2f} '
-             f'(paper {paper_ratio:.2f})')
+             f'(paper {paper_ratio:.2f}). Columns up to "bytes/step": the paper\'s diffusion prediction; then the '
+             'velocity-aware predictions (ours, beyond the paper: prediction.py) on the same runs.')
     cfg.out.mkdir(parents=True, exist_ok=True)
     figs = [_error_figure(cfg.out / 'idsq-fig9-error-vs-k.png', ks, per_run, [PAPER_TABLE4[k][0] for k in ks],
-                          'number of sensors K', f'Fig. 9: error vs K ({n_runs} runs, 30% DOA)'),
+                          'number of sensors K', f'Fig. 9: error vs K ({n_runs} runs, 30% DOA)',
+                          extra={f'ours, {v} prediction': per_run_v[v] for v in VELOCITY_PREDICTIONS}),
             snapshot_figure(cfg.out / 'idsq-fig8-snapshot.png', cfg.seed)]
     return Outcome(table, {'rows': rows}, figs)
 

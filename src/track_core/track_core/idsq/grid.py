@@ -32,13 +32,17 @@ Interpretations (the paper is terse here):
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from functools import lru_cache
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.signal import fftconvolve
 
 from track_core.filters import weighted_mean_cov
+
+if TYPE_CHECKING:
+    from track_core.idsq.prediction import Bank, Motion
 
 SPARSITY_THRESHOLD = 1e-3
 """Cells with mass < SPARSITY_THRESHOLD × (largest cell mass) are dropped (§2.3)."""
@@ -96,6 +100,11 @@ class SparseBelief:
     grid: GridSpec
     idx: np.ndarray
     mass: np.ndarray
+    motion: Motion | Bank | None = field(default=None, compare=False)  # motion state (prediction.py)
+
+    def with_motion(self, motion: Motion | Bank | None) -> SparseBelief:
+        """The same cells and masses carrying ``motion`` (see ``prediction.py``)."""
+        return self if motion is self.motion else replace(self, motion=motion)
 
     @property
     def size(self) -> int:
@@ -183,8 +192,13 @@ def diffuse(belief: SparseBelief, radius: float, threshold: float = SPARSITY_THR
     Done on the support's bounding box padded by the kernel half-width (``fftconvolve``),
     cropped to the field, then re-sparsified and renormalised (mass 1).
     """
+    return convolve(belief, disk_kernel(float(radius), belief.grid.cell), threshold)
+
+
+def convolve(belief: SparseBelief, k: np.ndarray, threshold: float = SPARSITY_THRESHOLD) -> SparseBelief:
+    """Belief convolved with a (2m+1, 2m+1) kernel ``k`` (rows = y, centre = zero displacement), cropped to
+    the field, re-sparsified (``diffuse`` with any kernel, e.g. ``prediction.shifted_disk_kernel``)."""
     g = belief.grid
-    k = disk_kernel(float(radius), g.cell)
     m = k.shape[0] // 2
     iy, ix = np.divmod(belief.idx, g.nx)
     y_lo, x_lo = iy.min(), ix.min()

@@ -10,6 +10,17 @@ Wire format (little-endian, our choice; the paper only says the sparse belief is
 so a handoff costs ``HEADER_BYTES + 8·n`` bytes (``payload_bytes``): this is the communication
 cost per step we report. The sender is the receiver's *previous leader* (triplet rule).
 
+Version 2 (the velocity-aware ``prediction='drift'``, ``prediction.py``): the same header with
+version 2, then ``'<ffH'`` = 10 bytes of motion (v̂x, v̂y f32 [m/s], observation count u16), then
+the same body: ``HEADER_BYTES + MOTION_BYTES + 8·n``. A belief without motion (the paper's
+diffusion) is sent as version 1, byte for byte as before.
+
+Version 3 (``prediction='bank'``, the joint position-velocity grid): header with version 3 and
+n = the number of stored (hypothesis, cell) entries, then ``'<fH'`` = 6 bytes (lattice spacing
+f32 [m/s], number of hypotheses J u16), then n × u32 key j·n_cells + cell and n × f32 mass:
+``HEADER_BYTES + BANK_BYTES + 8·n``. The receiver rebuilds the lattice from the spacing and its
+v_max, and the position belief as the marginal of the joint.
+
 ``validate_handoff`` returns ``None`` or a one-line reason (never raises) so that a node can
 refuse a malformed package with a warning and let the sender re-select; ``decode_handoff``
 raises ``ValueError`` with the same kind of one-line reason for undecodable bytes, and
@@ -25,9 +36,17 @@ from dataclasses import dataclass
 import numpy as np
 
 from track_core.idsq.grid import GridSpec, SparseBelief
+from track_core.idsq.prediction import Bank, Motion, bank_from_joint
 
 MAGIC = b'IDSQ'
 VERSION = 1
+VERSION_MOTION = 2
+VERSION_BANK = 3
+VERSIONS = (VERSION, VERSION_MOTION, VERSION_BANK)
+_MOTION = struct.Struct('<ffH')
+MOTION_BYTES = _MOTION.size
+_BANK = struct.Struct('<fH')
+BANK_BYTES = _BANK.size
 _ADDRESS = struct.Struct('<4sBxHHI')  # the header up to the step: magic, version, sender, receiver, step
 _HEADER = struct.Struct(_ADDRESS.format + 'dddHHI')
 HEADER_BYTES = _HEADER.size
@@ -44,20 +63,22 @@ class Handoff:
     grid: GridSpec
     idx: np.ndarray
     mass: np.ndarray
+    motion: Motion | Bank | None = None
 
     @classmethod
     def from_belief(cls, step: int, sender: int, receiver: int, belief: SparseBelief) -> Handoff:
-        return cls(step, sender, receiver, belief.grid, belief.idx, belief.mass)
+        return cls(step, sender, receiver, belief.grid, belief.idx, belief.mass, belief.motion)
 
     def belief(self) -> SparseBelief:
         """The carried belief in float64, renormalised (call only after ``validate_handoff``)."""
         m = np.asarray(self.mass, dtype=float)
-        return SparseBelief(self.grid, np.asarray(self.idx, dtype=np.int64), m / m.sum())
+        return SparseBelief(self.grid, np.asarray(self.idx, dtype=np.int64), m / m.sum(), self.motion)
 
 
-def payload_bytes(n_cells: int) -> int:
-    """Bytes on the wire for a belief of ``n_cells`` stored cells (header + 8 bytes per cell)."""
-    return HEADER_BYTES + 8 * int(n_cells)
+def payload_bytes(n_cells: int, motion: bool = False, bank: bool = False) -> int:
+    """Bytes on the wire for ``n_cells`` stored cells (or joint entries with ``bank``): header [+ motion
+    or bank] + 8 bytes per entry."""
+    return HEADER_BYTES + (MOTION_BYTES if motion else 0) + (BANK_BYTES if bank else 0) + 8 * int(n_cells)
 
 
 def _header_problem(h: Handoff, grid: GridSpec, n_sensors: int | None, receiver: int | None) -> str | None:
@@ -115,7 +136,15 @@ def encode_handoff(h: Handoff, check: bool = True) -> bytes:
         if why is not None:
             raise ValueError(f'refusing to encode handoff: {why}')
     g = h.grid
-    head = _HEADER.pack(MAGIC, VERSION, h.sender, h.receiver, h.step, g.x0, g.y0, g.cell, g.nx, g.ny, len(h.idx))
+    if isinstance(h.motion, Bank):
+        b = h.motion
+        head = _HEADER.pack(MAGIC, VERSION_BANK, h.sender, h.receiver, h.step, g.x0, g.y0, g.cell, g.nx, g.ny,
+                            len(b.key)) + _BANK.pack(b.step, b.n_hyp)
+        return head + np.asarray(b.key, dtype='<u4').tobytes() + np.asarray(b.mass, dtype='<f4').tobytes()
+    ver = VERSION if h.motion is None else VERSION_MOTION
+    head = _HEADER.pack(MAGIC, ver, h.sender, h.receiver, h.step, g.x0, g.y0, g.cell, g.nx, g.ny, len(h.idx))
+    if h.motion is not None:
+        head += _MOTION.pack(*(float(v) for v in h.motion.velocity), h.motion.count)
     return (head + np.asarray(h.idx, dtype='<u4').tobytes() + np.asarray(h.mass, dtype='<f4').tobytes())
 
 
@@ -124,17 +153,48 @@ def decode_handoff(data: bytes) -> Handoff:
     if len(data) < HEADER_BYTES:
         raise ValueError(f'handoff of {len(data)} bytes is shorter than the {HEADER_BYTES}-byte header')
     magic, ver, sender, receiver, step, x0, y0, cell, nx, ny, n = _HEADER.unpack_from(data)
-    if magic != MAGIC or ver != VERSION:
-        raise ValueError(f'bad handoff magic/version {magic!r}/{ver}, expected {MAGIC!r}/{VERSION}')
-    if len(data) != payload_bytes(n):
-        raise ValueError(f'handoff length {len(data)} != {payload_bytes(n)} for {n} cells')
+    if magic != MAGIC or ver not in VERSIONS:
+        raise ValueError(f'bad handoff magic/version {magic!r}/{ver}, expected {MAGIC!r}/{VERSIONS}')
+    has_motion, has_bank = ver == VERSION_MOTION, ver == VERSION_BANK
+    if len(data) != payload_bytes(n, has_motion, has_bank):
+        raise ValueError(f'handoff length {len(data)} != {payload_bytes(n, has_motion, has_bank)} for {n} cells')
     try:
         grid = GridSpec(x0, y0, cell, nx, ny)
     except ValueError as exc:
         raise ValueError(f'bad grid in handoff: {exc}') from None
-    body = np.frombuffer(data, offset=HEADER_BYTES, dtype='<u4', count=n).astype(np.int64)
-    mass = np.frombuffer(data, offset=HEADER_BYTES + 4 * n, dtype='<f4', count=n).astype(float)
-    return Handoff(step, sender, receiver, grid, body, mass)
+    motion, off = None, HEADER_BYTES
+    if has_motion:
+        vx, vy, count = _MOTION.unpack_from(data, HEADER_BYTES)
+        try:
+            motion = Motion(np.array([vx, vy]), count)
+        except ValueError as exc:
+            raise ValueError(f'bad motion in handoff: {exc}') from None
+        off += MOTION_BYTES
+    if has_bank:
+        bstep, n_hyp = _BANK.unpack_from(data, HEADER_BYTES)
+        off += BANK_BYTES
+    body = np.frombuffer(data, offset=off, dtype='<u4', count=n).astype(np.int64)
+    mass = np.frombuffer(data, offset=off + 4 * n, dtype='<f4', count=n).astype(float)
+    if has_bank:
+        return _bank_handoff(step, sender, receiver, grid, bstep, n_hyp, body, mass)
+    return Handoff(step, sender, receiver, grid, body, mass, motion)
+
+
+def _bank_handoff(step: int, sender: int, receiver: int, grid: GridSpec, bstep: float, n_hyp: int,
+                  key: np.ndarray, mass: np.ndarray) -> Handoff:
+    """Handoff of a joint (version 3) body: checked, then carried as its marginal plus the ``Bank``."""
+    if not (np.isfinite(bstep) and bstep > 0 and n_hyp >= 1):
+        why = f'bad bank lattice {bstep} m/s, J={n_hyp}'
+    elif key.size == 0:
+        why = 'empty belief'
+    elif key.max() >= n_hyp * grid.n_cells or np.any(np.diff(key) <= 0):
+        why = f'joint keys not strictly increasing in [0, {n_hyp * grid.n_cells - 1}]'
+    else:
+        why = _mass_problem(mass)
+    if why is not None:
+        raise ValueError(f'bad joint belief in handoff: {why}')
+    b = bank_from_joint(grid, bstep, n_hyp, key, mass, 0.0)
+    return Handoff(step, sender, receiver, grid, b.idx, b.mass, b.motion)
 
 
 def receive_handoff(data: bytes, grid: GridSpec, n_sensors: int | None = None,
@@ -155,4 +215,4 @@ def peek_header(data: bytes) -> tuple[int, int, int] | None:
     if len(data) < _ADDRESS.size:
         return None
     magic, version, sender, receiver, step = _ADDRESS.unpack_from(data)
-    return (sender, receiver, step) if (magic, version) == (MAGIC, VERSION) else None
+    return (sender, receiver, step) if magic == MAGIC and version in VERSIONS else None

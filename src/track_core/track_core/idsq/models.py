@@ -51,6 +51,12 @@ class TrackerParams:
     far_slope: float = 0.2 * DEG   # rad per m, beyond r_far
     sigma_doa_max: float = 90.0 * DEG
     sparsity: float = SPARSITY_THRESHOLD  # relative threshold of §2.3 (see grid.py)
+    prediction: str = 'diffusion'  # 'diffusion' (§2.1, the paper's) or 'drift' (ours, prediction.py)
+    drift_gain: float = 0.3        # β of the v̂ average (prediction.py)
+    drift_gate: float = 4.0        # v̂ observed only when both spreads < drift_gate·(v_max·Δt)² [m²]
+    drift_speed: float | None = None  # |v − v̂| bound of the drift disk [m/s]; None = v_max
+    bank_step: float = 5.0         # velocity-lattice spacing of prediction='bank' [m/s]
+    bank_switch: float = 0.1       # probability of switching to a neighbouring velocity per step
 
     def __post_init__(self) -> None:
         pos = {'v_max': self.v_max, 'dt': self.dt, 'sigma_a': self.sigma_a, 'sigma_doa': self.sigma_doa,
@@ -64,10 +70,28 @@ class TrackerParams:
             raise ValueError(f'r_near={self.r_near}, r_far={self.r_far} must satisfy 0 <= r_near < r_far < inf')
         if not 0.0 <= self.sparsity < 1.0:
             raise ValueError(f'sparsity={self.sparsity} must be in [0, 1)')
+        self._check_prediction()
         for k in ('near_slope', 'far_slope'):
             v = getattr(self, k)
             if not (np.isfinite(v) and v >= 0):
                 raise ValueError(f'{k}={v} must be finite and >= 0 rad/m')
+
+    def _check_prediction(self) -> None:
+        """Settings of the prediction step (``prediction.py``); resolves ``drift_speed=None`` to v_max."""
+        if self.prediction not in ('diffusion', 'drift', 'bank'):
+            raise ValueError(f"prediction={self.prediction!r} must be 'diffusion', 'drift' or 'bank'")
+        if not (np.isfinite(self.bank_step) and 0 < self.bank_step <= self.v_max):
+            raise ValueError(f'bank_step={self.bank_step} must be in (0, v_max={self.v_max}] m/s')
+        if not 0.0 <= self.bank_switch <= 1.0:
+            raise ValueError(f'bank_switch={self.bank_switch} must be in [0, 1]')
+        if not (np.isfinite(self.drift_gain) and 0.0 < self.drift_gain <= 1.0):
+            raise ValueError(f'drift_gain={self.drift_gain} must be in (0, 1]')
+        if not (np.isfinite(self.drift_gate) and self.drift_gate > 0):
+            raise ValueError(f'drift_gate={self.drift_gate} must be finite and > 0')
+        if self.drift_speed is None:
+            object.__setattr__(self, 'drift_speed', self.v_max)
+        elif not (np.isfinite(self.drift_speed) and self.drift_speed >= 0):
+            raise ValueError(f'drift_speed={self.drift_speed} must be finite and >= 0 m/s')
 
     @property
     def radius(self) -> float:

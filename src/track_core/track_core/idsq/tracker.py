@@ -7,6 +7,11 @@ calls); the node keeps the step number and the previous leader (from the handoff
 
 Interpretations:
 
+- Prediction (Table 1 step 1): ``p.prediction`` selects the paper's diffusion (default) or a
+  velocity-aware one (``prediction.py``, beyond the paper: ``drift`` or the hypothesis ``bank``);
+  the posterior then carries its motion state (v̂, or the joint position-velocity belief), and the
+  MI prediction of step 4 and the handoff use it. The update of a bank belief weights every
+  (hypothesis, cell) mass by the likelihood of its cell.
 - Table 1 step 4 scores I(x⁽ᵗ⁺²⁾; z_k⁽ᵗ⁺²⁾|z̄⁽ᵗ⁺¹⁾): the posterior is diffused once more (Table 3
   step 1) before the MI of each candidate is computed; the *posterior* (not the diffused
   belief) is handed off, and the receiver diffuses it (Table 1 steps 0-1).
@@ -34,6 +39,7 @@ from track_core.idsq.handoff import Handoff, encode_handoff
 from track_core.idsq.mi import DZ_PER_SIGMA, neighbour_mi
 from track_core.idsq.models import TrackerParams, likelihood
 from track_core.idsq.network import SensorLayout, candidates
+from track_core.idsq.prediction import Bank, predict, reweight_bank, update_motion
 
 log = logging.getLogger(__name__)
 
@@ -59,10 +65,13 @@ def update(belief: SparseBelief, z: float, sensor: np.ndarray, is_doa: bool,
     """Eq. 3 / Table 1 step 3: posterior ∝ p(z|x)·prior on the support, re-sparsified; (belief, applied)."""
     if not np.isfinite(z):
         raise ValueError(f'measurement z={z} must be finite')
-    post = belief.mass * likelihood(z, belief.centers(), sensor, is_doa, p)
+    lik = likelihood(z, belief.centers(), sensor, is_doa, p)
+    post = belief.mass * lik
     if not (np.all(np.isfinite(post)) and post.max() > 0.0):
         log.warning('measurement z=%.4g has zero likelihood on the whole belief; update skipped', z)
         return belief, False
+    if isinstance(belief.motion, Bank):  # joint position-velocity belief (prediction='bank')
+        return reweight_bank(belief, lik, p.sparsity), True
     return sparsify(belief.grid, belief.idx, post, p.sparsity), True
 
 
@@ -78,7 +87,7 @@ def select_next(posterior: SparseBelief, layout: SensorLayout, leader: int, prev
             raise ValueError('rng=None: random selection needs a numpy Generator')
         scores = np.zeros(cands.size)
         return int(cands[rng.integers(cands.size)]), cands, scores
-    pred = diffuse(posterior, p.radius, p.sparsity)
+    pred = predict(posterior, p)
     if selection == 'nearest':
         centre = estimate(pred).mean
         scores = -np.linalg.norm(layout.positions[cands] - centre, axis=1)
@@ -96,8 +105,9 @@ def leader_step(belief: SparseBelief, z: float, leader: int, layout: SensorLayou
     """
     if not 0 <= leader < layout.n:
         raise ValueError(f'leader={leader} must be in [0, {layout.n - 1}]')
-    prior = diffuse(belief, p.radius, p.sparsity)                                                 # step 1
+    prior = predict(belief, p)                                                             # step 1
     post, ok = update(prior, z, layout.positions[leader], bool(layout.is_doa[leader]), p)  # steps 2-3
+    post = post.with_motion(update_motion(belief, post, p))  # v̂ (prediction='drift' only)
     nxt, cands, scores = select_next(post, layout, leader, previous, p, selection, rng)    # step 4
     payload = encode_handoff(Handoff.from_belief(step, leader, nxt, post))            # step 5
     return LeaderStepResult(post, estimate(post), nxt, payload, cands, scores,

@@ -9,6 +9,7 @@ import numpy as np
 from track_core.idsq import GridSpec, SimNoise, TrackerParams
 from track_core.idsq.ledger import SensorSetup
 from track_core.idsq.models import DEG
+from track_core.idsq.prediction import PREDICTIONS
 from track_core.idsq.tracker import SELECTIONS
 from track_msgs_py.topics import IDSQ_TRUTH
 from track_nodes.base import Param
@@ -39,6 +40,8 @@ def sensor_params(sensor_type: str) -> tuple[Param, ...]:
         Param('noise_sigma_doa_deg', noise.sigma_doa / DEG, 'simulated DOA noise std (§5.1: 3°) [deg]', 0.0, 180.0),
         Param('comm_range', 40.0, 'radio range of the §5.1 neighbour rule (else the two nearest) [m]', 1e-3, 1e6),
         Param('selection', 'mi', 'next-leader rule: mi (Table 1), nearest or random (baselines)', choices=SELECTIONS),
+        Param('prediction', 'diffusion', 'belief prediction: diffusion (§2.1), or drift / bank (velocity-aware, '
+              'track_core.idsq.prediction)', choices=PREDICTIONS),
         Param('ack_timeout', 2.0, 'steady-clock wait for an ack before re-selecting [s]', 1e-3, 600.0),
         Param('track_id', 'idsq_track', 'child_frame_id of the estimate'),
         Param('truth_topics', [IDSQ_TRUTH], 'Odometry truth topics of the sources; each sensor senses the loudest '
@@ -49,7 +52,7 @@ def sensor_params(sensor_type: str) -> tuple[Param, ...]:
 def sensor_setup(p: SimpleNamespace, position: np.ndarray, truth_topics: tuple[str, ...]) -> SensorSetup:
     """The ledger's view of a sensor node's checked parameters ``p``."""
     tp = TrackerParams(v_max=p.v_max, dt=p.dt, a_lo=p.a_lo, a_hi=p.a_hi, sigma_a=p.sigma_k,
-                       r_near=p.r_near, r_far=p.r_far, sigma_doa=p.sigma_doa_deg * DEG)
+                       r_near=p.r_near, r_far=p.r_far, sigma_doa=p.sigma_doa_deg * DEG, prediction=p.prediction)
     noise = SimNoise(amplitude=p.amplitude, sigma_a=p.noise_sigma_a, sigma_doa=p.noise_sigma_doa_deg * DEG)
     return SensorSetup(int(p.id), position, p.type == 'doa', GridSpec.for_field(p.width, p.height, p.cell), tp,
                        noise, p.seed, p.selection, truth_topics, p.ack_timeout)

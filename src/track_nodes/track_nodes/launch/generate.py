@@ -60,11 +60,13 @@ def idsq_yaml(seed: int = 0, n_sensors: int = 24, doa_fraction: float = 0.3, *, 
 
 
 def maritime_yaml(*, seed: int = 1, n_sensors: int = 40, doa_fraction: float = 0.3, duration: float = 32.0,
-                  rate: float = 20.0, dt: float = 1.0) -> str:
+                  rate: float = 20.0, dt: float = 1.0, grid_height: float = 300.0) -> str:
     """``config/maritime.yaml``: the fixed part below plus one entry per sensor of the seeded layout.
 
     The layout is ``vehicle_sim``'s (``scenario_of``, §5.1 generator, 150 × 250 m field), so the
-    sensor entries agree with what vehicle_sim publishes.
+    sensor entries agree with what vehicle_sim publishes. The sensors' belief grid reaches
+    ``grid_height`` north (300 m): the smart target leaves the 250 m field at t ≈ 28 s, and a grid
+    ending at the field edge would pin the belief there (issue 17).
     """
     sc, layout, _ = scenario_of(seed, n_sensors, doa_fraction)
     names = [f'sensor_{k}' for k in range(layout.n)]
@@ -77,7 +79,7 @@ def maritime_yaml(*, seed: int = 1, n_sensors: int = 40, doa_fraction: float = 0
     for k, (name, d) in enumerate(zip(names, layout.is_doa.tolist(), strict=True)):
         x, y = (float(v) for v in layout.positions[k])
         text += _SENSOR.format(name=name, id=k, x=x, y=y, type='doa' if d else 'acoustic', seed=int(seed),
-                               width=sc.width, height=sc.height, dt=float(dt))
+                               width=sc.width, height=float(grid_height), dt=float(dt))
     return text
 
 
@@ -190,6 +192,7 @@ _SENSOR = '''
     cell: 5.0
     comm_range: 40.0
     selection: mi
+    prediction: bank
     ack_timeout: 2.0
     truth_topics: [/sonar/target/truth, /radar/truth]
 '''

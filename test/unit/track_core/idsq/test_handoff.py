@@ -69,7 +69,7 @@ def test_peek_header_reads_the_address_of_unusable_bytes():
     data = encode_handoff(_handoff())
     assert peek_header(data) == (3, 5, 7)
     assert peek_header(data[:14]) == (3, 5, 7)  # header cut after the step: still answerable
-    for bad in (data[:13], b'', b'XXXX' + data[4:], data[:4] + b'\x02' + data[5:], b'IDSQ' + bytes(20)):
+    for bad in (data[:13], b'', b'XXXX' + data[4:], data[:4] + b'\x09' + data[5:], b'IDSQ' + bytes(20)):
         assert peek_header(bad) is None
     h, why = receive_handoff(data[:30], GRID)  # refused, yet the sender can be told
     assert h is None and 'shorter' in why and peek_header(data[:30]) == (3, 5, 7)
