@@ -56,10 +56,12 @@ def test_bad_command_is_one_line(values, words):
 
 def test_step_round_trip_exact_floats():
     res = StepResult(CommandKind.MOVE, 3, dphi=-1.0 / 3.0, turn=0.0, n_reads=151, n_outliers=2, ok=True,
-                     reason='', found=False)
+                     reason='', found=False, dphi_std=0.1 + 0.2, relocks=2)
     rec = RfidStep.from_result(res, 0.5000000000000001)
     v = rec.to_values()
-    assert list(v) == ['seq', 'kind', 'dphi', 'turn', 'n_reads', 'n_outliers', 'ok', 'reason', 'found', 'duration']
+    assert list(v) == ['seq', 'kind', 'dphi', 'turn', 'n_reads', 'n_outliers', 'ok', 'reason', 'found', 'duration',
+                       'dphi_std', 'relocks']
+    assert v['dphi_std'] == repr(0.1 + 0.2) and v['relocks'] == '2'
     assert v['dphi'] == repr(-1.0 / 3.0) and v['ok'] == 'true' and v['found'] == 'false'
     assert RfidStep.from_values(v) == rec
     assert read_step(_array(rec.to_status('r/step')), Command(CommandKind.MOVE, seq=3)) == (res, 3)

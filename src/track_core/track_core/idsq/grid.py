@@ -34,15 +34,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 from functools import lru_cache
-from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.signal import fftconvolve
 
 from track_core.filters import weighted_mean_cov
-
-if TYPE_CHECKING:
-    from track_core.idsq.prediction import Bank, Motion
+from track_core.idsq.motion import Bank, Motion
 
 SPARSITY_THRESHOLD = 1e-3
 """Cells with mass < SPARSITY_THRESHOLD × (largest cell mass) are dropped (§2.3)."""

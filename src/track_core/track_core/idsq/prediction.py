@@ -47,34 +47,15 @@ Choice (measured; no parameter fitted to a result, the values are set by the arg
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
 from scipy.signal import fftconvolve
 
 from track_core.idsq.grid import SparseBelief, convolve, disk_kernel, estimate
+from track_core.idsq.motion import NO_MOTION, Bank, Motion
 
 PREDICTIONS = ('diffusion', 'drift', 'bank')
-
-
-@dataclass(frozen=True)
-class Motion:
-    """Velocity estimate v̂ [m/s] (ENU) carried with a belief, and how many MMSE velocities went into it."""
-
-    velocity: np.ndarray
-    count: int = 0
-
-    def __post_init__(self) -> None:
-        v = np.asarray(self.velocity, dtype=float).reshape(-1)
-        if v.shape != (2,) or not np.all(np.isfinite(v)):
-            raise ValueError(f'velocity={self.velocity!r} must be 2 finite numbers [m/s]')
-        if int(self.count) != self.count or self.count < 0:
-            raise ValueError(f'count={self.count} must be an integer >= 0')
-        object.__setattr__(self, 'velocity', v)
-
-
-NO_MOTION = Motion(np.zeros(2), 0)
 
 
 def shifted_disk_kernel(radius: float, offset: np.ndarray, cell: float, supersample: int = 16) -> np.ndarray:
@@ -138,18 +119,6 @@ def update_motion(prior: SparseBelief, posterior: SparseBelief, p) -> Motion | N
 
 
 # --- velocity-hypothesis bank (a coarse joint position-velocity grid) -------------------------------------
-
-@dataclass(frozen=True)
-class Bank:
-    """Joint belief over (velocity hypothesis j, cell): sorted unique keys j·n_cells + cell and masses (sum 1).
-
-    The hypotheses are the lattice ``bank_velocities(step, v_max)``; ``step`` identifies it on the wire."""
-
-    step: float
-    n_hyp: int
-    key: np.ndarray
-    mass: np.ndarray
-
 
 @lru_cache(maxsize=8)
 def bank_velocities(step: float, v_max: float) -> tuple[np.ndarray, np.ndarray]:
