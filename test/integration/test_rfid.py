@@ -335,8 +335,8 @@ def test_an_llrp_hopping_reader_with_relock_and_online_noise_finds_the_tag(ros, 
     clock = TestClock(ros)
     assert ros.spin_until(lambda: guide.pub_cmd.get_subscription_count() >= 2
                           and reader.pub_step.get_subscription_count() >= 2, timeout=10)
-    assert clock.run_until(lambda: guide.ended and guide.answered, timeout_s=120)
-    assert ros.spin_until(lambda: len(sink.msgs[RFID_STEP]) >= guide.cmd.seq)
+    assert clock.run_until(lambda: guide.loop.ended and guide.loop.answered, timeout_s=120)
+    assert ros.spin_until(lambda: len(sink.msgs[RFID_STEP]) >= guide.loop.cmd.seq)
     assert guide.found and reader.reader.found()
     channels = set(reader.p.hop_channels_mhz)
     for cloud in sink.msgs[RFID_PHASE]:

@@ -48,7 +48,7 @@ from rosgraph_msgs.msg import Clock
 
 from track_nodes.bag.api import BagError, msg_class, open_bag_checked, qos_is_transient_local, validate_messages
 from track_nodes.base import Param, ParameterError, TrackNode, declare_params, run_node
-from track_nodes.base.cli import OneLineParser
+from track_nodes.base.cli import OneLineParser, cli_overrides
 
 CLOCK_TOPIC = '/clock'
 DEPTH = 100
@@ -234,8 +234,6 @@ class PlayerNode(TrackNode):
 
 def parse_cli(argv: Sequence[str]) -> list[Parameter]:
     """Non-ROS CLI arguments → parameter overrides (``--ros-args`` are left to rclpy)."""
-    from rclpy.utilities import remove_ros_args
-
     ap = OneLineParser(prog='track-play', description='Replay a bag with its timing and /clock.')
     ap.add_argument('bag', nargs='?', help="bag directory or .mcap (a name without '/' → bags/NAME/)")
     ap.add_argument('--rate', type=float, default=None, help='speed factor, > 0 (default 1)')
@@ -245,21 +243,8 @@ def parse_cli(argv: Sequence[str]) -> list[Parameter]:
                     help='start S seconds of bag time after the first message')
     ap.add_argument('--wait-subscribers', type=float, default=None, metavar='S',
                     help='wait up to S s for a subscriber on every topic (default 2)')
-    args = ap.parse_args(remove_ros_args(list(argv))[1:])
-    overrides = []
-    if args.bag is not None:
-        overrides.append(Parameter('bag', value=args.bag))
-    if args.rate is not None:
-        overrides.append(Parameter('rate', value=float(args.rate)))
-    if args.loop:
-        overrides.append(Parameter('loop', value=True))
-    if args.topics is not None:
-        overrides.append(Parameter('topics', value=list(args.topics)))
-    if args.start_offset is not None:
-        overrides.append(Parameter('start_offset', value=float(args.start_offset)))
-    if args.wait_subscribers is not None:
-        overrides.append(Parameter('wait_subscribers', value=float(args.wait_subscribers)))
-    return overrides
+    return cli_overrides(ap, argv, {'bag': 'bag', 'rate': 'rate', 'loop': 'loop', 'topics': 'topics',
+                                    'start_offset': 'start_offset', 'wait_subscribers': 'wait_subscribers'})
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -50,7 +50,7 @@ from track_nodes.bag.api import (
 )
 from track_nodes.bag.loss import LossCounter
 from track_nodes.base import Param, TrackNode, run_node
-from track_nodes.base.cli import OneLineParser
+from track_nodes.base.cli import OneLineParser, cli_overrides
 
 EXCLUDED_BY_DEFAULT = ('/rosout', '/parameter_events')
 
@@ -243,25 +243,14 @@ class RecorderNode(TrackNode):
 
 def parse_cli(argv: Sequence[str]) -> list[Parameter]:
     """Non-ROS CLI arguments → parameter overrides (``--ros-args`` are left to rclpy)."""
-    from rclpy.utilities import remove_ros_args
-
     ap = OneLineParser(prog='track-record', description='Record topics to bags/NAME/ (rosbag2, MCAP).')
     ap.add_argument('name', nargs='?', help="bag name (→ bags/NAME/) or a path containing '/'")
     ap.add_argument('-t', '--topics', nargs='+', default=None, metavar='TOPIC', help='topics to record')
     ap.add_argument('-e', '--regex', default=None, help='record every topic matching REGEX')
     ap.add_argument('--flush-period', type=float, default=None, metavar='S',
                     help='flush pending messages to the file every S seconds (default 1)')
-    args = ap.parse_args(remove_ros_args(list(argv))[1:])
-    overrides = []
-    if args.name is not None:
-        overrides.append(Parameter('bag', value=args.name))
-    if args.topics is not None:
-        overrides.append(Parameter('topics', value=list(args.topics)))
-    if args.regex is not None:
-        overrides.append(Parameter('regex', value=args.regex))
-    if args.flush_period is not None:
-        overrides.append(Parameter('flush_period', value=float(args.flush_period)))
-    return overrides
+    return cli_overrides(ap, argv, {'name': 'bag', 'topics': 'topics', 'regex': 'regex',
+                                    'flush_period': 'flush_period'})
 
 
 def main(argv: Sequence[str] | None = None) -> int:
