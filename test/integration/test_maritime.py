@@ -39,7 +39,8 @@ def maritime_run(tmp_path_factory, env_factory):
     cfg = cwd / 'maritime.yaml'
     cfg.write_text(maritime_yaml(duration=DURATION))
     cmd = [sys.executable, '-m', 'track_nodes.launch', str(cfg), '--record', 'maritime']
-    proc = subprocess.run(cmd, cwd=cwd, env=env_factory(), capture_output=True, text=True, timeout=120)
+    # Lock-step /clock: a loaded machine runs slower, never differently, so the deadline is generous.
+    proc = subprocess.run(cmd, cwd=cwd, env=env_factory(), capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr[-2000:]
     return cfg, cwd / 'bags/maritime', proc.stdout
 
@@ -86,10 +87,10 @@ def test_replay_into_a_fresh_fusion_node_gives_the_same_scores(maritime_run, ros
                                '--topics', SONAR_ESTIMATE, IDSQ_ESTIMATE, maritime.RADAR_DECOY],
                               env=ros.env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
-        ros.spin_until(lambda: len(got) >= len({r[:2] for r in recorded}) or player.poll() is not None, timeout=30)
+        ros.spin_until(lambda: len(got) >= len({r[:2] for r in recorded}) or player.poll() is not None, timeout=180)
         ros.spin_for(0.3)
     finally:
-        _, err = player.communicate(timeout=30)
+        _, err = player.communicate(timeout=120)
     assert player.returncode == 0, err
     assert _scores(got) == recorded  # every pair, instant, score and verdict
 
@@ -133,7 +134,7 @@ def test_fusion_holds_a_track_whose_velocity_is_not_estimated(ros):
     pa = pub.create_publisher(Odometry, '/a/track', ESTIMATE_QOS)
     pb = pub.create_publisher(Odometry, '/b/track', ESTIMATE_QOS)
     P = np.diag([4.0, UNUSED_VARIANCE, 4.0, UNUSED_VARIANCE])
-    ros.spin_until(lambda: pa.get_subscription_count() and pb.get_subscription_count(), timeout=5)
+    ros.spin_until(lambda: pa.get_subscription_count() and pb.get_subscription_count(), timeout=30)
     for k in range(1, 5):
         pa.publish(cv_state_to_odometry(float(k), np.array([10.0 * k, 0.0, 0.0, 0.0]), P, 'map', 'a'))
         pb.publish(cv_state_to_odometry(float(k), np.array([10.0 * k, 10.0, 0.0, 0.0]), P, 'map', 'b'))
