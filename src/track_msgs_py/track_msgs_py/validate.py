@@ -67,6 +67,11 @@ def bound_problem(field: str, bound: float, **values: float) -> str | None:
 
 def variance_problem(field: str, C: np.ndarray, policy: InputPolicy = DEFAULT_POLICY) -> str | None:
     """Reason when the symmetric block ``C`` is not a covariance with eigenvalues in the policy's range."""
+    C = np.asarray(C, dtype=float)
+    if not np.all(np.isfinite(C)):
+        return f'{field}: covariance has non-finite entries'
+    if C.size and np.max(np.abs(C)) > policy.variance_ceiling:  # before any sum: 1e308 + 1e308 overflows
+        return f'{field}: entry {np.max(np.abs(C)):.3g} is above the variance ceiling {policy.variance_ceiling:g}'
     reason = covariance_problem(C)
     if reason is not None:
         return f'{field}: {reason}'
@@ -207,3 +212,23 @@ class StampMonotonic:
             self._last.clear()
         else:
             self._last.pop(key, None)
+
+
+def clock_now(nanoseconds: int) -> float | None:
+    """The receiving node's clock [s] for ``stamp_problem``'s horizon, or ``None`` while it reads zero.
+
+    Under ``use_sim_time`` a node's clock is 0 until its first ``/clock`` message. Measuring the
+    horizon from 0 would refuse every stamp of a replayed bag (epoch times) until then, and for
+    good if no ``/clock`` ever comes, so while the clock reads zero the horizon test is skipped
+    (zero and non-finite stamps are still refused). A far-future stamp arriving in that window
+    alone is not caught; from the first ``/clock`` on every one is.
+    """
+    return nanoseconds * 1e-9 if nanoseconds > 0 else None
+
+
+def speed_steer_problem(speed: float, steer: float, policy: InputPolicy = DEFAULT_POLICY) -> str | None:
+    """Reason a vehicle input (``twist.linear.x`` speed [m/s], ``twist.angular.z`` steering [rad]) is unusable."""
+    reason = bound_problem('twist.linear', policy.speed_bound, x=speed)
+    if reason is None and not (math.isfinite(steer) and abs(steer) < math.pi / 2):
+        reason = f'twist.angular: steering z={steer} (need a finite |steering| < π/2)'
+    return reason

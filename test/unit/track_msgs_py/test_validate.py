@@ -158,3 +158,39 @@ def test_stamp_problem_zero_future_and_nonfinite():
     assert 'ahead of the clock' in stamp_problem(2147483647.0, now=100.0, policy=policy)
     assert 'non-finite' in stamp_problem(float('nan'), now=None)
     assert stamp_problem(1e12, now=None) is None  # no clock: no horizon
+
+
+def test_clock_now_is_none_while_the_clock_reads_zero():
+    from track_msgs_py.validate import clock_now, stamp_problem
+
+    assert clock_now(0) is None and clock_now(1_500_000_000) == 1.5
+    assert stamp_problem(2147483647.0, clock_now(0)) is None  # no clock yet: no horizon test
+    assert 'ahead of the clock' in stamp_problem(2147483647.0, clock_now(1_700_000_000 * 10**9))
+    assert 'zero stamp' in stamp_problem(0.0, clock_now(0))
+
+
+def test_speed_steer_problem_bounds_the_speed():
+    from track_msgs_py.validate import speed_steer_problem
+
+    assert speed_steer_problem(3.0, 0.2) is None and speed_steer_problem(-3.0, -1.5) is None
+    for speed in (1e308, -1e30, 2e4, float('nan')):
+        assert speed_steer_problem(speed, 0.0).startswith('twist.linear')
+    for steer in (1.6, float('inf'), -1e308):
+        assert speed_steer_problem(1.0, steer).startswith('twist.angular')
+
+
+@pytest.mark.parametrize('entry', [1e308, -1e308, 1e15])
+def test_variance_problem_refuses_huge_entries_without_overflow(entry):
+    """1e308 + 1e308 overflowed to inf in the symmetrisation and the eigenvalue test let it through."""
+    import warnings
+
+    from track_msgs_py.validate import variance_problem
+
+    C = np.eye(2)
+    C[0, 0] = abs(entry)
+    C2 = np.eye(2)
+    C2[0, 1] = C2[1, 0] = entry
+    with warnings.catch_warnings():
+        warnings.simplefilter('error')
+        for c in (C, C2, np.full((2, 2), entry)):
+            assert 'above the variance ceiling' in variance_problem('pose.covariance', c)

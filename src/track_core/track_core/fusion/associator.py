@@ -9,6 +9,11 @@ the last ``window`` instants, combines the window (harmonic or geometric mean, �
 the pair when the combination is ≥ ``threshold`` and fuses each associated pair by covariance
 intersection (their correlation is unknown).
 
+Isolation: when the batch fails (a degenerate covariance slipped past the caller's checks), each
+pair is scored alone; a pair whose score raises (or comes out not finite) is skipped and reported in
+``Instant.skipped`` (ids and reason, its window untouched) and every other pair is scored as
+usual. Valid input never takes that path, so its results (and the ``mc`` draws) are unchanged.
+
 With ``stamp_rate`` the instants are those of the data (``StampSchedule``): ``push`` queues a
 report and returns the instants it made due, each scored with the reports stamped up to it.
 Without it ``push`` applies the report at once and the caller scores at its own ticks.
@@ -54,7 +59,7 @@ class FusedPair:
 
 @dataclass(frozen=True)
 class Instant:
-    """Everything scored at ``t``: the live tracks (ids, μ, R) and the pairs; ``error`` if scoring failed."""
+    """Everything scored at ``t``: the live tracks (ids, μ, R), the pairs, and the pairs ``skipped`` (a, b, reason)."""
 
     t: float
     ids: list[str]
@@ -63,6 +68,7 @@ class Instant:
     pairs: tuple[PairScore, ...] = ()
     fused: tuple[FusedPair, ...] = ()
     error: str | None = None
+    skipped: tuple[tuple[str, str, str], ...] = ()
 
 
 class PairAssociator:
@@ -122,10 +128,15 @@ class PairAssociator:
         try:
             s = np.atleast_1d(score(mu[i], R[i], mu[j], R[j], self.method, n_samples=self.n_samples,
                                     rng=self.rng, shared_samples=True))
-        except ValueError as exc:  # inputs are validated upstream: a failure is a bug, reported not raised
-            return Instant(t, ids, mu, R, error=f'scoring failed: {exc}')
+            failed = {int(k): f'scoring failed: non-finite score {s[k]}' for k in np.flatnonzero(~np.isfinite(s))}
+        except (ValueError, np.linalg.LinAlgError):
+            s = np.full(i.size, np.nan)
+            failed = self._score_each(mu, R, i, j, s)
         pairs, fused = [], []
+        skipped = tuple((ids[i[k]], ids[j[k]], reason) for k, reason in failed.items())
         for k, (a, b) in enumerate(zip(i.tolist(), j.tolist(), strict=True)):
+            if k in failed:
+                continue
             key = (ids[a], ids[b])
             hist = self.history.setdefault(key, ScoreWindow(self.combine, max_instants=self.window))
             hist.add(t, float(np.clip(s[k], 0.0, 1.0)))
@@ -135,4 +146,21 @@ class PairAssociator:
             if associated:
                 m, P, _ = covariance_intersection(mu[a], R[a], mu[b], R[b])
                 fused.append(FusedPair(key[0], key[1], m, P))
-        return Instant(t, ids, mu, R, tuple(pairs), tuple(fused))
+        return Instant(t, ids, mu, R, tuple(pairs), tuple(fused), skipped=skipped)
+
+    def _score_each(self, mu: np.ndarray, R: np.ndarray, i: np.ndarray, j: np.ndarray,
+                    s: np.ndarray) -> dict[int, str]:
+        """Score pair k = (i[k], j[k]) alone into ``s[k]``; → the reason per pair that failed."""
+        failed = {}
+        for k in range(i.size):
+            try:
+                v = float(np.atleast_1d(score(mu[i[k]][None], R[i[k]][None], mu[j[k]][None], R[j[k]][None],
+                                              self.method, n_samples=self.n_samples, rng=self.rng,
+                                              shared_samples=True))[0])
+            except (ValueError, np.linalg.LinAlgError) as exc:
+                failed[k] = f'scoring failed: {exc}'
+                continue
+            s[k] = v
+            if not np.isfinite(v):
+                failed[k] = f'scoring failed: non-finite score {v}'
+        return failed

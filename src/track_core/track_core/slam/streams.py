@@ -62,7 +62,8 @@ class StreamMerger:
         self._other_at = {INPUT: 0, SCAN: 0}  # the other stream's count at this one's last event
         self._first_arrival: float | None = None
         self.processed_ns: int | None = None  # stamp of the last event the filter took
-        self.last_activity = now  # end of the last message callback
+        self.last_activity = now  # end of the last message callback that offered an accepted event
+        self._seq_marked = 0  # _seq at that mark: a callback of refused messages only is no activity
 
     def __len__(self) -> int:
         """Events buffered, not yet released."""
@@ -115,13 +116,19 @@ class StreamMerger:
     def end_callback(self, step: Step, clock: Callable[[], float]) -> None:
         """After a message callback has offered everything queued: drain up to the watermark, mark activity."""
         self.drain(self.watermark(clock()), step, clock)
-        self.last_activity = clock()
+        self._mark(clock())
+
+    def _mark(self, now: float) -> None:
+        """Activity at ``now`` if an event was accepted since the last mark (a flood of refused messages
+        must neither change the state nor hold the idle flush back)."""
+        if self._seq != self._seq_marked:
+            self.last_activity, self._seq_marked = now, self._seq
 
     def on_idle(self, now: float, took: bool, step: Step, clock: Callable[[], float]) -> bool:
         """The periodic timer (``took``: it offered queued messages at ``now``): drain up to the watermark,
         or everything once idle for ``flush_idle``. → True when idle with nothing left buffered."""
         if took:
-            self.last_activity = now
+            self._mark(now)
         idle = now - self.last_activity >= self.flush_idle
         if self._heap:
             self.drain(None if idle else self.watermark(now), step, clock)
@@ -134,17 +141,20 @@ def input_ok(speed: float, steer: float) -> bool:
 
 
 def scan_observations(r: np.ndarray, b: np.ndarray, d: np.ndarray, bearing_limits: tuple[float, float],
-                      tolerance: float, add_radius: bool) -> tuple[np.ndarray, np.ndarray]:
+                      tolerance: float, add_radius: bool, bound: float = math.inf) -> tuple[np.ndarray, np.ndarray]:
     """(z (m, 2) of (range, bearing) for the filter, mask of the usable rows of the scan).
 
     A row is usable by ``valid_observations`` with the limits widened by ``tolerance`` (float32
     rounding puts π at 3.1415927 > π) and, with ``add_radius``, a finite diameter ≥ 0; its bearing
     is clipped into the limits, and with ``add_radius`` the range is to the trunk centre,
-    range + diameter/2 (as ``victoria.load``).
+    range + diameter/2 (as ``victoria.load``). A range (and with ``add_radius`` a diameter) above
+    ``bound`` [m] is unusable too: a finite 1e308 would otherwise put a landmark at infinity.
     """
     lo, hi = bearing_limits
     ok = valid_observations(np.stack([r, b], axis=1), (lo - tolerance, hi + tolerance))
-    if add_radius:
-        ok &= np.isfinite(d) & (d >= 0)
+    with np.errstate(invalid='ignore'):
+        ok &= np.abs(r) <= bound
+        if add_radius:
+            ok &= np.isfinite(d) & (d >= 0) & (d <= bound)
     rng = r[ok] + (0.5 * d[ok] if add_radius else 0.0)
     return np.stack([rng, np.clip(b[ok], lo, hi)], axis=1), ok

@@ -30,8 +30,8 @@ from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 
-from track_msgs_py.convert import diagnostic_array
-from track_msgs_py.records import DIAG_OK, DIAG_WARN, StatusRecord
+from track_msgs_py.convert import diagnostic_array, diagnostic_status
+from track_msgs_py.records import DIAG_OK, DIAG_WARN
 from track_msgs_py.topics import DIAGNOSTICS
 from track_nodes.base.params import Param, declare_params
 from track_nodes.base.refusals import RefusalCounter
@@ -82,8 +82,8 @@ class TrackNode(Node):
             return
         self._diagnostics_dirty = False
         counts = self.refusals.by_key()
-        status = StatusRecord().to_status(self.get_fully_qualified_name(), DIAG_WARN if counts else DIAG_OK,
-                                          f'{self.refusals.total()} messages refused', extra=counts)
+        status = diagnostic_status(self.get_fully_qualified_name(), DIAG_WARN if counts else DIAG_OK,
+                                   f'{self.refusals.total()} messages refused', counts)
         self._diagnostics[0].publish(diagnostic_array(self.get_clock().now().nanoseconds * 1e-9, [status]))
 
     @classmethod

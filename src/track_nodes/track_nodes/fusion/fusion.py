@@ -11,8 +11,12 @@ subscriptions keep ``TRACKS_QOS_DEPTH`` messages, so a source may publish all it
 instant). Pairs within one source are not scored unless ``same_source_pairs`` (a source does
 not report a ship twice).
 Every incoming message is validated (finite, symmetric PSD covariance, known frame,
-non-decreasing stamp per track); a bad one is dropped with at most one warning per topic
-every ``warn_period`` seconds, and the node keeps running.
+non-decreasing stamp per track) and held to the input policy (``track_msgs_py.validate.
+InputPolicy``: positions and velocities within the bounds, x/y variances within the floor and
+ceiling, no zero stamp, none more than ``stamp_horizon`` ahead of the node clock once it runs);
+a bad one is refused (``refuse``: counted per reason, one log line per reason every
+``warn_period`` seconds, /diagnostics) without touching any state or watermark. A pair whose
+score still fails is skipped and reported (``Instant.skipped``); every other pair is scored.
 
 Velocities with variance ≥ ``UNUSED_VARIANCE`` (the "not estimated" convention of
 track_msgs_py.convert, e.g. the IDSQ network's estimate) are ignored: such a track is held like a
@@ -64,6 +68,7 @@ from track_msgs_py.convert import (
     diagnostic_array,
     odometry_to_cv_state,
     pose_cov_to_position,
+    stamp_to_sec,
 )
 from track_msgs_py.markers.fusion import FusionMarkers
 from track_msgs_py.qos import ESTIMATE_QOS
@@ -77,7 +82,17 @@ from track_msgs_py.topics import (
     KNOWN_FRAMES,
     split_track_frame_id,
 )
-from track_msgs_py.validate import StampMonotonic, frame_problem, odometry_problem, pose_cov_problem
+from track_msgs_py.validate import (
+    InputPolicy,
+    StampMonotonic,
+    clock_now,
+    frame_problem,
+    odometry_bounds_problem,
+    odometry_problem,
+    pose_cov_bounds_problem,
+    pose_cov_problem,
+    stamp_problem,
+)
 from track_nodes.base import Param, TrackNode
 
 # Best effort accepts both reliable and best-effort publishers; depth covers a few rate periods.
@@ -107,6 +122,8 @@ PARAMS = (
     Param('schedule', 'timer', 'timer: score at node-clock ticks; stamps: at the data instants k/rate, '
           'deterministic (module docstring)', choices=('timer', 'stamps')),
     Param('warn_period', 5.0, 'at most one bad-input warning per topic per this many seconds', 0.0, 1e6),
+    Param('stamp_horizon', InputPolicy.horizon, 'refuse reports stamped more than this ahead of the node clock [s]',
+          1e-3, 1e9),
 )
 
 
@@ -129,8 +146,9 @@ class FusionNode(TrackNode):
                                    stamp_rate=p.rate if p.schedule == 'stamps' else None)
         self.markers = FusionMarkers(lifetime=2.0 / p.rate)
         self.stamps = StampMonotonic()
+        self.policy = InputPolicy(horizon=p.stamp_horizon)
+        self.refusals.throttle = p.warn_period
         self.dropped: dict[str, int] = {}
-        self._last_warn: dict[str, float] = {}
         self.subs = [self.create_subscription(Odometry, t, lambda m, t=t: self._on_odometry(t, m), TRACK_QOS)
                      for t in odo]
         self.subs += [self.create_subscription(PoseWithCovarianceStamped, t, lambda m, t=t: self._on_pose(t, m),
@@ -154,14 +172,15 @@ class FusionNode(TrackNode):
 
     def _drop(self, topic: str, reason: str) -> None:
         self.dropped[topic] = self.dropped.get(topic, 0) + 1
-        now = self._now()
-        if now - self._last_warn.get(topic, -np.inf) >= self.p.warn_period:
-            self._last_warn[topic] = now
-            self.get_logger().warning(f'{topic}: dropped track message ({self.dropped[topic]} so far): {reason}')
+        self.refuse(topic, reason)
+
+    def _stamp_problem(self, msg) -> str | None:
+        return stamp_problem(stamp_to_sec(msg.header.stamp), clock_now(self.get_clock().now().nanoseconds), self.policy)
 
     def _on_odometry(self, topic: str, msg: Odometry) -> None:
         track_id = f'{topic}/{msg.child_frame_id}' if msg.child_frame_id else topic
-        reason = odometry_problem(msg, KNOWN_FRAMES) or self.stamps.msg_problem(track_id, msg)
+        reason = (odometry_problem(msg, KNOWN_FRAMES) or odometry_bounds_problem(msg, self.policy)
+                  or self._stamp_problem(msg) or self.stamps.msg_problem(track_id, msg))
         if reason:
             self._drop(topic, reason)
             return
@@ -173,7 +192,8 @@ class FusionNode(TrackNode):
         self._push(topic, track_id, TrackReport(t, x[[0, 2]], P[np.ix_([0, 2], [0, 2])], x[[1, 3]], Pv))
 
     def _on_pose(self, topic: str, msg: PoseWithCovarianceStamped) -> None:
-        reason = pose_cov_problem(msg, KNOWN_FRAMES) or self.stamps.msg_problem(topic, msg)
+        reason = (pose_cov_problem(msg, KNOWN_FRAMES) or pose_cov_bounds_problem(msg, self.policy)
+                  or self._stamp_problem(msg) or self.stamps.msg_problem(topic, msg))
         if reason:
             self._drop(topic, reason)
             return
@@ -189,6 +209,7 @@ class FusionNode(TrackNode):
             return
         track_id = f'{topic}/{local}'
         reason = (frame_problem(frame, KNOWN_FRAMES) or pose_cov_problem(msg, None)
+                  or pose_cov_bounds_problem(msg, self.policy) or self._stamp_problem(msg)
                   or self.stamps.msg_problem(track_id, msg))
         if reason:
             self._drop(topic, reason)
@@ -210,6 +231,8 @@ class FusionNode(TrackNode):
         if instant.error is not None:  # inputs were validated; a failure here is a bug worth one line
             self.get_logger().error(instant.error)
             return
+        for a, b, reason in instant.skipped:  # isolated by the core; the other pairs were scored
+            self.refuse(FUSION_SCORES, f'pair {a} | {b}: {reason}')
         t = instant.t
         for f in instant.fused:
             P4 = np.zeros((4, 4))

@@ -48,7 +48,13 @@ from track_msgs_py.convert import (
 from track_msgs_py.qos import ESTIMATE_QOS
 from track_msgs_py.records.sonar import SonarTargetStatus
 from track_msgs_py.topics import FRAME_MAP, KNOWN_FRAMES, SONAR_OBSERVER, SONAR_PING, SONAR_TARGET_STATUS, SONAR_TRUTH
-from track_msgs_py.validate import header_problem, odometry_problem, xyz_problem
+from track_msgs_py.validate import (
+    DEFAULT_POLICY,
+    bound_problem,
+    header_problem,
+    odometry_bounds_problem,
+    odometry_problem,
+)
 from track_nodes.base import FixedRateSteps, Param, TrackNode, vector
 
 _D = SmartTargetParams()
@@ -97,17 +103,18 @@ class SmartTargetNode(TrackNode):
     # -- inputs ---------------------------------------------------------------------------
     def _reject(self, topic: str, reason: str) -> None:
         self.rejected += 1
-        self.get_logger().warning(f'{topic}: dropped message: {reason}')
+        self.refuse(topic, reason)
 
     def _on_ping(self, msg: PointStamped) -> None:
-        reason = header_problem(msg.header, KNOWN_FRAMES) or xyz_problem('point', msg.point)
+        reason = (header_problem(msg.header, KNOWN_FRAMES)
+                  or bound_problem('point', DEFAULT_POLICY.world_bound, x=msg.point.x, y=msg.point.y, z=msg.point.z))
         if reason:
             self._reject(SONAR_PING, reason)
             return
         self.gate.add_ping(stamp_to_ns(msg.header.stamp), np.array([msg.point.x, msg.point.y]))
 
     def _on_observer(self, msg: Odometry) -> None:
-        reason = odometry_problem(msg, KNOWN_FRAMES)
+        reason = odometry_problem(msg, KNOWN_FRAMES) or odometry_bounds_problem(msg, pose_covariance=False)
         if reason:
             self._reject(SONAR_OBSERVER, reason)
             return

@@ -6,6 +6,7 @@ from types import SimpleNamespace
 
 from track_core.slam import HybridParams, PFParams, SlamParams
 from track_msgs_py.topics import FRAME_LASER, FRAME_MAP
+from track_msgs_py.validate import InputPolicy
 from track_nodes.base import Param
 
 
@@ -54,7 +55,10 @@ def node_params(pose0: list[float]) -> tuple[Param, ...]:
               0.0, 3600.0),
         Param('ellipse_points', 16, 'points per 2σ landmark ellipse', 4, 360),
         Param('max_particles_published', 500, 'particles per PoseArray (an even subsample)', 1, 1_000_000),
-        Param('warn_throttle', 5.0, 'throttle_duration_sec of the bad-input warnings [s]', 0.0, 3600.0),
+        Param('warn_throttle', 5.0, 'at most one log line per kind of refused input per this many seconds [s]',
+              0.0, 3600.0),
+        Param('stamp_horizon', InputPolicy.horizon, 'refuse messages stamped more than this ahead of the node clock '
+              '[s]', 1e-3, 1e9),
         Param('frame_id', FRAME_MAP, 'frame of the pose, map and particles'),
         Param('child_frame_id', FRAME_LASER, 'child_frame_id of the pose (the SLAM state is the laser pose)'),
     )

@@ -30,17 +30,19 @@ messages waiting in BOTH subscriptions (``_take_pending``): a stream the merger 
 queued. Deep reliable queues (``queue_depth``) and the buffer hold a backlog (nothing lost or
 reordered; the output lags) and a 0.1 s steady timer keeps draining, so shutdown stays prompt.
 
-Bad input (never raises in a callback; each kind logs through its own throttled warning,
-``throttle_duration_sec = warn_throttle`` (rclpy throttles per call site, so one call per kind), and is
-counted in ``/slam/mode``):
+Bad input (never raises in a callback; each goes to ``refuse``: counted per reason, logged at most
+once per reason every ``warn_throttle`` seconds, on /diagnostics; and counted in ``/slam/mode``):
 
 - an observation (one point of a scan) that ``streams.scan_observations`` finds unusable (non-finite,
-  range ≤ 0, bearing outside ``hybrid.bearing_limits`` ± ``bearing_tolerance``) is dropped, the rest of
-  the scan used. A scan without ``range``/``bearing`` fields is dropped whole;
-- an input with a non-finite value or |steering| ≥ π/2 is dropped;
-- a message whose stamp is malformed, earlier than the previous one on its topic (time went
+  range ≤ 0 or beyond the world bound of ``validate.InputPolicy``, diameter beyond it, bearing outside
+  ``hybrid.bearing_limits`` ± ``bearing_tolerance``) is dropped, the rest of the scan used. A scan
+  without ``range``/``bearing`` fields is dropped whole;
+- an input with a non-finite value, |speed| beyond the policy's speed bound or |steering| ≥ π/2 is dropped;
+- a message whose stamp is malformed, more than ``stamp_horizon`` ahead of the node clock (once it
+  reads non-zero, ``validate.clock_now``), earlier than the previous one on its topic (time went
   backwards), or earlier than data already processed (arrived more than the buffer allows), is
-  refused before it reaches the filter, so the state is untouched.
+  refused before it reaches the filter, so the state is untouched. A zero stamp is accepted: data
+  time starts at 0 here (slam_sim's first input is stamped 0.0).
 
 Parameters (``slam/params.py``): the node's own, then every field of the core's ``SlamParams``,
 ``PFParams`` and ``HybridParams`` as ``cekf.*``, ``pf.*`` and ``hybrid.*``, with the defaults of
@@ -67,13 +69,14 @@ from visualization_msgs.msg import MarkerArray
 from track_core.filters import symmetrize
 from track_core.slam import HybridSlam
 from track_core.slam.blas import single_threaded_blas
-from track_core.slam.streams import INPUT, SCAN, StreamMerger, input_ok, scan_observations
+from track_core.slam.streams import INPUT, SCAN, StreamMerger, scan_observations
 from track_msgs_py.convert import pose_to_odometry, positions_to_pose_array, stamp_to_ns, twist_to_inputs
 from track_msgs_py.markers.slam import map_markers
 from track_msgs_py.qos import ESTIMATE_QOS, SENSOR_QOS, STATIC_QOS
 from track_msgs_py.records import RecordError
 from track_msgs_py.records.slam import SlamEvent, SlamMode, SlamScan
 from track_msgs_py.topics import SLAM_EVENTS, SLAM_INPUTS, SLAM_MAP, SLAM_MODE, SLAM_PARTICLES, SLAM_POSE, SLAM_SCAN
+from track_msgs_py.validate import InputPolicy, clock_now, speed_steer_problem, stamp_problem
 from track_nodes.base import TrackNode, declare_dataclass, declare_params, run_node, vector
 from track_nodes.slam.params import CORE_GROUPS, PROFILE_PARAM, PROFILES, node_params
 
@@ -97,6 +100,8 @@ class SlamNode(TrackNode):
         pose0, var0 = vector('pose0', p.pose0, 3), vector('pose0_var', p.pose0_var, 3, positive=True)
         self.slam = HybridSlam(pose0, np.diag(var0), np.random.default_rng(p.seed), cores['slam'], cores['pf'],
                                cores['hybrid'], compressed=p.compressed)
+        self.policy = InputPolicy(horizon=p.stamp_horizon)
+        self.refusals.throttle = p.warn_throttle
         self.merger = StreamMerger(p.pause_wall, p.flush_idle, p.drain_budget, time.monotonic())
         self._map_ns: int | None = None  # stamp of the last map published
         self._map_dirty = self._pf_published = False  # a scan since that map; the last cloud was not empty
@@ -156,11 +161,10 @@ class SlamNode(TrackNode):
 
     def _add_input(self, msg: TwistStamped) -> None:
         _, speed, steer = twist_to_inputs(msg)
-        if not input_ok(speed, steer):
+        reason = speed_steer_problem(speed, steer, self.policy)
+        if reason:
             self.n_bad_inputs += 1
-            self.get_logger().warning(f'{SLAM_INPUTS}: input dropped: speed {speed}, steering {steer} (need finite '
-                                      f'values, |steering| < π/2); {self.n_bad_inputs} so far',
-                                      throttle_duration_sec=self.p.warn_throttle)
+            self.refuse(SLAM_INPUTS, reason)
             return
         self._offer(INPUT, msg.header.stamp, (speed, steer))
 
@@ -169,32 +173,29 @@ class SlamNode(TrackNode):
             scan = SlamScan.from_msg(msg)
         except RecordError as exc:
             self.n_bad_scans += 1
-            self.get_logger().warning(f'{SLAM_SCAN}: scan dropped: {exc}; {self.n_bad_scans} so far',
-                                      throttle_duration_sec=self.p.warn_throttle)
+            self.refuse(SLAM_SCAN, f'scan: {exc}')
             return
         limits = self.slam.params.bearing_limits
         z, ok = scan_observations(scan.range, scan.bearing, scan.diameter, limits, self.p.bearing_tolerance,
-                                  self.p.add_radius)
+                                  self.p.add_radius, self.policy.world_bound)
         if self._offer(SCAN, msg.header.stamp, z) and not np.all(ok):
             bad = int(np.sum(~ok))
             self.n_dropped_obs += bad
-            self.get_logger().warning(
-                f'{SLAM_SCAN}: {bad} of {ok.size} observations dropped at t = {scan.t:.3f} s (need finite values, '
-                f'range > 0, bearing in [{limits[0]:.4g}, {limits[1]:.4g}] rad): e.g. range {scan.range[~ok][0]:.4g}, '
-                f'bearing {scan.bearing[~ok][0]:.4g}; {self.n_dropped_obs} so far',
-                throttle_duration_sec=self.p.warn_throttle)
+            self.refuse(SLAM_SCAN, f'observations dropped: {bad} of {ok.size} at t = {scan.t:.3f} s (streams.'
+                        f'scan_observations), e.g. range {scan.range[~ok][0]:.4g}, bearing {scan.bearing[~ok][0]:.4g}')
 
     def _offer(self, stream: str, stamp, payload) -> bool:
         """Into the merger; False (refused, warned) when the stamp is malformed, backwards or too late."""
         if not 0 <= stamp.nanosec < 1_000_000_000:
-            reason = f'malformed stamp (nanosec {stamp.nanosec})'
+            reason = f'header.stamp: malformed stamp (nanosec {stamp.nanosec})'
         else:
-            reason = self.merger.offer(stream, stamp_to_ns(stamp), payload, time.monotonic())
+            reason = (stamp_problem(stamp_to_ns(stamp) / 1e9, clock_now(self.get_clock().now().nanoseconds),
+                                    self.policy, required=False)
+                      or self.merger.offer(stream, stamp_to_ns(stamp), payload, time.monotonic()))
         if reason is None:
             return True
         self.n_refused += 1
-        self.get_logger().warning(f'{_TOPIC[stream]}: message refused, filter state unchanged: {reason}; '
-                                  f'{self.n_refused} refused so far', throttle_duration_sec=self.p.warn_throttle)
+        self.refuse(_TOPIC[stream], reason if reason.startswith('header.') else f'header.stamp: {reason}')
         return False
 
     # -- core step and outputs ------------------------------------------------------------------

@@ -83,7 +83,7 @@ from track_msgs_py.topics import (
     SONAR_PING,
     SONAR_TRUTH,
 )
-from track_msgs_py.validate import odometry_problem
+from track_msgs_py.validate import odometry_bounds_problem, odometry_problem
 from track_nodes.base import FixedRateSteps, Param, ParameterError, TrackNode
 
 PARAMS = (
@@ -176,10 +176,10 @@ class SonarObserverNode(TrackNode):
 
     # -- inputs ---------------------------------------------------------------------------
     def _on_truth(self, msg: Odometry) -> None:
-        reason = odometry_problem(msg, KNOWN_FRAMES)
+        reason = odometry_problem(msg, KNOWN_FRAMES) or odometry_bounds_problem(msg, pose_covariance=False)
         if reason:
             self.rejected += 1
-            self.get_logger().warning(f'{SONAR_TRUTH}: dropped truth: {reason}')
+            self.refuse(SONAR_TRUTH, reason)
             return
         _, x, _ = odometry_to_cv_state(msg)
         self._take(self.gate.add_truth(stamp_to_ns(msg.header.stamp), x))
@@ -193,7 +193,8 @@ class SonarObserverNode(TrackNode):
         stalled = self.gate.stalled()
         if stalled is not None:
             self.get_logger().warning(f'waiting for {SONAR_TRUTH} stamped {stalled:.9f} s '
-                                      '(is smart_target running on the same clock?)')
+                                      '(is smart_target running on the same clock?)',
+                                      throttle_duration_sec=self.WARN_THROTTLE)
 
     # -- one step -------------------------------------------------------------------------
     def _step(self, t: float, x_true: np.ndarray) -> None:

@@ -128,3 +128,30 @@ def test_stamp_schedule_scores_each_instant_once_with_the_reports_up_to_it():
     (inst,) = core.push('/a', 'a', TrackReport(2.0, np.ones(2), R))
     assert inst.t == 1.0 and inst.ids == ['a', 'b'] and len(inst.pairs) == 1
     np.testing.assert_array_equal(inst.mu, np.zeros((2, 2)))  # the 2 s report is not applied yet
+
+
+@pytest.mark.parametrize('method', ['exact', 'glr', 'mc'])
+@pytest.mark.parametrize('variance', [0.0, 5e-324])
+def test_a_degenerate_track_is_skipped_and_every_other_pair_scored(method, variance):
+    """Issue 13 defect 5: one zero/denormal covariance made score() raise and no pair was scored."""
+    a = PairAssociator(method, n_samples=50)
+    a.update('radar', 'r0', TrackReport(1.0, np.zeros(2), np.eye(2)))
+    a.update('patrol', 'p0', TrackReport(1.0, np.array([0.5, 0.2]), np.diag([2.0, 1.0])))
+    a.update('patrol', 'p1', TrackReport(1.0, np.array([40.0, 0.0]), np.eye(2)))
+    a.update('ais', 'bad', TrackReport(1.0, np.array([3.0, 3.0]), np.diag([variance, variance])))
+    inst = a.score(1.0)
+    assert inst.error is None
+    scored = {(q.a, q.b) for q in inst.pairs}
+    assert scored == {('r0', 'p0'), ('r0', 'p1')} and all(np.isfinite(q.score) for q in inst.pairs)
+    assert {(x, y) for x, y, _ in inst.skipped} == {('r0', 'bad'), ('p0', 'bad'), ('p1', 'bad')}
+    assert all('scoring failed' in why for _, _, why in inst.skipped)
+    assert not any('bad' in key for key in a.history)  # a skipped pair's window is untouched
+
+
+def test_valid_batches_take_the_batch_path_unchanged():
+    """The isolation path only runs when the batch fails: a valid instant skips nothing."""
+    a = PairAssociator('mc', n_samples=50)
+    a.update('radar', 'r0', TrackReport(1.0, np.zeros(2), np.eye(2)))
+    a.update('patrol', 'p0', TrackReport(1.0, np.array([0.5, 0.2]), np.diag([2.0, 1.0])))
+    inst = a.score(1.0)
+    assert inst.skipped == () and len(inst.pairs) == 1

@@ -6,7 +6,10 @@ The fixture ``data/stream_merger_cases.json`` holds 300 random interleavings of 
 queued messages taken in one callback, idle ticks, a drain budget against a per-event cost). Its
 expected outputs were produced by the OLD node path (SlamNode._accept/_push/_watermark/_drain/
 _after_message/_on_idle of commit 3ac9344) with a fake clock that advances between callbacks and by
-the cost of every event the (fake) filter processes.
+the cost of every event the (fake) filter processes. Issue 13 changed one rule on purpose: a
+callback whose messages were all refused is no activity (a flood of refused messages must not hold
+the idle flush back), so in 7 cases (the fixture's ``issue13`` key) the idle map flush comes one op
+earlier; the events processed and their order are unchanged in every case.
 """
 
 from __future__ import annotations
@@ -196,3 +199,25 @@ def test_scan_observations_drop_clip_and_add_the_radius():
     z, ok = scan_observations(r, b, d, (0.0, math.pi), 0.0, add_radius=False)
     np.testing.assert_array_equal(ok, [True, False, False, False, True, True])
     np.testing.assert_array_equal(z[:, 0], [10.0, 8.0, 9.0])
+
+
+def test_a_callback_of_refused_messages_is_no_activity():
+    """Issue 13: refused offers change nothing, not even the idle clock, so a flood cannot hold the flush back."""
+    m = StreamMerger(0.2, 0.5, 1.0, now=0.0)
+    assert m.offer(INPUT, 10, 'a', 0.0) is None
+    m.end_callback(lambda *a: True, lambda: 0.0)
+    for k in range(1, 20):  # a flood of backwards stamps, one callback each, 0.01 s apart
+        assert 'went backwards' in m.offer(INPUT, 5, 'b', 0.01 * k)
+        m.end_callback(lambda *a: True, lambda k=k: 0.01 * k)
+    assert m.last_activity == 0.0 and m.last_ns[INPUT] == 10
+    assert m.on_idle(0.55, False, lambda *a: True, lambda: 0.55)  # idle 0.5 s after the last accepted message
+
+
+def test_observations_beyond_the_bound_are_unusable():
+    r, b, d = np.array([5.0, 1e308, 2e7, 6.0]), np.full(4, 1.0), np.array([0.3, 0.3, 0.3, 1e308])
+    z, ok = scan_observations(r, b, d, (0.0, math.pi), 1e-6, True, bound=1e7)
+    assert ok.tolist() == [True, False, False, False] and z.tolist() == [[5.15, 1.0]]
+    _, ok = scan_observations(r, b, d, (0.0, math.pi), 1e-6, False, bound=1e7)
+    assert ok.tolist() == [True, False, False, True]  # without add_radius the diameter is not read
+    _, ok = scan_observations(r, b, d, (0.0, math.pi), 1e-6, True)  # no bound: as before
+    assert ok.tolist() == [True, True, True, True]

@@ -1,0 +1,383 @@
+"""Issue 13, slice A: hostile input refused by ``demo_tracker``, ``fusion``, ``slam``, ``sonar_observer``
+and ``smart_target`` without changing their state, and without one log line per bad message.
+
+The callbacks are called directly (deterministic; the subscription path is the one the scenario
+tests exercise). After every refused message the node's core state is compared bit for bit with
+its state before (``frozen``), and valid input afterwards must still give valid, finite output.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import fields, is_dataclass
+
+import numpy as np
+import pytest
+from rclpy.parameter import Parameter
+
+from track_msgs_py.convert import (
+    cv_state_to_odometry,
+    inputs_to_twist,
+    odometry_to_pose,
+    position_to_pose_cov,
+    scan_to_pointcloud2,
+    sec_to_stamp,
+)
+from track_msgs_py.topics import FRAME_MAP, track_frame_id
+from track_nodes.demo.demo_tracker import DemoTrackerNode
+from track_nodes.fusion.fusion import FusionNode
+from track_nodes.sim.smart_target import SmartTargetNode
+from track_nodes.slam.slam import SlamNode
+from track_nodes.sonar.sonar_observer import SonarObserverNode
+
+FAR_FUTURE = 2147483647.0  # the issue's sec = INT32_MAX
+HOSTILE_VARIANCES = (0.0, 5e-324, 1e30, 1e308)
+
+
+def frozen(obj, depth: int = 0):  # noqa: PLR0911 (one return per kind of value)
+    """A bit-exact, comparable image of ``obj``'s state (arrays and floats by their bytes)."""
+    if depth > 12:
+        return '...'
+    if isinstance(obj, np.ndarray):
+        return ('nd', obj.dtype.str, obj.shape, obj.tobytes())
+    if isinstance(obj, (float, np.floating)):
+        return ('f', np.float64(obj).tobytes())
+    if obj is None or isinstance(obj, (bool, int, str, bytes, np.integer, np.bool_)):
+        return obj
+    if isinstance(obj, type):
+        return repr(obj)
+    if isinstance(obj, np.random.Generator):
+        return repr(obj.bit_generator.state)
+    if isinstance(obj, dict):
+        return tuple((repr(k), frozen(v, depth + 1)) for k, v in obj.items())
+    if isinstance(obj, (list, tuple, deque)):
+        return tuple(frozen(v, depth + 1) for v in obj)
+    if isinstance(obj, (set, frozenset)):
+        return tuple(sorted(repr(v) for v in obj))
+    if callable(obj) and not hasattr(obj, '__dict__'):
+        return repr(type(obj))
+    if is_dataclass(obj):
+        return (type(obj).__name__, tuple((f.name, frozen(getattr(obj, f.name), depth + 1)) for f in fields(obj)))
+    if hasattr(obj, '__dict__'):
+        return (type(obj).__name__, frozen(vars(obj), depth + 1))
+    return repr(obj)
+
+
+class Lines:
+    """Stands in for ``node.get_logger()``: counts warning lines, passes everything else on."""
+
+    def __init__(self, node) -> None:
+        self.real, self.warnings = node.get_logger(), []
+        node.get_logger = lambda: self
+
+    def warning(self, msg, **kwargs) -> None:
+        self.warnings.append(msg)
+
+    warn = warning
+
+    def __getattr__(self, name):
+        return getattr(self.real, name)
+
+
+def _now(node) -> float:
+    return node.get_clock().now().nanoseconds * 1e-9
+
+
+def _report(t, z=(1.0, 2.0), R=((4.0, 0.5), (0.5, 3.0)), frame=FRAME_MAP):
+    return position_to_pose_cov(t, np.asarray(z, float), np.asarray(R, float), frame)
+
+
+def _hostile_reports(t: float) -> list:
+    """Reports a finite-only check lets through: huge/beyond-bound positions, degenerate or huge variances."""
+    bad = [_report(t, (1e308, 2.0)), _report(t, (1.0, -1e8)), _report(t, (1e30, 1e30))]
+    bad += [_report(t, R=np.diag([v, v])) for v in HOSTILE_VARIANCES]
+    bad += [_report(t, R=np.diag([1.0, v])) for v in HOSTILE_VARIANCES]
+    return bad
+
+
+# --- demo_tracker ---------------------------------------------------------------------------------------
+
+def _demo(ros, **params):
+    node = ros.add(DemoTrackerNode(context=ros.context,
+                                   parameter_overrides=[Parameter(k, value=v) for k, v in params.items()]))
+    out = []
+    node.pub.publish = out.append
+    return node, out
+
+
+def _demo_state(node):
+    return frozen((node.tracker, node.stamps))
+
+
+def _finite_track(msg) -> bool:
+    p, v = msg.pose.pose.position, msg.twist.twist.linear
+    return all(math.isfinite(c) for c in (p.x, p.y, v.x, v.y, *msg.pose.covariance, *msg.twist.covariance))
+
+
+def test_demo_far_future_and_zero_stamps_are_refused_and_the_stream_goes_on(ros):
+    """Defect 1: one report stamped INT32_MAX s was accepted and every real one after it refused."""
+    node, out = _demo(ros)
+    t0 = _now(node)
+    node._on_report(_report(t0))
+    assert len(out) == 1
+    before = _demo_state(node)
+    for bad in (_report(FAR_FUTURE), _report(t0 + 3600.0), _report(0.0), _report(t0 + 1e8)):
+        node._on_report(bad)
+        assert _demo_state(node) == before
+    assert len(out) == 1 and node.rejected == 4
+    node._on_report(_report(t0 + 0.1, (1.1, 2.1)))  # the stream is not locked
+    assert len(out) == 2 and _finite_track(out[-1]) and node.stamps.last('/demo/reports') == t0 + 0.1
+    assert sum(n for (_, kind), n in node.refusals.counts.items() if kind == 'header.stamp') == 4
+
+
+def test_demo_zero_stamp_refused_on_a_fresh_node(ros):
+    node, out = _demo(ros)
+    node._on_report(_report(0.0))
+    assert not out and not node.tracker.initialised and node.stamps.last('/demo/reports') is None
+
+
+def test_demo_horizon_is_a_parameter_and_skipped_while_the_sim_clock_reads_zero(ros):
+    node, out = _demo(ros, stamp_horizon=1.0)
+    t0 = _now(node)
+    node._on_report(_report(t0 + 30.0))  # 30 s ahead, horizon 1 s
+    assert not out and node.rejected == 1
+    # use_sim_time and no /clock yet: the clock reads 0 and must not refuse every real stamp
+    sim, sim_out = _demo(ros, use_sim_time=True)
+    assert sim.get_clock().now().nanoseconds == 0
+    sim._on_report(_report(1e9))
+    sim._on_report(_report(1e9 + 0.1))
+    assert len(sim_out) == 2 and sim.rejected == 0
+
+
+def test_demo_huge_values_and_degenerate_covariances_leave_the_track_untouched(ros):
+    """Defect 2: x = 1e308 or a 1e30/5e-324 variance passed the finite checks and poisoned the track."""
+    node, out = _demo(ros)
+    t0 = _now(node)
+    node._on_report(_report(t0))
+    before = _demo_state(node)
+    hostile = _hostile_reports(t0 + 0.05)
+    for bad in hostile:
+        node._on_report(bad)
+        assert _demo_state(node) == before, bad
+    assert len(out) == 1 and node.rejected == len(hostile)
+    for k in range(1, 6):
+        node._on_report(_report(t0 + 0.1 * k, (1.0 + 0.1 * k, 2.0)))
+    assert len(out) == 6 and all(_finite_track(m) for m in out)
+    assert abs(out[-1].pose.pose.position.x - 1.5) < 1.0 and abs(out[-1].pose.pose.position.y - 2.0) < 1.0
+
+
+def test_demo_a_flood_of_bad_reports_costs_a_few_log_lines(ros):
+    """Defect 9: demo_tracker logged one line per dropped report."""
+    node, out = _demo(ros)
+    lines = Lines(node)
+    t0 = _now(node)
+    for k in range(300):
+        node._on_report(_report(t0, (math.nan, 1.0)) if k % 2 else _report(t0, R=np.diag([-5.0, 1.0])))
+    assert len(lines.warnings) <= 2, lines.warnings[:5]
+    assert node.rejected == 300 and node.refusals.total() == 300
+    node._on_report(_report(t0))
+    assert len(out) == 1
+
+
+# --- fusion ---------------------------------------------------------------------------------------------
+
+POSE_TOPICS = ['/radar/t0', '/patrol/t0']
+
+
+def _fusion(ros, **params):
+    over = {'pose_topics': POSE_TOPICS, 'odometry_topics': ['/odo'], 'pose_track_topics': ['/ais/reports'],
+            'stale_after': 1e5, 'max_prediction': 1e5, **params}
+    node = ros.add(FusionNode(context=ros.context,
+                              parameter_overrides=[Parameter(k, value=v) for k, v in over.items()]))
+    scores = []
+    node.pub_scores.publish = scores.append
+    return node, scores
+
+
+def _fusion_state(node):
+    return frozen((node.core, node.stamps))
+
+
+def _odometry(t, x=(1.0, 0.5, 2.0, -0.5)):
+    return cv_state_to_odometry(t, np.asarray(x, float), np.diag([4.0, 1.0, 3.0, 1.0]), FRAME_MAP, 'ship1')
+
+
+def _ais(t, z=(1.0, 2.0), R=((4.0, 0.5), (0.5, 3.0))):
+    return _report(t, z, R, track_frame_id(FRAME_MAP, 'r017'))
+
+
+PATHS = {  # fusion input path → (callback, valid message at t, track id)
+    'pose': (lambda n, m: n._on_pose('/radar/t0', m), _report, '/radar/t0'),
+    'odometry': (lambda n, m: n._on_odometry('/odo', m), _odometry, '/odo/ship1'),
+    'pose_track': (lambda n, m: n._on_pose_track('/ais/reports', m), _ais, '/ais/reports/r017'),
+}
+
+
+@pytest.mark.parametrize('path', sorted(PATHS))
+def test_fusion_far_future_and_zero_stamps_are_refused_on_every_input_path(ros, path):
+    """Defect 1 (fusion, maritime and ais scenarios): a future stamp locked the track's stream."""
+    on, make, track_id = PATHS[path]
+    node, _ = _fusion(ros)
+    t0 = _now(node)
+    on(node, make(t0))
+    before = _fusion_state(node)
+    for t in (FAR_FUTURE, t0 + 3600.0, 0.0):
+        on(node, make(t))
+        assert _fusion_state(node) == before
+    assert sum(node.dropped.values()) == 3
+    on(node, make(t0 + 0.1))
+    assert node.stamps.last(track_id) == t0 + 0.1 and sum(node.dropped.values()) == 3
+
+
+@pytest.mark.parametrize('path', sorted(PATHS))
+def test_fusion_hostile_magnitudes_and_variances_are_refused_on_every_input_path(ros, path):
+    on, make, _ = PATHS[path]
+    node, _ = _fusion(ros)
+    t0 = _now(node)
+    on(node, make(t0))
+    before = _fusion_state(node)
+    if path == 'odometry':
+        hostile = [_odometry(t0 + 0.05, (1e308, 0.0, 1.0, 0.0)), _odometry(t0 + 0.05, (1.0, 1e30, 1.0, 0.0))]
+        for v in HOSTILE_VARIANCES:
+            hostile.append(cv_state_to_odometry(t0 + 0.05, np.ones(4), np.diag([v, 1.0, v, 1.0]), FRAME_MAP, 'ship1'))
+    else:
+        hostile = _hostile_reports(t0 + 0.05)
+        for m in hostile if path == 'pose_track' else ():
+            m.header.frame_id = track_frame_id(FRAME_MAP, 'r017')
+    for bad in hostile:
+        on(node, bad)
+        assert _fusion_state(node) == before
+    assert sum(node.dropped.values()) == len(hostile)
+
+
+def test_fusion_a_degenerate_track_does_not_stop_the_scoring_of_the_others(ros):
+    """Defect 5: a zero/denormal covariance passed the PSD check, score() raised, nothing was published."""
+    node, scores = _fusion(ros, pose_topics=['/radar/t0', '/radar/t1', '/patrol/t0'])
+    t0 = _now(node)
+    node._on_pose('/radar/t0', _report(t0, (0.0, 0.0)))
+    node._on_pose('/patrol/t0', _report(t0, (0.5, 0.5)))
+    for v in (0.0, 5e-324):
+        node._on_pose('/radar/t1', _report(t0, (10.0, 0.0), np.diag([v, v])))
+    assert node.dropped == {'/radar/t1': 2}
+    node.tick()
+    assert len(scores) == 1
+    names = [st.name for st in scores[0].status]
+    assert len(names) == 1 and '/radar/t0' in names[0] and '/patrol/t0' in names[0]
+    node._on_pose('/radar/t1', _report(t0 + 0.1, (10.0, 0.0)))  # the source recovers with a valid report
+    node.tick()
+    assert len(scores) == 2 and len(scores[1].status) == 2
+
+
+# --- slam -------------------------------------------------------------------------------------------------------
+
+def _direct_slam(ros):
+    """A slam node fed by calling its callbacks (deterministic); poses captured instead of published."""
+    slam = ros.add(SlamNode(context=ros.context))
+    poses = []
+    slam.pub_pose.publish = poses.append
+    return slam, poses
+
+
+def _slam_state(slam):
+    return frozen((slam.slam, slam.merger))
+
+
+def _feed(slam, t, trees, speed=1.0):
+    slam._on_scan(scan_to_pointcloud2(t, trees, np.full(len(trees), 0.3)))
+    slam._on_input(inputs_to_twist(t + 0.05, speed, 0.0))
+
+
+def _finite_pose(msg) -> bool:
+    return bool(np.all(np.isfinite(odometry_to_pose(msg)[1])) and np.all(np.isfinite(odometry_to_pose(msg)[2])))
+
+
+TREES = np.array([[10.0, 1.0], [12.0, 2.0], [15.0, 1.5]])
+
+
+def test_far_future_stamp_is_refused_and_does_not_lock_the_input_stream(ros):
+    """Issue 13 defect 1: an input stamped INT32_MAX s was accepted; every real input after it was refused."""
+    slam, poses = _direct_slam(ros)
+    slam._on_input(inputs_to_twist(1.0, 1.0, 0.0))
+    _feed(slam, 1.05, TREES)
+    assert slam.n_scans == 1 and len(poses) == 1
+    before = _slam_state(slam)
+    far = inputs_to_twist(1.2, 1.0, 0.0)
+    far.header.stamp.sec = 2147483647
+    slam._on_input(far)
+    far_scan = scan_to_pointcloud2(1.2, TREES, np.full(3, 0.3))
+    far_scan.header.stamp.sec = 2**31 - 10
+    slam._on_scan(far_scan)
+    assert _slam_state(slam) == before and slam.n_refused == 2
+    _feed(slam, 1.3, TREES)  # both streams go on
+    assert slam.n_refused == 2 and slam.merger.last_ns == {'inputs': 1_350_000_000, 'scan': 1_300_000_000}
+    assert slam.n_scans == 2 and len(poses) == 2 and _finite_pose(poses[-1])
+
+
+def test_huge_inputs_are_refused_and_huge_observations_dropped(ros):
+    """Issue 13 defect 2: a finite 1e308 speed, range or diameter passed and left /slam/pose NaN for good."""
+    slam, poses = _direct_slam(ros)
+    slam._on_input(inputs_to_twist(1.0, 1.0, 0.0))
+    _feed(slam, 1.05, TREES)
+    before = _slam_state(slam)
+    for speed in (1e308, -1e30, 2e4):
+        slam._on_input(inputs_to_twist(1.2, speed, 0.0))
+        assert _slam_state(slam) == before
+    assert slam.n_bad_inputs == 3
+    bad_r = np.vstack([TREES, [[1e308, 1.0], [5e7, 1.2]]])
+    slam._on_scan(scan_to_pointcloud2(1.3, bad_r, np.full(5, 0.3)))
+    slam._on_input(inputs_to_twist(1.35, 1.0, 0.0))
+    slam._on_scan(scan_to_pointcloud2(1.4, TREES, np.array([0.3, 1e308, 0.3])))
+    slam._on_input(inputs_to_twist(1.45, 1.0, 0.0))
+    assert slam.n_dropped_obs == 3 and slam.n_scans == 3
+    for k in range(2, 8):
+        _feed(slam, 1.4 + 0.1 * k, TREES)
+    assert all(_finite_pose(m) for m in poses) and len(poses) == 9
+    lm, covs = slam.slam.map_estimate()
+    assert np.all(np.isfinite(lm)) and np.all(np.isfinite(covs)) and np.all(np.abs(lm) < 100)
+
+
+# --- sonar_observer and smart_target ---------------------------------------------------------------------
+
+def _sonar_nodes(ros, repo, cls, name):
+    return ros.add(cls(node_name=name, context=ros.context,
+                       cli_args=['--ros-args', '--params-file', str(repo / 'config/sonar.yaml')]))
+
+
+def _bad_odometry(k: int):
+    msg = cv_state_to_odometry(1.0 + k, np.ones(4), np.zeros((4, 4)), FRAME_MAP)
+    if k % 3 == 0:
+        msg.pose.pose.position.x = math.nan
+    elif k % 3 == 1:
+        msg.pose.pose.position.y = 1e308
+    else:
+        msg.header.frame_id = 'nowhere'
+    return msg
+
+
+def test_sonar_observer_a_flood_of_bad_truth_costs_a_few_log_lines(ros, repo):
+    """Defect 9: sonar_observer logged one line per dropped truth message."""
+    node = _sonar_nodes(ros, repo, SonarObserverNode, 'sonar_observer')
+    lines = Lines(node)
+    before = frozen(node.gate)
+    for k in range(300):
+        node._on_truth(_bad_odometry(k))
+    assert len(lines.warnings) <= 3, lines.warnings[:5]
+    assert node.rejected == 300 and node.refusals.total() == 300 and frozen(node.gate) == before
+
+
+def test_smart_target_a_flood_of_bad_pings_and_observers_costs_a_few_log_lines(ros, repo):
+    """Defect 9: smart_target logged one line per dropped message."""
+    from geometry_msgs.msg import PointStamped
+
+    node = _sonar_nodes(ros, repo, SmartTargetNode, 'smart_target')
+    lines = Lines(node)
+    before = frozen(node.gate)
+    for k in range(300):
+        ping = PointStamped()
+        ping.header.stamp, ping.header.frame_id = sec_to_stamp(1.0 + k), FRAME_MAP
+        ping.point.x = (math.nan, 1e308, -1e9)[k % 3]
+        node._on_ping(ping)
+        node._on_observer(_bad_odometry(k))
+    assert len(lines.warnings) <= 6, lines.warnings[:8]
+    assert node.rejected == 600 and node.refusals.total() == 600 and frozen(node.gate) == before
