@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import rclpy
@@ -37,6 +38,13 @@ from track_nodes.base.params import Param, declare_params
 from track_nodes.base.refusals import RefusalCounter
 
 EXIT_BAD_INPUT = 2
+
+
+@dataclass(frozen=True)
+class _RefusalStatus(StatusRecord):
+    """The (field-less) record of the diagnostics status; the counts go in as ``extra`` values."""
+
+    KIND = 'refusal counts'
 
 
 class TrackNode(Node):
@@ -82,7 +90,7 @@ class TrackNode(Node):
             return
         self._diagnostics_dirty = False
         counts = self.refusals.by_key()
-        status = StatusRecord().to_status(self.get_fully_qualified_name(), DIAG_WARN if counts else DIAG_OK,
+        status = _RefusalStatus().to_status(self.get_fully_qualified_name(), DIAG_WARN if counts else DIAG_OK,
                                           f'{self.refusals.total()} messages refused', extra=counts)
         self._diagnostics[0].publish(diagnostic_array(self.get_clock().now().nanoseconds * 1e-9, [status]))
 
