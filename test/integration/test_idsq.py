@@ -291,16 +291,17 @@ def test_malformed_handoffs_are_refused_with_a_warning_and_a_nack(ros, k8_file):
     for i, (kind, (data, words)) in enumerate(_bad_handoffs(sender, receiver).items()):
         pub.publish(handoff_msg(data))
         assert ros.spin_until(lambda i=i: node.refused == i + 1), kind
-        assert ros.spin_until(lambda i=i, w=words: any(w in m.msg and 'refused handoff' in m.msg
+        assert ros.spin_until(lambda i=i, w=words: any(w in m.msg and 'refused:' in m.msg
                                                        for m in net.warnings[i:])), kind
     assert ros.spin_until(lambda: len(acks) == 3)  # garbage has no readable header: nobody to answer
     st = [a.status[0] for a in acks]
     assert [IdsqAck.from_status(s).result for s in st] == ['nack'] * 3
     assert all(s.message.startswith('refused: ') for s in st) and node.pending is None and not node.led
     mine = [w for w in net.warnings if w.name == f'sensor_{receiver}']
-    assert len(mine) == 4 and all(m.msg.startswith('refused handoff') and '\n' not in m.msg for m in mine)
-    # the impersonated sender hears nacks for handoffs it never sent, and says so
-    assert all(w.name == f'sensor_{sender}' and 'late nack' in w.msg for w in net.warnings if w not in mine)
+    assert len(mine) == 4 and all(m.msg.startswith(f'{idsq_handoff_topic(receiver)}: refused: ') and '\n' not in m.msg
+                                  for m in mine)
+    # the impersonated sender hears nacks for handoffs it never sent, and says so (one line: throttled)
+    assert all(w.name == f'sensor_{sender}' and 'late reply: nack' in w.msg for w in net.warnings if w not in mine)
 
 
 def test_a_refusing_sensor_makes_the_sender_reselect(ros, k8_file):
@@ -358,3 +359,42 @@ def test_header_peek():
 
     data = encode_handoff(Handoff(9, 2, 4, GridSpec.for_field(), np.array([1, 5]), np.array([0.25, 0.75])))
     assert peek_header(data) == (2, 4, 9) and peek_header(b'IDSQ' + bytes(20)) is None and peek_header(b'x') is None
+
+
+# --- protocol windows (issue 13, defect 3) ------------------------------------------------------------------
+
+def _ledger_state(node) -> bytes:
+    """The sensor's ledger, every field but the refusal counter, as bytes (arrays included)."""
+    import pickle
+    return pickle.dumps({k: v for k, v in vars(node.core).items() if k not in ('refused', 's', 'layout')})
+
+
+def test_a_handoff_of_step_0xffffffff_is_refused_and_the_sensor_still_leads(ros, k8_file):
+    """Before issue 13 the sensor took it, waited for a truth that never comes and refused every real
+    handoff as busy: its senders re-selected around it for the rest of the run."""
+    means, _, leaders = reference_track(1, 8, K8_STEPS)
+    j = next(j for j in range(5, K8_STEPS) if leaders[j] != leaders[4])  # not holding step 4 at the flood
+    receiver, sender = leaders[j], leaders[j - 1]
+    net = Network(ros, k8_file)
+    net.run_to(3)
+    node = net.sensors[receiver]
+    assert ros.spin_until(lambda: all(3 in s.core.truth and not s.core.outgoing for s in net.sensors.values()))
+    before = _ledger_state(node)
+    acks: list = []  # the replies to the bad handoff (transient-local also brings older ones)
+    net.probe.create_subscription(DiagnosticArray, idsq_ack_topic(sender), lambda m: acks.extend(
+        st for st in m.status if IdsqAck.from_status(st).step == 0xFFFFFFFF), HANDOFF_QOS)
+    pub = net.probe.create_publisher(UInt8MultiArray, idsq_handoff_topic(receiver), HANDOFF_QOS)
+    assert ros.spin_until(lambda: pub.get_subscription_count() > 0)
+    grid = GridSpec.for_field(150.0, 250.0, 5.0)
+    bad = encode_handoff(Handoff(0xFFFFFFFF, sender, receiver, grid, np.array([5, 6]), np.array([0.5, 0.5])))
+    for i in range(20):  # a flood (the handoff QoS keeps 4: one at a time): counted, one log line
+        pub.publish(handoff_msg(bad))
+        assert ros.spin_until(lambda i=i: node.refused == i + 1 and len(acks) == i + 1, timeout=30)
+    assert all(IdsqAck.from_status(st).result == 'nack' and 'window' in st.message for st in acks)
+    assert _ledger_state(node) == before and node.pending is None
+    assert node.refusals.counts == {(idsq_handoff_topic(receiver), 'window'): 20}
+    assert len([w for w in net.warnings if w.name == f'sensor_{receiver}']) == 1
+    net.run_to(K8_STEPS - 1)  # the track goes on through the receiver, exactly as the core loop
+    assert net.led[j] == receiver and not [e for e in net.events if e.event == 'reselect']
+    np.testing.assert_array_equal(net.track()[0], means)
+    assert [e.leader for e in net.events if e.event == 'step'] == leaders

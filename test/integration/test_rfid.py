@@ -346,3 +346,65 @@ def test_an_llrp_hopping_reader_with_relock_and_online_noise_finds_the_tag(ros, 
     stds = [m.dphi_std for m in moves if m.ok]
     assert stds and all(math.isfinite(s) and s > 0 for s in stds)       # online noise: the filter gets it
     assert all(m.relocks >= 0 for m in moves)
+
+
+# --- protocol windows (issue 13, defects 4 and 6) --------------------------------------------------------
+
+def test_reader_refuses_a_seq_far_ahead_and_keeps_answering(ros, repo):
+    """Before issue 13 one command with an enormous seq was performed, and every real command after it
+    was stale: no step result was ever sent again."""
+    reader = _node(ros, repo, RfidReaderNode, 'rfid_reader', time_scale=0.0)
+    sink = Sink(ros)
+    pub = ros.add(Node('fake_guidance', context=ros.context)).create_publisher(DiagnosticArray, RFID_COMMAND,
+                                                                               ESTIMATE_QOS)
+    assert ros.spin_until(lambda: reader.pub_step.get_subscription_count() >= 1
+                          and pub.get_subscription_count() >= 1, timeout=10)
+
+    def command(seq: int, kind: str = 'move') -> None:
+        pub.publish(diagnostic_array(0.0, [RfidCommand(seq, kind, 0.0).to_status('fake_guidance/command')]))
+
+    command(1)
+    assert ros.spin_until(lambda: len(sink.msgs[RFID_STEP]) == 1)
+    before = (dict(vars(reader.cache)), reader.reader.pose.copy(), reader.reader.steps, reader.reader.t)
+    for i, seq in enumerate((2**31 - 1, 10**6, 1 + 17)):
+        command(seq)
+        assert ros.spin_until(lambda i=i: reader.refusals.total() == i + 1), seq
+    after = (dict(vars(reader.cache)), reader.reader.pose, reader.reader.steps, reader.reader.t)
+    assert after[0] == before[0] and np.array_equal(after[1], before[1]) and after[2:] == before[2:]
+    assert len(sink.msgs[RFID_STEP]) == 1 and list(reader.refusals.counts) == [(RFID_COMMAND, 'seq')]
+    command(2, 'turn')                                   # the next real command is performed
+    assert ros.spin_until(lambda: len(sink.msgs[RFID_STEP]) == 2) and _step(sink.msgs[RFID_STEP][1]).seq == 2
+
+
+def test_unsolicited_step_results_are_refused_and_change_nothing(ros, repo):
+    """Before issue 13 results ahead of the pending command were used: a flood ended the search."""
+    guide, fake, clock = _guidance_with_fake_reader(ros, repo, max_steps=3)
+    core = guide.guide
+    before = (dict(vars(guide.loop)), core.pending, core.pending_turn, core.failed_in_a_row, core.pf.initialized)
+    for i in range(30):
+        fake.answer(2 + i, 'move', dphi=-4.0)
+        assert ros.spin_until(lambda i=i: guide.refusals.total() == i + 1, timeout=10)
+    after = (dict(vars(guide.loop)), core.pending, core.pending_turn, core.failed_in_a_row, core.pf.initialized)
+    assert after == before and guide.loop.moves == 0 and not guide.warnings
+    assert guide.refusals.counts == {(RFID_STEP, 'seq'): 30}
+    fake.answer(1, 'move', dphi=-4.0)                    # the real answer is used
+    assert clock.run_until(lambda: fake.cmds[-1].seq == 2)
+    assert fake.cmds[-1].kind == 'turn' and guide.loop.moves == 1 and core.pf.n_updates == 1
+
+
+def test_the_pair_finds_the_tag_through_a_flood_of_unsolicited_results(ros, repo):
+    """A third node answers every command with a result far ahead (a forged answer with the right seq is
+    indistinguishable; one ahead becomes it once the guidance moves on): the search is the same."""
+    reader = _node(ros, repo, RfidReaderNode, 'rfid_reader', time_scale=0.0)
+    guide = _node(ros, repo, RfidGuidanceNode, 'rfid_guidance')
+    fake = FakeReader(ros)
+    fake.node.create_subscription(DiagnosticArray, RFID_COMMAND, lambda m: fake.answer(
+        _command(m).seq + 1000, 'move', dphi=-4.0, found=True), ESTIMATE_QOS)
+    clock = TestClock(ros)
+    assert ros.spin_until(lambda: guide.pub_cmd.get_subscription_count() >= 2
+                          and reader.pub_step.get_subscription_count() >= 1, timeout=10)
+    assert clock.run_until(lambda: guide.loop.ended and guide.loop.answered, timeout_s=120)
+    ref = _reference(repo)
+    r = reader.reader
+    assert guide.found and r.found() and (r.steps, r.turns, r.repeats) == (ref.steps, ref.turns, ref.repeats)
+    assert guide.loop.moves == ref.steps and guide.refusals.total() > 0

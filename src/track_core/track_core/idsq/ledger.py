@@ -12,7 +12,12 @@ Protocol (Table 1 of Liu, Reich, Zhao 2002, one leader at a time):
   unnormalised mass, wrong grid, wrong receiver, bad indices); it is also refused when the
   sensor already holds a belief (*busy*) or has led a later step (*stale*). The sender gets an
   ack or a nack with the reason (``peek_header`` finds whom to refuse when the bytes are
-  unusable).
+  unusable). A handoff whose step is more than ``STEP_WINDOW`` away from the sensor's horizon
+  (``horizon``: the latest complete truth step, led step or pending step; -1 at the start) is
+  refused too (*window*): its truth would never come, and the sensor would stay busy for good.
+  A truth step more than ``TRUTH_WINDOW`` after the horizon is refused by ``truth_problem``
+  (an absurd stamp maps to a huge step; buffering it would evict the real ones). Refusals
+  change nothing but the ``refused`` counter.
 - The accepted belief p(x⁽ᵗ⁾|z̄⁽ᵗ⁾) is held until the truth of step t + 1 is known; the sensor
   then leads step t + 1 with ``leader_step``: diffuse, sense (its own measurement simulated from
   the truth, see *Randomness*), update, MI of each neighbour except the previous leader
@@ -59,6 +64,8 @@ from track_core.idsq.tracker import LeaderStepResult, leader_step
 
 MEASUREMENT_KEY, SELECTION_KEY = 3, 4
 MAX_TRUTH = 4096  # buffered truth steps per sensor (the §5.1 track has 72)
+STEP_WINDOW = 256  # a handoff's step is within this many steps of the sensor's horizon (the truth QoS depth)
+TRUTH_WINDOW = MAX_TRUTH  # a truth step at most this far after the horizon (an absurd stamp is a huge step)
 
 
 # --- time, randomness, start, order ------------------------------------------------------------
@@ -191,6 +198,7 @@ class Log:
 
     level: str
     text: str
+    refusal: tuple[str, str] | None = None  # ('handoff' or 'ack', reason): a refused message, for the node's refuse
 
 
 Effect = Reply | Send | Disarm | Led | Reselect | SelfLead | Log
@@ -277,6 +285,20 @@ class HandoffLedger:
             del self._sources[min(self._sources)]
         return self.advance()
 
+    def horizon(self) -> int:
+        """The latest step this sensor knows of: complete truth, led or pending (-1 before any)."""
+        return max(max(self.truth, default=-1), self.last_led, -1 if self.pending is None else self.pending.step)
+
+    def truth_problem(self, step: int | None, t: float, dt: float) -> str | None:
+        """Why a truth stamped ``t`` (``step`` = ``step_of_stamp(t, dt)``) is refused: not on a step, or
+        too far after the horizon (an absurd stamp is a huge step); else ``None``."""
+        if step is None:
+            return f'header.stamp: {t:.9f} s is not (s + 1)·dt for dt={dt} s'
+        h = self.horizon()
+        if step > h + TRUTH_WINDOW:
+            return f'step: truth step {step} is more than {TRUTH_WINDOW} after step {h}'
+        return None
+
     def on_handoff(self, data: bytes) -> list[Effect]:
         self.inbox.append(data)
         return self.advance()
@@ -289,7 +311,8 @@ class HandoffLedger:
             return []
         if out is None or out.receiver != receiver:
             return [Log('warning', f'late {result} from sensor {receiver} for the handoff of step {step} '
-                                   'ignored (already re-selected or done)')]
+                                   'ignored (already re-selected or done)',
+                        ('ack', f'late reply: {result} from sensor {receiver} for step {step}'))]
         fx: list[Effect] = [Disarm(step, receiver)]
         if result == 'ack':
             self.suspects.discard(receiver)
@@ -338,10 +361,12 @@ class HandoffLedger:
             why = f'busy: already holding the belief for step {self.pending.step}'
         elif why is None and h.step + 1 <= self.last_led:
             why = f'stale: step {h.step + 1} is not after step {self.last_led}, already led here'
+        elif why is None and abs(h.step - self.horizon()) > STEP_WINDOW:
+            why = f'window: step {h.step} is more than {STEP_WINDOW} steps from step {self.horizon()}'
         if why is not None:
             self.refused += 1
             who = f'sensor {head[0]}, step {head[2]}' if head else 'an unreadable header'
-            fx: list[Effect] = [Log('warning', f'refused handoff from {who}: {why}')]
+            fx: list[Effect] = [Log('warning', f'refused handoff from {who}: {why}', ('handoff', f'{why} ({who})'))]
             if head is not None and head[0] < self.layout.n:
                 fx.append(Reply(head[0], head[2], why))
             return fx

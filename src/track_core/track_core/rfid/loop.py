@@ -5,11 +5,17 @@ that may lose, duplicate or reorder messages still performs each command exactly
 
 - ``AnswerCache`` (the reader): one answer per ``seq``. A new ``seq`` is executed; a copy of the
   last one gets the cached answer again once that answer is out (nothing is re-executed); an
-  older ``seq`` is stale; after DONE nothing more is executed. An answer is held until its
+  older ``seq`` is stale; after DONE nothing more is executed. A ``seq`` more than
+  ``SEQ_WINDOW`` ahead of the last one performed (of 0 before the first) is refused (``AHEAD``)
+  and changes nothing: the guidance only moves on after an answer, so the next command is the
+  last + 1 (a few more when answers were lost), and one absurd ``seq`` must not make every real
+  command stale. An answer is held until its
   ``due`` time (the simulated action takes time), then published once.
 - ``CommandLoop`` (the guidance): the pending command. The first one goes out once the reader is
   seen; a pending command without an answer is re-sent unchanged every ``resend_after``; a copy
-  of an answer already used is stale; after DONE the loop only waits for DONE's answer. It also
+  of an answer already used is stale; a result whose ``seq`` is ahead of the pending command
+  answers nothing (``AHEAD``: refused, changes nothing, is not counted); after DONE the loop
+  only waits for DONE's answer. It also
   ends the search: DONE when a result reports the tag found, or after ``max_steps`` MOVE results
   (repeated ones included, the count of ``search.run_search``).
 
@@ -27,6 +33,7 @@ from track_core.rfid.protocol import Command, CommandKind
 
 A = TypeVar('A')
 _EPS = 1e-9  # node-time tolerance of "due" comparisons [s]
+SEQ_WINDOW = 16  # how far ahead of the last performed seq a command may be (the saved cases reach 7)
 
 
 class Verdict(Enum):
@@ -36,6 +43,7 @@ class Verdict(Enum):
     REPLAY = 'replay'     # a copy of the answered seq: publish the cached answer again
     WAIT = 'wait'         # a copy of the seq being performed: its answer is not out yet
     STALE = 'stale'       # older than the last seq: ignored
+    AHEAD = 'ahead'       # more than SEQ_WINDOW after the last seq: refused, nothing changes
     ENDED = 'ended'       # the search is over (DONE was performed): ignored
 
 
@@ -60,10 +68,17 @@ class AnswerCache(Generic[A]):
         if self.seq is not None and seq < self.seq:
             self.ignored += 1
             return Verdict.STALE
+        if seq > (0 if self.seq is None else self.seq) + SEQ_WINDOW:
+            return Verdict.AHEAD  # (not counted here: the node reports it; the cache stays as it was)
         if self.finished:
             self.ignored += 1
             return Verdict.ENDED
         return Verdict.EXECUTE
+
+    def ahead_problem(self, seq: int) -> str:
+        """The refusal reason of an ``AHEAD`` command."""
+        last = 0 if self.seq is None else self.seq
+        return f'seq: command #{seq} is more than {SEQ_WINDOW} ahead of the last performed #{last}'
 
     def reject(self) -> None:
         """An unreadable command (counted with the ignored ones)."""
@@ -95,6 +110,7 @@ class Use(Enum):
 
     IGNORE = 'ignore'     # nothing asked yet: not an answer
     STALE = 'stale'       # a copy of a result already used
+    AHEAD = 'ahead'       # a seq after the pending command's: answers nothing, refused, nothing changes
     ENDED = 'ended'       # after DONE: only its acknowledgement matters
     USE = 'use'           # hand it to the core guidance
 
@@ -144,6 +160,8 @@ class CommandLoop:
         if seq is not None and (seq < cmd.seq or (seq == cmd.seq and self.answered)):
             self.stale += 1
             return Use.STALE
+        if seq is not None and seq > cmd.seq:
+            return Use.AHEAD  # unsolicited: not counted here (the node reports it), the loop stays as it was
         if self.ended:
             self.answered = self.answered or seq == cmd.seq  # DONE acknowledged: stop re-sending
             return Use.ENDED

@@ -39,6 +39,7 @@ from track_nodes.base.refusals import RefusalCounter
 EXIT_BAD_INPUT = 2
 
 
+
 class TrackNode(Node):
     """A node of this package set: declared parameters in ``self.p``, endpoints in ``__init__``."""
 

@@ -25,6 +25,8 @@ rebuilds its wait set over every entity at each wait, and the default QoS-event 
 of them (26 nodes: 68 ms per wait with them, 6.5 ms without, on 2 cores), so endpoints are made
 without them; and every stamp is the time of its step, so the node drops the /clock subscription
 that ``use_sim_time`` made (each 0.05 s launcher tick would wake every sensor).
+Refused truths, handoffs and replies go through ``TrackNode.refuse`` (its /diagnostics publisher
+and timer are made at the first refusal only: a network never sent bad input keeps its wait set).
 """
 
 from __future__ import annotations
@@ -32,7 +34,6 @@ from __future__ import annotations
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.msg import Odometry
-from rclpy.clock import Clock, ClockType
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import PointCloud2
@@ -86,7 +87,6 @@ class IdsqSensorNode(TrackNode):
         self.core = ledger.HandoffLedger(sensor_setup(p, pos, tuple(self.truth_topics)))
         self.disabled = False
         self.ack_timers: dict[tuple[int, int], object] = {}  # (step, receiver) → steady-clock ack timer
-        self._steady = Clock(clock_type=ClockType.STEADY_TIME)
         for sub in [s for s in self.subscriptions if s.topic_name == CLOCK]:
             self.destroy_subscription(sub)  # no ROS clock needed (module docstring)
         self.handoff_pubs: dict[int, object] = {}
@@ -151,13 +151,11 @@ class IdsqSensorNode(TrackNode):
         self._do(self.core.set_layout(layout))
 
     def _on_truth(self, msg: Odometry, topic: str = IDSQ_TRUTH) -> None:
-        reason = odometry_problem(msg, KNOWN_FRAMES)
         t = convert.stamp_to_sec(msg.header.stamp)
         step = ledger.step_of_stamp(t, self.p.dt)
-        if reason is None and step is None:
-            reason = f'stamp {t:.9f} s is not (s + 1)·dt for dt={self.p.dt} s'
+        reason = odometry_problem(msg, KNOWN_FRAMES) or self.core.truth_problem(step, t, self.p.dt)
         if reason is not None:
-            self.get_logger().warning(f'{topic}: dropped truth: {reason}')
+            self.refuse(topic, reason)
             return
         _, x, _ = convert.odometry_to_cv_state(msg)
         self._do(self.core.on_truth(step, topic, msg.child_frame_id, x[[0, 2]]))
@@ -169,8 +167,8 @@ class IdsqSensorNode(TrackNode):
         for st in msg.status:
             try:
                 a = IdsqAck.from_status(st)
-            except RecordError:
-                self.get_logger().warning(f'{idsq_ack_topic(self.id)}: malformed reply {st.name!r} ignored')
+            except RecordError as exc:
+                self.refuse(idsq_ack_topic(self.id), f'reply: malformed {st.name!r}: {exc}')
                 continue
             self._do(self.core.on_reply(a.step, a.sender, a.receiver, a.result, st.message))
         self._do(self.core.advance())
@@ -182,7 +180,10 @@ class IdsqSensorNode(TrackNode):
     def _do(self, effects) -> None:
         """Carry out the ledger's effects, in order."""
         for fx in effects:
-            if isinstance(fx, ledger.Log) and fx.level == 'info':  # (rclpy: one severity per call site)
+            if isinstance(fx, ledger.Log) and fx.refusal is not None:  # counted, throttled, on /diagnostics
+                channel, reason = fx.refusal
+                self.refuse(idsq_handoff_topic(self.id) if channel == 'handoff' else idsq_ack_topic(self.id), reason)
+            elif isinstance(fx, ledger.Log) and fx.level == 'info':  # (rclpy: one severity per call site)
                 self.get_logger().info(fx.text)
             elif isinstance(fx, ledger.Log):
                 self.get_logger().warning(fx.text)

@@ -25,7 +25,9 @@ command, or a malformed message, gets ONE warning log line naming the problem; t
 turn sum stay exactly as they were, and the next command repeats the step (``repeat`` true, new
 ``seq``; after ``max_repeats`` lost MOVEs in a row, TURN by π, see the core). A copy of a result
 already used (``seq`` below the pending command's: the reader re-publishes its answer when a
-command is re-sent) is no bad input: it is dropped silently.
+command is re-sent) is no bad input: it is dropped silently. A result whose ``seq`` is ahead of the
+pending command's answers nothing: it is refused (``TrackNode.refuse``) and changes nothing, so a
+flood of them cannot spend the ``max_steps``.
 
 Command/response loop (``track_core.rfid.loop.CommandLoop``), deterministic for a seed. Every
 ``period`` of node time (a /clock-driven timer under ``use_sim_time``) the node
@@ -161,8 +163,11 @@ class RfidGuidanceNode(TrackNode):
         if self.loop.cmd is None:
             return  # nothing asked yet: not an answer
         res, seq = read_step(msg, self.loop.cmd)
-        if self.loop.on_result(seq, res.kind) is not Use.USE:
-            return  # a replayed answer already used, or after DONE
+        use = self.loop.on_result(seq, res.kind)
+        if use is Use.AHEAD:  # answers no command: counting it would let a flood end the search
+            self.refuse(RFID_STEP, f'seq: result #{seq} is ahead of the pending command #{self.loop.cmd.seq}')
+        if use is not Use.USE:
+            return  # a replayed answer already used, unsolicited, or after DONE
         reply = self.guide.on_step(res)
         if reply.warning is not None:
             line = f'{RFID_STEP} #{res.seq}: {reply.warning}; filter state unchanged, asking for {reply.command}'

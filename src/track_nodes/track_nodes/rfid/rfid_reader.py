@@ -187,15 +187,17 @@ class RfidReaderNode(TrackNode):
             cmd = read_command(msg)
         except RecordError as exc:
             self.cache.reject()
-            self.get_logger().warning(f'{RFID_COMMAND}: dropped command: {exc}')
+            self.refuse(RFID_COMMAND, f'command: {exc}')
             return
         verdict = self.cache.on_command(cmd.seq)
         if verdict is Verdict.REPLAY:  # the guidance has not seen the answer: send it again, nothing re-executed
             self.pub_step.publish(self.cache.answer.step)
         elif verdict is Verdict.STALE:
             self.get_logger().debug(f'{RFID_COMMAND}: ignored stale command #{cmd.seq} (last #{self.cache.seq})')
+        elif verdict is Verdict.AHEAD:  # an absurd seq would make every real command stale: refused
+            self.refuse(RFID_COMMAND, self.cache.ahead_problem(cmd.seq))
         elif verdict is Verdict.ENDED:
-            self.get_logger().warning(f'{RFID_COMMAND}: ignored {cmd}: the search has ended')
+            self.refuse(RFID_COMMAND, f'ended: {cmd} after the search has ended')
         elif verdict is Verdict.EXECUTE:
             if self.cache.seq is None:  # the start pose (seq 0), once, before the first answer
                 pose, status = self._truth(self._now(), 0)
