@@ -23,6 +23,10 @@ from track_msgs_py.topics import TOPICS
 
 SENSOR_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5,
                         reliability=ReliabilityPolicy.BEST_EFFORT, durability=DurabilityPolicy.VOLATILE)
+# A subscriber's queue on a sensor stream: deep enough that a process descheduled for a second of a
+# loaded machine at 100 messages/s loses nothing (the publisher keeps depth 5; both are best effort).
+SENSOR_SUB_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100,
+                            reliability=ReliabilityPolicy.BEST_EFFORT, durability=DurabilityPolicy.VOLATILE)
 ESTIMATE_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10,
                           reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
 STATIC_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,

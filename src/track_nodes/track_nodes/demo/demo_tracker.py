@@ -17,7 +17,7 @@ from nav_msgs.msg import Odometry
 
 from track_core.demo import CVKalmanTracker
 from track_msgs_py.convert import cv_state_to_odometry, pose_cov_to_position
-from track_msgs_py.qos import ESTIMATE_QOS, SENSOR_QOS
+from track_msgs_py.qos import ESTIMATE_QOS, SENSOR_SUB_QOS
 from track_msgs_py.topics import DEMO_REPORTS, DEMO_TRACK, KNOWN_FRAMES
 from track_msgs_py.validate import (
     InputPolicy,
@@ -48,7 +48,7 @@ class DemoTrackerNode(TrackNode):
         self.policy = InputPolicy(horizon=self.p.stamp_horizon)
         self.rejected = 0
         self.pub = self.create_publisher(Odometry, DEMO_TRACK, ESTIMATE_QOS)
-        self.sub = self.create_subscription(PoseWithCovarianceStamped, DEMO_REPORTS, self._on_report, SENSOR_QOS)
+        self.sub = self.create_subscription(PoseWithCovarianceStamped, DEMO_REPORTS, self._on_report, SENSOR_SUB_QOS)
 
     def _reject(self, reason: str) -> None:
         self.rejected += 1
