@@ -84,7 +84,8 @@ def test_replay_into_a_fresh_fusion_node_gives_the_same_scores(maritime_run, ros
     sink = ros.add(Node('sink', context=ros.context))
     sink.create_subscription(DiagnosticArray, FUSION_SCORES, got.append, ESTIMATE_QOS)
     player = subprocess.Popen([sys.executable, '-m', 'track_nodes.bag.player', str(bag), '--rate', '5',
-                               '--topics', SONAR_ESTIMATE, IDSQ_ESTIMATE, maritime.RADAR_DECOY],
+                               '--topics', SONAR_ESTIMATE, IDSQ_ESTIMATE, maritime.RADAR_DECOY,
+                               '--wait-subscribers', '60'],
                               env=ros.env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         ros.spin_until(lambda: len(got) >= len({r[:2] for r in recorded}) or player.poll() is not None, timeout=180)

@@ -212,10 +212,11 @@ def test_replaying_the_truth_reproduces_the_estimates(sonar_bag, ros, repo, venv
     observer = _node(ros, repo, SonarObserverNode, 'sonar_observer')
     sink = Sink(ros)
     player = subprocess.Popen([str(venv / 'lib/track_nodes/player'), str(bag), '--rate', '10',
-                               '--topics', SONAR_TRUTH], env=ros.env, stdout=subprocess.PIPE,
+                               '--topics', SONAR_TRUTH, '--wait-subscribers', '60'], env=ros.env,
+                              stdout=subprocess.PIPE,
                               stderr=subprocess.PIPE, text=True)
     try:
-        ros.spin_until(lambda: len(sink.msgs[SONAR_ESTIMATE]) >= RECORD_S or player.poll() is not None, timeout=60)
+        ros.spin_until(lambda: len(sink.msgs[SONAR_ESTIMATE]) >= RECORD_S or player.poll() is not None, timeout=180)
         ros.spin_until(lambda: all(len(sink.msgs[t]) >= len(recorded[t])
                                    for t in (SONAR_ESTIMATE, SONAR_PING, SONAR_OBSERVER)), timeout=5)
     finally:
