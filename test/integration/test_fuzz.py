@@ -18,6 +18,7 @@ import math
 
 import pytest
 
+from track_core.ais import default_path
 from track_nodes.base import TrackNode
 from track_nodes.fuzz.harness import FuzzResult, run_case
 from track_nodes.fuzz.table import cases
@@ -32,7 +33,9 @@ def fuzzed(name: str, env_factory) -> FuzzResult:
     if name not in _results:
         domain = int(env_factory()['ROS_DOMAIN_ID'])
         _results[name] = run_case(CASES[name], MESSAGES, seed=13, domain_id=domain, after_timeout=AFTER_TIMEOUT)
-    return _results[name]
+    res = _results[name]
+    assert any(res.output_before.get(t) for t in CASES[name].alive), f'{name}: no valid output before the attack'
+    return res
 
 
 def _log_bound(res: FuzzResult) -> int:
@@ -43,12 +46,21 @@ def _log_bound(res: FuzzResult) -> int:
 A = 'branch robust-a (demo_tracker, fusion, slam, sonar pair)'
 B = 'branch robust-b (IDSQ sensors, RFID pair)'
 # (case, check) → the branch whose fix makes it pass; filled from this branch's own runs.
-PENDING: dict[tuple[str, str], str] = {}
+PENDING: dict[tuple[str, str], str] = {
+    **{(n, 'alive'): A for n in ('demo_tracker', 'fusion', 'fusion_ais', 'fusion_maritime', 'slam')},
+    **{(n, 'alive'): B for n in ('acoustic_sensor', 'doa_sensor', 'rfid_reader')},
+    ('demo_tracker', 'finite'): A, ('rfid_reader', 'finite'): B, ('slam', 'no_crash'): A,
+    **{(n, 'throttled'): A for n in ('demo_tracker', 'fusion', 'fusion_ais', 'fusion_maritime', 'slam',
+                                     'sonar_observer', 'smart_target')},
+    **{(n, 'throttled'): B for n in ('acoustic_sensor', 'doa_sensor', 'rfid_reader', 'rfid_guidance')},
+}
 
 
 def _mark(name: str, check: str):
     branch = PENDING.get((name, check))
     marks = [pytest.mark.xfail(strict=True, reason=f'fix on {branch}')] if branch else []
+    if CASES[name].scenario == 'ais':
+        marks.append(pytest.mark.skipif(not default_path().is_file(), reason='shared AIS data not found'))
     return pytest.param(name, id=name, marks=marks)
 
 

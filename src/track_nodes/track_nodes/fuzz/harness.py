@@ -31,13 +31,16 @@ from rclpy.executors import ExternalShutdownException, ShutdownException, Single
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rosgraph_msgs.msg import Clock
 
+from track_msgs_py.qos import CLOCK_QOS
 from track_nodes.fuzz.generate import Fuzzer, field_of, float_paths
 from track_nodes.fuzz.table import FuzzCase, default_template
 from track_nodes.registry import node_class
 
 SKIP_TOPICS = frozenset({'/parameter_events', '/rosout', '/clock'})
 WARN = 30
+CLOCK_TICK = 0.05  # wall s between two /clock messages (sim-time cases)
 PUMP_EVERY = 25  # bad messages between two short pumps that let the drivers' timers run
 
 
@@ -170,12 +173,28 @@ def _listen_qos(qos: QoSProfile) -> QoSProfile:
 
 
 class _Runner:
-    def __init__(self, executor: SingleThreadedExecutor, context: Context, result: FuzzResult) -> None:
+    def __init__(self, executor: SingleThreadedExecutor, context: Context, result: FuzzResult,
+                 clock_pub=None, rate: float = 0.0) -> None:
         self.executor, self.context, self.result = executor, context, result
+        self.clock_pub, self.rate = clock_pub, rate
+        self.t0 = time.monotonic()
+        self.last_tick = -1.0
+
+    def tick(self) -> None:
+        """Sim time: /clock at ``rate`` x wall time since the start, every CLOCK_TICK wall s."""
+        now = time.monotonic()
+        if self.clock_pub is None or now - self.last_tick < CLOCK_TICK:
+            return
+        self.last_tick = now
+        msg = Clock()
+        sec, nsec = divmod(int((now - self.t0) * self.rate * 1e9), 10**9)
+        msg.clock.sec, msg.clock.nanosec = sec, nsec
+        self.clock_pub.publish(msg)
 
     def run_ready(self, first_wait: float = 0.0) -> None:
         """Run every ready callback (waiting ``first_wait`` s for the first); a raise is a crash."""
         wait = first_wait
+        self.tick()
         while self.context.ok():
             try:
                 handler, _, _ = self.executor.wait_for_ready_callbacks(timeout_sec=wait)
@@ -209,6 +228,7 @@ def _build(case: FuzzCase, context: Context, executor: SingleThreadedExecutor, n
     target = None
     for executable, name in case.nodes:
         over = [Parameter(k, value=v) for k, v in case.overrides.get(name, {}).items()]
+        over.append(Parameter('use_sim_time', value=case.sim_rate > 0))
         node = node_class(executable)(node_name=name, context=context, cli_args=cli, parameter_overrides=over)
         nodes.append(node)
         executor.add_node(node)
@@ -233,7 +253,10 @@ def run_case(case: FuzzCase, messages: int, seed: int = 0, domain_id: int | None
         prober = _Prober(context, target, case.alive, result)
         nodes.append(prober.node)
         executor.add_node(prober.node)
-        runner = _Runner(executor, context, result)
+        clock_pub = None
+        if case.sim_rate > 0:
+            clock_pub = prober.node.create_publisher(Clock, '/clock', CLOCK_QOS)
+        runner = _Runner(executor, context, result, clock_pub, case.sim_rate)
 
         def outputs_seen(base: dict[str, int], k: int) -> bool:
             return all(prober.out_counts.get(t, 0) - base.get(t, 0) >= k for t in case.alive)

@@ -37,6 +37,7 @@ class FuzzCase:
     skip_topics: frozenset[str] = frozenset()
     no_template: frozenset[str] = frozenset()  # attacked topics no driver publishes (default template)
     min_output: int = 2
+    sim_rate: float = 0.0  # > 0: the nodes use sim time, and the prober drives /clock at this rate
 
     def config_path(self) -> Path:
         from track_nodes.launch.scenario import find_scenario
@@ -63,7 +64,7 @@ def cases() -> dict[str, FuzzCase]:
         FuzzCase('fusion', 'fusion', (('report_source', 'radar'), ('report_source', 'patrol'), ('fusion', 'fusion')),
                  'fusion', (FUSION_SCORES,), overrides=FUSION_FAST),
         FuzzCase('fusion_ais', 'ais', (('ais_source', 'radar'), ('ais_source', 'patrol'), ('fusion', 'fusion')),
-                 'fusion', (FUSION_SCORES,)),
+                 'fusion', (FUSION_SCORES,), sim_rate=5.0),
         FuzzCase('fusion_maritime', 'maritime', (('smart_target', 'smart_target'), ('sonar_observer', 'sonar_observer'),
                                                  ('report_source', 'radar'), ('fusion', 'fusion')),
                  'fusion', (FUSION_SCORES,)),
@@ -72,8 +73,8 @@ def cases() -> dict[str, FuzzCase]:
                  'sonar_observer', (SONAR_ESTIMATE,)),
         FuzzCase('smart_target', 'sonar', (('smart_target', 'smart_target'), ('sonar_observer', 'sonar_observer')),
                  'smart_target', (SONAR_TARGET_STATUS,)),
-        FuzzCase('acoustic_sensor', 'idsq', idsq, acoustic, (IDSQ_LEADER,), min_output=4),
-        FuzzCase('doa_sensor', 'idsq', idsq, doa, (IDSQ_LEADER,), min_output=4),
+        FuzzCase('acoustic_sensor', 'idsq', idsq, acoustic, (IDSQ_LEADER,), min_output=4, sim_rate=1.0),
+        FuzzCase('doa_sensor', 'idsq', idsq, doa, (IDSQ_LEADER,), min_output=4, sim_rate=1.0),
         FuzzCase('rfid_reader', 'rfid', (('rfid_reader', 'rfid_reader'), ('rfid_guidance', 'rfid_guidance')),
                  'rfid_reader', (RFID_STEP,)),
         FuzzCase('rfid_guidance', 'rfid', (('rfid_reader', 'rfid_reader'), ('rfid_guidance', 'rfid_guidance')),
