@@ -47,8 +47,8 @@ A = 'branch robust-a (demo_tracker, fusion, slam, sonar pair)'
 B = 'branch robust-b (IDSQ sensors, RFID pair)'
 # (case, check) → the branch whose fix makes it pass; filled from this branch's own runs.
 PENDING: dict[tuple[str, str], str] = {
-    **{(n, 'alive'): A for n in ('demo_tracker', 'fusion', 'fusion_ais', 'fusion_maritime', 'slam')},
-    **{(n, 'alive'): B for n in ('acoustic_sensor', 'doa_sensor', 'rfid_reader')},
+    **{(n, 'alive'): A for n in ('demo_tracker', 'fusion', 'fusion_maritime', 'slam')},
+    ('rfid_reader', 'alive'): B,
     ('demo_tracker', 'finite'): A, ('rfid_reader', 'finite'): B, ('slam', 'no_crash'): A,
     **{(n, 'throttled'): A for n in ('demo_tracker', 'fusion', 'fusion_ais', 'fusion_maritime', 'slam',
                                      'sonar_observer', 'smart_target')},
@@ -56,9 +56,16 @@ PENDING: dict[tuple[str, str], str] = {
 }
 
 
+# Whether an IDSQ sensor is wedged depends on timing (a bad handoff step must reach it while a step
+# is in flight): seen both ways on this branch, so not strict. Make it a plain check after robust-b.
+LOOSE = {('acoustic_sensor', 'alive'): B, ('doa_sensor', 'alive'): B}
+
+
 def _mark(name: str, check: str):
     branch = PENDING.get((name, check))
     marks = [pytest.mark.xfail(strict=True, reason=f'fix on {branch}')] if branch else []
+    if (name, check) in LOOSE:
+        marks.append(pytest.mark.xfail(strict=False, reason=f'fix on {LOOSE[name, check]}; timing-dependent'))
     if CASES[name].scenario == 'ais':
         marks.append(pytest.mark.skipif(not default_path().is_file(), reason='shared AIS data not found'))
     return pytest.param(name, id=name, marks=marks)

@@ -41,6 +41,7 @@ from track_nodes.registry import node_class
 SKIP_TOPICS = frozenset({'/parameter_events', '/rosout', '/clock'})
 WARN = 30
 CLOCK_TICK = 0.05  # wall s between two /clock messages (sim-time cases)
+TEMPLATE_TIMEOUT = 5.0  # wall s more for a template of every attacked topic (some have no publisher)
 PUMP_EVERY = 25  # bad messages between two short pumps that let the drivers' timers run
 
 
@@ -135,7 +136,7 @@ class _Prober:
                              durability=sub.qos_profile.durability)
             self.pubs[topic] = self.node.create_publisher(sub.msg_type, topic, qos)
             self.node.create_subscription(sub.msg_type, topic, lambda m, t=topic: self._template(t, m),
-                                          _listen_qos(sub.qos_profile))
+                                          _listen_qos(sub.qos_profile, sub.qos_profile.durability))
         for pub in target.publishers:
             topic = pub.topic_name
             if topic in SKIP_TOPICS or topic in self.out_counts:
@@ -167,9 +168,9 @@ class _Prober:
                 self.result.crashes.append(msg.msg)
 
 
-def _listen_qos(qos: QoSProfile) -> QoSProfile:
-    return QoSProfile(depth=max(qos.depth, 10), reliability=ReliabilityPolicy.BEST_EFFORT,
-                      durability=DurabilityPolicy.VOLATILE)
+def _listen_qos(qos: QoSProfile, durability=DurabilityPolicy.VOLATILE) -> QoSProfile:
+    """Best effort (matches any publisher); the target's own durability for templates (latched layouts)."""
+    return QoSProfile(depth=max(qos.depth, 10), reliability=ReliabilityPolicy.BEST_EFFORT, durability=durability)
 
 
 class _Runner:
@@ -261,8 +262,8 @@ def run_case(case: FuzzCase, messages: int, seed: int = 0, domain_id: int | None
         def outputs_seen(base: dict[str, int], k: int) -> bool:
             return all(prober.out_counts.get(t, 0) - base.get(t, 0) >= k for t in case.alive)
 
-        runner.until(lambda: outputs_seen({}, case.min_output) and
-                     all(t in prober.templates for t in prober.types if t not in case.no_template), warmup_timeout)
+        runner.until(lambda: outputs_seen({}, case.min_output), warmup_timeout)
+        runner.until(lambda: all(t in prober.templates for t in prober.types), TEMPLATE_TIMEOUT)
         prober.taking_templates = False
         result.output_before = dict(prober.out_counts)
         for topic, cls in prober.types.items():

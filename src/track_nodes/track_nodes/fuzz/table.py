@@ -35,7 +35,6 @@ class FuzzCase:
     alive: tuple[str, ...]
     overrides: dict[str, dict[str, Any]] = field(default_factory=dict)
     skip_topics: frozenset[str] = frozenset()
-    no_template: frozenset[str] = frozenset()  # attacked topics no driver publishes (default template)
     min_output: int = 2
     sim_rate: float = 0.0  # > 0: the nodes use sim time, and the prober drives /clock at this rate
 
