@@ -34,6 +34,9 @@ setup(
             'track-bag-recover = track_nodes.bag.recover:main',
             'track-dataset = track_nodes.bag.dataset:main',
         ],
+        'track.experiments': [
+            'fuzz = track_nodes.fuzz.experiment:fuzz_experiment',
+        ],
         'track.benchmarks': [
             'recorder = track_nodes.bag.bench:recorder_benchmark',
         ],

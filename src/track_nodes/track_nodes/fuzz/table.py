@@ -1,0 +1,96 @@
+"""The fuzz table: for every subscribing node configuration, how to run and judge it.
+
+A ``FuzzCase`` names a scenario file (``config/<scenario>.yaml``: every node's parameters), the
+nodes to build in-process from it (``executable``, ``node name``), the ``target`` whose
+subscriptions are attacked (all of them but ``skip_topics``: topics and types are read from the
+node itself, so a new subscription is fuzzed without editing this table), and the ``alive`` topics
+that must get new output after the attack. The other nodes are the valid-input drivers: the
+scenario's own sources, so valid messages are interleaved with the bad ones all along.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from track_msgs_py.topics import (
+    DEMO_TRACK,
+    FUSION_SCORES,
+    IDSQ_LEADER,
+    RFID_COMMAND,
+    RFID_STEP,
+    SLAM_POSE,
+    SONAR_ESTIMATE,
+    SONAR_TARGET_STATUS,
+)
+
+
+@dataclass(frozen=True)
+class FuzzCase:
+    name: str
+    scenario: str
+    nodes: tuple[tuple[str, str], ...]
+    target: str
+    alive: tuple[str, ...]
+    overrides: dict[str, dict[str, Any]] = field(default_factory=dict)
+    skip_topics: frozenset[str] = frozenset()
+    min_output: int = 2
+    sim_rate: float = 0.0  # > 0: the nodes use sim time, and the prober drives /clock at this rate
+
+    def config_path(self) -> Path:
+        from track_nodes.launch.scenario import find_scenario
+        return find_scenario(self.scenario)
+
+
+def _idsq_nodes(n: int) -> tuple[tuple[str, str], ...]:
+    """vehicle_sim and the first ``n`` sensors of config/idsq.yaml (the types alternate there as listed)."""
+    from track_nodes.launch.scenario import load_scenario
+    sc = load_scenario('idsq')
+    return tuple((s.executable, s.name) for s in sc.nodes[:n + 1])
+
+
+FUSION_FAST = {'radar': {'period': 0.05}, 'patrol': {'period': 0.1}, 'fusion': {'rate': 20.0}}
+
+
+def cases() -> dict[str, FuzzCase]:
+    idsq = _idsq_nodes(24)
+    doa = next(name for exe, name in idsq if exe == 'doa_sensor')
+    acoustic = next(name for exe, name in idsq if exe == 'acoustic_sensor')
+    table = [
+        FuzzCase('demo_tracker', 'demo', (('demo_target', 'demo_target'), ('demo_tracker', 'demo_tracker')),
+                 'demo_tracker', (DEMO_TRACK,)),
+        FuzzCase('fusion', 'fusion', (('report_source', 'radar'), ('report_source', 'patrol'), ('fusion', 'fusion')),
+                 'fusion', (FUSION_SCORES,), overrides=FUSION_FAST),
+        FuzzCase('fusion_ais', 'ais', (('ais_source', 'radar'), ('ais_source', 'patrol'), ('fusion', 'fusion')),
+                 'fusion', (FUSION_SCORES,), sim_rate=5.0),
+        FuzzCase('fusion_maritime', 'maritime', (('smart_target', 'smart_target'), ('sonar_observer', 'sonar_observer'),
+                                                 ('report_source', 'radar'), ('fusion', 'fusion')),
+                 'fusion', (FUSION_SCORES,)),
+        FuzzCase('slam', 'slam_sim', (('slam_sim', 'slam_sim'), ('slam', 'slam')), 'slam', (SLAM_POSE,)),
+        FuzzCase('sonar_observer', 'sonar', (('smart_target', 'smart_target'), ('sonar_observer', 'sonar_observer')),
+                 'sonar_observer', (SONAR_ESTIMATE,)),
+        FuzzCase('smart_target', 'sonar', (('smart_target', 'smart_target'), ('sonar_observer', 'sonar_observer')),
+                 'smart_target', (SONAR_TARGET_STATUS,)),
+        FuzzCase('acoustic_sensor', 'idsq', idsq, acoustic, (IDSQ_LEADER,), min_output=4, sim_rate=1.0),
+        FuzzCase('doa_sensor', 'idsq', idsq, doa, (IDSQ_LEADER,), min_output=4, sim_rate=1.0),
+        FuzzCase('rfid_reader', 'rfid', (('rfid_reader', 'rfid_reader'), ('rfid_guidance', 'rfid_guidance')),
+                 'rfid_reader', (RFID_STEP,)),
+        FuzzCase('rfid_guidance', 'rfid', (('rfid_reader', 'rfid_reader'), ('rfid_guidance', 'rfid_guidance')),
+                 'rfid_guidance', (RFID_COMMAND,)),
+    ]
+    return {c.name: c for c in table}
+
+
+def default_template(cls, node) -> Any:
+    """A plausible message of ``cls`` for a topic no driver published: stamped now, frame ``map``."""
+    msg = cls()
+    if hasattr(msg, 'header'):
+        sec, nsec = divmod(node.get_clock().now().nanoseconds, 10**9)
+        msg.header.stamp.sec, msg.header.stamp.nanosec = int(sec), int(nsec)
+        msg.header.frame_id = 'map'
+    for holder in ('pose', 'twist'):
+        inner = getattr(msg, holder, None)
+        if inner is not None and hasattr(inner, 'covariance'):
+            inner.covariance[::7] = 1.0
+    return msg

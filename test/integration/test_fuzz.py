@@ -1,0 +1,101 @@
+"""The project's fuzzer against every subscribing node configuration (issue 13).
+
+Each case of ``track_nodes.fuzz.table`` runs once (module cache): its scenario nodes in-process,
+``MESSAGES`` bad messages cycling over every class of ``track_nodes.fuzz.generate`` (each class
+several times) with the drivers' valid input in between, then valid input alone. Four checks per
+node: valid output continues; no NaN/inf in any output; no callback raised (no traceback); and
+the log stays throttled. The issue's target is 0.01 lines per bad message at 10,000 messages
+(``track-experiment fuzz``); at a few hundred, the throttle's own bound is the check: at most one
+line per refusal kind per ``WARN_THROTTLE`` seconds, plus one.
+
+Checks that fail here because the node's fix lives on another branch of issue 13 are marked
+``xfail(strict=True)`` with the branch: remove the mark when it is merged.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from track_core.ais import default_path
+from track_nodes.base import TrackNode
+from track_nodes.fuzz.harness import FuzzResult, run_case
+from track_nodes.fuzz.table import cases
+
+MESSAGES = 300
+AFTER_TIMEOUT = 15.0   # wall s for new valid output after the attack (outputs come every 0.05–1 s)
+CASES = cases()
+_results: dict[str, FuzzResult] = {}
+
+
+def fuzzed(name: str, env_factory) -> FuzzResult:
+    if name not in _results:
+        domain = int(env_factory()['ROS_DOMAIN_ID'])
+        _results[name] = run_case(CASES[name], MESSAGES, seed=13, domain_id=domain, after_timeout=AFTER_TIMEOUT)
+    res = _results[name]
+    assert any(res.output_before.get(t) for t in CASES[name].alive), f'{name}: no valid output before the attack'
+    return res
+
+
+def _log_bound(res: FuzzResult) -> int:
+    kinds = max(1, len(res.refusals))
+    return kinds * (1 + math.ceil(res.counted_seconds / TrackNode.WARN_THROTTLE))
+
+
+A = 'branch robust-a (demo_tracker, fusion, slam, sonar pair)'
+B = 'branch robust-b (IDSQ sensors, RFID pair)'
+# (case, check) → the branch whose fix makes it pass; filled from this branch's own runs.
+PENDING: dict[tuple[str, str], str] = {
+    **{(n, 'alive'): A for n in ('demo_tracker', 'fusion', 'fusion_maritime', 'slam')},
+    ('rfid_reader', 'alive'): B,
+    ('rfid_reader', 'finite'): B, ('slam', 'no_crash'): A,
+    **{(n, 'throttled'): A for n in ('demo_tracker', 'fusion', 'fusion_ais', 'fusion_maritime', 'slam',
+                                     'sonar_observer', 'smart_target')},
+    **{(n, 'throttled'): B for n in ('acoustic_sensor', 'doa_sensor', 'rfid_reader', 'rfid_guidance')},
+}
+
+
+# Seen both ways on this branch (timing-dependent), so not strict; make them plain checks after the
+# merge: whether an IDSQ sensor is wedged (a bad handoff step must reach it while a step is in
+# flight), and whether demo_tracker publishes a NaN track before the far-future stamp blocks it.
+LOOSE = {('acoustic_sensor', 'alive'): B, ('doa_sensor', 'alive'): B, ('demo_tracker', 'finite'): A}
+
+
+def _mark(name: str, check: str):
+    branch = PENDING.get((name, check))
+    marks = [pytest.mark.xfail(strict=True, reason=f'fix on {branch}')] if branch else []
+    if (name, check) in LOOSE:
+        marks.append(pytest.mark.xfail(strict=False, reason=f'fix on {LOOSE[name, check]}; timing-dependent'))
+    if CASES[name].scenario == 'ais':
+        marks.append(pytest.mark.skipif(not default_path().is_file(), reason='shared AIS data not found'))
+    return pytest.param(name, id=name, marks=marks)
+
+
+def _params(check: str):
+    return [_mark(name, check) for name in CASES]
+
+
+@pytest.mark.parametrize('name', _params('alive'))
+def test_valid_output_continues(name, env_factory):
+    res = fuzzed(name, env_factory)
+    assert res.sent == MESSAGES
+    assert res.alive, (res.output_before, res.output_after, res.refusals)
+
+
+@pytest.mark.parametrize('name', _params('finite'))
+def test_no_nan_or_inf_in_any_output(name, env_factory):
+    res = fuzzed(name, env_factory)
+    assert not res.nan_outputs, res.nan_examples[:5]
+
+
+@pytest.mark.parametrize('name', _params('no_crash'))
+def test_no_callback_raises(name, env_factory):
+    res = fuzzed(name, env_factory)
+    assert not res.crashes, res.crashes[:1]
+
+
+@pytest.mark.parametrize('name', _params('throttled'))
+def test_log_lines_are_throttled(name, env_factory):
+    res = fuzzed(name, env_factory)
+    assert res.log_lines <= _log_bound(res), (res.log_lines, _log_bound(res), res.refusals)
