@@ -7,9 +7,6 @@ node: valid output continues; no NaN/inf in any output; no callback raised (no t
 the log stays throttled. The issue's target is 0.01 lines per bad message at 10,000 messages
 (``track-experiment fuzz``); at a few hundred, the throttle's own bound is the check: at most one
 line per refusal kind per ``WARN_THROTTLE`` seconds, plus one.
-
-Checks that fail here because the node's fix lives on another branch of issue 13 are marked
-``xfail(strict=True)`` with the branch: remove the mark when it is merged.
 """
 
 from __future__ import annotations
@@ -43,30 +40,8 @@ def _log_bound(res: FuzzResult) -> int:
     return kinds * (1 + math.ceil(res.counted_seconds / TrackNode.WARN_THROTTLE))
 
 
-A = 'branch robust-a (demo_tracker, fusion, slam, sonar pair)'
-B = 'branch robust-b (IDSQ sensors, RFID pair)'
-# (case, check) → the branch whose fix makes it pass; filled from this branch's own runs.
-PENDING: dict[tuple[str, str], str] = {
-    **{(n, 'alive'): A for n in ('demo_tracker', 'fusion', 'fusion_maritime', 'slam')},
-    ('rfid_reader', 'alive'): B,
-    ('rfid_reader', 'finite'): B, ('slam', 'no_crash'): A,
-    **{(n, 'throttled'): A for n in ('demo_tracker', 'fusion', 'fusion_ais', 'fusion_maritime', 'slam',
-                                     'sonar_observer', 'smart_target')},
-    **{(n, 'throttled'): B for n in ('acoustic_sensor', 'doa_sensor', 'rfid_reader', 'rfid_guidance')},
-}
-
-
-# Seen both ways on this branch (timing-dependent), so not strict; make them plain checks after the
-# merge: whether an IDSQ sensor is wedged (a bad handoff step must reach it while a step is in
-# flight), and whether demo_tracker publishes a NaN track before the far-future stamp blocks it.
-LOOSE = {('acoustic_sensor', 'alive'): B, ('doa_sensor', 'alive'): B, ('demo_tracker', 'finite'): A}
-
-
 def _mark(name: str, check: str):
-    branch = PENDING.get((name, check))
-    marks = [pytest.mark.xfail(strict=True, reason=f'fix on {branch}')] if branch else []
-    if (name, check) in LOOSE:
-        marks.append(pytest.mark.xfail(strict=False, reason=f'fix on {LOOSE[name, check]}; timing-dependent'))
+    marks = []
     if CASES[name].scenario == 'ais':
         marks.append(pytest.mark.skipif(not default_path().is_file(), reason='shared AIS data not found'))
     return pytest.param(name, id=name, marks=marks)

@@ -159,12 +159,14 @@ def test_player_replays_the_demo_bag_in_order(demo_bags, ros, venv):
     for topic in got:
         node.create_subscription(Odometry, topic, lambda raw, t=topic: got[t].append(bytes(raw)),
                                  ESTIMATE_QOS, raw=True)
+    # Only the topics subscribed here, so the player's wait for subscribers (60 s: discovery on a loaded
+    # machine can take seconds) ends as soon as both are matched.
     player = subprocess.Popen([str(venv / 'lib/track_nodes/player'), str(demo_bags[0]), '--rate', '4',
-                               '--wait-subscribers', '60'],  # discovery on a loaded machine can take seconds
+                               '--topics', *got, '--wait-subscribers', '60'],
                               env=ros.env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         ros.spin_until(lambda: all(len(got[t]) == len(expected[t]) for t in got) or player.poll() is not None,
-                       timeout=60)
+                       timeout=180)
         ros.spin_for(0.5)
     finally:
         _, err = player.communicate(timeout=30)

@@ -65,32 +65,45 @@ def read_command(msg: DiagnosticArray) -> Command:
 
 @dataclass(frozen=True)
 class RfidStep(StatusRecord):
-    """One step result (the fields of ``StepResult``) and the simulated ``duration`` of the action [s]."""
+    """One step result (the fields of ``StepResult``) and the simulated ``duration`` of the action [s].
+
+    A value the core marks unknown with NaN (dφ and turn of an unusable step, the reader's dφ std
+    with fixed noise) is an absent key on the wire, so no output carries a NaN (issue 13); reading
+    it back gives NaN again.
+    """
 
     KIND = 'rfid step result'
 
     seq: int
     kind: str
-    dphi: float
-    turn: float
+    dphi: float | None
+    turn: float | None
     n_reads: int
     n_outliers: int
     ok: bool
     reason: str
     found: bool
     duration: float
-    dphi_std: float = math.nan  # the reader's own dφ std (issue 14); NaN: unknown
+    dphi_std: float | None = None  # the reader's own dφ std (issue 14); absent: unknown
     relocks: int = 0  # re-locks after lasting phase steps in this MOVE (issue 14)
 
     @classmethod
     def from_result(cls, res: StepResult, duration: float) -> RfidStep:
-        return cls(res.seq, res.kind.value, float(res.dphi), float(res.turn), res.n_reads, res.n_outliers,
-                   bool(res.ok), res.reason, bool(res.found), float(duration), float(res.dphi_std), int(res.relocks))
+        return cls(res.seq, res.kind.value, _known(res.dphi), _known(res.turn), res.n_reads, res.n_outliers,
+                   bool(res.ok), res.reason, bool(res.found), float(duration), _known(res.dphi_std), int(res.relocks))
 
     def result(self) -> StepResult:
-        return StepResult(_kind(self.kind), self.seq, dphi=self.dphi, turn=self.turn, n_reads=self.n_reads,
+        return StepResult(_kind(self.kind), self.seq, dphi=_nan(self.dphi), turn=_nan(self.turn), n_reads=self.n_reads,
                           n_outliers=self.n_outliers, ok=self.ok, reason=self.reason, found=self.found,
-                          dphi_std=self.dphi_std, relocks=self.relocks)
+                          dphi_std=_nan(self.dphi_std), relocks=self.relocks)
+
+
+def _known(v: float) -> float | None:
+    return float(v) if math.isfinite(v) else None
+
+
+def _nan(v: float | None) -> float:
+    return math.nan if v is None else v
 
 
 def read_step(msg: DiagnosticArray, pending: Command) -> tuple[StepResult, int | None]:

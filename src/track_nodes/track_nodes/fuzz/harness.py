@@ -101,7 +101,7 @@ def nonfinite(msg) -> str | None:
 def _cloud_nonfinite(msg) -> str | None:
     data = bytes(msg.data)
     step, n = msg.point_step, msg.width * msg.height
-    if step == 0 or len(data) < step * n:
+    if step == 0 or n == 0 or len(data) < step * n:
         return None
     for f in msg.fields:
         code = {7: 'f4', 8: 'f8'}.get(f.datatype)

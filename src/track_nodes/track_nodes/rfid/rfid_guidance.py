@@ -170,9 +170,9 @@ class RfidGuidanceNode(TrackNode):
             return  # a replayed answer already used, unsolicited, or after DONE
         reply = self.guide.on_step(res)
         if reply.warning is not None:
-            line = f'{RFID_STEP} #{res.seq}: {reply.warning}; filter state unchanged, asking for {reply.command}'
-            self.warnings.append(line)
-            self.get_logger().warning(line)
+            self.warnings.append(f'{RFID_STEP} #{res.seq}: {reply.warning}; filter state unchanged, '
+                                 f'asking for {reply.command}')
+            self.refuse(RFID_STEP, f'{reply.warning}; filter state unchanged, step repeated')  # counted, throttled
         elif res.kind is CommandKind.TURN:
             self.turns += 1
         t = self._now()
