@@ -6,6 +6,9 @@ from track_nodes.base.refusals import RefusalCounter, reason_kind
 def test_reason_kind_is_the_field():
     assert reason_kind('pose.covariance: covariance is not positive definite') == 'pose.covariance'
     assert reason_kind('busy') == 'busy'
+    assert reason_kind("bad handoff magic/version b'\\xa7\\xb3pm'/140, expected b'IDSQ'") == 'bad handoff magic/version'
+    assert reason_kind('handoff length 659 != 1318 for 159 cells') == 'handoff length'
+    assert reason_kind('unusable MOVE: signal lost after 3 reads') == 'unusable MOVE'
 
 
 def test_a_flood_costs_one_line_per_period_with_the_count():

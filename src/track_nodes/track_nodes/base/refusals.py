@@ -9,13 +9,29 @@ handful of lines, not 10,000. Pure bookkeeping: the node passes the steady time 
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 
 
 def reason_kind(reason: str) -> str:
-    """The field a reason names (``'pose.covariance: ...'`` → ``'pose.covariance'``), else the reason."""
+    """The field a reason names (``'pose.covariance: ...'`` → ``'pose.covariance'``), else its leading words.
+
+    Without a field, the kind is the words before the first one that carries a value (a digit, a
+    quote, bytes...), so ``bad handoff magic/version b'\\xa7...'`` from random bytes is one kind,
+    not one per payload.
+    """
     head, sep, _ = reason.partition(':')
-    return head.strip() if sep and head.strip() else reason.strip()[:60]
+    if sep and head.strip() and ' ' not in head.strip():
+        return head.strip()
+    words = []
+    for word in reason.split():
+        bare = word.rstrip(':;,')
+        if not re.fullmatch(r"[A-Za-z_./()-]+", bare):
+            break
+        words.append(bare)
+        if bare != word:  # the words before a ':' (or ',') name it
+            break
+    return ' '.join(words) or reason.strip()[:20]
 
 
 @dataclass
