@@ -30,12 +30,24 @@ from __future__ import annotations
 import array
 import dataclasses
 import math
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from rclpy.serialization import deserialize_message, serialize_message
+from rclpy.serialization import serialize_message
+
+from track_nodes.fuzz.fields import (
+    Path,
+    bad_covariance,
+    copy_msg,
+    cov_paths,
+    field_of,
+    float_paths,
+    is_msg,
+    sequence_paths,
+    set_field,
+)
 
 BAD_FLOATS = {'nan': math.nan, 'inf': math.inf, '-inf': -math.inf, '1e308': 1e308, '1e30': 1e30,
               'denormal': 5e-324}
@@ -44,7 +56,6 @@ FUTURE_SEC = 2147483647
 OVERSIZED = 100_000  # elements of an oversized primitive array (messages: OVERSIZED // 100)
 CDR_HEADER = b'\x00\x01\x00\x00'
 
-Path = tuple[Any, ...]
 
 
 @dataclass
@@ -52,97 +63,6 @@ class Bad:
     topic: str
     kind: str
     msg: Any  # a message of the topic's type, or bytes (serialized CDR, published raw)
-
-
-def copy_msg(msg):
-    return deserialize_message(serialize_message(msg), type(msg))
-
-
-def _is_msg(value) -> bool:
-    return hasattr(type(value), 'get_fields_and_field_types')
-
-
-def float_paths(msg, prefix: Path = ()) -> list[Path]:
-    """Every float leaf of ``msg`` (array elements included) as an attribute/index path."""
-    out: list[Path] = []
-    for name in type(msg).get_fields_and_field_types():
-        value = getattr(msg, name)
-        path = (*prefix, name)
-        if isinstance(value, float):
-            out.append(path)
-        elif isinstance(value, np.ndarray) and value.dtype.kind == 'f':
-            out += [(*path, i) for i in range(value.size)]
-        elif isinstance(value, array.array) and value.typecode in 'fd':
-            out += [(*path, i) for i in range(len(value))]
-        elif _is_msg(value):
-            out += float_paths(value, path)
-        elif isinstance(value, list):
-            for i, item in enumerate(value):
-                if _is_msg(item):
-                    out += float_paths(item, (*path, i))
-    return out
-
-
-def sequence_paths(msg, prefix: Path = ()) -> list[Path]:
-    """Every variable-length array field (``sequence<...>``) of ``msg``, nested ones included."""
-    out: list[Path] = []
-    for name, typ in type(msg).get_fields_and_field_types().items():
-        value = getattr(msg, name)
-        path = (*prefix, name)
-        if typ.startswith('sequence<'):
-            out.append(path)
-        if _is_msg(value):
-            out += sequence_paths(value, path)
-        elif isinstance(value, list):
-            for i, item in enumerate(value):
-                if _is_msg(item):
-                    out += sequence_paths(item, (*path, i))
-    return out
-
-
-def field_of(msg, path: Path):
-    for step in path:
-        msg = msg[step] if isinstance(step, int) else getattr(msg, step)
-    return msg
-
-
-def set_field(msg, path: Path, value) -> None:
-    parent = field_of(msg, path[:-1])
-    if isinstance(path[-1], int):
-        parent[path[-1]] = value
-    else:
-        setattr(parent, path[-1], value)
-
-
-def _cov_paths(msg) -> list[Path]:
-    return [p for p in _all_fields(msg) if p[-1] == 'covariance']
-
-
-def _all_fields(msg, prefix: Path = ()) -> Iterator[Path]:
-    for name in type(msg).get_fields_and_field_types():
-        value = getattr(msg, name)
-        yield (*prefix, name)
-        if _is_msg(value):
-            yield from _all_fields(value, (*prefix, name))
-
-
-def _bad_covariance(kind: str, n: int, rng: np.random.Generator) -> np.ndarray:
-    k = math.isqrt(n)
-    if kind == 'zero':
-        m = np.zeros((k, k))
-    elif kind == 'negative':
-        m = -np.eye(k)
-    elif kind == 'asymmetric':
-        m = np.eye(k)
-        m[0, 1] = 0.5
-    elif kind == 'non_psd':
-        m = np.eye(k)
-        m[0, 1] = m[1, 0] = 3.0
-    elif kind == 'denormal':
-        m = np.eye(k) * 5e-324
-    else:  # huge
-        m = np.eye(k) * 1e300
-    return m.reshape(-1)
 
 
 class Fuzzer:
@@ -173,10 +93,10 @@ class Fuzzer:
                 out.append((f'float.{name}', self._one_float(floats, value)))
             for name in ALL_FLOATS:
                 out.append((f'floats.{name}', self._all_floats(floats, BAD_FLOATS[name])))
-        for path in _cov_paths(tpl):
+        for path in cov_paths(tpl):
             n = len(field_of(tpl, path))
             for kind in ('zero', 'negative', 'asymmetric', 'non_psd', 'denormal', 'huge'):
-                out.append((f'cov.{kind}', self._setter(path, _bad_covariance(kind, n, self.rng))))
+                out.append((f'cov.{kind}', self._setter(path, bad_covariance(kind, n, self.rng))))
         seqs = sequence_paths(tpl)
         if seqs:
             out += [('array.empty', self._sequence(seqs, empty=True)),
@@ -229,7 +149,7 @@ class Fuzzer:
             elif isinstance(cur, array.array):
                 value = array.array(cur.typecode, self.rng.integers(0, 256, OVERSIZED).astype(np.uint8).tobytes()
                                     if cur.typecode == 'B' else [0] * OVERSIZED)
-            elif isinstance(cur, list) and cur and _is_msg(cur[0]):
+            elif isinstance(cur, list) and cur and is_msg(cur[0]):
                 value = [copy_msg(cur[i % len(cur)]) for i in range(OVERSIZED // 100)]
             elif isinstance(cur, str):
                 value = 'x' * OVERSIZED
