@@ -51,7 +51,8 @@ from track_nodes.launch.scenario import Scenario, ScenarioError, load_scenario
 CLOCK_TICK = 0.01  # wall seconds per /clock step at the nominal rate ...
 MAX_CLOCK_STEP = 0.05  # ... but never more than this many node seconds per step (bounded bursts)
 IDLE_POLL = 0.001  # wall seconds without a ready callback that count as idle (lock-step)
-SETTLE = 1.0  # wall seconds for discovery to settle before the clock starts
+SETTLE = 1.0  # wall seconds for discovery to settle before the clock starts ...
+SETTLE_PROCESSES = 3.0  # ... with one process per node (seen: a reader matched after 1 s lost step 0)
 GRACE = 1.0  # wall seconds for messages in flight after the clock stops
 QUIET = 2.0  # --processes: the graph is drained once no watched topic delivered for this long [wall s] ...
 DRAIN_MAX = 120.0  # ... waiting at most this long after the clock stopped
@@ -218,7 +219,7 @@ class Launch:
             if time.monotonic() > deadline or not self.context.ok():
                 raise LaunchError(f'not ready after {READY_TIMEOUT:.0f} s: waiting for {", ".join(missing)}')
             self._pump(executor, time.monotonic() + 0.05)
-        self._pump(executor, time.monotonic() + SETTLE)
+        self._pump(executor, time.monotonic() + (SETTLE_PROCESSES if children else SETTLE))
 
     def _drive(self, launcher: LauncherNode, executor: MultiThreadedExecutor,
                children: list[subprocess.Popen]) -> None:
