@@ -45,7 +45,7 @@ class TrackNode(Node):
 
     DEFAULT_NAME: ClassVar[str] = 'track_node'
     PARAMS: ClassVar[tuple[Param, ...]] = ()
-    WARN_THROTTLE: ClassVar[float] = 5.0  # seconds between two log lines about one kind of refusal
+    WARN_THROTTLE: ClassVar[float] = 5.0  # seconds between two summary lines of refusals (base/refusals.py)
     DIAGNOSTICS_PERIOD: ClassVar[float] = 1.0
 
     def __init__(self, *, node_name: str | None = None, context=None, parameter_overrides=None, cli_args=None,
@@ -79,6 +79,9 @@ class TrackNode(Node):
 
     def publish_diagnostics(self) -> None:
         """The refusal counts on /diagnostics, when they changed since the last publication."""
+        line = self.refusals.flush(self.steady_now())  # refusals that no later one has summed up yet
+        if line is not None:
+            self.get_logger().warning(line)
         if self._diagnostics is None or not self._diagnostics_dirty:
             return
         self._diagnostics_dirty = False
