@@ -72,8 +72,7 @@ def cases() -> dict[str, FuzzCase]:
                  'fusion', (FUSION_SCORES,)),
         FuzzCase('slam', 'slam_sim', (('slam_sim', 'slam_sim'), ('slam', 'slam')), 'slam', (SLAM_POSE,)),
         FuzzCase('sonar_observer', 'sonar', (('smart_target', 'smart_target'), ('sonar_observer', 'sonar_observer')),
-                 'sonar_observer', (SONAR_ESTIMATE,), sim_rate=2.0),  # sim time: the pair's wall-time origins can
-                 # straddle a second and lock-step forever (issue 19, item 4)
+                 'sonar_observer', (SONAR_ESTIMATE,), sim_rate=2.0),
         FuzzCase('smart_target', 'sonar', (('smart_target', 'smart_target'), ('sonar_observer', 'sonar_observer')),
                  'smart_target', (SONAR_TARGET_STATUS,), sim_rate=2.0),
         FuzzCase('acoustic_sensor', 'idsq', idsq, acoustic, (IDSQ_LEADER,), min_output=4, sim_rate=1.0,
