@@ -37,6 +37,7 @@ MAINS = {
     'recorder': 'track_nodes.bag.recorder:main',
     'player': 'track_nodes.bag.player:main',
     'bag_recover': 'track_nodes.bag.recover:main',
+    'node_group': 'track_nodes.launch.group:main',
 }
 PLAIN_ARGV = frozenset({'bag_recover'})
 

@@ -26,6 +26,7 @@ and ``/diagnostics`` keys name the resolved topic (``resolved``).
 
 from __future__ import annotations
 
+import contextlib
 import sys
 from collections.abc import Callable, Sequence
 from types import SimpleNamespace
@@ -35,7 +36,7 @@ import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
-from rclpy.executors import ExternalShutdownException
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -178,8 +179,18 @@ class TrackNode(Node):
 
 def run_node(factory: Callable[..., Node], argv: Sequence[str] | None = None, **kwargs: Any) -> int:
     """Run one node until shutdown; return the process exit code (0, or 2 for bad input)."""
-    args = list(sys.argv if argv is None else argv)
     name = getattr(factory, 'DEFAULT_NAME', getattr(factory, '__name__', 'node'))
+    return run_nodes([(name, lambda: factory(**kwargs))], argv, program=name)
+
+
+def run_nodes(makers: Sequence[tuple[str, Callable[[], Node]]], argv: Sequence[str] | None = None,
+              program: str = 'node') -> int:
+    """Build every ``(name, maker)`` in one process and spin them on one executor until shutdown.
+
+    Exit code 0, or 2 for bad input: a bad command line, params file or parameter of any node is one
+    line on stderr (``<name>: <problem>``) and nothing runs.
+    """
+    args = list(sys.argv if argv is None else argv)
     problem = params_file_problem(args)
     if problem is None:
         try:
@@ -189,19 +200,23 @@ def run_node(factory: Callable[..., Node], argv: Sequence[str] | None = None, **
         except _rclpy.RCLError as exc:  # other arguments rcl refuses: the first line of its message
             problem = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
     if problem is not None:
-        print(f'{name}: {problem}', file=sys.stderr)
+        print(f'{program}: {problem}', file=sys.stderr)
         return EXIT_BAD_INPUT
+    nodes: list[Node] = []
     try:
-        node = factory(**kwargs)
-    except (ValueError, OSError) as exc:
-        print(f'{name}: {exc}', file=sys.stderr)
-        rclpy.try_shutdown()
-        return EXIT_BAD_INPUT
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
+        for name, make in makers:
+            try:
+                nodes.append(make())
+            except (ValueError, OSError) as exc:
+                print(f'{name}: {exc}', file=sys.stderr)
+                return EXIT_BAD_INPUT
+        executor = rclpy.get_global_executor() if len(nodes) == 1 else SingleThreadedExecutor()
+        for node in nodes:
+            executor.add_node(node)
+        with contextlib.suppress(KeyboardInterrupt, ExternalShutdownException):
+            executor.spin()
     finally:
-        node.destroy_node()
+        for node in nodes:
+            node.destroy_node()
         rclpy.try_shutdown()
-    return getattr(node, 'exit_code', 0)
+    return max((getattr(node, 'exit_code', 0) for node in nodes), default=0)

@@ -53,6 +53,8 @@ class RefusalCounter:
         first = key not in self.counts
         self.counts[key] = self.counts.get(key, 0) + 1
         if first:
+            if self._last_summary is None:  # the first summary comes a period after the first line
+                self._last_summary = now
             return f'{topic}: refused: {reason} (new kind of refusal; later ones are summed up every ' \
                    f'{self.throttle:g} s)'
         n, _ = self._pending.get(key, (0, ''))

@@ -151,18 +151,19 @@ class FusionNode(TrackNode):
         self.dropped: dict[str, int] = {}
         # The track topics are the user's names, as given: relative ones resolve in the node's namespace.
         # Track ids use the resolved name (track_id = <resolved topic>/<id>), the same in any namespace form.
-        self.subs = [self._track_sub(Odometry, t, self._on_odometry, TRACK_QOS) for t in odo]
-        self.subs += [self._track_sub(PoseWithCovarianceStamped, t, self._on_pose, TRACK_QOS) for t in pose]
-        self.subs += [self._track_sub(PoseWithCovarianceStamped, t, self._on_pose_track, TRACKS_QOS) for t in multi]
+        self.subs = [self._track_sub(Odometry, t, '_on_odometry', TRACK_QOS) for t in odo]
+        self.subs += [self._track_sub(PoseWithCovarianceStamped, t, '_on_pose', TRACK_QOS) for t in pose]
+        self.subs += [self._track_sub(PoseWithCovarianceStamped, t, '_on_pose_track', TRACKS_QOS) for t in multi]
         self.pub_scores = self.create_publisher(DiagnosticArray, FUSION_SCORES, ESTIMATE_QOS)
         self.pub_assoc = self.create_publisher(DiagnosticArray, FUSION_ASSOCIATIONS, ESTIMATE_QOS)
         self.pub_fused = self.create_publisher(Odometry, FUSION_FUSED, ESTIMATE_QOS)
         self.pub_markers = self.create_publisher(MarkerArray, FUSION_MARKERS, ESTIMATE_QOS)
         self.timer = self.create_timer(1.0 / p.rate, self.tick) if p.schedule == 'timer' else None
 
-    def _track_sub(self, cls, topic: str, handler, qos):
+    def _track_sub(self, cls, topic: str, handler: str, qos):
+        """A track topic's subscription; the handler is looked up at call time (tests wrap it)."""
         name = self.resolve_topic_name(topic)
-        return self.create_subscription(cls, topic, lambda m: handler(name, m), qos, as_given=True)
+        return self.create_subscription(cls, topic, lambda m: getattr(self, handler)(name, m), qos, as_given=True)
 
     def validate_params(self, p) -> None:
         if p.schedule == 'stamps' and p.rate != self.p.rate:
