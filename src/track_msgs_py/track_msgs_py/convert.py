@@ -18,10 +18,11 @@ CV state ``x=[x,ẋ,y,ẏ]``,  nav_msgs/Odometry                           ``hea
                                                                        ``twist.twist.linear.x/y`` ← ẋ, ẏ (angular 0);
                                                                        ``pose.covariance`` x/y block ← P[[0,2],[0,2]];
                                                                        ``twist.covariance`` x/y block ← P[[1,3],[1,3]];
-                                                                       other diagonal entries = ``UNUSED_VARIANCE``
+                                                                       z/roll/pitch entries ``PLANAR_VARIANCE`` (0),
+                                                                       yaw and yaw rate ``NOT_ESTIMATED_VARIANCE``
 position report ``z`` (2,)  geometry_msgs/PoseWithCovarianceStamped     ``pose.pose.position.x/y`` ← z (z = 0),
 and ``R`` (2×2)                                                        orientation identity, ``pose.covariance`` x/y
-                                                                       block ← R, other diagonal ``UNUSED_VARIANCE``
+                                                                       block ← R, z/roll/pitch 0, yaw not estimated
 table of named columns     sensor_msgs/PointCloud2                     one ``FLOAT32`` PointField per column (dict
 (each (n,))                                                            order, offset 4·i, count 1), height 1, width n,
                                                                        little-endian, ``point_step`` 4·k, ``is_dense``
@@ -44,9 +45,30 @@ Deliberate deviations and losses:
   the map-frame velocity: ``twist.twist.linear.x`` is the east velocity, not a forward speed.
 - Odometry has no slot for position–velocity cross-covariances: they are dropped on the way
   out, and ``odometry_to_cv_state`` returns ``P`` with zero cross blocks.
-- Quantities a 2-D track does not estimate (z, roll, pitch, yaw; vertical and angular
-  velocity) get variance ``UNUSED_VARIANCE`` (the diff_drive_controller convention: "not
-  estimated, do not trust"), zero off-diagonals. Validation checks only the x/y blocks.
+- Covariances of a planar track (issue 19). The 6×6 entries fall in three classes, zero
+  off-diagonals outside the estimated block:
+
+  * estimated: the x/y block (and yaw for the SLAM pose): the filter's numbers. Fusion and every
+    other consumer read the x/y block only (``xy_block``); it is the 2σ ellipse;
+  * planar, ``PLANAR_VARIANCE`` = 0: z, roll, pitch of the pose and vertical, roll and pitch
+    rates of the twist. The world is the map plane (REP-103), so these are fixed at 0, not
+    unknown. 0 is the 2-D convention of RViz 2 (``CovarianceVisual`` switches to a flat x/y
+    ellipse plus a yaw cone exactly when entries 14, 21 and 28 are ≤ 0), of Foxglove (its
+    covariance sphere is scaled by √ of the x, y, z diagonal, so z = 0 draws a flat disc) and of
+    nav2 AMCL's ``amcl_pose`` (only x, y, yaw filled). robot_localization's ``two_d_mode``
+    overwrites these entries anyway (z/roll/pitch measured 0 with variance 1e-6). The former
+    1e6 here made both viewers draw every ellipse as a column 1 km (Foxglove) or 2 km (RViz) tall;
+  * not estimated, ``NOT_ESTIMATED_VARIANCE`` = 1e6: a quantity of the model that this estimator
+    does not estimate: yaw and yaw rate of a CV track, the IDSQ estimate's velocity (x/y twist
+    block), the SLAM pose's whole twist (the diff_drive_controller "do not trust" convention).
+    A reader recognises it with ``not_estimated(variance)`` (variance ≥ 1e6): fusion holds such a
+    track's position instead of predicting it with that velocity. RViz bounds the yaw cone it
+    draws, Foxglove ignores orientation, so this value draws nothing huge.
+
+  Every entry stays within the input policy's [0, 1e14] (``validate.InputPolicy``: the x/y
+  block of an estimate in [1e-12, 1e14]; zero x/y blocks only on truth topics, which no node
+  validates for variance). Validation checks only the x/y blocks. ``UNUSED_VARIANCE`` is the
+  former name of ``NOT_ESTIMATED_VARIANCE``.
 - PointCloud2 columns are float32: values lose precision beyond ~7 significant digits.
 - The IDSQ layout cloud is float64 instead: every sensor node checks its ``position`` parameter
   against it, and builds its neighbour lists from it, so all must read the same positions.
@@ -78,8 +100,12 @@ from track_msgs_py.topics import FRAME_BASE, FRAME_LASER, FRAME_MAP
 if TYPE_CHECKING:
     from track_core.idsq.network import SensorLayout
 
-#: Variance written on the diagonal for quantities a 2-D track does not estimate.
-UNUSED_VARIANCE = 1e6
+#: Variance of what the planar model fixes (z, roll, pitch; vertical, roll and pitch rates): exactly 0.
+PLANAR_VARIANCE = 0.0
+#: Variance written for a quantity this estimator does not estimate (yaw of a CV track, the IDSQ velocity).
+NOT_ESTIMATED_VARIANCE = 1e6
+#: Former name of ``NOT_ESTIMATED_VARIANCE`` (before issue 19 it was written on z/roll/pitch too).
+UNUSED_VARIANCE = NOT_ESTIMATED_VARIANCE
 
 _NS_PER_S = 1_000_000_000
 _INT32_MAX = 2**31 - 1
@@ -124,11 +150,22 @@ def _header(t: float, frame_id: str) -> Header:
 
 # --- covariance blocks ----------------------------------------------------------------------
 
-def _embed_xy(C: np.ndarray) -> np.ndarray:
-    """2×2 x/y block → 36 row-major entries, unused diagonal = ``UNUSED_VARIANCE``."""
-    full = np.diag([0.0, 0.0] + [UNUSED_VARIANCE] * 4)
+_PLANAR_IDX = (2, 3, 4)  # z, roll, pitch (pose) or vz, ωx, ωy (twist) of a 6×6 covariance
+_YAW = 5
+
+
+def _planar_cov(C: np.ndarray, yaw_variance: float = NOT_ESTIMATED_VARIANCE) -> np.ndarray:
+    """2×2 x/y block → 36 row-major entries: z/roll/pitch ``PLANAR_VARIANCE``, yaw ``yaw_variance``."""
+    full = np.zeros((6, 6))
+    full[_PLANAR_IDX, _PLANAR_IDX] = PLANAR_VARIANCE
+    full[_YAW, _YAW] = yaw_variance
     full[:2, :2] = C
     return full.reshape(36)
+
+
+def not_estimated(variance) -> np.ndarray:
+    """True where a variance (scalar or array) carries the "not estimated" convention (≥ ``NOT_ESTIMATED_VARIANCE``)."""
+    return np.asarray(variance, dtype=float) >= NOT_ESTIMATED_VARIANCE
 
 
 def xy_block(covariance) -> np.ndarray:
@@ -157,8 +194,8 @@ def cv_state_to_odometry(t: float, x: np.ndarray, P: np.ndarray, frame_id: str =
     msg.pose.pose.position.x, msg.pose.pose.position.y = float(x[0]), float(x[2])
     msg.pose.pose.orientation.w = 1.0
     msg.twist.twist.linear.x, msg.twist.twist.linear.y = float(x[1]), float(x[3])
-    msg.pose.covariance = _embed_xy(P[np.ix_(_POS, _POS)])
-    msg.twist.covariance = _embed_xy(P[np.ix_(_VEL, _VEL)])
+    msg.pose.covariance = _planar_cov(P[np.ix_(_POS, _POS)])
+    msg.twist.covariance = _planar_cov(P[np.ix_(_VEL, _VEL)])
     return msg
 
 
@@ -182,7 +219,7 @@ def position_to_pose_cov(t: float, z: np.ndarray, R: np.ndarray,
     msg = PoseWithCovarianceStamped(header=_header(t, frame_id))
     msg.pose.pose.position.x, msg.pose.pose.position.y = float(z[0]), float(z[1])
     msg.pose.pose.orientation.w = 1.0
-    msg.pose.covariance = _embed_xy(R)
+    msg.pose.covariance = _planar_cov(R)
     return msg
 
 
@@ -287,15 +324,16 @@ _POSE_IDX = (0, 1, 5)  # x, y, yaw in the 6×6 row-major pose covariance of Odom
 def pose_to_odometry(t: float, pose: np.ndarray, P: np.ndarray, frame_id: str = FRAME_MAP,
                      child_frame_id: str = FRAME_LASER) -> Odometry:
     """Pose (x, y, φ) with covariance P (3×3) → Odometry: orientation yaw φ, covariance entries
-    (x, y, yaw) = P, z/roll/pitch and the whole twist ``UNUSED_VARIANCE`` (not estimated)."""
+    (x, y, yaw) = P, z/roll/pitch ``PLANAR_VARIANCE``; the twist is not estimated (x/y and yaw rate
+    ``NOT_ESTIMATED_VARIANCE``, the planar rates 0)."""
     pose = np.asarray(pose, dtype=float)
     msg = Odometry(header=_header(t, frame_id), child_frame_id=child_frame_id)
     msg.pose.pose.position.x, msg.pose.pose.position.y = float(pose[0]), float(pose[1])
     msg.pose.pose.orientation.z, msg.pose.pose.orientation.w = math.sin(pose[2] / 2), math.cos(pose[2] / 2)
-    cov = np.diag([0.0, 0.0, UNUSED_VARIANCE, UNUSED_VARIANCE, UNUSED_VARIANCE, 0.0])
+    cov = _planar_cov(np.zeros((2, 2)), 0.0).reshape(6, 6)
     cov[np.ix_(_POSE_IDX, _POSE_IDX)] = np.asarray(P, dtype=float)
     msg.pose.covariance = cov.reshape(36)
-    msg.twist.covariance = np.diag([UNUSED_VARIANCE] * 6).reshape(36)
+    msg.twist.covariance = _planar_cov(np.eye(2) * NOT_ESTIMATED_VARIANCE)
     return msg
 
 

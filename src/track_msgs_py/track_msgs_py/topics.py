@@ -8,6 +8,13 @@ extend ``TOPICS`` (one entry per topic) and ``KNOWN_FRAMES``.
 QoS kinds (profiles in ``track_msgs_py.qos``): ``'sensor'`` best-effort depth 5,
 ``'estimate'`` reliable depth 10, ``'static'`` reliable transient-local depth 1, and
 ``'clock'`` for ``/clock`` (compatible with rclpy's own /clock subscription).
+
+Covariances (issue 19; ``COV_PLANAR`` in the entries below, details in ``track_msgs_py.convert``).
+Every ``Odometry`` and ``PoseWithCovarianceStamped`` we publish is planar: the x/y block is the
+estimate (truth: 0) and is all a fusion consumer should read (``convert.xy_block``); z, roll and
+pitch (twist: vz, ωx, ωy) are exactly 0, so RViz 2 and Foxglove draw the flat 2σ ellipse; an
+entry the estimator does not estimate (yaw of a CV track, a velocity nobody estimates) is 1e6,
+recognised by ``convert.not_estimated`` (variance ≥ ``NOT_ESTIMATED_VARIANCE``).
 """
 
 from __future__ import annotations
@@ -34,6 +41,10 @@ FUSION_FUSED = '/fusion/fused'
 FUSION_MARKERS = '/fusion/markers'
 
 
+#: The covariance layout of every Odometry / PoseWithCovarianceStamped we publish (see the module docstring).
+COV_PLANAR = 'planar covariance: x/y block = estimate, z/roll/pitch 0, not estimated = 1e6'
+
+
 class TopicSpec(NamedTuple):
     """What travels on a topic: full type name (``pkg/msg/Type``), QoS kind, one-line description."""
 
@@ -47,18 +58,21 @@ TOPICS: dict[str, TopicSpec] = {
     DIAGNOSTICS: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'estimate',
                            'per node: refused input counted per "<topic> <reason field>" (track_nodes.base.node)'),
     DEMO_TRUTH: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
-                          'true CV state of the demo target (zero covariance); child_frame_id = track id'),
+                          'true CV state of the demo target (zero x/y covariance, yaw 1e6); child_frame_id = track id'),
     DEMO_REPORTS: TopicSpec('geometry_msgs/msg/PoseWithCovarianceStamped', 'sensor',
-                            'noisy position report of the demo target with its measurement covariance R'),
+                            f'noisy position report of the demo target with its measurement covariance R '
+                            f'({COV_PLANAR}: yaw)'),
     DEMO_TRACK: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
-                          'Kalman estimate of the demo target; child_frame_id = track id'),
+                          f'Kalman estimate of the demo target ({COV_PLANAR}: yaw, yaw rate); '
+                          'child_frame_id = track id'),
     FUSION_SCORES: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'estimate',
                              'one status per track pair: name "A | B", values score, combined, instants, '
                              'associated, method'),
     FUSION_ASSOCIATIONS: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'estimate',
                                    'the associated pairs only (combined score >= threshold), same layout'),
     FUSION_FUSED: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
-                            'covariance-intersection fusion of an associated pair; child_frame_id = "A+B"'),
+                            f'covariance-intersection fusion of an associated pair ({COV_PLANAR}); '
+                            'child_frame_id = "A+B"'),
     FUSION_MARKERS: TopicSpec('visualization_msgs/msg/MarkerArray', 'estimate',
                               '2σ ellipses of the live tracks and pair links coloured by score'),
 }
@@ -85,8 +99,8 @@ TOPICS.update({
                               'observer AUV state at t_k (zero covariance); published last in its step, so it '
                               'also marks "observer step k done" for the smart target'),
     SONAR_ESTIMATE: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
-                              'SS-PF/PaPF/AcPF estimate of the target with its particle covariance; '
-                              'child_frame_id = track id'),
+                              f'SS-PF/PaPF/AcPF estimate of the target with its particle covariance ({COV_PLANAR}: '
+                              'yaw, yaw rate); child_frame_id = track id'),
     SONAR_PARTICLES: TopicSpec('geometry_msgs/msg/PoseArray', 'sensor',
                                'selected particles after step k (positions, identity orientation, equal weights)'),
     SONAR_MODE: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'estimate',
@@ -191,7 +205,8 @@ TOPICS.update({
                            '1 DOA), published once by vehicle_sim'),
     IDSQ_ESTIMATE: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
                              'MMSE estimate of the leader at step s (eq. 2) with the belief covariance as the '
-                             'x/y pose covariance; velocity not estimated (variance 1e6); child_frame_id = track id'),
+                             f'x/y pose covariance ({COV_PLANAR}: yaw and the x/y velocity, 1e6); child_frame_id = '
+                             'track id'),
     IDSQ_BELIEF: TopicSpec('sensor_msgs/msg/PointCloud2', 'sensor',
                            'posterior sparse grid belief of the leader: FLOAT32 fields x, y (cell centre), p (mass)'),
     IDSQ_MARKERS: TopicSpec('visualization_msgs/msg/MarkerArray', 'estimate',
@@ -243,11 +258,12 @@ TOPICS.update({
                         'GPS fix (x, y) in the gps frame (east/north, rotated and shifted from map); evaluation '
                         'only, has jumps'),
     SLAM_TRUTH: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
-                          'slam_sim: true laser pose (x, y, yaw φ) in map, zero covariance; evaluation only'),
+                          'slam_sim: true laser pose (x, y, yaw φ) in map, zero covariance (twist not estimated, '
+                          '1e6); evaluation only'),
     SLAM_POSE: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
                          'SLAM laser pose after each scan: position x, y, orientation yaw φ; pose.covariance '
-                         'x/y/yaw entries (0, 1, 5 of 6) from the filter, z/roll/pitch and twist unused (1e6); '
-                         'child_frame_id laser'),
+                         f'x/y/yaw entries (0, 1, 5 of 6) from the filter ({COV_PLANAR}: the twist x/y and yaw '
+                         'rate); child_frame_id laser'),
     SLAM_MAP: TopicSpec('visualization_msgs/msg/MarkerArray', 'static',
                         'landmark map at a modest rate: DELETEALL, one SPHERE_LIST of the means (ns slam_landmarks, '
                         'id 0) and one 2σ ellipse per landmark (ns slam_ellipses, id = landmark index)'),
@@ -302,7 +318,8 @@ for _prefix, _what in ((AIS_RADAR, 'coastal radar'), (AIS_PATROL, 'patrol')):
         ais_reports_topic(_prefix): TopicSpec(
             'geometry_msgs/msg/PoseWithCovarianceStamped', 'estimate',
             f'{_what} reports of real AIS ships, one message per ship and instant, all ships on this topic: '
-            'position + 2σ-ellipse covariance; header.frame_id = "map#<local track id>" (no MMSI)'),
+            f'position + 2σ-ellipse covariance ({COV_PLANAR}: yaw); header.frame_id = "map#<local track id>" '
+            '(no MMSI)'),
         ais_truth_topic(_prefix): TopicSpec(
             'diagnostic_msgs/msg/DiagnosticArray', 'static',
             f'evaluation only: the {_what}\'s local tracks, one status per track, name "<reports topic>/<local '

@@ -13,15 +13,19 @@ from sensor_msgs.msg import PointCloud2, PointField
 from visualization_msgs.msg import Marker
 
 from track_msgs_py.convert import (
-    UNUSED_VARIANCE,
+    NOT_ESTIMATED_VARIANCE,
+    PLANAR_VARIANCE,
     covariance_ellipse_marker,
     cv_state_to_odometry,
     diagnostic_array,
     diagnostic_status,
     ellipse_points,
+    not_estimated,
     odometry_to_cv_state,
+    odometry_to_pose,
     pointcloud2_to_table,
     pose_cov_to_position,
+    pose_to_odometry,
     position_to_pose_cov,
     sec_to_stamp,
     stamp_to_ns,
@@ -125,11 +129,27 @@ def test_odometry_field_layout():
     twist_cov = np.asarray(msg.twist.covariance).reshape(6, 6)
     np.testing.assert_array_equal(pose_cov[:2, :2], [[4.0, 0.3], [0.3, 2.5]])
     np.testing.assert_array_equal(twist_cov[:2, :2], [[0.9, 0.02], [0.02, 0.7]])
-    for cov in (pose_cov, twist_cov):
-        np.testing.assert_array_equal(np.diag(cov)[2:], UNUSED_VARIANCE)
+    for cov in (pose_cov, twist_cov):  # issue 19: z/roll/pitch 0 (planar, RViz's 2-D mode), yaw not estimated
+        np.testing.assert_array_equal(np.diag(cov)[2:], [PLANAR_VARIANCE] * 3 + [NOT_ESTIMATED_VARIANCE])
+        assert PLANAR_VARIANCE == 0.0 and not_estimated(cov[5, 5]) and not not_estimated(cov[:2, :2]).any()
         off = cov - np.diag(np.diag(cov))
         off[:2, :2] = 0.0
         assert not off.any()
+
+
+def test_slam_pose_covariance_is_planar_with_the_twist_not_estimated():
+    P3 = np.array([[0.5, 0.1, 0.02], [0.1, 0.4, -0.01], [0.02, -0.01, 0.003]])
+    msg = cdr(pose_to_odometry(2.5, np.array([1.0, 2.0, 0.3]), P3))
+    pose_cov = np.asarray(msg.pose.covariance).reshape(6, 6)
+    twist_cov = np.asarray(msg.twist.covariance).reshape(6, 6)
+    idx = np.ix_([0, 1, 5], [0, 1, 5])
+    np.testing.assert_array_equal(pose_cov[idx], P3)
+    rest = pose_cov.copy()
+    rest[idx] = 0.0
+    assert not rest.any()  # z, roll, pitch and their cross terms: exactly 0 (RViz's 2-D mode)
+    np.testing.assert_array_equal(np.diag(twist_cov), [1e6, 1e6, 0.0, 0.0, 0.0, 1e6])
+    assert not_estimated(np.diag(twist_cov)).tolist() == [True, True, False, False, False, True]
+    np.testing.assert_array_equal(odometry_to_pose(msg)[2], P3)
 
 
 def test_odometry_rejects_wrong_shapes():
@@ -153,7 +173,7 @@ def test_pose_cov_round_trip(through_cdr):
     np.testing.assert_array_equal(z2, z)
     np.testing.assert_array_equal(R2, R)
     assert msg.pose.pose.position.z == 0.0 and msg.pose.pose.orientation.w == 1.0
-    np.testing.assert_array_equal(np.diag(np.asarray(msg.pose.covariance).reshape(6, 6))[2:], UNUSED_VARIANCE)
+    np.testing.assert_array_equal(np.diag(np.asarray(msg.pose.covariance).reshape(6, 6))[2:], [0.0, 0.0, 0.0, 1e6])
 
 
 # --- PointCloud2 tables ---------------------------------------------------------------------

@@ -151,7 +151,7 @@ def test_pose_odometry_round_trip():
         np.testing.assert_allclose(pose, [3.0, -4.0, yaw], atol=1e-12)
         np.testing.assert_array_equal(cov, P)
         full = np.asarray(msg.pose.covariance).reshape(6, 6)
-        assert full[2, 2] == full[3, 3] == full[4, 4] == 1e6  # z, roll, pitch not estimated
+        assert full[2, 2] == full[3, 3] == full[4, 4] == 0.0  # z, roll, pitch: planar (issue 19)
 
 
 def test_inputs_twist_round_trip():

@@ -216,7 +216,7 @@ class IdsqSensorNode(TrackNode):
     def _publish_led(self, fx: ledger.Led) -> None:
         """The outputs of a led step: estimate, belief cloud, markers, the ``step`` event."""
         t, res, est = ledger.stamp_of_step(fx.step, self.p.dt), fx.result, fx.result.estimate
-        P = np.diag([0.0, convert.UNUSED_VARIANCE, 0.0, convert.UNUSED_VARIANCE])
+        P = np.diag([0.0, convert.NOT_ESTIMATED_VARIANCE, 0.0, convert.NOT_ESTIMATED_VARIANCE])  # velocity
         P[np.ix_([0, 2], [0, 2])] = est.cov
         self.pub_est.publish(convert.cv_state_to_odometry(t, np.array([est.mean[0], 0.0, est.mean[1], 0.0]), P,
                                                   FRAME_MAP, self.p.track_id))
