@@ -163,8 +163,13 @@ def test_the_two_nodes_find_the_tag(search_run, repo):
     assert len(sink.msgs[RFID_PHASE]) == ref.steps
     for cloud, s in zip(sink.msgs[RFID_PHASE], moves, strict=True):
         table = pointcloud2_to_table(cloud)
-        assert set(table) == {'t', 'phase', 'rssi', 'carrier_mhz'} and len(table['t']) == s.n_reads
+        assert list(table) == ['x', 'y', 'z', 't', 'phase', 'rssi', 'carrier_mhz'] and len(table['t']) == s.n_reads
         assert np.all((table['phase'] > 0) & (table['phase'] <= math.pi + 1e-6))
+        # issue 19: each read where the reader was (map, tag at the origin): within a step of the user's
+        # pose before the MOVE (user poses: the start, then one after each command)
+        assert cloud.header.frame_id == 'map' and not table['z'].any()
+        before = sink.msgs[RFID_USER_POSE][s.seq - 1].pose.position
+        assert np.all(np.hypot(table['x'] - before.x, table['y'] - before.y) < 1.0)
     usable = [s for s in moves if s.ok and math.isfinite(s.dphi)]
     assert len(sink.msgs[RFID_PARTICLES]) == len(usable) == guide.guide.pf.n_updates
     assert len(sink.msgs[RFID_PARTICLES][-1].poses) == guide.p.n_particles

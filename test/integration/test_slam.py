@@ -291,7 +291,7 @@ def test_converted_bag_decodes_by_type_name(vp_bag):
         conn = next(c for c in reader.connections if c.topic == SLAM_SCAN)
         _, t, raw = next(iter(reader.messages(connections=[conn])))
     msg = deserialize_message(raw, msg_class(conn.msgtype))
-    assert [f.name for f in msg.fields] == ['range', 'bearing', 'diameter'] and msg.width > 0
+    assert [f.name for f in msg.fields] == ['x', 'y', 'z', 'range', 'bearing', 'diameter'] and msg.width > 0
     assert t == msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
 
 

@@ -15,6 +15,12 @@ estimate (truth: 0) and is all a fusion consumer should read (``convert.xy_block
 pitch (twist: vz, ωx, ωy) are exactly 0, so RViz 2 and Foxglove draw the flat 2σ ellipse; an
 entry the estimator does not estimate (yaw of a CV track, a velocity nobody estimates) is 1e6,
 recognised by ``convert.not_estimated`` (variance ≥ ``NOT_ESTIMATED_VARIANCE``).
+
+Point clouds (issue 19; ``CLOUD_XYZ``). Every ``PointCloud2`` we publish starts with float32
+``x``, ``y``, ``z`` at offsets 0, 4, 8 (what RViz and Foxglove need to draw it: the
+sensor_msgs point_cloud2 convention); the table's own fields follow. Each layout has one home,
+its typed record: ``records.slam.SlamScan``, ``records.rfid.RfidPhase``, ``records.idsq.IdsqBelief``
+and ``convert.layout_to_pointcloud2`` (``/idsq/layout``).
 """
 
 from __future__ import annotations
@@ -43,6 +49,8 @@ FUSION_MARKERS = '/fusion/markers'
 
 #: The covariance layout of every Odometry / PoseWithCovarianceStamped we publish (see the module docstring).
 COV_PLANAR = 'planar covariance: x/y block = estimate, z/roll/pitch 0, not estimated = 1e6'
+#: The point layout every PointCloud2 we publish starts with.
+CLOUD_XYZ = 'float32 x, y, z at offsets 0/4/8, then'
 
 
 class TopicSpec(NamedTuple):
@@ -147,10 +155,12 @@ TOPICS.update({
                          'dphi; nan: unknown), relocks (re-locks after lasting phase steps). Exactly one answer '
                          'per seq; a repeated command gets the same answer again'),
     RFID_PHASE: TopicSpec('sensor_msgs/msg/PointCloud2', 'estimate',
-                          'raw wrapped phase reads of one MOVE (height 1, one point per read, float32 fields t = s '
-                          'since the step started, phase = wrapped rad in (0, P], rssi = dBm, carrier_mhz = the '
-                          'read\'s carrier, MHz); header.stamp equals the stamp of the step result it belongs to; '
-                          'frame_id = reader node name'),
+                          f'raw wrapped phase reads of one MOVE (height 1, one point per read; {CLOUD_XYZ} '
+                          'float32 t = s since the step started, phase = wrapped rad in (0, P], rssi = dBm, '
+                          'carrier_mhz = the read\'s carrier, MHz); x, y = where the simulated reader was at the '
+                          'read (map, tag at the origin: the walked segment, evaluation truth like /rfid/user/pose), '
+                          'z = 0; records.rfid.RfidPhase; header.stamp equals the stamp of the step result it '
+                          'belongs to; frame_id map'),
     RFID_USER_POSE: TopicSpec('geometry_msgs/msg/PoseStamped', 'estimate',
                               'evaluation only: true user pose in map (tag at the origin), orientation = facing '
                               'direction (yaw), after each action'),
@@ -201,14 +211,16 @@ TOPICS.update({
                           'with depth 256, so a late sensor still gets step 0 (start rule) and a busy leader loses '
                           'no step; child_frame_id = vehicle id'),
     IDSQ_LAYOUT: TopicSpec('sensor_msgs/msg/PointCloud2', 'static',
-                           'sensor layout, one point per sensor: FLOAT64 fields id, x, y, type (0 acoustic, '
-                           '1 DOA), published once by vehicle_sim'),
+                           f'sensor layout, one point per sensor: {CLOUD_XYZ} 4 bytes padding and FLOAT64 id, '
+                           'x_f64, y_f64 (the exact positions every sensor uses), type (0 acoustic, 1 DOA); '
+                           'z = 0; published once by vehicle_sim'),
     IDSQ_ESTIMATE: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
                              'MMSE estimate of the leader at step s (eq. 2) with the belief covariance as the '
                              f'x/y pose covariance ({COV_PLANAR}: yaw and the x/y velocity, 1e6); child_frame_id = '
                              'track id'),
     IDSQ_BELIEF: TopicSpec('sensor_msgs/msg/PointCloud2', 'sensor',
-                           'posterior sparse grid belief of the leader: FLOAT32 fields x, y (cell centre), p (mass)'),
+                           f'posterior sparse grid belief of the leader: {CLOUD_XYZ} p (mass); x, y = cell centre, '
+                           'z = 0; records.idsq.IdsqBelief'),
     IDSQ_MARKERS: TopicSpec('visualization_msgs/msg/MarkerArray', 'estimate',
                             'sensors (acoustic / DOA colours), the leader highlighted, the link to the next leader '
                             'and the 2σ ellipse of the estimate'),
@@ -226,8 +238,9 @@ TOPICS.update({
 # angular.z" convention of car-like robots, e.g. teb_local_planner's cmd_angle_instead_rotvel);
 # every other field 0; ``header.frame_id`` = ``base_link``. The input holds from its stamp until
 # the next one (zero-order hold, track_core.slam.hybrid).
-# Scans: sensor_msgs/PointCloud2 (track_msgs_py.convert.table_to_pointcloud2), one point per
-# detected tree, float32 fields ``range`` [m, to the trunk surface as measured], ``bearing`` [rad,
+# Scans: sensor_msgs/PointCloud2 (track_msgs_py.records.slam.SlamScan), one point per detected
+# tree, float32 fields ``x``, ``y``, ``z`` (the detection in the laser frame, x ahead, y left; for
+# the viewers), ``range`` [m, to the trunk surface as measured], ``bearing`` [rad,
 # eq. 5 convention: 0 = vehicle's right, π/2 ahead, π left], ``diameter`` [m] (0 for point
 # landmarks); ``slam_sim`` adds ``landmark`` (true landmark index, evaluation only);
 # ``header.frame_id`` = ``laser``. An empty scan (width 0) is allowed.
@@ -252,8 +265,10 @@ TOPICS.update({
                            'vehicle inputs: twist.linear.x = encoder speed [m/s], twist.angular.z = steering '
                            'ANGLE [rad] (not a rate); frame base_link'),
     SLAM_SCAN: TopicSpec('sensor_msgs/msg/PointCloud2', 'estimate',
-                         'one laser scan of tree detections: float32 fields range [m], bearing [rad, 0 = right, '
-                         'π/2 ahead], diameter [m] (slam_sim: + landmark id); frame laser'),
+                         f'one laser scan of tree detections: {CLOUD_XYZ} float32 range [m], bearing [rad, 0 = '
+                         'right, π/2 ahead], diameter [m] (slam_sim: + landmark id); x, y, z = the detection in the '
+                         'laser frame (x ahead, y left: x = r sin b, y = -r cos b, z = 0); records.slam.SlamScan; '
+                         'frame laser'),
     SLAM_GPS: TopicSpec('geometry_msgs/msg/PointStamped', 'estimate',
                         'GPS fix (x, y) in the gps frame (east/north, rotated and shifted from map); evaluation '
                         'only, has jumps'),

@@ -75,7 +75,8 @@ def test_bag_holds_inputs_scans_and_gps_stamped_with_the_data_times(data, tmp_pa
     scans = [(stamp_to_sec(m.header.stamp), pointcloud2_to_table(m)) for topic, _, m in msgs if topic == SLAM_SCAN]
     assert [t for t, _ in scans] == [0.852, 1.023, 2.0]
     first = scans[0][1]
-    assert list(first) == ['range', 'bearing', 'diameter']
+    assert list(first) == ['x', 'y', 'z', 'range', 'bearing', 'diameter']  # x, y, z first (issue 19)
+    np.testing.assert_allclose(first['x'], first['range'] * np.sin(first['bearing']), rtol=1e-6)
     # raw ranges (to the trunk surface; the slam node adds the radius), float32 precision
     np.testing.assert_allclose(first['range'], [20.46202, 29.59859], rtol=1e-7)
     np.testing.assert_allclose(first['bearing'], [0.88575, 1.02102], rtol=1e-7)
