@@ -73,6 +73,15 @@ def test_launcher_records_the_verdicts_and_the_picture(maritime_run):
             assert not r['ever'], (pair, r)  # the decoy is never associated with the smart target
 
 
+def test_every_cloud_and_covariance_of_the_recording_draws(maritime_run):
+    """Issue 19: the main job's bag: every PointCloud2 has float32 x, y, z first, every covariance is planar."""
+    from track_nodes.bag.check import check_bag
+
+    res = check_bag(maritime_run[1])
+    assert res.ok, res.problems
+    assert res.checked[SONAR_ESTIMATE] and res.checked[IDSQ_ESTIMATE] and res.checked['/idsq/belief'], res.checked
+
+
 def test_replay_into_a_fresh_fusion_node_gives_the_same_scores(maritime_run, ros):
     cfg, bag, _ = maritime_run
     recorded = _scores(read_topics(bag, {FUSION_SCORES})[FUSION_SCORES])

@@ -47,6 +47,7 @@ from track_msgs_py.topics import (
     RFID_USER_POSE,
     RFID_USER_STATUS,
 )
+from track_nodes.bag.check import check_bag
 from track_nodes.base import ParameterError
 from track_nodes.rfid.rfid_guidance import RfidGuidanceNode
 from track_nodes.rfid.rfid_reader import RfidReaderNode
@@ -327,6 +328,8 @@ def test_launcher_records_the_search_and_the_summary_says_found(tmp_path, env_fa
     assert 'rfid: tag FOUND' in out, out
     assert f'steps {ref.steps}, turns {ref.turns}, distance walked {ref.distance_m:.2f} m' in out, out
     assert f'final distance to the tag {ref.final_distance_m:.3f} m' in out, out
+    res = check_bag(bag)  # issue 19: every phase cloud drawable (float32 x, y, z first)
+    assert res.ok and res.checked[RFID_PHASE] == ref.steps, res.problems
 
 
 # --- a commercial reader (issue 14) ----------------------------------------------------------------

@@ -21,6 +21,8 @@ Point clouds (issue 19; ``CLOUD_XYZ``). Every ``PointCloud2`` we publish starts 
 sensor_msgs point_cloud2 convention); the table's own fields follow. Each layout has one home,
 its typed record: ``records.slam.SlamScan``, ``records.rfid.RfidPhase``, ``records.idsq.IdsqBelief``
 and ``convert.layout_to_pointcloud2`` (``/idsq/layout``).
+
+``track_msgs_py.display`` checks both conventions on a message; ``track-bag-check BAG`` on a recording.
 """
 
 from __future__ import annotations
