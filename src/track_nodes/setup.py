@@ -32,6 +32,7 @@ setup(
             'track-record = track_nodes.bag.recorder:main',
             'track-play = track_nodes.bag.player:main',
             'track-bag-recover = track_nodes.bag.recover:main',
+            'track-bag-check = track_nodes.bag.check:main',
             'track-dataset = track_nodes.bag.dataset:main',
         ],
         'track.experiments': [

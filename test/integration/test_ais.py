@@ -27,7 +27,7 @@ from track_core.ais import PairTable, default_path, evaluate
 from track_msgs_py.convert import position_to_pose_cov, sec_to_stamp, stamp_to_sec
 from track_msgs_py.qos import CLOCK_QOS, ESTIMATE_QOS, STATIC_QOS
 from track_msgs_py.records.fusion import AisTruthEntry, FusionPairScore
-from track_msgs_py.topics import CLOCK, FUSION_SCORES, ais_reports_topic, ais_truth_topic
+from track_msgs_py.topics import CLOCK, FUSION_FUSED, FUSION_SCORES, ais_reports_topic, ais_truth_topic
 from track_nodes.fusion.fusion import FusionNode
 from track_nodes.sim.ais_source import AisSourceNode
 
@@ -141,6 +141,10 @@ def test_sources_and_fusion_in_process(ais_run):
     reports = read_topics(bag, {radar.topic, patrol.topic})
     frames = {m.header.frame_id for msgs in reports.values() for m in msgs}
     assert sum(map(len, reports.values())) == len(a) + len(b)
+    from track_nodes.bag.check import check_bag
+    res = check_bag(bag)  # issue 19: every report's covariance planar (drawn as the flat 2σ ellipse)
+    assert res.ok and res.checked[radar.topic] + res.checked[patrol.topic] == len(a) + len(b), res.problems
+    assert res.checked[FUSION_FUSED] > 0  # and the fused tracks (Odometry)
     assert all(re.fullmatch(r'map#[rp]\d{3}', f) for f in frames)
     assert len(frames) == len(a.ids) + len(b.ids)
     names = {f'{s.topic}/{i}' for s in (radar, patrol) for i in s.reports.ids}

@@ -56,6 +56,14 @@ def test_every_step_recorded_on_every_topic(demo_bags):
     assert all(c == N_EXPECTED for c in counts.values()), counts
 
 
+def test_every_covariance_of_the_recording_draws_flat(demo_bags):
+    """Issue 19: no covariance of the demo (truth, reports, track) is taller in z than in x and y."""
+    from track_nodes.bag.check import check_bag
+
+    res = check_bag(demo_bags[0])
+    assert res.ok and dict(res.checked) == dict.fromkeys(TOPICS, N_EXPECTED), res.problems
+
+
 def test_bag_decodes_with_rosbags(demo_bags):
     ts = get_typestore(Stores.ROS2_JAZZY)
     with Reader(demo_bags[0]) as reader:
@@ -176,6 +184,10 @@ def test_player_replays_the_demo_bag_in_order(demo_bags, ros, venv):
 
 
 def test_tracked_sample_bag_is_readable(repo):
-    """bags/sample-demo (used by the README) still decodes and holds 100 messages per topic."""
+    """bags/sample-demo (used by the README) still decodes, holds 100 messages per topic and draws (issue 19)."""
+    from track_nodes.bag.check import check_bag
+
     counts = {t: len(v) for t, v in payloads(repo / 'bags/sample-demo').items()}
     assert counts == dict.fromkeys(TOPICS, 100)
+    res = check_bag(repo / 'bags/sample-demo')
+    assert res.ok and sum(res.checked.values()) == 300, res.problems

@@ -73,6 +73,15 @@ def test_launcher_records_the_verdicts_and_the_picture(maritime_run):
             assert not r['ever'], (pair, r)  # the decoy is never associated with the smart target
 
 
+def test_every_cloud_and_covariance_of_the_recording_draws(maritime_run):
+    """Issue 19: the main job's bag: every PointCloud2 has float32 x, y, z first, every covariance is planar."""
+    from track_nodes.bag.check import check_bag
+
+    res = check_bag(maritime_run[1])
+    assert res.ok, res.problems
+    assert res.checked[SONAR_ESTIMATE] and res.checked[IDSQ_ESTIMATE] and res.checked['/idsq/belief'], res.checked
+
+
 def test_replay_into_a_fresh_fusion_node_gives_the_same_scores(maritime_run, ros):
     cfg, bag, _ = maritime_run
     recorded = _scores(read_topics(bag, {FUSION_SCORES})[FUSION_SCORES])
@@ -122,11 +131,11 @@ def test_each_sensor_hears_its_loudest_source():
 
 
 def test_fusion_holds_a_track_whose_velocity_is_not_estimated(ros):
-    """An Odometry track with velocity variance UNUSED_VARIANCE (the IDSQ estimate) is not predicted with it."""
+    """An Odometry track with velocity variance NOT_ESTIMATED_VARIANCE (the IDSQ estimate) is not predicted with it."""
     import numpy as np
     from nav_msgs.msg import Odometry
 
-    from track_msgs_py.convert import UNUSED_VARIANCE, cv_state_to_odometry
+    from track_msgs_py.convert import NOT_ESTIMATED_VARIANCE, cv_state_to_odometry
 
     fusion = ros.add(FusionNode(node_name='fusion', context=ros.context, parameter_overrides=[
         Parameter('odometry_topics', value=['/a/track', '/b/track']), Parameter('schedule', value='stamps'),
@@ -134,7 +143,7 @@ def test_fusion_holds_a_track_whose_velocity_is_not_estimated(ros):
     pub = ros.add(Node('src', context=ros.context))
     pa = pub.create_publisher(Odometry, '/a/track', ESTIMATE_QOS)
     pb = pub.create_publisher(Odometry, '/b/track', ESTIMATE_QOS)
-    P = np.diag([4.0, UNUSED_VARIANCE, 4.0, UNUSED_VARIANCE])
+    P = np.diag([4.0, NOT_ESTIMATED_VARIANCE, 4.0, NOT_ESTIMATED_VARIANCE])
     ros.spin_until(lambda: pa.get_subscription_count() and pb.get_subscription_count(), timeout=30)
     for k in range(1, 5):
         pa.publish(cv_state_to_odometry(float(k), np.array([10.0 * k, 0.0, 0.0, 0.0]), P, 'map', 'a'))

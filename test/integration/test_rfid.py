@@ -47,6 +47,7 @@ from track_msgs_py.topics import (
     RFID_USER_POSE,
     RFID_USER_STATUS,
 )
+from track_nodes.bag.check import check_bag
 from track_nodes.base import ParameterError
 from track_nodes.rfid.rfid_guidance import RfidGuidanceNode
 from track_nodes.rfid.rfid_reader import RfidReaderNode
@@ -163,8 +164,13 @@ def test_the_two_nodes_find_the_tag(search_run, repo):
     assert len(sink.msgs[RFID_PHASE]) == ref.steps
     for cloud, s in zip(sink.msgs[RFID_PHASE], moves, strict=True):
         table = pointcloud2_to_table(cloud)
-        assert set(table) == {'t', 'phase', 'rssi', 'carrier_mhz'} and len(table['t']) == s.n_reads
+        assert list(table) == ['x', 'y', 'z', 't', 'phase', 'rssi', 'carrier_mhz'] and len(table['t']) == s.n_reads
         assert np.all((table['phase'] > 0) & (table['phase'] <= math.pi + 1e-6))
+        # issue 19: each read where the reader was (map, tag at the origin): within a step of the user's
+        # pose before the MOVE (user poses: the start, then one after each command)
+        assert cloud.header.frame_id == 'map' and not table['z'].any()
+        before = sink.msgs[RFID_USER_POSE][s.seq - 1].pose.position
+        assert np.all(np.hypot(table['x'] - before.x, table['y'] - before.y) < 1.0)
     usable = [s for s in moves if s.ok and math.isfinite(s.dphi)]
     assert len(sink.msgs[RFID_PARTICLES]) == len(usable) == guide.guide.pf.n_updates
     assert len(sink.msgs[RFID_PARTICLES][-1].poses) == guide.p.n_particles
@@ -322,6 +328,8 @@ def test_launcher_records_the_search_and_the_summary_says_found(tmp_path, env_fa
     assert 'rfid: tag FOUND' in out, out
     assert f'steps {ref.steps}, turns {ref.turns}, distance walked {ref.distance_m:.2f} m' in out, out
     assert f'final distance to the tag {ref.final_distance_m:.3f} m' in out, out
+    res = check_bag(bag)  # issue 19: every phase cloud drawable (float32 x, y, z first)
+    assert res.ok and res.checked[RFID_PHASE] == ref.steps, res.problems
 
 
 # --- a commercial reader (issue 14) ----------------------------------------------------------------

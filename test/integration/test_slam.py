@@ -50,6 +50,7 @@ from track_msgs_py.qos import ESTIMATE_QOS, STATIC_QOS
 from track_msgs_py.records.slam import SlamMode
 from track_msgs_py.topics import SLAM_EVENTS, SLAM_GPS, SLAM_INPUTS, SLAM_MAP, SLAM_MODE, SLAM_POSE, SLAM_SCAN
 from track_nodes.bag.api import msg_class
+from track_nodes.bag.check import check_bag
 from track_nodes.bag.player import PlayerNode
 from track_nodes.base import ParameterError
 from track_nodes.sim.slam_sim import SlamSimNode
@@ -253,6 +254,8 @@ def test_slam_sim_scenario_short_run(tmp_path, repo, env_factory):
     assert m, proc.stdout
     assert float(m.group(1)) < 1.0  # 6 s into the start area: well mapped, no loop closed yet
     assert 'PF switches 0' in proc.stdout
+    res = check_bag(tmp_path / 'bags/sim')  # issue 19: clouds with x, y, z and planar covariances
+    assert res.ok and res.checked[SLAM_POSE] == counts[SLAM_POSE] and res.checked[SLAM_SCAN] > 0, res.problems
 
 
 def test_victoria_park_scenario_replays_the_bag_into_slam(tmp_path, repo, env_factory):
@@ -271,6 +274,8 @@ def test_victoria_park_scenario_replays_the_bag_into_slam(tmp_path, repo, env_fa
     assert SLAM_INPUTS not in counts  # the replayed inputs and scans are not recorded again
     m = re.search(r'vs GPS: RMSE ([\d.]+) m', proc.stdout)
     assert m and float(m.group(1)) < 2.0, proc.stdout
+    res = check_bag(tmp_path / 'bags/vp')
+    assert res.ok and res.checked[SLAM_POSE] == n_scans, res.problems
 
 
 def test_converter_wrong_path_is_one_line(tmp_path, env_factory):
@@ -291,7 +296,9 @@ def test_converted_bag_decodes_by_type_name(vp_bag):
         conn = next(c for c in reader.connections if c.topic == SLAM_SCAN)
         _, t, raw = next(iter(reader.messages(connections=[conn])))
     msg = deserialize_message(raw, msg_class(conn.msgtype))
-    assert [f.name for f in msg.fields] == ['range', 'bearing', 'diameter'] and msg.width > 0
+    assert [f.name for f in msg.fields] == ['x', 'y', 'z', 'range', 'bearing', 'diameter'] and msg.width > 0
+    res = check_bag(vp_bag)  # issue 19: every scan drawable (float32 x, y, z first)
+    assert res.ok and res.checked[SLAM_SCAN] > 10, res.problems
     assert t == msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
 
 

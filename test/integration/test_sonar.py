@@ -52,6 +52,7 @@ from track_msgs_py.topics import (
     SONAR_TARGET_STATUS,
     SONAR_TRUTH,
 )
+from track_nodes.bag.check import check_bag
 from track_nodes.base import ParameterError
 from track_nodes.sim.smart_target import SmartTargetNode
 from track_nodes.sonar.sonar_observer import SonarObserverNode
@@ -206,6 +207,8 @@ def test_launcher_records_every_step_and_prints_the_summary(sonar_bag):
         assert len(msgs[topic]) == RECORD_S, topic
     assert 0 < len(msgs[SONAR_PING]) < RECORD_S
     assert 'RTAMS' in stdout and f'pings emitted {len(msgs[SONAR_PING])}/{RECORD_S}' in stdout
+    res = check_bag(bag)  # issue 19: planar covariances (estimate, truth, observer)
+    assert res.ok and res.checked[SONAR_ESTIMATE] == RECORD_S and res.checked[SONAR_TRUTH] == RECORD_S, res.problems
 
 
 def test_replaying_the_truth_reproduces_the_estimates(sonar_bag, ros, repo, venv):

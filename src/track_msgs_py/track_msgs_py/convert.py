@@ -18,20 +18,26 @@ CV state ``x=[x,ẋ,y,ẏ]``,  nav_msgs/Odometry                           ``hea
                                                                        ``twist.twist.linear.x/y`` ← ẋ, ẏ (angular 0);
                                                                        ``pose.covariance`` x/y block ← P[[0,2],[0,2]];
                                                                        ``twist.covariance`` x/y block ← P[[1,3],[1,3]];
-                                                                       other diagonal entries = ``UNUSED_VARIANCE``
+                                                                       z/roll/pitch entries ``PLANAR_VARIANCE`` (0),
+                                                                       yaw and yaw rate ``NOT_ESTIMATED_VARIANCE``
 position report ``z`` (2,)  geometry_msgs/PoseWithCovarianceStamped     ``pose.pose.position.x/y`` ← z (z = 0),
 and ``R`` (2×2)                                                        orientation identity, ``pose.covariance`` x/y
-                                                                       block ← R, other diagonal ``UNUSED_VARIANCE``
+                                                                       block ← R, z/roll/pitch 0, yaw not estimated
 table of named columns     sensor_msgs/PointCloud2                     one ``FLOAT32`` PointField per column (dict
 (each (n,))                                                            order, offset 4·i, count 1), height 1, width n,
                                                                        little-endian, ``point_step`` 4·k, ``is_dense``
                                                                        = all values finite; ``data`` = packed rows
+points with named columns  sensor_msgs/PointCloud2                     ``points_to_pointcloud2``: the same with
+(xy (n, 2|3) + columns)                                                float32 ``x``, ``y``, ``z`` first (offsets 0, 4,
+                                                                       8; z = 0 when not given), the columns after
 2σ ellipse of (μ, R)       visualization_msgs/Marker (LINE_STRIP)      ``points`` (closed loop), ``scale.x`` = width,
                                                                        ``color``, ``pose`` identity, ``lifetime``
 health / named values      diagnostic_msgs/DiagnosticStatus            ``level``, ``name``, ``message``,
                                                                        ``hardware_id``, ``values`` (KeyValue, str)
-IDSQ sensor layout         sensor_msgs/PointCloud2 (``/idsq/layout``)  ``FLOAT64`` fields ``id``, ``x``, ``y``,
-(``SensorLayout``)                                                     ``type`` (0 acoustic, 1 DOA), offset 8·i; one
+IDSQ sensor layout         sensor_msgs/PointCloud2 (``/idsq/layout``)  ``FLOAT32`` ``x``, ``y``, ``z`` (0) at 0, 4,
+(``SensorLayout``)                                                     8, 4 bytes padding, ``FLOAT64`` ``id``,
+                                                                       ``x_f64``, ``y_f64``, ``type`` (0 acoustic, 1
+                                                                       DOA) at 16, 24, 32, 40; ``point_step`` 48; one
                                                                        point per sensor (float64: positions exact)
 IDSQ handoff bytes         std_msgs/UInt8MultiArray                    ``data`` = the bytes; one ``layout.dim``:
 (``encode_handoff``)                                                   label ``idsq_handoff_v1``, size = stride = n
@@ -44,12 +50,42 @@ Deliberate deviations and losses:
   the map-frame velocity: ``twist.twist.linear.x`` is the east velocity, not a forward speed.
 - Odometry has no slot for position–velocity cross-covariances: they are dropped on the way
   out, and ``odometry_to_cv_state`` returns ``P`` with zero cross blocks.
-- Quantities a 2-D track does not estimate (z, roll, pitch, yaw; vertical and angular
-  velocity) get variance ``UNUSED_VARIANCE`` (the diff_drive_controller convention: "not
-  estimated, do not trust"), zero off-diagonals. Validation checks only the x/y blocks.
+- Covariances of a planar track (issue 19). The 6×6 entries fall in three classes, zero
+  off-diagonals outside the estimated block:
+
+  * estimated: the x/y block (and yaw for the SLAM pose): the filter's numbers. Fusion and every
+    other consumer read the x/y block only (``xy_block``); it is the 2σ ellipse;
+  * planar, ``PLANAR_VARIANCE`` = 0: z, roll, pitch of the pose and vertical, roll and pitch
+    rates of the twist. The world is the map plane (REP-103), so these are fixed at 0, not
+    unknown. 0 is the 2-D convention of RViz 2 (``CovarianceVisual`` switches to a flat x/y
+    ellipse plus a yaw cone exactly when entries 14, 21 and 28 are ≤ 0), of Foxglove (its
+    covariance sphere is scaled by √ of the x, y, z diagonal, so z = 0 draws a flat disc) and of
+    nav2 AMCL's ``amcl_pose`` (only x, y, yaw filled). robot_localization's ``two_d_mode``
+    overwrites these entries anyway (z/roll/pitch measured 0 with variance 1e-6). The former
+    1e6 here made both viewers draw every ellipse as a column 1 km (Foxglove) or 2 km (RViz) tall;
+  * not estimated, ``NOT_ESTIMATED_VARIANCE`` = 1e6: a quantity of the model that this estimator
+    does not estimate: yaw and yaw rate of a CV track, the IDSQ estimate's velocity (x/y twist
+    block), the SLAM pose's whole twist (the diff_drive_controller "do not trust" convention).
+    A reader recognises it with ``not_estimated(variance)`` (variance ≥ 1e6): fusion holds such a
+    track's position instead of predicting it with that velocity. RViz bounds the yaw cone it
+    draws, Foxglove ignores orientation, so this value draws nothing huge.
+
+  Every entry stays within the input policy's [0, 1e14] (``validate.InputPolicy``: the x/y
+  block of an estimate in [1e-12, 1e14]; zero x/y blocks only on truth topics, which no node
+  validates for variance). Validation checks only the x/y blocks. ``UNUSED_VARIANCE`` is the
+  former name of ``NOT_ESTIMATED_VARIANCE``.
 - PointCloud2 columns are float32: values lose precision beyond ~7 significant digits.
-- The IDSQ layout cloud is float64 instead: every sensor node checks its ``position`` parameter
-  against it, and builds its neighbour lists from it, so all must read the same positions.
+- Every cloud we publish carries float32 ``x``, ``y``, ``z`` first, at offsets 0, 4, 8 (issue 19:
+  RViz needs them to draw a cloud, Foxglove refuses one with fewer than two of them). A table
+  without positions of its own gets them from its record (``records.slam.SlamScan``: the
+  detection in the laser frame; ``records.rfid.RfidPhase``: where the reader was;
+  ``records.idsq.IdsqBelief``: the cell centre). ``cloud_columns`` drops them again for a reader
+  of the table's own columns.
+- The IDSQ layout carries its positions twice: float32 ``x``, ``y`` for the viewers and float64
+  ``x_f64``, ``y_f64`` that every sensor node reads: it checks its ``position`` parameter against
+  them and builds its neighbour lists from them, so all must read the same exact positions. A
+  layout without ``x_f64``/``y_f64`` (the layout before issue 19: float64 ``id``, ``x``, ``y``,
+  ``type``) still reads.
   ``pointcloud2_to_layout`` imports ``track_core.idsq`` only when called (it loads scipy.stats,
   about 1 s, which the other users of this module need not pay).
 """
@@ -78,8 +114,12 @@ from track_msgs_py.topics import FRAME_BASE, FRAME_LASER, FRAME_MAP
 if TYPE_CHECKING:
     from track_core.idsq.network import SensorLayout
 
-#: Variance written on the diagonal for quantities a 2-D track does not estimate.
-UNUSED_VARIANCE = 1e6
+#: Variance of what the planar model fixes (z, roll, pitch; vertical, roll and pitch rates): exactly 0.
+PLANAR_VARIANCE = 0.0
+#: Variance written for a quantity this estimator does not estimate (yaw of a CV track, the IDSQ velocity).
+NOT_ESTIMATED_VARIANCE = 1e6
+#: Former name of ``NOT_ESTIMATED_VARIANCE`` (before issue 19 it was written on z/roll/pitch too).
+UNUSED_VARIANCE = NOT_ESTIMATED_VARIANCE
 
 _NS_PER_S = 1_000_000_000
 _INT32_MAX = 2**31 - 1
@@ -132,11 +172,22 @@ def _header(t: float, frame_id: str) -> Header:
 
 # --- covariance blocks ----------------------------------------------------------------------
 
-def _embed_xy(C: np.ndarray) -> np.ndarray:
-    """2×2 x/y block → 36 row-major entries, unused diagonal = ``UNUSED_VARIANCE``."""
-    full = np.diag([0.0, 0.0] + [UNUSED_VARIANCE] * 4)
+_PLANAR_IDX = (2, 3, 4)  # z, roll, pitch (pose) or vz, ωx, ωy (twist) of a 6×6 covariance
+_YAW = 5
+
+
+def _planar_cov(C: np.ndarray, yaw_variance: float = NOT_ESTIMATED_VARIANCE) -> np.ndarray:
+    """2×2 x/y block → 36 row-major entries: z/roll/pitch ``PLANAR_VARIANCE``, yaw ``yaw_variance``."""
+    full = np.zeros((6, 6))
+    full[_PLANAR_IDX, _PLANAR_IDX] = PLANAR_VARIANCE
+    full[_YAW, _YAW] = yaw_variance
     full[:2, :2] = C
     return full.reshape(36)
+
+
+def not_estimated(variance) -> np.ndarray:
+    """True where a variance (scalar or array) carries the "not estimated" convention (≥ ``NOT_ESTIMATED_VARIANCE``)."""
+    return np.asarray(variance, dtype=float) >= NOT_ESTIMATED_VARIANCE
 
 
 def xy_block(covariance) -> np.ndarray:
@@ -165,8 +216,8 @@ def cv_state_to_odometry(t: float, x: np.ndarray, P: np.ndarray, frame_id: str =
     msg.pose.pose.position.x, msg.pose.pose.position.y = float(x[0]), float(x[2])
     msg.pose.pose.orientation.w = 1.0
     msg.twist.twist.linear.x, msg.twist.twist.linear.y = float(x[1]), float(x[3])
-    msg.pose.covariance = _embed_xy(P[np.ix_(_POS, _POS)])
-    msg.twist.covariance = _embed_xy(P[np.ix_(_VEL, _VEL)])
+    msg.pose.covariance = _planar_cov(P[np.ix_(_POS, _POS)])
+    msg.twist.covariance = _planar_cov(P[np.ix_(_VEL, _VEL)])
     return msg
 
 
@@ -190,7 +241,7 @@ def position_to_pose_cov(t: float, z: np.ndarray, R: np.ndarray,
     msg = PoseWithCovarianceStamped(header=_header(t, frame_id))
     msg.pose.pose.position.x, msg.pose.pose.position.y = float(z[0]), float(z[1])
     msg.pose.pose.orientation.w = 1.0
-    msg.pose.covariance = _embed_xy(R)
+    msg.pose.covariance = _planar_cov(R)
     return msg
 
 
@@ -232,30 +283,65 @@ def pose_array_to_positions(msg: PoseArray) -> tuple[np.ndarray, np.ndarray]:
     return xy, 2.0 * np.arctan2(q[:, 0], q[:, 1])
 
 
-def table_to_pointcloud2(t: float, frame_id: str, fields: Mapping[str, np.ndarray]) -> PointCloud2:
-    """Named columns of equal length n → ``PointCloud2`` with one float32 field per column, one point per row.
+_DATATYPE_OF = {np.dtype('<f4'): PointField.FLOAT32, np.dtype('<f8'): PointField.FLOAT64}
+#: The fields every PointCloud2 we publish starts with: float32, at offsets 0, 4, 8.
+XYZ = ('x', 'y', 'z')
 
-    Packed through a numpy structured array (no loop over points). A table may have 0 rows.
-    """
+
+def _columns(fields: Mapping[str, np.ndarray]) -> tuple[dict[str, np.ndarray], int]:
+    """The columns as arrays, and their common length (``ValueError`` unless all are 1-D of one length)."""
     if not fields:
         raise ValueError('a PointCloud2 table needs at least one field')
     cols = {str(name): np.asarray(col) for name, col in fields.items()}
     shapes = {name: col.shape for name, col in cols.items()}
     if any(len(s) != 1 for s in shapes.values()) or len({s[0] for s in shapes.values()}) != 1:
         raise ValueError(f'fields must be 1-D columns of one length, got shapes {shapes}')
-    n = next(iter(shapes.values()))[0]
-    table = np.empty(n, dtype=np.dtype([(name, _FLOAT32) for name in cols]))
+    return cols, next(iter(shapes.values()))[0]
+
+
+def _pack_cloud(t: float, frame_id: str, cols: Mapping[str, np.ndarray], dtype: np.dtype) -> PointCloud2:
+    """Columns → ``PointCloud2`` through the structured ``dtype`` (its offsets and itemsize; padding zero)."""
+    n = len(next(iter(cols.values())))
+    table = np.zeros(n, dtype=dtype)  # zeros: padding bytes are deterministic (bit-for-bit replays)
     for name, col in cols.items():  # loop over columns, not points
         table[name] = col
-    step = _FLOAT32.itemsize * len(cols)
+    step = dtype.itemsize
     msg = PointCloud2(
         header=_header(t, frame_id), height=1, width=n, is_bigendian=False, point_step=step, row_step=step * n,
-        fields=[PointField(name=name, offset=_FLOAT32.itemsize * i, datatype=PointField.FLOAT32, count=1)
-                for i, name in enumerate(cols)],
-        is_dense=bool(all(np.isfinite(table[name]).all() for name in cols)),
+        fields=[PointField(name=name, offset=dtype.fields[name][1], datatype=_DATATYPE_OF[dtype.fields[name][0]],
+                           count=1) for name in dtype.names],
+        is_dense=bool(all(np.isfinite(table[name]).all() for name in dtype.names)),
     )
     msg.data = array.array('B', table.tobytes())  # array.array: rclpy skips its per-byte check
     return msg
+
+
+def table_to_pointcloud2(t: float, frame_id: str, fields: Mapping[str, np.ndarray]) -> PointCloud2:
+    """Named columns of equal length n → ``PointCloud2`` with one float32 field per column, one point per row.
+
+    Packed through a numpy structured array (no loop over points). A table may have 0 rows. A
+    table to publish has positions: use ``points_to_pointcloud2``.
+    """
+    cols, _ = _columns(fields)
+    return _pack_cloud(t, frame_id, cols, np.dtype([(name, _FLOAT32) for name in cols]))
+
+
+def points_to_pointcloud2(t: float, frame_id: str, xy: np.ndarray, fields: Mapping[str, np.ndarray]) -> PointCloud2:
+    """Points ``xy`` (n, 2) or (n, 3) [m, in ``frame_id``] and columns → ``PointCloud2`` with float32 ``x``,
+    ``y``, ``z`` first (offsets 0, 4, 8; z = 0 for (n, 2)), then one float32 field per column."""
+    xy = np.asarray(xy, dtype=float)
+    if xy.ndim != 2 or xy.shape[1] not in (2, 3):
+        raise ValueError(f'points must have shape (n, 2) or (n, 3), got {xy.shape}')
+    clash = [k for k in fields if k in XYZ]
+    if clash:
+        raise ValueError(f'column(s) {", ".join(clash)} clash with the point fields x, y, z')
+    z = xy[:, 2] if xy.shape[1] == 3 else np.zeros(len(xy))
+    return table_to_pointcloud2(t, frame_id, {'x': xy[:, 0], 'y': xy[:, 1], 'z': z, **fields})
+
+
+def cloud_columns(table: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """A table read by ``pointcloud2_to_table`` without its point fields x, y, z."""
+    return {k: v for k, v in table.items() if k not in XYZ}
 
 
 def pointcloud2_to_table(msg: PointCloud2) -> dict[str, np.ndarray]:
@@ -295,15 +381,16 @@ _POSE_IDX = (0, 1, 5)  # x, y, yaw in the 6×6 row-major pose covariance of Odom
 def pose_to_odometry(t: float, pose: np.ndarray, P: np.ndarray, frame_id: str = FRAME_MAP,
                      child_frame_id: str = FRAME_LASER) -> Odometry:
     """Pose (x, y, φ) with covariance P (3×3) → Odometry: orientation yaw φ, covariance entries
-    (x, y, yaw) = P, z/roll/pitch and the whole twist ``UNUSED_VARIANCE`` (not estimated)."""
+    (x, y, yaw) = P, z/roll/pitch ``PLANAR_VARIANCE``; the twist is not estimated (x/y and yaw rate
+    ``NOT_ESTIMATED_VARIANCE``, the planar rates 0)."""
     pose = np.asarray(pose, dtype=float)
     msg = Odometry(header=_header(t, frame_id), child_frame_id=child_frame_id)
     msg.pose.pose.position.x, msg.pose.pose.position.y = float(pose[0]), float(pose[1])
     msg.pose.pose.orientation.z, msg.pose.pose.orientation.w = math.sin(pose[2] / 2), math.cos(pose[2] / 2)
-    cov = np.diag([0.0, 0.0, UNUSED_VARIANCE, UNUSED_VARIANCE, UNUSED_VARIANCE, 0.0])
+    cov = _planar_cov(np.zeros((2, 2)), 0.0).reshape(6, 6)
     cov[np.ix_(_POSE_IDX, _POSE_IDX)] = np.asarray(P, dtype=float)
     msg.pose.covariance = cov.reshape(36)
-    msg.twist.covariance = np.diag([UNUSED_VARIANCE] * 6).reshape(36)
+    msg.twist.covariance = _planar_cov(np.eye(2) * NOT_ESTIMATED_VARIANCE)
     return msg
 
 
@@ -327,12 +414,25 @@ def twist_to_inputs(msg: TwistStamped) -> tuple[float, float, float]:
     return stamp_to_sec(msg.header.stamp), float(msg.twist.linear.x), float(msg.twist.angular.z)
 
 
+def scan_points(z: np.ndarray) -> np.ndarray:
+    """(n, 2) detections in the laser frame (x ahead, y left, REP-103) of z (n, 2) = (range, eq. 5 bearing).
+
+    Eq. 5's bearing is 0 to the right and π/2 ahead, so the point is r·(cos(b − π/2), sin(b − π/2)) =
+    (r sin b, −r cos b): the frame whose pose (x, y, φ) ``/slam/pose`` carries, so the laser frame
+    placed at that pose puts the point where ``track_core.slam.models.inverse_observe`` does.
+    """
+    z = np.asarray(z, dtype=float).reshape(-1, 2)
+    return np.stack([z[:, 0] * np.sin(z[:, 1]), -z[:, 0] * np.cos(z[:, 1])], axis=1)
+
+
 def scan_to_pointcloud2(t: float, z: np.ndarray, diameter: np.ndarray | None = None, frame_id: str = FRAME_LASER,
                         **extra: np.ndarray) -> PointCloud2:
-    """One scan, z (n, 2) of (range to the surface [m], bearing [rad]) and diameters (n,) → PointCloud2."""
+    """One scan, z (n, 2) of (range to the surface [m], bearing [rad]) and diameters (n,) → PointCloud2:
+    float32 x, y, z (``scan_points``, z = 0), range, bearing, diameter, then ``extra``."""
     z = np.asarray(z, dtype=float).reshape(-1, 2)
     d = np.zeros(len(z)) if diameter is None else np.asarray(diameter, dtype=float)
-    return table_to_pointcloud2(t, frame_id, {'range': z[:, 0], 'bearing': z[:, 1], 'diameter': d, **extra})
+    return points_to_pointcloud2(t, frame_id, scan_points(z),
+                                 {'range': z[:, 0], 'bearing': z[:, 1], 'diameter': d, **extra})
 
 
 # --- visualisation and diagnostics ----------------------------------------------------------
@@ -394,30 +494,21 @@ def diagnostic_array(t: float, statuses: Sequence[DiagnosticStatus]) -> Diagnost
 
 # --- IDSQ sensor layout ⇄ PointCloud2, handoff bytes ⇄ UInt8MultiArray ---------------------
 
-#: Fields of the ``/idsq/layout`` cloud, one FLOAT64 each, in this order (type 0 acoustic, 1 DOA).
-LAYOUT_FIELDS = ('id', 'x', 'y', 'type')
+#: The FLOAT64 fields of the ``/idsq/layout`` cloud, after float32 x, y, z (type 0 acoustic, 1 DOA).
+LAYOUT_FIELDS = ('id', 'x_f64', 'y_f64', 'type')
+_LAYOUT_DTYPE = np.dtype({'names': [*XYZ, *LAYOUT_FIELDS], 'formats': ['<f4'] * 3 + ['<f8'] * 4,
+                          'offsets': [0, 4, 8, 16, 24, 32, 40], 'itemsize': 48})
 #: ``layout.dim[0].label`` of a handoff message: ``data`` is ``track_core.idsq.encode_handoff`` bytes.
 HANDOFF_LABEL = 'idsq_handoff_v1'
-_FLOAT64 = np.dtype('<f8')
 
 
 def layout_to_pointcloud2(t: float, layout: SensorLayout, frame_id: str = FRAME_MAP) -> PointCloud2:
-    """IDSQ sensor layout → ``PointCloud2``, one point per sensor, FLOAT64 fields ``LAYOUT_FIELDS``.
-
-    float64 (not the float32 of ``table_to_pointcloud2``) so every node gets the positions exactly.
-    """
-    n = layout.n
-    table = np.empty(n, dtype=np.dtype([(f, _FLOAT64) for f in LAYOUT_FIELDS]))
-    table['id'] = np.arange(n)
-    table['x'], table['y'] = layout.positions[:, 0], layout.positions[:, 1]
-    table['type'] = layout.is_doa.astype(float)
-    step = _FLOAT64.itemsize * len(LAYOUT_FIELDS)
-    msg = PointCloud2(header=_header(t, frame_id), height=1, width=n, is_bigendian=False, point_step=step,
-                      row_step=step * n, is_dense=True,
-                      fields=[PointField(name=f, offset=_FLOAT64.itemsize * i, datatype=PointField.FLOAT64, count=1)
-                              for i, f in enumerate(LAYOUT_FIELDS)])
-    msg.data = array.array('B', table.tobytes())
-    return msg
+    """IDSQ sensor layout → ``PointCloud2``, one point per sensor: float32 x, y, z (0) for the viewers,
+    then FLOAT64 ``LAYOUT_FIELDS`` (the positions again, exactly, for every node; see the module table)."""
+    pos = layout.positions
+    return _pack_cloud(t, frame_id, {'x': pos[:, 0], 'y': pos[:, 1], 'z': np.zeros(layout.n),
+                                     'id': np.arange(layout.n), 'x_f64': pos[:, 0], 'y_f64': pos[:, 1],
+                                     'type': layout.is_doa.astype(float)}, _LAYOUT_DTYPE)
 
 
 def pointcloud2_to_layout(msg: PointCloud2, comm_range: float) -> SensorLayout:
@@ -426,6 +517,8 @@ def pointcloud2_to_layout(msg: PointCloud2, comm_range: float) -> SensorLayout:
     from track_core.idsq.network import SensorLayout  # here, not at the top: track_core.idsq loads scipy.stats
 
     cols = pointcloud2_to_table(msg)
+    if 'x_f64' not in cols and 'y_f64' not in cols and 'x' in cols and 'y' in cols:  # the layout before issue 19
+        cols['x_f64'], cols['y_f64'] = cols['x'], cols['y']
     missing = [f for f in LAYOUT_FIELDS if f not in cols]
     if missing:
         raise ValueError(f'layout has no field(s) {", ".join(missing)}')
@@ -436,7 +529,7 @@ def pointcloud2_to_layout(msg: PointCloud2, comm_range: float) -> SensorLayout:
     types = cols['type'][order]
     if not np.all((types == 0) | (types == 1)):
         raise ValueError('layout type must be 0 (acoustic) or 1 (DOA)')
-    pos = np.stack([cols['x'][order], cols['y'][order]], axis=1)
+    pos = np.stack([cols['x_f64'][order], cols['y_f64'][order]], axis=1)
     return SensorLayout(pos, types == 1, comm_range)
 
 

@@ -13,6 +13,21 @@ node's topics under ``/robot1`` and remapping rules apply (issue 19, item 5). Th
 QoS kinds (profiles in ``track_msgs_py.qos``): ``'sensor'`` best-effort depth 5,
 ``'estimate'`` reliable depth 10, ``'static'`` reliable transient-local depth 1, and
 ``'clock'`` for ``/clock`` (compatible with rclpy's own /clock subscription).
+
+Covariances (issue 19; ``COV_PLANAR`` in the entries below, details in ``track_msgs_py.convert``).
+Every ``Odometry`` and ``PoseWithCovarianceStamped`` we publish is planar: the x/y block is the
+estimate (truth: 0) and is all a fusion consumer should read (``convert.xy_block``); z, roll and
+pitch (twist: vz, ωx, ωy) are exactly 0, so RViz 2 and Foxglove draw the flat 2σ ellipse; an
+entry the estimator does not estimate (yaw of a CV track, a velocity nobody estimates) is 1e6,
+recognised by ``convert.not_estimated`` (variance ≥ ``NOT_ESTIMATED_VARIANCE``).
+
+Point clouds (issue 19; ``CLOUD_XYZ``). Every ``PointCloud2`` we publish starts with float32
+``x``, ``y``, ``z`` at offsets 0, 4, 8 (what RViz and Foxglove need to draw it: the
+sensor_msgs point_cloud2 convention); the table's own fields follow. Each layout has one home,
+its typed record: ``records.slam.SlamScan``, ``records.rfid.RfidPhase``, ``records.idsq.IdsqBelief``
+and ``convert.layout_to_pointcloud2`` (``/idsq/layout``).
+
+``track_msgs_py.display`` checks both conventions on a message; ``track-bag-check BAG`` on a recording.
 """
 
 from __future__ import annotations
@@ -46,6 +61,12 @@ def relative(topic: str) -> str:
     return topic if topic in GLOBAL_TOPICS or not topic.startswith('/') else topic[1:]
 
 
+#: The covariance layout of every Odometry / PoseWithCovarianceStamped we publish (see the module docstring).
+COV_PLANAR = 'planar covariance: x/y block = estimate, z/roll/pitch 0, not estimated = 1e6'
+#: The point layout every PointCloud2 we publish starts with.
+CLOUD_XYZ = 'float32 x, y, z at offsets 0/4/8, then'
+
+
 class TopicSpec(NamedTuple):
     """What travels on a topic: full type name (``pkg/msg/Type``), QoS kind, one-line description."""
 
@@ -59,18 +80,21 @@ TOPICS: dict[str, TopicSpec] = {
     DIAGNOSTICS: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'estimate',
                            'per node: refused input counted per "<topic> <reason field>" (track_nodes.base.node)'),
     DEMO_TRUTH: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
-                          'true CV state of the demo target (zero covariance); child_frame_id = track id'),
+                          'true CV state of the demo target (zero x/y covariance, yaw 1e6); child_frame_id = track id'),
     DEMO_REPORTS: TopicSpec('geometry_msgs/msg/PoseWithCovarianceStamped', 'sensor',
-                            'noisy position report of the demo target with its measurement covariance R'),
+                            f'noisy position report of the demo target with its measurement covariance R '
+                            f'({COV_PLANAR}: yaw)'),
     DEMO_TRACK: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
-                          'Kalman estimate of the demo target; child_frame_id = track id'),
+                          f'Kalman estimate of the demo target ({COV_PLANAR}: yaw, yaw rate); '
+                          'child_frame_id = track id'),
     FUSION_SCORES: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'estimate',
                              'one status per track pair: name "A | B", values score, combined, instants, '
                              'associated, method'),
     FUSION_ASSOCIATIONS: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'estimate',
                                    'the associated pairs only (combined score >= threshold), same layout'),
     FUSION_FUSED: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
-                            'covariance-intersection fusion of an associated pair; child_frame_id = "A+B"'),
+                            f'covariance-intersection fusion of an associated pair ({COV_PLANAR}); '
+                            'child_frame_id = "A+B"'),
     FUSION_MARKERS: TopicSpec('visualization_msgs/msg/MarkerArray', 'estimate',
                               '2σ ellipses of the live tracks and pair links coloured by score'),
 }
@@ -97,8 +121,8 @@ TOPICS.update({
                               'observer AUV state at t_k (zero covariance); published last in its step, so it '
                               'also marks "observer step k done" for the smart target'),
     SONAR_ESTIMATE: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
-                              'SS-PF/PaPF/AcPF estimate of the target with its particle covariance; '
-                              'child_frame_id = track id'),
+                              f'SS-PF/PaPF/AcPF estimate of the target with its particle covariance ({COV_PLANAR}: '
+                              'yaw, yaw rate); child_frame_id = track id'),
     SONAR_PARTICLES: TopicSpec('geometry_msgs/msg/PoseArray', 'sensor',
                                'selected particles after step k (positions, identity orientation, equal weights)'),
     SONAR_MODE: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'estimate',
@@ -145,10 +169,12 @@ TOPICS.update({
                          'dphi; nan: unknown), relocks (re-locks after lasting phase steps). Exactly one answer '
                          'per seq; a repeated command gets the same answer again'),
     RFID_PHASE: TopicSpec('sensor_msgs/msg/PointCloud2', 'estimate',
-                          'raw wrapped phase reads of one MOVE (height 1, one point per read, float32 fields t = s '
-                          'since the step started, phase = wrapped rad in (0, P], rssi = dBm, carrier_mhz = the '
-                          'read\'s carrier, MHz); header.stamp equals the stamp of the step result it belongs to; '
-                          'frame_id = reader node name'),
+                          f'raw wrapped phase reads of one MOVE (height 1, one point per read; {CLOUD_XYZ} '
+                          'float32 t = s since the step started, phase = wrapped rad in (0, P], rssi = dBm, '
+                          'carrier_mhz = the read\'s carrier, MHz); x, y = where the simulated reader was at the '
+                          'read (map, tag at the origin: the walked segment, evaluation truth like /rfid/user/pose), '
+                          'z = 0; records.rfid.RfidPhase; header.stamp equals the stamp of the step result it '
+                          'belongs to; frame_id map'),
     RFID_USER_POSE: TopicSpec('geometry_msgs/msg/PoseStamped', 'estimate',
                               'evaluation only: true user pose in map (tag at the origin), orientation = facing '
                               'direction (yaw), after each action'),
@@ -199,13 +225,16 @@ TOPICS.update({
                           'with depth 256, so a late sensor still gets step 0 (start rule) and a busy leader loses '
                           'no step; child_frame_id = vehicle id'),
     IDSQ_LAYOUT: TopicSpec('sensor_msgs/msg/PointCloud2', 'static',
-                           'sensor layout, one point per sensor: FLOAT64 fields id, x, y, type (0 acoustic, '
-                           '1 DOA), published once by vehicle_sim'),
+                           f'sensor layout, one point per sensor: {CLOUD_XYZ} 4 bytes padding and FLOAT64 id, '
+                           'x_f64, y_f64 (the exact positions every sensor uses), type (0 acoustic, 1 DOA); '
+                           'z = 0; published once by vehicle_sim'),
     IDSQ_ESTIMATE: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
                              'MMSE estimate of the leader at step s (eq. 2) with the belief covariance as the '
-                             'x/y pose covariance; velocity not estimated (variance 1e6); child_frame_id = track id'),
+                             f'x/y pose covariance ({COV_PLANAR}: yaw and the x/y velocity, 1e6); child_frame_id = '
+                             'track id'),
     IDSQ_BELIEF: TopicSpec('sensor_msgs/msg/PointCloud2', 'sensor',
-                           'posterior sparse grid belief of the leader: FLOAT32 fields x, y (cell centre), p (mass)'),
+                           f'posterior sparse grid belief of the leader: {CLOUD_XYZ} p (mass); x, y = cell centre, '
+                           'z = 0; records.idsq.IdsqBelief'),
     IDSQ_MARKERS: TopicSpec('visualization_msgs/msg/MarkerArray', 'estimate',
                             'sensors (acoustic / DOA colours), the leader highlighted, the link to the next leader '
                             'and the 2σ ellipse of the estimate'),
@@ -223,8 +252,9 @@ TOPICS.update({
 # angular.z" convention of car-like robots, e.g. teb_local_planner's cmd_angle_instead_rotvel);
 # every other field 0; ``header.frame_id`` = ``base_link``. The input holds from its stamp until
 # the next one (zero-order hold, track_core.slam.hybrid).
-# Scans: sensor_msgs/PointCloud2 (track_msgs_py.convert.table_to_pointcloud2), one point per
-# detected tree, float32 fields ``range`` [m, to the trunk surface as measured], ``bearing`` [rad,
+# Scans: sensor_msgs/PointCloud2 (track_msgs_py.records.slam.SlamScan), one point per detected
+# tree, float32 fields ``x``, ``y``, ``z`` (the detection in the laser frame, x ahead, y left; for
+# the viewers), ``range`` [m, to the trunk surface as measured], ``bearing`` [rad,
 # eq. 5 convention: 0 = vehicle's right, π/2 ahead, π left], ``diameter`` [m] (0 for point
 # landmarks); ``slam_sim`` adds ``landmark`` (true landmark index, evaluation only);
 # ``header.frame_id`` = ``laser``. An empty scan (width 0) is allowed.
@@ -249,17 +279,20 @@ TOPICS.update({
                            'vehicle inputs: twist.linear.x = encoder speed [m/s], twist.angular.z = steering '
                            'ANGLE [rad] (not a rate); frame base_link'),
     SLAM_SCAN: TopicSpec('sensor_msgs/msg/PointCloud2', 'estimate',
-                         'one laser scan of tree detections: float32 fields range [m], bearing [rad, 0 = right, '
-                         'π/2 ahead], diameter [m] (slam_sim: + landmark id); frame laser'),
+                         f'one laser scan of tree detections: {CLOUD_XYZ} float32 range [m], bearing [rad, 0 = '
+                         'right, π/2 ahead], diameter [m] (slam_sim: + landmark id); x, y, z = the detection in the '
+                         'laser frame (x ahead, y left: x = r sin b, y = -r cos b, z = 0); records.slam.SlamScan; '
+                         'frame laser'),
     SLAM_GPS: TopicSpec('geometry_msgs/msg/PointStamped', 'estimate',
                         'GPS fix (x, y) in the gps frame (east/north, rotated and shifted from map); evaluation '
                         'only, has jumps'),
     SLAM_TRUTH: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
-                          'slam_sim: true laser pose (x, y, yaw φ) in map, zero covariance; evaluation only'),
+                          'slam_sim: true laser pose (x, y, yaw φ) in map, zero covariance (twist not estimated, '
+                          '1e6); evaluation only'),
     SLAM_POSE: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
                          'SLAM laser pose after each scan: position x, y, orientation yaw φ; pose.covariance '
-                         'x/y/yaw entries (0, 1, 5 of 6) from the filter, z/roll/pitch and twist unused (1e6); '
-                         'child_frame_id laser'),
+                         f'x/y/yaw entries (0, 1, 5 of 6) from the filter ({COV_PLANAR}: the twist x/y and yaw '
+                         'rate); child_frame_id laser'),
     SLAM_MAP: TopicSpec('visualization_msgs/msg/MarkerArray', 'static',
                         'landmark map at a modest rate: DELETEALL, one SPHERE_LIST of the means (ns slam_landmarks, '
                         'id 0) and one 2σ ellipse per landmark (ns slam_ellipses, id = landmark index)'),
@@ -314,7 +347,8 @@ for _prefix, _what in ((AIS_RADAR, 'coastal radar'), (AIS_PATROL, 'patrol')):
         ais_reports_topic(_prefix): TopicSpec(
             'geometry_msgs/msg/PoseWithCovarianceStamped', 'estimate',
             f'{_what} reports of real AIS ships, one message per ship and instant, all ships on this topic: '
-            'position + 2σ-ellipse covariance; header.frame_id = "map#<local track id>" (no MMSI)'),
+            f'position + 2σ-ellipse covariance ({COV_PLANAR}: yaw); header.frame_id = "map#<local track id>" '
+            '(no MMSI)'),
         ais_truth_topic(_prefix): TopicSpec(
             'diagnostic_msgs/msg/DiagnosticArray', 'static',
             f'evaluation only: the {_what}\'s local tracks, one status per track, name "<reports topic>/<local '

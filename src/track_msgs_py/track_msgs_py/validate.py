@@ -11,7 +11,8 @@ What is checked (the fields ``convert`` reads, see its table):
 - every number read is finite (positions, orientation, velocities, all 36 covariance entries);
 - the x/y covariance blocks are symmetric and positive semi-definite, by
   ``track_core.filters.gaussian.covariance_problem``. Only those blocks: the other diagonal
-  entries carry ``UNUSED_VARIANCE`` (or whatever another producer wrote) and are not read;
+  entries carry the planar 0 or ``NOT_ESTIMATED_VARIANCE`` (``track_msgs_py.convert``), or
+  whatever another producer wrote, and are not read;
 - stamps do not go backwards per key (``StampMonotonic``); equal stamps are accepted.
 
 ``InputPolicy`` (issue 13) adds what finite-ness alone lets through, so one hostile message can

@@ -13,15 +13,19 @@ from sensor_msgs.msg import PointCloud2, PointField
 from visualization_msgs.msg import Marker
 
 from track_msgs_py.convert import (
-    UNUSED_VARIANCE,
+    NOT_ESTIMATED_VARIANCE,
+    PLANAR_VARIANCE,
     covariance_ellipse_marker,
     cv_state_to_odometry,
     diagnostic_array,
     diagnostic_status,
     ellipse_points,
+    not_estimated,
     odometry_to_cv_state,
+    odometry_to_pose,
     pointcloud2_to_table,
     pose_cov_to_position,
+    pose_to_odometry,
     position_to_pose_cov,
     sec_to_stamp,
     stamp_to_ns,
@@ -125,11 +129,27 @@ def test_odometry_field_layout():
     twist_cov = np.asarray(msg.twist.covariance).reshape(6, 6)
     np.testing.assert_array_equal(pose_cov[:2, :2], [[4.0, 0.3], [0.3, 2.5]])
     np.testing.assert_array_equal(twist_cov[:2, :2], [[0.9, 0.02], [0.02, 0.7]])
-    for cov in (pose_cov, twist_cov):
-        np.testing.assert_array_equal(np.diag(cov)[2:], UNUSED_VARIANCE)
+    for cov in (pose_cov, twist_cov):  # issue 19: z/roll/pitch 0 (planar, RViz's 2-D mode), yaw not estimated
+        np.testing.assert_array_equal(np.diag(cov)[2:], [PLANAR_VARIANCE] * 3 + [NOT_ESTIMATED_VARIANCE])
+        assert PLANAR_VARIANCE == 0.0 and not_estimated(cov[5, 5]) and not not_estimated(cov[:2, :2]).any()
         off = cov - np.diag(np.diag(cov))
         off[:2, :2] = 0.0
         assert not off.any()
+
+
+def test_slam_pose_covariance_is_planar_with_the_twist_not_estimated():
+    P3 = np.array([[0.5, 0.1, 0.02], [0.1, 0.4, -0.01], [0.02, -0.01, 0.003]])
+    msg = cdr(pose_to_odometry(2.5, np.array([1.0, 2.0, 0.3]), P3))
+    pose_cov = np.asarray(msg.pose.covariance).reshape(6, 6)
+    twist_cov = np.asarray(msg.twist.covariance).reshape(6, 6)
+    idx = np.ix_([0, 1, 5], [0, 1, 5])
+    np.testing.assert_array_equal(pose_cov[idx], P3)
+    rest = pose_cov.copy()
+    rest[idx] = 0.0
+    assert not rest.any()  # z, roll, pitch and their cross terms: exactly 0 (RViz's 2-D mode)
+    np.testing.assert_array_equal(np.diag(twist_cov), [1e6, 1e6, 0.0, 0.0, 0.0, 1e6])
+    assert not_estimated(np.diag(twist_cov)).tolist() == [True, True, False, False, False, True]
+    np.testing.assert_array_equal(odometry_to_pose(msg)[2], P3)
 
 
 def test_odometry_rejects_wrong_shapes():
@@ -153,7 +173,7 @@ def test_pose_cov_round_trip(through_cdr):
     np.testing.assert_array_equal(z2, z)
     np.testing.assert_array_equal(R2, R)
     assert msg.pose.pose.position.z == 0.0 and msg.pose.pose.orientation.w == 1.0
-    np.testing.assert_array_equal(np.diag(np.asarray(msg.pose.covariance).reshape(6, 6))[2:], UNUSED_VARIANCE)
+    np.testing.assert_array_equal(np.diag(np.asarray(msg.pose.covariance).reshape(6, 6))[2:], [0.0, 0.0, 0.0, 1e6])
 
 
 # --- PointCloud2 tables ---------------------------------------------------------------------
@@ -178,6 +198,40 @@ def test_pointcloud2_round_trip(n, through_cdr):
     for name, col in table.items():
         assert back[name].dtype == np.float64 and back[name].shape == (n,)
         np.testing.assert_array_equal(back[name], col.astype(np.float32))
+
+
+def test_points_come_first_as_float32_xyz():
+    from track_msgs_py.convert import cloud_columns, points_to_pointcloud2
+
+    xy = np.array([[1.0, 2.0], [3.0, -4.0]])
+    msg = cdr(points_to_pointcloud2(1.0, 'map', xy, {'p': np.array([0.25, 0.75])}))
+    assert [(f.name, f.offset, f.datatype, f.count) for f in msg.fields] == [
+        ('x', 0, PointField.FLOAT32, 1), ('y', 4, PointField.FLOAT32, 1), ('z', 8, PointField.FLOAT32, 1),
+        ('p', 12, PointField.FLOAT32, 1)]
+    table = pointcloud2_to_table(msg)
+    np.testing.assert_array_equal(np.stack([table['x'], table['y']], 1), xy)
+    np.testing.assert_array_equal(table['z'], [0.0, 0.0])
+    assert list(cloud_columns(table)) == ['p']
+    xyz = pointcloud2_to_table(points_to_pointcloud2(0.0, 'map', np.array([[1.0, 2.0, 3.0]]), {}))
+    assert (xyz['x'][0], xyz['y'][0], xyz['z'][0]) == (1.0, 2.0, 3.0)
+    with pytest.raises(ValueError, match='clash'):
+        points_to_pointcloud2(0.0, 'map', xy, {'z': np.zeros(2)})
+    with pytest.raises(ValueError, match='shape'):
+        points_to_pointcloud2(0.0, 'map', np.zeros((2, 4)), {})
+
+
+def test_scan_points_are_in_the_laser_frame_of_the_slam_pose():
+    """x ahead, y left: the point put in map by the pose (x, y, φ) is where inverse_observe puts the landmark."""
+    from track_core.slam.models import inverse_observe
+    from track_msgs_py.convert import scan_points
+
+    z = np.array([[10.0, math.pi / 2], [5.0, 0.0], [2.0, math.pi], [7.0, 0.4]])  # ahead, right, left, ...
+    pts = scan_points(z)
+    np.testing.assert_allclose(pts[:3], [[10.0, 0.0], [0.0, -5.0], [0.0, 2.0]], atol=1e-12)
+    pose = np.array([3.0, -1.0, 0.7])
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    in_map = pose[:2] + pts @ np.array([[c, s], [-s, c]])
+    np.testing.assert_allclose(in_map, inverse_observe(pose, z), atol=1e-12)
 
 
 def test_pointcloud2_marks_non_finite_values_not_dense():
@@ -286,8 +340,13 @@ def test_idsq_layout_round_trip_is_exact(through_cdr):
     layout = SensorLayout(rng.uniform(0.0, 150.0, (12, 2)) + 1e-9 * rng.standard_normal((12, 2)),
                           rng.random(12) < 0.3, 40.0)
     msg = layout_to_pointcloud2(1.5, layout)
-    assert [f.name for f in msg.fields] == list(LAYOUT_FIELDS)
-    assert all(f.datatype == PointField.FLOAT64 for f in msg.fields) and msg.width == 12
+    assert [f.name for f in msg.fields] == ['x', 'y', 'z', *LAYOUT_FIELDS] and msg.width == 12
+    assert [(f.offset, f.datatype) for f in msg.fields[:3]] == [(0, PointField.FLOAT32), (4, PointField.FLOAT32),
+                                                               (8, PointField.FLOAT32)]
+    assert all(f.datatype == PointField.FLOAT64 and f.offset % 8 == 0 for f in msg.fields[3:])
+    table = pointcloud2_to_table(msg)
+    np.testing.assert_array_equal(table['x'], layout.positions[:, 0].astype(np.float32))
+    assert not table['z'].any()
     back = pointcloud2_to_layout(cdr(msg) if through_cdr else msg, 40.0)
     np.testing.assert_array_equal(back.positions, layout.positions)  # float64: bit-exact
     np.testing.assert_array_equal(back.is_doa, layout.is_doa)

@@ -61,3 +61,23 @@ def test_reselect_and_self_events_are_the_old_layout():
     assert IdsqLeaderEvent.from_status(st) == IdsqLeaderEvent('self', 7, 2, 2, tried=(4, 5))
     with pytest.raises(RecordError, match='event'):
         IdsqLeaderEvent.from_values({'event': 'lead', 'step': '1', 'leader': '2', 'next': '3'})
+
+
+def test_belief_cloud_is_xyz_then_mass_and_round_trips():
+    from sensor_msgs.msg import PointField
+
+    from track_msgs_py.convert import pointcloud2_to_table, table_to_pointcloud2
+    from track_msgs_py.records.idsq import IdsqBelief
+
+    xy, p = np.array([[12.5, 30.0], [17.5, 30.0]]), np.array([0.25, 0.75])
+    msg = IdsqBelief(4.0, xy, p).to_msg()
+    assert [(f.name, f.offset, f.datatype) for f in msg.fields] == [
+        ('x', 0, PointField.FLOAT32), ('y', 4, PointField.FLOAT32), ('z', 8, PointField.FLOAT32),
+        ('p', 12, PointField.FLOAT32)]
+    assert not pointcloud2_to_table(msg)['z'].any() and msg.header.frame_id == 'map'
+    back = IdsqBelief.from_msg(msg)
+    assert back.t == 4.0
+    np.testing.assert_array_equal(back.xy, xy)
+    np.testing.assert_array_equal(back.p, p)
+    with pytest.raises(RecordError, match=r'idsq belief: .*missing p'):
+        IdsqBelief.from_msg(table_to_pointcloud2(0.0, 'map', {'x': [0.0], 'y': [0.0]}))

@@ -93,3 +93,47 @@ def test_user_status_and_found_round_trip():
     assert RfidFound.from_values(found.to_values()) == found
     with pytest.raises(RecordError, match="missing key 'heading'"):
         RfidUserStatus.from_values({k: x for k, x in v.items() if k != 'heading'})
+
+
+# --- /rfid/phase (issue 19: positions first) ---------------------------------------------------------
+
+def test_phase_cloud_has_the_reads_positions_first_and_round_trips():
+    import numpy as np
+    from rclpy.serialization import deserialize_message, serialize_message
+    from sensor_msgs.msg import PointCloud2, PointField
+
+    from track_core.rfid.signal import PhaseStream
+    from track_msgs_py.records.rfid import PHASE_FIELDS, RfidPhase
+
+    xy = np.array([[10.0, 0.0], [9.75, 0.125], [9.5, 0.25]])  # float32-exact
+    stream = PhaseStream(np.array([5.25, 5.5, 5.75]), np.array([0.5, 1.0, 3.0]), np.array([-60.0, -61.0, -62.5]),
+                         5.0, 6.0, xy=xy)
+    rec = RfidPhase.from_stream(7.5, stream, 5.0, 866.5e6, np.zeros(3))
+    msg = deserialize_message(serialize_message(rec.to_msg()), PointCloud2)
+    assert [(f.name, f.offset, f.datatype) for f in msg.fields[:3]] == [
+        ('x', 0, PointField.FLOAT32), ('y', 4, PointField.FLOAT32), ('z', 8, PointField.FLOAT32)]
+    assert [f.name for f in msg.fields[3:]] == list(PHASE_FIELDS) and msg.header.frame_id == 'map'
+    back = RfidPhase.from_msg(msg)
+    assert back.stamp == 7.5 and back.frame_id == 'map'
+    np.testing.assert_array_equal(back.xy, xy)
+    np.testing.assert_array_equal(back.t, [0.25, 0.5, 0.75])
+    np.testing.assert_array_equal(back.carrier_mhz, [866.5] * 3)
+    np.testing.assert_array_equal(back.phase, stream.phase)
+    # a stream without positions (not the simulator's) puts every read at the given position
+    bare = RfidPhase.from_stream(7.5, PhaseStream(stream.t, stream.phase, stream.rssi), 5.0, 866.5e6,
+                                 np.array([1.0, 2.0, 0.3]))
+    np.testing.assert_array_equal(bare.xy, [[1.0, 2.0]] * 3)
+    with pytest.raises(ValueError, match='xy has shape'):
+        PhaseStream(stream.t, stream.phase, stream.rssi, xy=xy[:2])
+
+
+def test_phase_cloud_without_a_field_is_refused_in_one_line():
+    import numpy as np
+
+    from track_msgs_py.convert import table_to_pointcloud2
+    from track_msgs_py.records.rfid import RfidPhase
+
+    old = table_to_pointcloud2(1.0, 'rfid_reader', {k: np.ones(2) for k in ('t', 'phase', 'rssi', 'carrier_mhz')})
+    with pytest.raises(RecordError, match=r'rfid phase: needs float fields .* missing x, y') as exc:
+        RfidPhase.from_msg(old)
+    assert '\n' not in str(exc.value)

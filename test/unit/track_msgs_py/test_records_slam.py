@@ -6,7 +6,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from track_msgs_py.convert import diagnostic_array, diagnostic_status, stamp_to_sec, table_to_pointcloud2
+from track_msgs_py.convert import (
+    diagnostic_array,
+    diagnostic_status,
+    pointcloud2_to_table,
+    stamp_to_sec,
+    table_to_pointcloud2,
+)
 from track_msgs_py.records import DIAG_OK, DIAG_WARN, RecordError, diagnostic_values
 from track_msgs_py.records.slam import SlamEvent, SlamMode, SlamScan
 
@@ -60,8 +66,13 @@ def test_scan_round_trip_through_pointcloud2():
     scan = SlamScan(2.25, np.array([10.5, 20.25, 3.0]), np.array([0.5, 1.5, 3.140625]), np.array([0.25, 0.0, 1.0]),
                     {'landmark': np.array([3.0, 7.0, 1.0])})
     msg = scan.to_msg()
-    assert [f.name for f in msg.fields] == ['range', 'bearing', 'diameter', 'landmark']
+    assert [f.name for f in msg.fields] == ['x', 'y', 'z', 'range', 'bearing', 'diameter', 'landmark']
+    assert [f.offset for f in msg.fields[:3]] == [0, 4, 8]
     assert msg.header.frame_id == 'laser' and msg.width == 3
+    table = pointcloud2_to_table(msg)  # the detections in the laser frame (x ahead, y left), float32
+    np.testing.assert_allclose(table['x'], scan.range * np.sin(scan.bearing), rtol=1e-6)
+    np.testing.assert_allclose(table['y'], -scan.range * np.cos(scan.bearing), rtol=1e-6, atol=1e-5)
+    assert not table['z'].any()
     back = SlamScan.from_msg(msg)
     assert back.t == 2.25 and back.frame_id == 'laser' and list(back.extra) == ['landmark']
     for a, b in ((back.range, scan.range), (back.bearing, scan.bearing), (back.diameter, scan.diameter),

@@ -37,12 +37,29 @@ def test_valid_messages_are_accepted_also_after_cdr():
 
 
 def test_unused_diagonal_entries_still_validate():
-    """The 6×6 covariances carry a large value on unused diagonals and zero x/y variance for truth."""
+    """Our 6×6 covariances (z/roll/pitch 0, yaw 1e6) validate, and so do zero x/y variances for truth."""
     truth = cv_state_to_odometry(0.0, X, np.zeros((4, 4)), 'map', 'truth')
     assert odometry_problem(truth, KNOWN_FRAMES) is None
     msg = pose_cov()
     set_cov(msg.pose, {14: 0.0, 21: 1e12, 35: 1e-12})  # another producer's choice for unused entries
     assert pose_cov_problem(msg, KNOWN_FRAMES) is None
+
+
+def test_our_estimates_pass_the_input_policy():
+    """Issue 19: every covariance our converters write passes the policy of the nodes that read it."""
+    from track_msgs_py.convert import NOT_ESTIMATED_VARIANCE, pose_to_odometry
+    from track_msgs_py.validate import odometry_bounds_problem, pose_cov_bounds_problem, variance_problem
+
+    idsq = cv_state_to_odometry(1.0, X, np.diag([4.0, NOT_ESTIMATED_VARIANCE, 9.0, NOT_ESTIMATED_VARIANCE]), 'map')
+    slam = pose_to_odometry(1.0, np.array([1.0, 2.0, 0.5]), np.diag([0.1, 0.2, 0.01]))
+    for msg in (odom(), idsq, slam):
+        assert odometry_problem(msg, KNOWN_FRAMES) is None and odometry_bounds_problem(msg) is None
+        for cov in (msg.pose.covariance, msg.twist.covariance):  # every diagonal entry 0 or inside the range
+            d = np.diag(np.asarray(cov).reshape(6, 6))
+            assert np.all((d == 0.0) | ((d >= 1e-12) & (d <= 1e14))), d
+        twist_xy = np.asarray(msg.twist.covariance).reshape(6, 6)[:2, :2]
+        assert variance_problem('twist.covariance', twist_xy) is None
+    assert pose_cov_problem(pose_cov(), KNOWN_FRAMES) is None and pose_cov_bounds_problem(pose_cov()) is None
 
 
 def test_nan_position():

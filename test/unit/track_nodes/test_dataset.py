@@ -75,7 +75,8 @@ def test_bag_holds_inputs_scans_and_gps_stamped_with_the_data_times(data, tmp_pa
     scans = [(stamp_to_sec(m.header.stamp), pointcloud2_to_table(m)) for topic, _, m in msgs if topic == SLAM_SCAN]
     assert [t for t, _ in scans] == [0.852, 1.023, 2.0]
     first = scans[0][1]
-    assert list(first) == ['range', 'bearing', 'diameter']
+    assert list(first) == ['x', 'y', 'z', 'range', 'bearing', 'diameter']  # x, y, z first (issue 19)
+    np.testing.assert_allclose(first['x'], first['range'] * np.sin(first['bearing']), rtol=1e-6)
     # raw ranges (to the trunk surface; the slam node adds the radius), float32 precision
     np.testing.assert_allclose(first['range'], [20.46202, 29.59859], rtol=1e-7)
     np.testing.assert_allclose(first['bearing'], [0.88575, 1.02102], rtol=1e-7)
@@ -151,7 +152,7 @@ def test_pose_odometry_round_trip():
         np.testing.assert_allclose(pose, [3.0, -4.0, yaw], atol=1e-12)
         np.testing.assert_array_equal(cov, P)
         full = np.asarray(msg.pose.covariance).reshape(6, 6)
-        assert full[2, 2] == full[3, 3] == full[4, 4] == 1e6  # z, roll, pitch not estimated
+        assert full[2, 2] == full[3, 3] == full[4, 4] == 0.0  # z, roll, pitch: planar (issue 19)
 
 
 def test_inputs_twist_round_trip():

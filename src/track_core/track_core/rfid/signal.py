@@ -127,7 +127,9 @@ class PhaseStream:
     """Reads of one action: times (s), wrapped phases (rad), RSSI (dBm), all the same length.
 
     ``carrier_hz``: the carrier of each read (Hz) for a hopping reader; None = every read on the
-    reference carrier of the processing (``UnwrapConfig.carrier_hz``).
+    reference carrier of the processing (``UnwrapConfig.carrier_hz``). ``xy``: where the reader was
+    at each read, (n, 2) m (the simulator's truth, tag at the origin; for display, never processed);
+    None = not known.
     """
 
     t: np.ndarray
@@ -136,6 +138,7 @@ class PhaseStream:
     t_start: float | None = None   # when the user pressed the button (start of the action)
     t_end: float | None = None     # when the action was confirmed
     carrier_hz: np.ndarray | None = None
+    xy: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         for name in ('t', 'phase', 'rssi'):
@@ -148,6 +151,11 @@ class PhaseStream:
             if c.size != self.t.size:
                 raise ValueError(f'PhaseStream: carrier_hz has {c.size} values for {self.t.size} reads')
             object.__setattr__(self, 'carrier_hz', c)
+        if self.xy is not None:
+            xy = np.asarray(self.xy, dtype=float)
+            if xy.shape != (self.t.size, 2):
+                raise ValueError(f'PhaseStream: xy has shape {xy.shape} for {self.t.size} reads (need (n, 2))')
+            object.__setattr__(self, 'xy', xy)
 
     def __len__(self) -> int:
         return int(self.t.size)

@@ -302,7 +302,7 @@ class SimReader:
         ph = p.phase.phase(d, self.offset, carrier) + noise + extra
         ph[out] = wild
         self.t = t0 + duration
-        return PhaseStream(t0 + times, p.phase.wrap(ph), rssi, t0, t0 + duration, carrier)
+        return PhaseStream(t0 + times, p.phase.wrap(ph), rssi, t0, t0 + duration, carrier, xy)
 
     def _channels(self, times: np.ndarray) -> np.ndarray:
         """Channel index of each read: one channel per dwell, each dwell on another channel than the last."""

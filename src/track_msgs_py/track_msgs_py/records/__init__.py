@@ -23,6 +23,11 @@ Each field's annotation says how it is written (and parsed back):
 each item of a tuple) differently on the way out (for example ``'{:.6g}'.format``). A key
 that is missing or does not parse raises ``RecordError`` naming the record, the key and the
 value, so a node can refuse the message with that one line.
+
+A layout carried in ``sensor_msgs/PointCloud2`` fields is a record too (a frozen dataclass of
+arrays with ``to_msg``/``from_msg``: ``slam.SlamScan``, ``rfid.RfidPhase``, ``idsq.IdsqBelief``).
+Every one we publish starts with float32 x, y, z (``convert.points_to_pointcloud2``);
+``read_cloud`` reads one back with the same one-line ``RecordError``.
 """
 
 from __future__ import annotations
@@ -34,13 +39,32 @@ from collections.abc import Mapping
 from functools import cache
 from typing import Any, ClassVar, Self
 
+import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
+
+from track_msgs_py.convert import pointcloud2_to_table
 
 DIAG_OK, DIAG_WARN, DIAG_ERROR, DIAG_STALE = 0, 1, 2, 3
 
 
 class RecordError(ValueError):
     """A message does not hold a valid record; the text is one line naming the key."""
+
+
+def read_cloud(kind: str, msg, required: tuple[str, ...]) -> dict[str, np.ndarray]:
+    """The columns of a ``PointCloud2`` (``convert.pointcloud2_to_table``), x, y, z included; ``RecordError``
+    naming ``kind`` when the cloud does not decode or a ``required`` field is missing or has count > 1."""
+    try:
+        table = pointcloud2_to_table(msg)
+    except ValueError as exc:
+        raise RecordError(f'{kind}: {exc}') from None
+    missing = [k for k in required if k not in table]
+    if missing:
+        raise RecordError(f'{kind}: needs float fields {", ".join(required)}, missing {", ".join(missing)} '
+                          f'(fields: {", ".join(table) or "none"})')
+    if any(table[k].ndim != 1 for k in required):
+        raise RecordError(f'{kind}: {", ".join(required)} must have count 1')
+    return table
 
 
 def diagnostic_values(status: DiagnosticStatus) -> dict[str, str]:

@@ -1,6 +1,10 @@
-"""IDSQ records: the reply to a handoff (``/idsq/sensor_<j>/ack``) and the leader events (``/idsq/leader``).
+"""IDSQ records: the reply to a handoff (``/idsq/sensor_<j>/ack``), the leader events (``/idsq/leader``)
+and the leader's belief cloud (``/idsq/belief``).
 
-Both travel as one ``DiagnosticStatus`` named ``sensor_<id>`` of the sensor that writes it.
+The first two travel as one ``DiagnosticStatus`` named ``sensor_<id>`` of the sensor that writes it;
+``IdsqBelief`` is a ``PointCloud2``: float32 ``x``, ``y`` (the cell centre, map), ``z`` (0), ``p``
+(the cell's posterior mass), one point per cell of the sparse belief. The sensor layout cloud is
+``track_msgs_py.convert.layout_to_pointcloud2``.
 """
 
 from __future__ import annotations
@@ -8,9 +12,13 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Self
 
+import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus
+from sensor_msgs.msg import PointCloud2
 
-from track_msgs_py.records import DIAG_OK, DIAG_WARN, RecordError, StatusRecord
+from track_msgs_py.convert import points_to_pointcloud2, stamp_to_sec
+from track_msgs_py.records import DIAG_OK, DIAG_WARN, RecordError, StatusRecord, read_cloud
+from track_msgs_py.topics import FRAME_MAP
 
 LEADER_EVENTS = ('step', 'reselect', 'self')
 
@@ -89,4 +97,23 @@ class IdsqLeaderEvent(StatusRecord):
             hardware_id, extra)
 
 
-__all__ = ['LEADER_EVENTS', 'IdsqAck', 'IdsqLeaderEvent', 'RecordError']
+@dataclass(frozen=True, eq=False)
+class IdsqBelief:
+    """The sparse grid belief of step ``t``'s leader: cell centres ``xy`` (n, 2) [m, map] and masses ``p`` (n,)."""
+
+    t: float
+    xy: np.ndarray
+    p: np.ndarray
+    frame_id: str = FRAME_MAP
+
+    def to_msg(self) -> PointCloud2:
+        return points_to_pointcloud2(self.t, self.frame_id, self.xy, {'p': self.p})
+
+    @classmethod
+    def from_msg(cls, msg: PointCloud2) -> Self:
+        table = read_cloud('idsq belief', msg, ('x', 'y', 'p'))
+        return cls(stamp_to_sec(msg.header.stamp), np.stack([table['x'], table['y']], axis=1), table['p'],
+                   msg.header.frame_id)
+
+
+__all__ = ['LEADER_EVENTS', 'IdsqAck', 'IdsqBelief', 'IdsqLeaderEvent', 'RecordError']

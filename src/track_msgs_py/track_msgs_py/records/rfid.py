@@ -3,7 +3,13 @@
 - ``RfidCommand``: ``/rfid/command``, guidance → reader (one ``protocol.Command``);
 - ``RfidStep``: ``/rfid/step``, reader → guidance (one ``protocol.StepResult`` + ``duration``);
 - ``RfidUserStatus``: ``/rfid/user/status``, the reader's truth (evaluation only);
-- ``RfidFound``: ``/rfid/found``, the guidance's one event when the tag is reached.
+- ``RfidFound``: ``/rfid/found``, the guidance's one event when the tag is reached;
+- ``RfidPhase``: ``/rfid/phase``, the raw reads of one MOVE as a ``PointCloud2``: float32 ``x``,
+  ``y``, ``z`` = where the reader was at each read (map, tag at the origin: the simulator's truth,
+  on the segment the user walked; z = 0), then ``t`` (s since the step started), ``phase``
+  (wrapped, rad), ``rssi`` (dBm), ``carrier_mhz``. Positions make the reads drawable where they
+  were taken (coloured by phase, the wrapping is visible along the walk); nothing reads them back
+  for processing.
 
 Floats are written with the shortest repr, so dφ, turns and angles round-trip exactly. Field
 order is the key order on the wire.
@@ -13,11 +19,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Self
 
+import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
+from sensor_msgs.msg import PointCloud2
 
 from track_core.rfid.protocol import Command, CommandKind, StepResult
-from track_msgs_py.records import RecordError, StatusRecord
+from track_core.rfid.signal import PhaseStream
+from track_msgs_py.convert import points_to_pointcloud2, stamp_to_sec
+from track_msgs_py.records import RecordError, StatusRecord, read_cloud
+from track_msgs_py.topics import FRAME_MAP
 
 KINDS = tuple(k.value for k in CommandKind)
 
@@ -169,3 +181,42 @@ class RfidFound(StatusRecord):
     updates: int
     resamples: int
     reinits: int
+
+
+#: The table fields of ``/rfid/phase`` after x, y, z.
+PHASE_FIELDS = ('t', 'phase', 'rssi', 'carrier_mhz')
+
+
+@dataclass(frozen=True, eq=False)
+class RfidPhase:
+    """The reads of one MOVE, stamped ``stamp`` (the step result's stamp): per read ``t`` [s since the step
+    started], ``phase`` [rad, wrapped], ``rssi`` [dBm], ``carrier_mhz`` and ``xy`` (n, 2), where it was taken."""
+
+    stamp: float
+    t: np.ndarray
+    phase: np.ndarray
+    rssi: np.ndarray
+    carrier_mhz: np.ndarray
+    xy: np.ndarray
+    frame_id: str = FRAME_MAP
+
+    @classmethod
+    def from_stream(cls, stamp: float, stream: PhaseStream, t_start: float, carrier_hz: float,
+                    at: np.ndarray) -> RfidPhase:
+        """A core ``PhaseStream``: times relative to ``t_start``, reads without a carrier on ``carrier_hz``,
+        reads without a position (``stream.xy`` None) at ``at`` (x, y)."""
+        n = len(stream)
+        carrier = np.full(n, carrier_hz) if stream.carrier_hz is None else stream.carrier_hz
+        xy = np.tile(np.asarray(at, dtype=float)[:2], (n, 1)) if stream.xy is None else stream.xy
+        return cls(stamp, stream.t - t_start, stream.phase, stream.rssi, carrier / 1e6, xy)
+
+    def to_msg(self) -> PointCloud2:
+        return points_to_pointcloud2(self.stamp, self.frame_id, self.xy,
+                                     {k: getattr(self, k) for k in PHASE_FIELDS})
+
+    @classmethod
+    def from_msg(cls, msg: PointCloud2) -> Self:
+        """Needs every field of ``PHASE_FIELDS`` and x, y; else ``RecordError`` with one line."""
+        table = read_cloud('rfid phase', msg, ('x', 'y', *PHASE_FIELDS))
+        return cls(stamp_to_sec(msg.header.stamp), *(table[k] for k in PHASE_FIELDS),
+                   np.stack([table['x'], table['y']], axis=1), msg.header.frame_id)

@@ -5,9 +5,11 @@
 - ``SlamEvent``: one ``DiagnosticArray`` per mode switch, one status ``<node>/mode_switch`` (level
   OK for PF → CEKF, WARN otherwise; message e.g. ``CEKF -> PF``) with the pose after the scan of
   the switch;
-- ``SlamScan``: one laser scan as a ``PointCloud2`` table (float32 fields ``range``, ``bearing``,
-  ``diameter`` and any extra column such as slam_sim's ``landmark``), built by
-  ``convert.scan_to_pointcloud2`` and read by ``convert.pointcloud2_to_table``.
+- ``SlamScan``: one laser scan as a ``PointCloud2`` table: float32 ``x``, ``y``, ``z`` (the detection
+  in the laser frame, x ahead and y left: ``convert.scan_points``, z = 0; for the viewers, never
+  read back), then float32 ``range``, ``bearing``, ``diameter`` and any extra column such as
+  slam_sim's ``landmark``; built by ``convert.scan_to_pointcloud2`` and read by
+  ``convert.pointcloud2_to_table``.
 
 The ``slam`` node writes them, ``slam_sim`` writes scans, and the summary and the tests read them.
 """
@@ -22,8 +24,8 @@ import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from sensor_msgs.msg import PointCloud2
 
-from track_msgs_py.convert import diagnostic_array, pointcloud2_to_table, scan_to_pointcloud2, stamp_to_sec
-from track_msgs_py.records import DIAG_OK, DIAG_WARN, RecordError, StatusRecord
+from track_msgs_py.convert import cloud_columns, diagnostic_array, scan_to_pointcloud2, stamp_to_sec
+from track_msgs_py.records import DIAG_OK, DIAG_WARN, RecordError, StatusRecord, read_cloud
 from track_msgs_py.topics import FRAME_LASER
 
 #: ``SlamEvent.event`` → the status message.
@@ -90,7 +92,8 @@ class SlamEvent(StatusRecord):
 @dataclass(frozen=True, eq=False)
 class SlamScan:
     """One scan: per tree, ``range`` [m, to the trunk surface], ``bearing`` [rad, eq. 5: 0 = right,
-    π/2 ahead], ``diameter`` [m, 0 for point landmarks]; ``extra``: further columns (evaluation)."""
+    π/2 ahead], ``diameter`` [m, 0 for point landmarks]; ``extra``: further columns (evaluation).
+    The message's x, y, z are derived from range and bearing, so they are not part of the record."""
 
     t: float
     range: np.ndarray
@@ -109,18 +112,12 @@ class SlamScan:
 
     @classmethod
     def from_msg(cls, msg: PointCloud2) -> Self:
-        """Needs 1-D fields ``range`` and ``bearing``; a missing ``diameter`` reads as 0. Else ``RecordError``."""
-        try:
-            table = pointcloud2_to_table(msg)
-        except ValueError as exc:
-            raise RecordError(f'slam scan: {exc}') from None
-        missing = [k for k in ('range', 'bearing') if k not in table]
-        if missing:
-            raise RecordError(f'slam scan: needs float fields range and bearing, missing {", ".join(missing)} '
-                              f'(fields: {", ".join(table) or "none"})')
+        """Needs 1-D fields ``range`` and ``bearing``; a missing ``diameter`` reads as 0, missing x, y, z (a scan
+        recorded before issue 19) are fine. Else ``RecordError``."""
+        table = cloud_columns(read_cloud('slam scan', msg, ('range', 'bearing')))
         r = table.pop('range')
         b = table.pop('bearing')
         d = table.pop('diameter', np.zeros_like(r))
-        if r.ndim != 1 or b.ndim != 1 or d.ndim != 1:
-            raise RecordError('slam scan: range, bearing and diameter must have count 1')
+        if d.ndim != 1:
+            raise RecordError('slam scan: diameter must have count 1')
         return cls(stamp_to_sec(msg.header.stamp), r, b, d, table, msg.header.frame_id)

@@ -12,8 +12,9 @@ format as the recorder) to ``DIR`` (a new directory; an existing one is never ov
 - ``/slam/inputs`` (geometry_msgs/TwistStamped): one per row of inputs.dat, ``twist.linear.x`` =
   encoder speed, ``twist.angular.z`` = steering angle;
 - ``/slam/scan`` (sensor_msgs/PointCloud2): one per laser scan (rows of measurements.dat sharing one
-  t), fields ``range`` (as measured, to the trunk surface; the ``slam`` node adds the radius),
-  ``bearing`` (unchanged: the data's convention is eq. 5's), ``diameter``;
+  t), fields ``x``, ``y``, ``z`` (the detection in the laser frame, ``records.slam.SlamScan``),
+  ``range`` (as measured, to the trunk surface; the ``slam`` node adds the radius), ``bearing``
+  (unchanged: the data's convention is eq. 5's), ``diameter``;
 - ``/slam/gps`` (geometry_msgs/PointStamped, frame ``gps``): one per row of gps.dat, jumps included.
 
 Every header stamp and bag (log) time is the data's own time (seconds from the run's start);

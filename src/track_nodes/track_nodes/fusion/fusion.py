@@ -18,9 +18,10 @@ a bad one is refused (``refuse``: counted per reason, one log line per reason ev
 ``warn_period`` seconds, /diagnostics) without touching any state or watermark. A pair whose
 score still fails is skipped and reported (``Instant.skipped``); every other pair is scored.
 
-Velocities with variance ≥ ``UNUSED_VARIANCE`` (the "not estimated" convention of
-track_msgs_py.convert, e.g. the IDSQ network's estimate) are ignored: such a track is held like a
-position report instead of being predicted with a 1e6 m²/s² velocity variance.
+Only the x/y blocks of the covariances are read (``track_msgs_py.convert``: z/roll/pitch are 0 by
+the planar convention, yaw is not estimated). Velocities with ``not_estimated`` variance (≥
+``NOT_ESTIMATED_VARIANCE``, e.g. the IDSQ network's estimate) are ignored: such a track is held like
+a position report instead of being predicted with a 1e6 m²/s² velocity variance.
 
 Schedule. ``schedule:=timer`` (default): score at every tick of a ``rate`` Hz timer on the node
 clock, with the reports received so far. ``schedule:=stamps``: score at the instants
@@ -63,9 +64,9 @@ from visualization_msgs.msg import MarkerArray
 
 from track_core.fusion import Instant, PairAssociator, TrackReport
 from track_msgs_py.convert import (
-    UNUSED_VARIANCE,
     cv_state_to_odometry,
     diagnostic_array,
+    not_estimated,
     odometry_to_cv_state,
     pose_cov_to_position,
     stamp_to_sec,
@@ -204,7 +205,7 @@ class FusionNode(TrackNode):
             return
         t, x, P = odometry_to_cv_state(msg)
         Pv = P[np.ix_([1, 3], [1, 3])]
-        if np.any(np.diag(Pv) >= UNUSED_VARIANCE):  # velocity not estimated: hold the position
+        if np.any(not_estimated(np.diag(Pv))):  # velocity not estimated: hold the position
             self._push(topic, track_id, TrackReport(t, x[[0, 2]], P[np.ix_([0, 2], [0, 2])]))
             return
         self._push(topic, track_id, TrackReport(t, x[[0, 2]], P[np.ix_([0, 2], [0, 2])], x[[1, 3]], Pv))

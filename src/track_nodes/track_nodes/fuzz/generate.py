@@ -11,7 +11,8 @@ The classes a template gets depend on what it has (its type's fields, not a list
 - every variable-length array: ``array.empty``, ``array.oversized``;
 - a ``header``: ``stamp.zero``, ``stamp.future`` (sec = 2147483647), ``stamp.backwards`` (an hour
   before the template), ``frame.wrong``, ``frame.empty``; ``child_frame_id``: ``frame.child_wrong``;
-- PointCloud2: ``cloud.point_step``, ``cloud.point_step_zero``, ``cloud.row_step``, ``cloud.field_missing``,
+- PointCloud2: ``cloud.point_step``, ``cloud.point_step_zero``, ``cloud.row_step``, ``cloud.field_missing``
+  (the n-th message drops field n mod k: the x, y, z every cloud starts with and the table's own),
   ``cloud.no_fields``, ``cloud.truncated``, ``cloud.width_huge``, ``cloud.datatype``, ``cloud.offset``,
   ``cloud.nan_data``, ``cloud.inf_data``;
 - DiagnosticArray values: ``value.nan``, ``value.inf``, ``value.1e308``, ``value.denormal``,
@@ -172,13 +173,17 @@ class Fuzzer:
                 return m
             return fn
 
+        def drop_one(m, n):
+            fields = list(m.fields)
+            if fields:
+                del fields[(n - 1) % len(fields)]
+            m.fields = fields
+            return m
+
         def fill(pattern: bytes):
             def change(m):
                 m.data = array.array('B', (pattern * (len(m.data) // len(pattern) + 1))[:len(m.data)])
             return change
-
-        def drop_first(m):
-            m.fields = list(m.fields)[1:]
 
         def set_attr(name, value_of):
             return lambda m: setattr(m, name, value_of(m))
@@ -194,7 +199,7 @@ class Fuzzer:
         return [('cloud.point_step', edit(set_attr('point_step', lambda m: m.point_step + 1))),
                 ('cloud.point_step_zero', edit(set_attr('point_step', lambda m: 0))),
                 ('cloud.row_step', edit(set_attr('row_step', lambda m: m.row_step + 3))),
-                ('cloud.field_missing', edit(drop_first)),
+                ('cloud.field_missing', drop_one),
                 ('cloud.no_fields', edit(set_attr('fields', lambda m: []))),
                 ('cloud.truncated', edit(set_attr('data', lambda m: m.data[:len(m.data) // 2 + 1]))),
                 ('cloud.width_huge', edit(set_attr('width', lambda m: 2**31))),

@@ -10,7 +10,7 @@ The protocol (handoffs, acks, the start rule, re-selection, randomness) is
   the replies on ``/idsq/sensor_<id>/ack`` (``records.idsq.IdsqAck``), the truth of every
   ``truth_topics`` topic (Odometry, one ``child_frame_id`` per source; step s stamped (s + 1)·Δt);
 - out: the reply on the sender's ``/idsq/sensor_<j>/ack``; when leading a step, ``/idsq/estimate``
-  (Odometry with the belief covariance), ``/idsq/belief`` (PointCloud2 x, y, p), ``/idsq/markers``,
+  (Odometry with the belief covariance), ``/idsq/belief`` (``records.idsq.IdsqBelief``), ``/idsq/markers``,
   the ``/idsq/leader`` events (``records.idsq.IdsqLeaderEvent``) and the handoff to the next sensor.
 
 QoS: handoff and ack topics are reliable and transient-local (depth 4), so a handoff published
@@ -45,7 +45,7 @@ from track_core.idsq.ledger import loudest, start_leader_of  # noqa: F401  (impo
 from track_msgs_py import convert
 from track_msgs_py.markers.idsq import sensor_markers
 from track_msgs_py.qos import ESTIMATE_QOS, HANDOFF_QOS, SENSOR_QOS, STATIC_QOS, TRUTH_QOS
-from track_msgs_py.records.idsq import IdsqAck, IdsqLeaderEvent, RecordError
+from track_msgs_py.records.idsq import IdsqAck, IdsqBelief, IdsqLeaderEvent, RecordError
 from track_msgs_py.topics import (
     CLOCK,
     FRAME_MAP,
@@ -216,13 +216,12 @@ class IdsqSensorNode(TrackNode):
     def _publish_led(self, fx: ledger.Led) -> None:
         """The outputs of a led step: estimate, belief cloud, markers, the ``step`` event."""
         t, res, est = ledger.stamp_of_step(fx.step, self.p.dt), fx.result, fx.result.estimate
-        P = np.diag([0.0, convert.UNUSED_VARIANCE, 0.0, convert.UNUSED_VARIANCE])
+        P = np.diag([0.0, convert.NOT_ESTIMATED_VARIANCE, 0.0, convert.NOT_ESTIMATED_VARIANCE])  # velocity
         P[np.ix_([0, 2], [0, 2])] = est.cov
         self.pub_est.publish(convert.cv_state_to_odometry(t, np.array([est.mean[0], 0.0, est.mean[1], 0.0]), P,
                                                   FRAME_MAP, self.p.track_id))
         xy = res.belief.centers()
-        self.pub_belief.publish(convert.table_to_pointcloud2(t, FRAME_MAP, {'x': xy[:, 0], 'y': xy[:, 1],
-                                                                    'p': res.belief.mass}))
+        self.pub_belief.publish(IdsqBelief(t, xy, res.belief.mass).to_msg())
         self.pub_markers.publish(sensor_markers(t, self.layout, self.id, fx.next, est.mean, est.cov))
         self._event(IdsqLeaderEvent(
             'step', fx.step, self.id, fx.next, previous=-1 if fx.previous is None else fx.previous, z=fx.z,

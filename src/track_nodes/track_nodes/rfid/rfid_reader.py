@@ -6,9 +6,11 @@ command that ``rfid_guidance`` publishes on ``/rfid/command`` with ``track_core.
 reader reads the tag ~300 times a second and processes the MOVE's phase stream into dφ) and
 publishes, in this order,
 
-- ``/rfid/phase`` (sensor_msgs/PointCloud2, MOVE only): the raw wrapped reads of the step, float32
-  fields ``t`` (s since the step started), ``phase`` (rad, wrapped into (0, P]), ``rssi`` (dBm),
-  ``carrier_mhz`` (the read's carrier: hopping readers change it between dwells);
+- ``/rfid/phase`` (sensor_msgs/PointCloud2 in ``map``, MOVE only, ``records.rfid.RfidPhase``): the raw
+  wrapped reads of the step, float32 fields ``x``, ``y``, ``z`` (where the simulated reader was at
+  the read: truth, for display), ``t`` (s since the step started), ``phase`` (rad, wrapped into
+  (0, P]), ``rssi`` (dBm), ``carrier_mhz`` (the read's carrier: hopping readers change it between
+  dwells);
 - ``/rfid/user/pose`` (geometry_msgs/PoseStamped in ``map``, tag at the origin) and
   ``/rfid/user/status`` (diagnostic_msgs/DiagnosticArray: steps, turns, distance walked, ...):
   the truth, for evaluation only (the guidance never reads them);
@@ -56,10 +58,10 @@ from track_core.rfid.phase import PhaseModel
 from track_core.rfid.protocol import Command, CommandKind
 from track_core.rfid.signal import UnwrapConfig
 from track_core.rfid.world import SimReader, WorldParams, office_obstacles
-from track_msgs_py.convert import DIAG_OK, DIAG_WARN, diagnostic_array, sec_to_stamp, table_to_pointcloud2
+from track_msgs_py.convert import DIAG_OK, DIAG_WARN, diagnostic_array, sec_to_stamp
 from track_msgs_py.qos import ESTIMATE_QOS
 from track_msgs_py.records import RecordError
-from track_msgs_py.records.rfid import RfidStep, RfidUserStatus, read_command
+from track_msgs_py.records.rfid import RfidPhase, RfidStep, RfidUserStatus, read_command
 from track_msgs_py.topics import FRAME_MAP, RFID_COMMAND, RFID_PHASE, RFID_STEP, RFID_USER_POSE, RFID_USER_STATUS
 from track_nodes.base import Param, ParameterError, TrackNode
 from track_nodes.rfid.params import PHASE_PARAMS
@@ -225,9 +227,7 @@ class RfidReaderNode(TrackNode):
         if cmd.kind is CommandKind.MOVE:
             s = out.stream
             t_start = s.t_start if s.t_start is not None else t0
-            carrier = np.full(len(s), self.world.phase.carrier_hz) if s.carrier_hz is None else s.carrier_hz
-            stream = table_to_pointcloud2(due, self.get_name(), {'t': s.t - t_start, 'phase': s.phase,
-                                                                 'rssi': s.rssi, 'carrier_mhz': carrier / 1e6})
+            stream = RfidPhase.from_stream(due, s, t_start, self.world.phase.carrier_hz, r.pose).to_msg()
         pose, status = self._truth(due, cmd.seq)
         done = cmd.kind is CommandKind.DONE
         self.cache.store(cmd.seq, _Answer(stream, pose, status, diagnostic_array(due, [step])), due, done)

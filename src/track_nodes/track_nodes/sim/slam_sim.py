@@ -6,9 +6,10 @@ experiment). It then plays that run against node time: every ``world.dt`` (``Fix
 so under ``/clock`` the stamps are exact and a seed reproduces every payload) it publishes every
 item whose data time has come, stamped ``origin + data time`` (origin 0 under ``use_sim_time``):
 
-- ``/slam/scan`` (sensor_msgs/PointCloud2, ``records.slam.SlamScan``): fields ``range``, ``bearing``
-  (eq. 5), ``diameter`` (0: point landmarks) and ``landmark`` (the true landmark index, for
-  evaluation); one every ``world.scan_every`` steps, also when empty;
+- ``/slam/scan`` (sensor_msgs/PointCloud2, ``records.slam.SlamScan``): fields ``x``, ``y``, ``z`` (the
+  detection in the laser frame), ``range``, ``bearing`` (eq. 5), ``diameter`` (0: point landmarks)
+  and ``landmark`` (the true landmark index, for evaluation); one every ``world.scan_every`` steps,
+  also when empty;
 - ``/slam/inputs`` (geometry_msgs/TwistStamped): the noisy inputs (speed, steering angle in
   ``angular.z``) applied from their stamp on;
 - ``/slam/truth`` (nav_msgs/Odometry): the true laser pose (x, y, yaw), zero covariance.

@@ -4,8 +4,9 @@
   (``track_core.idsq.simulation.draw_run(Scenario(...), SeedSequence(seed)).layout``: K/4 rows ×
   4 columns over the field, jittered by N(0, ``jitter_var``), round(``doa_fraction``·K) DOA
   sensors) and publishes it once on ``/idsq/layout`` (transient-local, so sensors started later
-  still get it): ``sensor_msgs/PointCloud2``, one point per sensor, FLOAT64 fields ``id``, ``x``,
-  ``y``, ``type`` (0 acoustic, 1 DOA; ``track_msgs_py.convert.layout_to_pointcloud2``). The same
+  still get it): ``sensor_msgs/PointCloud2``, one point per sensor, float32 ``x``, ``y``, ``z`` for
+  the viewers, then FLOAT64 ``id``, ``x_f64``, ``y_f64``, ``type`` (0 acoustic, 1 DOA;
+  ``track_msgs_py.convert.layout_to_pointcloud2``). The same
   seed gives the layout of the core experiments' run with that seed.
 - Every Δt of node time (``FixedRateSteps``) it publishes the vehicle truth of tracker step s on
   ``/idsq/vehicle/truth`` (``nav_msgs/Odometry``, zero covariance, velocity (0, speed),

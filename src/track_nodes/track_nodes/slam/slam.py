@@ -5,8 +5,9 @@ Subscribes (reliable, deep queues; see track_msgs_py.topics for the message mapp
 - ``/slam/inputs`` (geometry_msgs/TwistStamped): ``twist.linear.x`` = encoder speed [m/s],
   ``twist.angular.z`` = steering ANGLE [rad]; held until the next input;
 - ``/slam/scan`` (sensor_msgs/PointCloud2, ``records.slam.SlamScan``: fields ``range``, ``bearing``,
-  ``diameter``): one scan of tree detections. With ``add_radius`` (default) the landmark is the trunk
-  centre, range + diameter/2, as ``track_core.slam.victoria.load`` does offline.
+  ``diameter`` after the viewers' x, y, z): one scan of tree detections. With ``add_radius``
+  (default) the landmark is the trunk centre, range + diameter/2, as ``track_core.slam.victoria.load``
+  does offline.
 
 and publishes
 
