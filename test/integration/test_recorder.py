@@ -94,6 +94,8 @@ def test_records_topics_with_their_qos_in_process(ros, tmp_path):
     close_node(ros, rec)
 
     assert (bag / 'metadata.yaml').is_file()
+    with Reader(bag) as r:
+        assert r.ros_distro == 'jazzy'  # not 'rosbags' (issue 19, item 10)
     got, conns = read_bag(bag)
     # Decoded, not byte for byte: CDR alignment padding is not guaranteed to be zero on the wire.
     assert [deserialize_message(r, Odometry) for r in got['/r/odom']] == [
@@ -229,6 +231,8 @@ def test_sigkill_leaves_a_recoverable_mcap(ros, tmp_path, venv):
     out = tmp_path / 'bags' / 'killed-recovered'
     assert 'messages recovered' in rec.stdout and str(out) in rec.stdout
     got, _ = read_bag(out)
+    with Reader(out) as r:
+        assert r.ros_distro == 'jazzy'
     recovered = got['/sig/odom']
     assert N <= len(recovered) <= len(sent)
     assert recovered == sent[:len(recovered)]

@@ -6,6 +6,7 @@
 - ``open_bag_checked(path)``: open a rosbag2 bag for reading, turning every way a bag can be
   bad (missing, not a bag, killed recorder, truncated or corrupt .mcap) into ``BagError`` with
   one line naming the file and the problem.
+- ``set_ros_distro(bag)``: metadata.yaml names the ROS distribution (``jazzy``), not ``rosbags``.
 - ``flush_mcap_writer(writer)``: make a rosbags MCAP writer's pending data durable (see there).
 """
 
@@ -189,3 +190,19 @@ def recording_qos(publisher_profiles: Sequence) -> QoSProfile:
         history=HistoryPolicy.KEEP_LAST, depth=RECORD_DEPTH_BEST_EFFORT if best_effort else RECORD_DEPTH,
         reliability=ReliabilityPolicy.BEST_EFFORT if best_effort else ReliabilityPolicy.RELIABLE,
         durability=DurabilityPolicy.TRANSIENT_LOCAL if transient else DurabilityPolicy.VOLATILE)
+
+
+ROS_DISTRO = 'jazzy'
+
+
+def set_ros_distro(bag: Path | str, distro: str = ROS_DISTRO) -> None:
+    """Write ``ros_distro: <distro>`` into a closed bag's metadata.yaml (rosbags' Writer puts ``rosbags``).
+
+    Tools that read the field (``ros2 bag info``, Foxglove) then see the distribution the bag's
+    message definitions are from, as for a bag written by rosbag2 on Jazzy.
+    """
+    meta = Path(bag) / 'metadata.yaml'
+    text = meta.read_text()
+    fixed = text.replace('ros_distro: rosbags', f'ros_distro: {distro}', 1)
+    if fixed != text:
+        meta.write_text(fixed)

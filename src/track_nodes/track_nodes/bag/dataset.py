@@ -31,7 +31,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from track_nodes.bag.api import one_line
+from track_nodes.bag.api import one_line, set_ros_distro
 from track_nodes.base.cli import OneLineParser
 
 EXIT_BAD_INPUT = 2
@@ -103,6 +103,7 @@ def write_bag(out: Path, messages, topics: dict[str, str]) -> dict[str, int]:
         for _, topic, msg in messages:
             writer.write(conns[topic], stamp_to_ns(msg.header.stamp), serialize_message(msg))
             counts[topic] += 1
+    set_ros_distro(out)
     return counts
 
 

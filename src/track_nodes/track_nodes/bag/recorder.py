@@ -47,6 +47,7 @@ from track_nodes.bag.api import (
     msg_class,
     qos_to_rosbags,
     recording_qos,
+    set_ros_distro,
 )
 from track_nodes.bag.loss import LossCounter
 from track_nodes.base import Param, TrackNode, run_node
@@ -223,6 +224,7 @@ class RecorderNode(TrackNode):
                 return
             self._closed = True
             self._writer.close()
+            set_ros_distro(self.path)
         line = self.summary()
         if self.context.ok():
             self.get_logger().info(line)

@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 from io import BytesIO
 from pathlib import Path
 
+from track_nodes.bag.api import set_ros_distro
 from track_nodes.base import EXIT_BAD_INPUT
 
 PROG = 'track-bag-recover'
@@ -170,6 +171,7 @@ def write_recovered(rec: Recovered, out_path: Path) -> dict[str, int]:
                 continue
             writer.write(conn, t, data)
             counts[conn.topic] += 1
+    set_ros_distro(out_path)
     return counts
 
 
