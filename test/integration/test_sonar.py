@@ -204,14 +204,14 @@ def test_launcher_records_every_step_and_prints_the_summary(sonar_bag):
     assert 'RTAMS' in stdout and f'pings emitted {len(msgs[SONAR_PING])}/{RECORD_S}' in stdout
 
 
-def test_replaying_the_truth_reproduces_the_estimates(sonar_bag, ros, repo, venv):
+def test_replaying_the_truth_reproduces_the_estimates(sonar_bag, ros, repo, prefix):
     """The recorded truth, played into a fresh sonar_observer (same parameters and seed), gives the
     recorded estimates and pings exactly: the observer depends on nothing but its seed and the truth."""
     bag, _ = sonar_bag
     recorded = _bag_msgs(bag)
     observer = _node(ros, repo, SonarObserverNode, 'sonar_observer')
     sink = Sink(ros)
-    player = subprocess.Popen([str(venv / 'lib/track_nodes/player'), str(bag), '--rate', '10',
+    player = subprocess.Popen([str(prefix / 'lib/track_nodes/player'), str(bag), '--rate', '10',
                                '--topics', SONAR_TRUTH, '--wait-subscribers', '60'], env=ros.env,
                               stdout=subprocess.PIPE,
                               stderr=subprocess.PIPE, text=True)
@@ -236,10 +236,10 @@ def test_replaying_the_truth_reproduces_the_estimates(sonar_bag, ros, repo, venv
     ('sonar_observer', 'tracker: kalman', ['tracker', 'kalman', 'ss-pf']),
     ('smart_target', 'p_max: 1.5', ['p_max', '1.5', 'allowed']),
 ])
-def test_bad_parameter_stops_the_shim_with_one_line(tmp_path, venv, env_factory, node, line, words):
+def test_bad_parameter_stops_the_shim_with_one_line(tmp_path, prefix, env_factory, node, line, words):
     bad = tmp_path / 'bad.yaml'
     bad.write_text(f'{node}:\n  ros__parameters:\n    {line}\n')
-    proc = subprocess.run([str(venv / 'lib/track_nodes' / node), '--ros-args', '--params-file', str(bad)],
+    proc = subprocess.run([str(prefix / 'lib/track_nodes' / node), '--ros-args', '--params-file', str(bad)],
                           capture_output=True, text=True, timeout=60, env=env_factory())
     assert proc.returncode == 2, proc.stderr
     lines = proc.stderr.strip().splitlines()
