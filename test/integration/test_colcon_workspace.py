@@ -76,17 +76,15 @@ def sourced(ws: Path, *cmd: str) -> list[str]:
     return ['sh', '-c', '. "$0/install/setup.sh" && exec "$@"', str(ws), *cmd]
 
 
-@pytest.mark.parametrize('kind', ['workspace', 'symlink_workspace'], ids=['plain', 'symlink'])
-def test_a_node_runs_from_install_as_ros2_run_finds_it(kind, request, ros):
-    ws = request.getfixturevalue(kind)
-    env = ws_env(ws, ros.env)
-    where = subprocess.run(sourced(ws, 'python3', '-c', 'import track_nodes; print(track_nodes.__file__)'),
+def test_a_node_runs_from_install_as_ros2_run_finds_it(workspace, ros):
+    env = ws_env(workspace, ros.env)
+    where = subprocess.run(sourced(workspace, 'python3', '-c', 'import track_nodes; print(track_nodes.__file__)'),
                            env=env, capture_output=True, text=True, timeout=60)
-    assert where.returncode == 0 and where.stdout.startswith(str(ws)), where.stdout + where.stderr
-    assert not (ws / 'install/track_nodes/bin/python3').exists()  # python3 comes from PATH, not the prefix
+    assert where.returncode == 0 and where.stdout.startswith(str(workspace)), where.stdout + where.stderr
+    assert not (workspace / 'install/track_nodes/bin/python3').exists()  # python3 comes from PATH
 
     probe = ros.add(rclpy.create_node('colcon_probe', context=ros.context))
-    proc = subprocess.Popen(sourced(ws, 'python3', '-c', ROS2_RUN, 'demo_target'), env=env,
+    proc = subprocess.Popen(sourced(workspace, 'python3', '-c', ROS2_RUN, 'demo_target'), env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         up = ros.spin_until(lambda: 'demo_target' in probe.get_node_names(), 30.0)
@@ -94,10 +92,22 @@ def test_a_node_runs_from_install_as_ros2_run_finds_it(kind, request, ros):
         out, err = proc.communicate(timeout=30)
     finally:
         proc.kill()
-    assert out.splitlines()[0] == str(ws / 'install/track_nodes/lib/track_nodes/demo_target'), out + err
+    assert out.splitlines()[0] == str(workspace / 'install/track_nodes/lib/track_nodes/demo_target'), out + err
     assert up, f'demo_target never seen over DDS: {out}{err}'
     assert proc.returncode == 0, err
     assert 'Traceback' not in err
+
+
+def test_a_symlink_install_shim_runs(symlink_workspace, tmp_path):
+    """--symlink-install: lib/track_nodes/<exe> is a link into build/; the shim still finds its interpreter."""
+    ws = symlink_workspace
+    shim = ws / 'install/track_nodes/lib/track_nodes/bag_recover'
+    assert shim.is_symlink()
+    proc = subprocess.run(sourced(ws, 'python3', '-c', ROS2_RUN, 'bag_recover', str(tmp_path / 'nope')),
+                          env=ws_env(ws), capture_output=True, text=True, timeout=60)
+    assert proc.stdout.splitlines() == [str(shim)], proc.stdout + proc.stderr
+    assert proc.returncode == 2 and proc.stderr.strip().splitlines() == [
+        f'track-bag-recover: {tmp_path / "nope"}: no such file or directory'], proc.stderr
 
 
 def junit(ws: Path, pkg: str) -> dict[str, str]:
@@ -142,7 +152,8 @@ def test_colcon_test_runs_our_tests_and_fails_on_a_failing_one(workspace):
     installed.unlink()
     installed.write_text(VENV_ONLY_SHIM)
     installed.chmod(0o755)
-    proc = colcon(workspace, 'test', '--packages-select', 'track_nodes', '--pytest-args', '-k',
+    proc = colcon(workspace, 'test', '--packages-select', 'track_nodes', '--pytest-args',
+                  '../../test/unit/track_nodes/test_install_layout.py', '-k',
                   'test_shim_runs_a_node_with_bad_params_file_message', env=env)
     assert proc.returncode != 0, proc.stdout
     assert junit(workspace, 'track_nodes') == {'test_shim_runs_a_node_with_bad_params_file_message': 'failed'}
