@@ -36,3 +36,25 @@ def test_refusals_are_counted_and_published_on_diagnostics(ros):
     st = got[-1].status[0]
     assert st.name == '/refuser' and st.level == bytes([DIAG_WARN]) and st.message == '101 messages refused'
     assert node.refusals.total() == 101
+
+
+# --- bad command lines: one line on stderr, exit code 2 (issue 19, item 7) ---------------------------
+
+@pytest.mark.parametrize(('content', 'args', 'words'), [
+    (None, ['--params-file', '/nonexistent/params.yaml'], ['/nonexistent/params.yaml', 'No such file']),
+    ('demo_target:\n  ros__parameters:\n    period: [1\n', None, ['not valid YAML', 'line 4']),
+    ('- 1\n- 2\n', None, ['expected a mapping']),
+    ('demo_target:\n  ros__parameters:\n    period: "x"\n', None, ['period', 'DOUBLE']),
+    (None, ['--bogus-flag'], ['unknown ROS arguments', '--bogus-flag']),
+    (None, ['--params-file'], ['a path is missing']),
+])
+def test_a_bad_command_line_gets_one_line_and_exit_code_2(tmp_path, venv, env_factory, content, args, words):
+    import subprocess
+    if content is not None:
+        (tmp_path / 'p.yaml').write_text(content)
+        args = ['--params-file', str(tmp_path / 'p.yaml')]
+    proc = subprocess.run([str(venv / 'lib/track_nodes/demo_target'), '--ros-args', *args],
+                          capture_output=True, text=True, timeout=60, env=env_factory())
+    lines = proc.stderr.strip().splitlines()
+    assert proc.returncode == 2 and len(lines) == 1 and 'Traceback' not in proc.stderr, proc.stderr
+    assert lines[0].startswith('demo_target: ') and all(w in lines[0] for w in words), lines[0]

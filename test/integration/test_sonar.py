@@ -5,6 +5,9 @@
   and follow the ordering rule of ``track_core.sonar.experiments.run_closed_loop``).
 - Launcher: ``config/sonar.yaml`` recorded for 20 s; replaying the recorded truth with the player
   into a fresh ``sonar_observer`` with the same parameters reproduces every recorded estimate.
+- Started by hand, in either order and 3 s apart on wall time, the two processes lock-step
+  (issue 19, item 4: each used to take its own wall-time second as its stamp origin and could wait
+  for the other forever).
 - Bad parameters stop a node at start with one line (through the ros2-run shim, exit code 2).
 """
 
@@ -38,7 +41,7 @@ from track_core.sonar import (
     simulate_measurement,
 )
 from track_msgs_py.convert import odometry_to_cv_state, sec_to_stamp, stamp_to_ns
-from track_msgs_py.qos import CLOCK_QOS, ESTIMATE_QOS
+from track_msgs_py.qos import CLOCK_QOS, ESTIMATE_QOS, TRUTH_QOS
 from track_msgs_py.records.sonar import SonarMode
 from track_msgs_py.topics import (
     CLOCK,
@@ -77,7 +80,8 @@ class Sink:
         types = {SONAR_TRUTH: Odometry, SONAR_ESTIMATE: Odometry, SONAR_OBSERVER: Odometry,
                  SONAR_PING: PointStamped, SONAR_MODE: DiagnosticArray, SONAR_TARGET_STATUS: DiagnosticArray}
         for topic, cls in types.items():
-            self.node.create_subscription(cls, topic, self.msgs[topic].append, ESTIMATE_QOS)
+            qos = TRUTH_QOS if topic == SONAR_TRUTH else ESTIMATE_QOS  # the truth is transient-local
+            self.node.create_subscription(cls, topic, self.msgs[topic].append, qos)
 
 
 def truth_x0(repo: Path) -> np.ndarray:
@@ -225,6 +229,32 @@ def test_replaying_the_truth_reproduces_the_estimates(sonar_bag, ros, repo, pref
     assert observer.k == RECORD_S
     for topic in (SONAR_ESTIMATE, SONAR_PING, SONAR_OBSERVER):
         assert sink.msgs[topic] == recorded[topic], topic  # message equality: every field, exactly
+
+
+# --- any start order ------------------------------------------------------------------------------
+
+@pytest.mark.parametrize('first', ['smart_target', 'sonar_observer'])
+def test_the_pair_started_by_hand_3_s_apart_steps_together(ros, repo, venv, first):
+    """Wall time, two processes through the shims, one started 3 s after the other: estimates flow."""
+    sink = Sink(ros)
+    second = 'sonar_observer' if first == 'smart_target' else 'smart_target'
+    cmd = ['--ros-args', '--params-file', str(repo / 'config/sonar.yaml')]
+    procs = [subprocess.Popen([str(venv / 'lib/track_nodes' / first), *cmd], env=ros.env,
+                              stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)]
+    try:
+        ros.spin_for(3.0)  # the gap under test, not a wait for a condition
+        procs.append(subprocess.Popen([str(venv / 'lib/track_nodes' / second), *cmd], env=ros.env,
+                                      stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True))
+        assert ros.spin_until(lambda: len(sink.msgs[SONAR_ESTIMATE]) >= 4, timeout=90), \
+            f'no estimates: truth {len(sink.msgs[SONAR_TRUTH])}, observer {len(sink.msgs[SONAR_OBSERVER])}'
+        truth_keys = {stamp_to_ns(m.header.stamp) for m in sink.msgs[SONAR_TRUTH]}
+        assert all(stamp_to_ns(m.header.stamp) in truth_keys for m in sink.msgs[SONAR_ESTIMATE])
+    finally:
+        for p in procs:
+            p.send_signal(2)
+        for p in procs:
+            _, err = p.communicate(timeout=30)
+            assert p.returncode == 0 and 'Traceback' not in err, err
 
 
 # --- bad parameters ---------------------------------------------------------------------------------

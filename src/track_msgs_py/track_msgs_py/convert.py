@@ -113,6 +113,14 @@ def stamp_to_ns(stamp) -> int:
     return int(stamp.sec) * _NS_PER_S + int(stamp.nanosec)
 
 
+def ns_to_stamp(ns: int) -> Time:
+    """Integer nanoseconds → an exact ``builtin_interfaces/Time`` (no float on the way)."""
+    sec, nanosec = divmod(int(ns), _NS_PER_S)
+    if not 0 <= sec <= _INT32_MAX:
+        raise ValueError(f'stamp {ns} ns does not fit builtin_interfaces/Time')
+    return Time(sec=sec, nanosec=nanosec)
+
+
 def stamp_to_sec(stamp) -> float:
     """``Time``/``Duration`` → float seconds, correctly rounded (integer true division)."""
     return stamp_to_ns(stamp) / _NS_PER_S

@@ -6,14 +6,18 @@ that arrive in any order, each node keeps the alternation with one of these gate
 integer stamp keys (the nanoseconds of the message stamps), so "the message of t_k" is an exact
 comparison:
 
-- ``TruthGate`` (the observer): step k is taken when both its time has come and the truth
-  stamped t_k has arrived, whichever is second; steps strictly in order.
+- ``TruthGate`` (the observer): the target's truth sets the time. The first truth the observer
+  accepts is its step 1 and fixes its step grid (that stamp + j·T); step j is taken when the truth
+  of grid point j has arrived, strictly in order, and carries that truth's own stamp. No clock
+  origin is shared by convention, so the two nodes can be started in any order, any time apart
+  (issue 19, item 4: with wall-time origins of their own they could wait for each other forever).
 - ``TargetGate`` (the smart target): step k is taken when its time has come and, with
   ``sync_observer``, the observer's Odometry stamped t_{k-1} has arrived (the observer publishes
   its ping before its Odometry, so the ping of t_{k-1} is known by then). Without it, step k takes
   a ping of t_{k-1} only if it has arrived, and the latest observer position.
 
-The target's step k never waits for the observer's step k (only k−1), so the pair cannot deadlock.
+The target's step k never waits for the observer's step k (only k−1), and the observer waits only
+for truths, so the pair cannot deadlock.
 """
 
 from __future__ import annotations
@@ -22,38 +26,65 @@ from collections import deque
 
 import numpy as np
 
+WINDOW = 64  # truths held ahead of the next step; a stamp further ahead is refused
+
 
 class TruthGate:
-    """The observer's side: due step times (t, key) waiting for the truth stamped with that key."""
+    """The observer's side: truths by step j on the grid of the first accepted one, taken in order.
 
-    def __init__(self) -> None:
-        self.pending: deque[tuple[float, int]] = deque()
-        self.truth: dict[int, np.ndarray] = {}
+    A truth is refused (``problem``), and changes nothing, when it is off the grid (more than T/4
+    from a grid point), of a step already taken or held, or more than ``WINDOW`` steps ahead.
+    """
+
+    def __init__(self, period_ns: int) -> None:
+        if period_ns <= 0:
+            raise ValueError(f'period_ns={period_ns}: must be > 0')
+        self.period_ns = int(period_ns)
+        self.first_key: int | None = None
+        self.next = 1  # the step to take next
+        self.truth: dict[int, tuple[int, np.ndarray]] = {}  # held: step j → (stamp key, state)
         self._stall_reported = False
 
-    def due(self, t: float, key: int) -> list[tuple[float, np.ndarray]]:
-        """Step time t (stamp key ``key``) has come; the steps now ready, in order: (t, truth state)."""
-        self.pending.append((t, key))
-        return self._ready()
+    def step_of(self, key: int) -> int:
+        """The grid step of stamp ``key`` (1 for the first truth)."""
+        return 1 if self.first_key is None else 1 + round((key - self.first_key) / self.period_ns)
 
-    def add_truth(self, key: int, x: np.ndarray) -> list[tuple[float, np.ndarray]]:
-        self.truth[key] = x
-        return self._ready()
+    def key_of(self, j: int) -> int | None:
+        return None if self.first_key is None else self.first_key + (j - 1) * self.period_ns
 
-    def stalled(self) -> float | None:
-        """Once: the time of the oldest step when more than two wait for their truth (else None)."""
-        if self._stall_reported or len(self.pending) <= 2 or self.pending[0][1] in self.truth:
+    def problem(self, key: int) -> str | None:
+        """Why the truth stamped ``key`` [ns] cannot be taken, or ``None``; the gate is not changed."""
+        if self.first_key is None:
+            return None
+        j = self.step_of(key)
+        if abs(key - self.key_of(j)) > self.period_ns // 4:
+            return (f'stamp {key} ns is off the step grid of the first truth ({self.first_key} ns + j x '
+                    f'{self.period_ns} ns): was smart_target restarted? restart the observer too')
+        if j < self.next or j in self.truth:
+            return f'step {j} (stamp {key} ns) was already received'
+        if j >= self.next + WINDOW:
+            return f'step {j} is more than {WINDOW} steps ahead of the next one, {self.next}'
+        return None
+
+    def add_truth(self, key: int, x: np.ndarray) -> list[tuple[int, int, np.ndarray]]:
+        """Take a truth that has no ``problem``; the steps now ready, in order: (step j, stamp key, state)."""
+        if self.first_key is None:
+            self.first_key = int(key)
+        self.truth[self.step_of(key)] = (int(key), x)
+        out = []
+        while self.next in self.truth:
+            k, xj = self.truth.pop(self.next)
+            out.append((self.next, k, xj))
+            self.next += 1
+            self._stall_reported = False
+        return out
+
+    def stalled(self) -> int | None:
+        """Once per gap: the stamp key of the missing step when more than two later truths wait for it."""
+        if self._stall_reported or len(self.truth) <= 2:
             return None
         self._stall_reported = True
-        return self.pending[0][0]
-
-    def _ready(self) -> list[tuple[float, np.ndarray]]:
-        out = []
-        while self.pending and self.pending[0][1] in self.truth:
-            t, key = self.pending.popleft()
-            out.append((t, self.truth.pop(key)))
-            self.truth = {k: v for k, v in self.truth.items() if k > key}
-        return out
+        return self.key_of(self.next)
 
 
 class TargetGate:

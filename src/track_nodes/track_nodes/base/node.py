@@ -28,11 +28,13 @@ import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException
+from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
 
 from track_msgs_py.convert import diagnostic_array, diagnostic_status
 from track_msgs_py.records import DIAG_OK, DIAG_WARN
 from track_msgs_py.topics import DIAGNOSTICS
+from track_nodes.base.cli import params_file_problem
 from track_nodes.base.params import Param, declare_params
 from track_nodes.base.refusals import RefusalCounter
 
@@ -45,7 +47,7 @@ class TrackNode(Node):
 
     DEFAULT_NAME: ClassVar[str] = 'track_node'
     PARAMS: ClassVar[tuple[Param, ...]] = ()
-    WARN_THROTTLE: ClassVar[float] = 5.0  # seconds between two log lines about one kind of refusal
+    WARN_THROTTLE: ClassVar[float] = 5.0  # seconds between two summary lines of refusals (base/refusals.py)
     DIAGNOSTICS_PERIOD: ClassVar[float] = 1.0
 
     def __init__(self, *, node_name: str | None = None, context=None, parameter_overrides=None, cli_args=None,
@@ -79,6 +81,9 @@ class TrackNode(Node):
 
     def publish_diagnostics(self) -> None:
         """The refusal counts on /diagnostics, when they changed since the last publication."""
+        line = self.refusals.flush(self.steady_now())  # refusals that no later one has summed up yet
+        if line is not None:
+            self.get_logger().warning(line)
         if self._diagnostics is None or not self._diagnostics_dirty:
             return
         self._diagnostics_dirty = False
@@ -95,11 +100,21 @@ class TrackNode(Node):
 def run_node(factory: Callable[..., Node], argv: Sequence[str] | None = None, **kwargs: Any) -> int:
     """Run one node until shutdown; return the process exit code (0, or 2 for bad input)."""
     args = list(sys.argv if argv is None else argv)
-    rclpy.init(args=args)
+    name = getattr(factory, 'DEFAULT_NAME', getattr(factory, '__name__', 'node'))
+    problem = params_file_problem(args)
+    if problem is None:
+        try:
+            rclpy.init(args=args)
+        except _rclpy.UnknownROSArgsError as exc:
+            problem = f'unknown ROS arguments {exc}'
+        except _rclpy.RCLError as exc:  # other arguments rcl refuses: the first line of its message
+            problem = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+    if problem is not None:
+        print(f'{name}: {problem}', file=sys.stderr)
+        return EXIT_BAD_INPUT
     try:
         node = factory(**kwargs)
     except (ValueError, OSError) as exc:
-        name = getattr(factory, 'DEFAULT_NAME', getattr(factory, '__name__', 'node'))
         print(f'{name}: {exc}', file=sys.stderr)
         rclpy.try_shutdown()
         return EXIT_BAD_INPUT

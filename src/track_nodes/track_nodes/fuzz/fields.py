@@ -102,3 +102,43 @@ def bad_covariance(kind: str, n: int, rng: np.random.Generator) -> np.ndarray:
     else:  # huge
         m = np.eye(k) * 1e300
     return m.reshape(-1)
+
+
+def nonfinite(msg) -> str | None:
+    """The first NaN/inf in ``msg``'s floats, PointCloud2 float fields or numeric diagnostic values."""
+    for path in float_paths(msg):
+        if not math.isfinite(field_of(msg, path)):
+            return '.'.join(map(str, path))
+    name = type(msg).__name__
+    if name == 'PointCloud2':
+        bad = _cloud_nonfinite(msg)
+        if bad:
+            return bad
+    if name == 'DiagnosticArray':
+        for st in msg.status:
+            for kv in st.values:
+                try:
+                    v = float(kv.value)
+                except ValueError:
+                    continue
+                if not math.isfinite(v):
+                    return f'{st.name}/{kv.key}={kv.value}'
+    return None
+
+
+def _cloud_nonfinite(msg) -> str | None:
+    data = bytes(msg.data)
+    step, n = msg.point_step, msg.width * msg.height
+    if step == 0 or n == 0 or len(data) < step * n:
+        return None
+    for f in msg.fields:
+        code = {7: 'f4', 8: 'f8'}.get(f.datatype)
+        if code is None:
+            continue
+        dt = np.dtype(('>' if msg.is_bigendian else '<') + code)
+        if f.offset + dt.itemsize > step:
+            continue
+        vals = np.ndarray((n,), dtype=dt, buffer=data, offset=f.offset, strides=(step,))
+        if not np.all(np.isfinite(vals)):
+            return f'data.{f.name}'
+    return None

@@ -16,14 +16,12 @@ callbacks (with the traceback), which a process would die of.
 
 from __future__ import annotations
 
-import math
 import os
 import time
 import traceback
 from dataclasses import dataclass, field
 from typing import Any
 
-import numpy as np
 import rclpy
 from rcl_interfaces.msg import Log
 from rclpy.context import Context
@@ -34,7 +32,8 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 
 from track_msgs_py.qos import CLOCK_QOS
-from track_nodes.fuzz.generate import Fuzzer, field_of, float_paths
+from track_nodes.fuzz.fields import nonfinite
+from track_nodes.fuzz.generate import Fuzzer
 from track_nodes.fuzz.table import FuzzCase, default_template
 from track_nodes.registry import node_class
 
@@ -57,6 +56,7 @@ class FuzzResult:
     nan_examples: list[str] = field(default_factory=list)
     refusals: dict[str, int] = field(default_factory=dict)
     log_lines: int = 0
+    log_examples: dict[str, int] = field(default_factory=dict)  # a line's first 60 characters → count
     crashes: list[str] = field(default_factory=list)
     attack_seconds: float = 0.0
     counted_seconds: float = 0.0  # from the first bad message to the end of the log count
@@ -70,50 +70,11 @@ class FuzzResult:
         return {'case': self.case, 'sent': self.sent, 'alive': self.alive, 'output_before': self.output_before,
                 'output_after': self.output_after, 'nan_outputs': self.nan_outputs,
                 'nan_examples': self.nan_examples[:5], 'refusals': self.refusals, 'log_lines': self.log_lines,
+                'log_examples': dict(sorted(self.log_examples.items(), key=lambda kv: -kv[1])[:10]),
                 'lines_per_bad': self.lines_per_bad, 'crashes': len(self.crashes),
                 'tracebacks': self.crashes[:3], 'kinds': self.kinds, 'attack_seconds': self.attack_seconds,
                 'counted_seconds': self.counted_seconds,
                 'missing_templates': self.missing_templates}
-
-
-def nonfinite(msg) -> str | None:
-    """The first NaN/inf in ``msg``'s floats, PointCloud2 float fields or numeric diagnostic values."""
-    for path in float_paths(msg):
-        if not math.isfinite(field_of(msg, path)):
-            return '.'.join(map(str, path))
-    name = type(msg).__name__
-    if name == 'PointCloud2':
-        bad = _cloud_nonfinite(msg)
-        if bad:
-            return bad
-    if name == 'DiagnosticArray':
-        for st in msg.status:
-            for kv in st.values:
-                try:
-                    v = float(kv.value)
-                except ValueError:
-                    continue
-                if not math.isfinite(v):
-                    return f'{st.name}/{kv.key}={kv.value}'
-    return None
-
-
-def _cloud_nonfinite(msg) -> str | None:
-    data = bytes(msg.data)
-    step, n = msg.point_step, msg.width * msg.height
-    if step == 0 or n == 0 or len(data) < step * n:
-        return None
-    for f in msg.fields:
-        code = {7: 'f4', 8: 'f8'}.get(f.datatype)
-        if code is None:
-            continue
-        dt = np.dtype(('>' if msg.is_bigendian else '<') + code)
-        if f.offset + dt.itemsize > step:
-            continue
-        vals = np.ndarray((n,), dtype=dt, buffer=data, offset=f.offset, strides=(step,))
-        if not np.all(np.isfinite(vals)):
-            return f'data.{f.name}'
-    return None
 
 
 class _Prober:
@@ -164,6 +125,8 @@ class _Prober:
     def _log(self, msg: Log) -> None:
         if msg.name == self.logger_name and msg.level >= WARN:
             self.log_lines += 1
+            head = msg.msg[:60]
+            self.result.log_examples[head] = self.result.log_examples.get(head, 0) + 1
             if 'Traceback' in msg.msg:
                 self.result.crashes.append(msg.msg)
 
@@ -174,21 +137,34 @@ def _listen_qos(qos: QoSProfile, durability=DurabilityPolicy.VOLATILE) -> QoSPro
 
 
 class _Runner:
+    """Runs ready callbacks; on sim time it also drives ``/clock``.
+
+    The clock runs at ``rate`` x wall time, except during the attack, when it is tied to the count of
+    bad messages sent: the attack spans at most ``case.attack_span`` sim s however long it takes in wall
+    time, so a finite scenario (the IDSQ vehicle leaves the field at 36 s) still has valid input after it.
+    """
+
     def __init__(self, executor: SingleThreadedExecutor, context: Context, result: FuzzResult,
                  clock_pub=None, rate: float = 0.0) -> None:
         self.executor, self.context, self.result = executor, context, result
         self.clock_pub, self.rate = clock_pub, rate
-        self.t0 = time.monotonic()
+        self.sim = 0.0
+        self.sim_cap: float | None = None  # attack: the clock may not pass this
+        self.last_wall = time.monotonic()
         self.last_tick = -1.0
 
     def tick(self) -> None:
-        """Sim time: /clock at ``rate`` x wall time since the start, every CLOCK_TICK wall s."""
+        """Sim time: advance by ``rate`` x the wall time since the last tick (up to ``sim_cap``), publish."""
         now = time.monotonic()
         if self.clock_pub is None or now - self.last_tick < CLOCK_TICK:
             return
         self.last_tick = now
+        self.sim += self.rate * (now - self.last_wall)
+        self.last_wall = now
+        if self.sim_cap is not None:
+            self.sim = min(self.sim, self.sim_cap)
         msg = Clock()
-        sec, nsec = divmod(int((now - self.t0) * self.rate * 1e9), 10**9)
+        sec, nsec = divmod(int(self.sim * 1e9), 10**9)
         msg.clock.sec, msg.clock.nanosec = sec, nsec
         self.clock_pub.publish(msg)
 
@@ -240,6 +216,24 @@ def _build(case: FuzzCase, context: Context, executor: SingleThreadedExecutor, n
     return target
 
 
+def _attack(case: FuzzCase, messages: int, fuzzer: Fuzzer, prober: _Prober, runner: _Runner,
+            result: FuzzResult) -> None:
+    """Send the bad messages, running the ready callbacks after each (sim time: ``case.attack_span`` at most)."""
+    t0, sim0 = time.monotonic(), runner.sim
+    for i in range(messages):
+        if case.sim_rate > 0:
+            runner.sim_cap = sim0 + case.attack_span * (i + 1) / messages
+        bad = fuzzer.next()
+        prober.pubs[bad.topic].publish(bad.msg)
+        result.sent += 1
+        result.kinds[bad.kind] = result.kinds.get(bad.kind, 0) + 1
+        runner.run_ready(first_wait=0.005)
+        if i % PUMP_EVERY == PUMP_EVERY - 1:
+            runner.pump(0.02)
+    result.attack_seconds = time.monotonic() - t0
+    runner.sim_cap = None
+
+
 def run_case(case: FuzzCase, messages: int, seed: int = 0, domain_id: int | None = None,
              warmup_timeout: float = 60.0, after_timeout: float = 60.0) -> FuzzResult:
     """Fuzz ``case.target`` with ``messages`` bad messages; see the module docstring."""
@@ -273,15 +267,7 @@ def run_case(case: FuzzCase, messages: int, seed: int = 0, domain_id: int | None
         fuzzer = Fuzzer({t: m for t, m in prober.templates.items() if t not in case.skip_topics}, seed)
         lines0 = prober.log_lines
         t0 = time.monotonic()
-        for i in range(messages):
-            bad = fuzzer.next()
-            prober.pubs[bad.topic].publish(bad.msg)
-            result.sent += 1
-            result.kinds[bad.kind] = result.kinds.get(bad.kind, 0) + 1
-            runner.run_ready(first_wait=0.005)
-            if i % PUMP_EVERY == PUMP_EVERY - 1:
-                runner.pump(0.02)
-        result.attack_seconds = time.monotonic() - t0
+        _attack(case, messages, fuzzer, prober, runner, result)
         runner.pump(0.5)  # the last bad messages and their log lines arrive
         mid = dict(prober.out_counts)
         result.alive = runner.until(lambda: outputs_seen(mid, case.min_output), after_timeout)

@@ -37,6 +37,7 @@ class FuzzCase:
     skip_topics: frozenset[str] = frozenset()
     min_output: int = 2
     sim_rate: float = 0.0  # > 0: the nodes use sim time, and the prober drives /clock at this rate
+    attack_span: float = 60.0  # sim time: the attack spans at most this many sim s, whatever its length
 
     def config_path(self) -> Path:
         from track_nodes.launch.scenario import find_scenario
@@ -50,6 +51,8 @@ def _idsq_nodes(n: int) -> tuple[tuple[str, str], ...]:
     return tuple((s.executable, s.name) for s in sc.nodes[:n + 1])
 
 
+# The search must outlast the attack: found within 1 mm only (in practice never), no step limit.
+RFID_ENDLESS = {'rfid_reader': {'found_radius': 1e-3}, 'rfid_guidance': {'max_steps': 1_000_000}}
 FUSION_FAST = {'radar': {'period': 0.05}, 'patrol': {'period': 0.1}, 'fusion': {'rate': 20.0}}
 
 
@@ -69,16 +72,17 @@ def cases() -> dict[str, FuzzCase]:
                  'fusion', (FUSION_SCORES,)),
         FuzzCase('slam', 'slam_sim', (('slam_sim', 'slam_sim'), ('slam', 'slam')), 'slam', (SLAM_POSE,)),
         FuzzCase('sonar_observer', 'sonar', (('smart_target', 'smart_target'), ('sonar_observer', 'sonar_observer')),
-                 'sonar_observer', (SONAR_ESTIMATE,), sim_rate=2.0),  # sim time: the pair's wall-time origins can
-                 # straddle a second and lock-step forever (issue 19, item 4)
+                 'sonar_observer', (SONAR_ESTIMATE,), sim_rate=2.0),
         FuzzCase('smart_target', 'sonar', (('smart_target', 'smart_target'), ('sonar_observer', 'sonar_observer')),
                  'smart_target', (SONAR_TARGET_STATUS,), sim_rate=2.0),
-        FuzzCase('acoustic_sensor', 'idsq', idsq, acoustic, (IDSQ_LEADER,), min_output=4, sim_rate=1.0),
-        FuzzCase('doa_sensor', 'idsq', idsq, doa, (IDSQ_LEADER,), min_output=4, sim_rate=1.0),
+        FuzzCase('acoustic_sensor', 'idsq', idsq, acoustic, (IDSQ_LEADER,), min_output=4, sim_rate=1.0,
+                 attack_span=15.0),
+        FuzzCase('doa_sensor', 'idsq', idsq, doa, (IDSQ_LEADER,), min_output=4, sim_rate=1.0,
+                 attack_span=15.0),
         FuzzCase('rfid_reader', 'rfid', (('rfid_reader', 'rfid_reader'), ('rfid_guidance', 'rfid_guidance')),
-                 'rfid_reader', (RFID_STEP,)),
+                 'rfid_reader', (RFID_STEP,), overrides=RFID_ENDLESS),
         FuzzCase('rfid_guidance', 'rfid', (('rfid_reader', 'rfid_reader'), ('rfid_guidance', 'rfid_guidance')),
-                 'rfid_guidance', (RFID_COMMAND,)),
+                 'rfid_guidance', (RFID_COMMAND,), overrides=RFID_ENDLESS),
     ]
     return {c.name: c for c in table}
 

@@ -3,7 +3,8 @@
 Steps ``track_core.sonar.SmartTarget`` every ``period`` T of node time (``FixedRateSteps``,
 stamps t_k = origin + k·T) and publishes
 
-- ``/sonar/target/truth`` (nav_msgs/Odometry, zero covariance, ``child_frame_id`` = ``track_id``),
+- ``/sonar/target/truth`` (nav_msgs/Odometry, zero covariance, ``child_frame_id`` = ``track_id``;
+  transient-local ``TRUTH_QOS``, so an observer started later still gets the step this node waits on),
 - ``/sonar/target/status`` (diagnostic_msgs/DiagnosticArray, one status named ``track_id`` with the
   values ``mode`` naive|cruise|evade, ``heard`` true|false, ``pings``, ``detections``:
   ``track_msgs_py.records.sonar.SonarTargetStatus``).
@@ -45,7 +46,7 @@ from track_msgs_py.convert import (
     sec_to_stamp,
     stamp_to_ns,
 )
-from track_msgs_py.qos import ESTIMATE_QOS
+from track_msgs_py.qos import ESTIMATE_QOS, TRUTH_QOS
 from track_msgs_py.records.sonar import SonarTargetStatus
 from track_msgs_py.topics import FRAME_MAP, KNOWN_FRAMES, SONAR_OBSERVER, SONAR_PING, SONAR_TARGET_STATUS, SONAR_TRUTH
 from track_msgs_py.validate import (
@@ -93,7 +94,7 @@ class SmartTargetNode(TrackNode):
         # step k waits for the observer's step k-1 (track_core.sonar.lockstep)
         self.gate = TargetGate(p.sync_observer, round(2e9 * p.period))
         self.rejected = 0
-        self.pub_truth = self.create_publisher(Odometry, SONAR_TRUTH, ESTIMATE_QOS)
+        self.pub_truth = self.create_publisher(Odometry, SONAR_TRUTH, TRUTH_QOS)  # late observers get it
         self.pub_status = self.create_publisher(DiagnosticArray, SONAR_TARGET_STATUS, ESTIMATE_QOS)
         # Ping subscription first: when both are ready at once the executor serves it first.
         self.sub_ping = self.create_subscription(PointStamped, SONAR_PING, self._on_ping, ESTIMATE_QOS)

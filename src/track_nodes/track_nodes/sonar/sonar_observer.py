@@ -1,10 +1,10 @@
 """``sonar_observer``: the observer AUV of the sonar paper, with passive/active sonar and a particle filter.
 
-Every ``period`` T of node time (``FixedRateSteps``, t_k = origin + k·T) the observer
+For every target truth (``/sonar/target/truth``), in step order, the observer
 
 1. is at ``ObserverTrajectory.state(k·T)`` (constant speed, straight legs and constant-rate turns);
-2. takes the target truth stamped exactly t_k from ``/sonar/target/truth`` and simulates the sonar
-   reading the scheduler chose for this step (``simulate_measurement``: eq. 5 passive bearing, or
+2. simulates, for the truth of step k (stamped t_k), the sonar reading the scheduler chose for
+   this step (``simulate_measurement``: eq. 5 passive bearing, or
    eq. 6 active bearing + range, Table 1 noise, its own seeded Generator);
 3. runs one step of the tracker (``make_tracker``: ``ss-pf`` with the eq. 7 covariance-control
    scheduler, or the ``papf``/``acpf`` baselines; its own seeded Generator);
@@ -23,14 +23,16 @@ Every ``period`` T of node time (``FixedRateSteps``, t_k = origin + k·T) the ob
    - ``/sonar/observer/odom`` (nav_msgs/Odometry of the observer, zero covariance) last: it tells
      the smart target that step k is complete (see ``smart_target`` for the ordering rule).
 
-Determinism rule (``track_core.sonar.lockstep.TruthGate``): step k is taken only when both its time
-has come (the timer) and the truth stamped t_k has arrived, whichever happens second; steps are
-taken strictly in order. The target's step k never depends on the observer's step k (only on k−1),
+Determinism rule (``track_core.sonar.lockstep.TruthGate``): the target's truth sets the time. The
+first truth accepted is step 1 and fixes the step grid (its stamp + k·T); step k is taken when the
+truth of grid point k has arrived, strictly in order, and everything published for it carries that
+truth's stamp exactly. The target's step k never depends on the observer's step k (only on k−1),
 so there is no deadlock, and the measurement and filter draws depend only on the seed and the truth
 sequence. Replaying a recorded ``/sonar/target/truth`` into a fresh observer with the same
-parameters therefore reproduces every estimate bit for bit. Both nodes must share the stamp origin:
-under ``use_sim_time`` it is 0; on wall time it is the whole second of each node's first tick, so
-start them together (the launcher does).
+parameters therefore reproduces every estimate bit for bit. No clock origin is shared by
+convention: the two nodes start in any order, any time apart (the truth is transient-local, so an
+observer started late still gets the step the target waits on). A truth off the grid, already
+received, too far ahead or stamped beyond the horizon of the node's clock is refused.
 
 Parameters are checked at start; δ < 0, N < 1 or a P_D that is not symmetric PSD (4 values: a
 diagonal; 16: a row-major 4×4 matrix) stop the node with one line.
@@ -64,13 +66,13 @@ from track_msgs_py.convert import (
     DIAG_OK,
     cv_state_to_odometry,
     diagnostic_array,
+    ns_to_stamp,
     odometry_to_cv_state,
     positions_to_pose_array,
-    sec_to_stamp,
     stamp_to_ns,
 )
 from track_msgs_py.markers.sonar import estimate_markers
-from track_msgs_py.qos import ESTIMATE_QOS, SENSOR_QOS
+from track_msgs_py.qos import ESTIMATE_QOS, SENSOR_QOS, TRUTH_QOS
 from track_msgs_py.records.sonar import SonarMode
 from track_msgs_py.topics import (
     FRAME_MAP,
@@ -83,8 +85,8 @@ from track_msgs_py.topics import (
     SONAR_PING,
     SONAR_TRUTH,
 )
-from track_msgs_py.validate import odometry_bounds_problem, odometry_problem
-from track_nodes.base import FixedRateSteps, Param, ParameterError, TrackNode
+from track_msgs_py.validate import clock_now, odometry_bounds_problem, odometry_problem, stamp_problem
+from track_nodes.base import Param, ParameterError, TrackNode
 
 PARAMS = (
     Param('seed', 0, 'seed of the measurement noise and of the particle filter (two spawned streams)', 0, 2**31 - 1),
@@ -110,15 +112,13 @@ PARAMS = (
     Param('heading0_deg', 90.0, 'observer initial heading, clockwise from north [deg]', -360.0, 360.0),
     Param('legs', [float(v) for leg in DEFAULT_LEGS for v in leg],
           'observer legs, flat [duration s, turn rate deg/s, ...]; the last leg extends past its duration'),
-    Param('max_time', 0.0, 'stop after this node time since origin [s]; 0 = never', 0.0, 1e9),
+    Param('max_time', 0.0, 'stop after step k with k·T > max_time (trajectory time) [s]; 0 = never', 0.0, 1e9),
     Param('track_id', 'sonar_track', 'child_frame_id of the estimate'),
     Param('observer_id', 'sonar_observer', 'child_frame_id of the observer odometry'),
 )
 
 
-def _ns(t: float) -> int:
-    """Float seconds → the integer nanoseconds of its stamp (stamps are compared exactly)."""
-    return stamp_to_ns(sec_to_stamp(t))
+WAIT_WARN = 10.0  # steady s without a truth before a (throttled) warning that none comes
 
 
 def _p_d(values) -> np.ndarray:
@@ -160,7 +160,7 @@ class SonarObserverNode(TrackNode):
         self.tracker = make_tracker(p.tracker, self.sonar, np.random.default_rng(filter_ss), P_D=P_D,
                                     delta=p.delta, metric=p.metric, regularize=p.regularize)
         self.tracker.initialize(m0, prior_cov)
-        self.gate = TruthGate()  # step k waits for its time and the truth of t_k (track_core.sonar.lockstep)
+        self.gate = TruthGate(round(p.period * 1e9))  # step k = the truth of grid point k (track_core.sonar.lockstep)
         self.rejected = 0
         self.pings = 0
         self.k = 0  # steps taken
@@ -171,35 +171,42 @@ class SonarObserverNode(TrackNode):
         self.pub_mode = self.create_publisher(DiagnosticArray, SONAR_MODE, ESTIMATE_QOS)
         self.pub_markers = self.create_publisher(MarkerArray, SONAR_MARKERS, ESTIMATE_QOS)
         self.pub_odom = self.create_publisher(Odometry, SONAR_OBSERVER, ESTIMATE_QOS)
-        self.sub_truth = self.create_subscription(Odometry, SONAR_TRUTH, self._on_truth, ESTIMATE_QOS)
-        self.steps = FixedRateSteps(self, p.period, self._due, p.max_time)
+        self.sub_truth = self.create_subscription(Odometry, SONAR_TRUTH, self._on_truth, TRUTH_QOS)
+        self.last_truth = self.steady_now()
+        self.wait_timer = self.create_timer(WAIT_WARN, self._check_waiting, clock=self._steady)
 
     # -- inputs ---------------------------------------------------------------------------
     def _on_truth(self, msg: Odometry) -> None:
-        reason = odometry_problem(msg, KNOWN_FRAMES) or odometry_bounds_problem(msg, pose_covariance=False)
+        key = stamp_to_ns(msg.header.stamp)
+        reason = (odometry_problem(msg, KNOWN_FRAMES) or odometry_bounds_problem(msg, pose_covariance=False)
+                  or stamp_problem(key * 1e-9, clock_now(self.get_clock().now().nanoseconds))
+                  or self.gate.problem(key))
         if reason:
             self.rejected += 1
             self.refuse(SONAR_TRUTH, reason)
             return
         _, x, _ = odometry_to_cv_state(msg)
-        self._take(self.gate.add_truth(stamp_to_ns(msg.header.stamp), x))
-
-    def _due(self, t: float) -> None:
-        self._take(self.gate.due(t, _ns(t)))
-
-    def _take(self, ready: list[tuple[float, np.ndarray]]) -> None:
-        for t, x_true in ready:
-            self._step(t, x_true)
+        self.last_truth = self.steady_now()
+        for k, key_k, x_true in self.gate.add_truth(key, x):
+            if self.p.max_time > 0 and k * self.p.period > self.p.max_time + 1e-9:
+                return
+            self._step(k, key_k, x_true)
         stalled = self.gate.stalled()
         if stalled is not None:
-            self.get_logger().warning(f'waiting for {SONAR_TRUTH} stamped {stalled:.9f} s '
-                                      '(is smart_target running on the same clock?)',
-                                      throttle_duration_sec=self.WARN_THROTTLE)
+            self.get_logger().warning(f'waiting for {self.sub_truth.topic_name} stamped {stalled} ns (lost?); '
+                                      f'{len(self.gate.truth)} later truths are held')
+
+    def _check_waiting(self) -> None:
+        if self.steady_now() - self.last_truth >= WAIT_WARN:
+            self.get_logger().warning(f'no truth on {self.sub_truth.topic_name} for {WAIT_WARN:g} s '
+                                      '(is smart_target running?)', throttle_duration_sec=60.0)
 
     # -- one step -------------------------------------------------------------------------
-    def _step(self, t: float, x_true: np.ndarray) -> None:
-        self.k += 1
-        obs_state = self.trajectory.state(self.k * self.p.period)  # trajectory time since the origin
+    def _step(self, k: int, key: int, x_true: np.ndarray) -> None:
+        """Step k on the truth stamped ``key`` [ns]: every message carries that exact stamp."""
+        self.k = k
+        t, stamp = key * 1e-9, ns_to_stamp(key)
+        obs_state = self.trajectory.state(k * self.p.period)  # trajectory time since step 0
         obs_xy = obs_state[[0, 2]]
         mode = self.tracker.next_mode
         z = simulate_measurement(self.noise_rng, x_true, obs_xy, mode, self.sonar)
@@ -207,16 +214,24 @@ class SonarObserverNode(TrackNode):
         if mode is SensorMode.ACTIVE:
             self.pings += 1
             ping = PointStamped()
-            ping.header.stamp, ping.header.frame_id = sec_to_stamp(t), FRAME_MAP
+            ping.header.frame_id = FRAME_MAP
             ping.point.x, ping.point.y = float(obs_xy[0]), float(obs_xy[1])
-            self.pub_ping.publish(ping)
-        self.pub_est.publish(cv_state_to_odometry(t, est.mean, est.cov, FRAME_MAP, self.p.track_id))
-        self.pub_particles.publish(positions_to_pose_array(t, self.tracker.particles[:, [0, 2]]))
+            self.pub_ping.publish(_stamped(ping, stamp))
+        self.pub_est.publish(_stamped(cv_state_to_odometry(t, est.mean, est.cov, FRAME_MAP, self.p.track_id), stamp))
+        self.pub_particles.publish(_stamped(positions_to_pose_array(t, self.tracker.particles[:, [0, 2]]), stamp))
         distance = None
         if isinstance(self.tracker.scheduler, CovarianceScheduler):
             distance = self.tracker.scheduler.distance(est.cov)
         mode_rec = SonarMode(est.mode.value, est.next_mode.value, est.k, est.ess, distance)
-        self.pub_mode.publish(diagnostic_array(t, [mode_rec.to_status(f'{self.get_name()}/sensor_mode', DIAG_OK,
-                                                                      est.mode.value)]))
-        self.pub_markers.publish(estimate_markers(t, est.mean, est.cov))
-        self.pub_odom.publish(cv_state_to_odometry(t, obs_state, np.zeros((4, 4)), FRAME_MAP, self.p.observer_id))
+        status = mode_rec.to_status(f'{self.get_name()}/sensor_mode', DIAG_OK, est.mode.value)
+        self.pub_mode.publish(_stamped(diagnostic_array(t, [status]), stamp))
+        self.pub_markers.publish(_stamped(estimate_markers(t, est.mean, est.cov), stamp))
+        odom = cv_state_to_odometry(t, obs_state, np.zeros((4, 4)), FRAME_MAP, self.p.observer_id)
+        self.pub_odom.publish(_stamped(odom, stamp))  # last: the target's step k+1 waits for it
+
+
+def _stamped(msg, stamp):
+    """``msg`` (or each marker of a MarkerArray) with the exact stamp: a float of epoch seconds loses nanoseconds."""
+    for m in getattr(msg, 'markers', None) or [msg]:
+        m.header.stamp = stamp
+    return msg

@@ -1,10 +1,12 @@
 """The sonar pair's lock-step gates (track_core.sonar.lockstep): unit rules, and identity with the old nodes.
 
-``data/lockstep_cases.json``: 140 random sequences of due steps and truths for the observer and
-140 of due steps, pings and observer positions for the smart target, run through the node methods
-as they were before issue 12 (``sonar_observer``/``smart_target`` at commit 3ac9344, logger,
-publishers and the target model stubbed); the expected output is the steps they took, with what
-each step was given. The drivers below are the new nodes' callbacks: the gates must reproduce every case.
+``data/lockstep_cases.json``: 140 random sequences of due steps, pings and observer positions for
+the smart target, run through the node methods as they were before issue 12 (``smart_target`` at
+commit 3ac9344, logger, publishers and the target model stubbed); the expected output is the steps
+it took, with what each step was given. The driver below is the new node's callback: the gate must
+reproduce every case. (Its observer cases, which fixed the old wall-time TruthGate, went when
+issue 19 replaced it by the truth-driven one: the unit rules below and the nodes-equal-the-core
+test of test/integration/test_sonar.py hold the new one.)
 """
 
 from __future__ import annotations
@@ -20,16 +22,6 @@ from track_core.sonar.lockstep import TargetGate, TruthGate
 CASES = json.loads((Path(__file__).parent / 'data/lockstep_cases.json').read_text())
 
 
-def replay_observer(case: dict) -> list:
-    gate, out = TruthGate(), []
-    for ev in case['events']:
-        ready = gate.due(ev[1], ev[2]) if ev[0] == 'due' else gate.add_truth(ev[1], np.array(ev[2]))
-        out += [['step', t, x.tolist()] for t, x in ready]
-        if gate.stalled() is not None:
-            out.append(['warn'])
-    return out
-
-
 def replay_target(case: dict) -> list:
     gate, out, key = TargetGate(case['sync'], round(2e9 * case['period'])), [], {}
     for ev in case['events']:
@@ -43,31 +35,47 @@ def replay_target(case: dict) -> list:
     return out
 
 
-@pytest.mark.parametrize('i', range(len(CASES['observer'])))
-def test_truth_gate_reproduces_the_old_observer(i):
-    assert replay_observer(CASES['observer'][i]) == CASES['observer'][i]['out']
-
-
 @pytest.mark.parametrize('i', range(len(CASES['target'])))
 def test_target_gate_reproduces_the_old_smart_target(i):
     assert replay_target(CASES['target'][i]) == CASES['target'][i]['out']
 
 
 def test_the_cases_cover_waiting_pings_and_free_running():
-    assert any(o == ['warn'] for c in CASES['observer'] for o in c['out'])
     assert any(o[1] for c in CASES['target'] for o in c['out'])
     assert {c['sync'] for c in CASES['target']} == {True, False}
 
 
-def test_truth_gate_steps_in_order_when_both_are_there():
-    gate = TruthGate()
-    assert gate.due(1.0, 1) == [] and gate.due(2.0, 2) == []
-    assert gate.add_truth(2, np.ones(4)) == []            # step 1 first
-    ready = gate.add_truth(1, np.zeros(4))
-    assert [t for t, _ in ready] == [1.0, 2.0] and gate.truth == {}
-    assert gate.due(3.0, 3) == [] and gate.stalled() is None
-    gate.due(4.0, 4), gate.due(5.0, 5)
-    assert gate.stalled() == 3.0 and gate.stalled() is None  # reported once
+def test_truth_gate_takes_the_truths_in_grid_order_with_their_own_stamps():
+    T = 1_000_000_000
+    t1 = 1_796_172_781_123_456_789  # any first stamp: the grid is t1 + (j - 1)·T
+    gate = TruthGate(T)
+    (j, key, x), = gate.add_truth(t1, np.zeros(4))
+    assert (j, key, x.tolist()) == (1, t1, [0.0] * 4) and gate.next == 2
+    assert gate.add_truth(t1 + 2 * T + 7, np.full(4, 2.0)) == []           # step 3 waits for step 2
+    ready = gate.add_truth(t1 + T - 11, np.ones(4))                         # jitter within T/4 is the grid
+    assert [(j, k) for j, k, _ in ready] == [(2, t1 + T - 11), (3, t1 + 2 * T + 7)] and gate.truth == {}
+
+
+def test_truth_gate_refuses_without_changing_anything():
+    T = 500_000_000
+    gate = TruthGate(T)
+    gate.add_truth(10 * T, np.zeros(4))
+    before = (gate.first_key, gate.next, dict(gate.truth))
+    assert 'off the step grid' in gate.problem(10 * T + T // 2)
+    assert 'already received' in gate.problem(10 * T)
+    assert 'ahead' in gate.problem(10 * T + 65 * T)  # step 66 = next (2) + WINDOW
+    assert gate.problem(10 * T + 64 * T) is None
+    assert (gate.first_key, gate.next, dict(gate.truth)) == before
+
+
+def test_truth_gate_reports_a_gap_once():
+    T = 1000
+    gate = TruthGate(T)
+    gate.add_truth(T, np.zeros(4))
+    for j in (3, 4, 5):
+        gate.add_truth(j * T, np.zeros(4))
+    assert gate.stalled() == 2 * T and gate.stalled() is None
+    assert [j for j, _, _ in gate.add_truth(2 * T, np.zeros(4))] == [2, 3, 4, 5]
 
 
 def test_target_gate_waits_for_the_observer_of_the_previous_step():
