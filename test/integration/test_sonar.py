@@ -234,16 +234,16 @@ def test_replaying_the_truth_reproduces_the_estimates(sonar_bag, ros, repo, pref
 # --- any start order ------------------------------------------------------------------------------
 
 @pytest.mark.parametrize('first', ['smart_target', 'sonar_observer'])
-def test_the_pair_started_by_hand_3_s_apart_steps_together(ros, repo, venv, first):
+def test_the_pair_started_by_hand_3_s_apart_steps_together(ros, repo, prefix, first):
     """Wall time, two processes through the shims, one started 3 s after the other: estimates flow."""
     sink = Sink(ros)
     second = 'sonar_observer' if first == 'smart_target' else 'smart_target'
     cmd = ['--ros-args', '--params-file', str(repo / 'config/sonar.yaml')]
-    procs = [subprocess.Popen([str(venv / 'lib/track_nodes' / first), *cmd], env=ros.env,
+    procs = [subprocess.Popen([str(prefix / 'lib/track_nodes' / first), *cmd], env=ros.env,
                               stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)]
     try:
         ros.spin_for(3.0)  # the gap under test, not a wait for a condition
-        procs.append(subprocess.Popen([str(venv / 'lib/track_nodes' / second), *cmd], env=ros.env,
+        procs.append(subprocess.Popen([str(prefix / 'lib/track_nodes' / second), *cmd], env=ros.env,
                                       stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True))
         assert ros.spin_until(lambda: len(sink.msgs[SONAR_ESTIMATE]) >= 4, timeout=90), \
             f'no estimates: truth {len(sink.msgs[SONAR_TRUTH])}, observer {len(sink.msgs[SONAR_OBSERVER])}'
