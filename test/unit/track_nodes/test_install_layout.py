@@ -124,3 +124,14 @@ def test_shim_runs_a_node_with_bad_params_file_message(prefix, tmp_path):
 def test_launch_files_installed(prefix):
     launch = sorted(p.name for p in (prefix / 'share/track_nodes/launch').glob('*.launch.py'))
     assert 'demo.launch.py' in launch
+
+
+def test_tests_run_installed_executables_from_the_ament_index_prefix(repo):
+    """A test running a shim or console script from the venv (lib/track_nodes, bin/track-*) would test the venv's
+    copy under ``colcon test``, or find nothing on a ROS machine: installed executables come from ``prefix``."""
+    import re
+
+    pattern = re.compile(r"""(venv|VENV|sys\.prefix\)?)\s*/\s*['"](lib/track_nodes|bin/track-)""")
+    offenders = [f'{path.relative_to(repo)}:{n}' for path in sorted((repo / 'test').rglob('*.py'))
+                 for n, line in enumerate(path.read_text().splitlines(), 1) if pattern.search(line)]
+    assert not offenders, offenders
