@@ -1,7 +1,7 @@
 """A colcon workspace works like our venv (issue 19 items 11-12).
 
-The three packages are built with colcon into a scratch workspace (a copy of ``src/``, ``test/``
-and the pytest and colcon configuration). A node starts from ``install/`` the way ``ros2 run``
+The three packages are built with colcon into a scratch workspace (a copy of the checkout: ``src/``,
+``test/``, the pytest and colcon configuration). A node starts from ``install/`` the way ``ros2 run``
 finds it: ``install/setup.sh`` sourced, ``ament_index_python.get_package_prefix`` +
 ``lib/track_nodes/<executable>``, the interpreter being python3 on PATH (an activated venv).
 ``colcon test`` runs our packages' parts of the suite against ``install/`` and fails on a failing
@@ -23,7 +23,8 @@ import rclpy
 
 pytestmark = pytest.mark.integration
 
-COPIED = ('src', 'test', 'pyproject.toml', 'colcon_defaults.yaml')
+# What a clone has that the tests read (config is a link into src/track_nodes).
+COPIED = ('src', 'test', 'config', 'pyproject.toml', 'colcon_defaults.yaml', 'README.md', 'MAINTAINERS', 'LICENSE')
 IGNORED = shutil.ignore_patterns('build', 'install', 'log', '*.egg-info', '__pycache__')
 # The shim before issue 19 item 11: the venv's interpreter only (exit 127 in a colcon install/).
 VENV_ONLY_SHIM = '#!/bin/sh\nexec "$(dirname "$0")/../../bin/python3" -m track_nodes demo_target "$@"\n'
@@ -52,7 +53,9 @@ def ws_env(ws: Path, base: dict[str, str] | None = None) -> dict[str, str]:
 def build_workspace(repo: Path, ws: Path, *build_args: str) -> Path:
     for name in COPIED:
         src = repo / name
-        if src.is_dir():
+        if src.is_symlink():
+            (ws / name).symlink_to(os.readlink(src))
+        elif src.is_dir():
             shutil.copytree(src, ws / name, ignore=IGNORED)
         else:
             shutil.copy2(src, ws / name)
