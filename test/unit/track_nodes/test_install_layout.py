@@ -135,3 +135,17 @@ def test_tests_run_installed_executables_from_the_ament_index_prefix(repo):
     offenders = [f'{path.relative_to(repo)}:{n}' for path in sorted((repo / 'test').rglob('*.py'))
                  for n, line in enumerate(path.read_text().splitlines(), 1) if pattern.search(line)]
     assert not offenders, offenders
+
+
+def test_scenarios_come_from_the_prefix_the_ament_index_gives(prefix, tmp_path, monkeypatch):
+    """An overlay sourced after the workspace puts another prefix first on AMENT_PREFIX_PATH."""
+    from track_nodes.launch.scenario import find_scenario
+
+    ws = tmp_path / 'ws/install/track_nodes'
+    shutil.copytree(prefix / 'share/track_nodes/config', ws / 'share/track_nodes/config')
+    (ws / 'share/ament_index/resource_index/packages').mkdir(parents=True)
+    (ws / 'share/ament_index/resource_index/packages/track_nodes').touch()
+    (tmp_path / 'overlay/share').mkdir(parents=True)
+    monkeypatch.setenv('AMENT_PREFIX_PATH', os.pathsep.join([str(tmp_path / 'overlay'), str(ws), sys.prefix]))
+    monkeypatch.chdir(tmp_path)  # no ./config here
+    assert find_scenario('demo') == (ws / 'share/track_nodes/config/demo.yaml').resolve()
