@@ -5,6 +5,11 @@ player and the QoS lookup (``qos.qos_for_topic``) all read it, so a topic added 
 recorded and replayed with the right type and QoS without touching them. Later issues
 extend ``TOPICS`` (one entry per topic) and ``KNOWN_FRAMES``.
 
+Names here are as they resolve in the root namespace (what a bag of an un-namespaced run holds).
+Nodes use them through ``relative``: without the leading slash, so ``-r __ns:=/robot1`` puts a
+node's topics under ``/robot1`` and remapping rules apply (issue 19, item 5). The ROS-wide topics
+(``GLOBAL_TOPICS``: /clock, /tf, /tf_static, /diagnostics, ...) stay absolute, as in ROS itself.
+
 QoS kinds (profiles in ``track_msgs_py.qos``): ``'sensor'`` best-effort depth 5,
 ``'estimate'`` reliable depth 10, ``'static'`` reliable transient-local depth 1, and
 ``'clock'`` for ``/clock`` (compatible with rclpy's own /clock subscription).
@@ -32,6 +37,13 @@ FUSION_SCORES = '/fusion/scores'
 FUSION_ASSOCIATIONS = '/fusion/associations'
 FUSION_FUSED = '/fusion/fused'
 FUSION_MARKERS = '/fusion/markers'
+
+GLOBAL_TOPICS = frozenset({CLOCK, DIAGNOSTICS, '/tf', '/tf_static', '/rosout', '/parameter_events'})
+
+
+def relative(topic: str) -> str:
+    """The name a node gives for one of our topics: relative (no leading '/'), unless a ROS-wide one."""
+    return topic if topic in GLOBAL_TOPICS or not topic.startswith('/') else topic[1:]
 
 
 class TopicSpec(NamedTuple):

@@ -25,6 +25,8 @@ class CVTarget:
     q_s: float = 0.05
     R: np.ndarray = field(default_factory=lambda: np.diag([4.0, 4.0]))
     k: int = 0
+    _t_base: float = field(default=0.0, init=False, repr=False)  # t and k at the last set_period
+    _k_base: int = field(default=0, init=False, repr=False)
 
     def __post_init__(self) -> None:
         self.x = np.asarray(self.x0, dtype=float).copy()
@@ -38,9 +40,17 @@ class CVTarget:
         self._F = cv_transition(self.T)
         self._Q = cv_process_noise(self.T, self.q_s)
 
+    def set_period(self, T: float) -> None:
+        """Sample every ``T`` from now on (the state is kept; ``t`` goes on from where it is)."""
+        if not T > 0:
+            raise ValueError(f'T must be > 0, got {T}')
+        self._t_base = self.t
+        self._k_base = self.k
+        self.T, self._F, self._Q = T, cv_transition(T), cv_process_noise(T, self.q_s)
+
     @property
     def t(self) -> float:
-        return self.k * self.T
+        return self._t_base + (self.k - self._k_base) * self.T
 
     def step(self, rng: np.random.Generator) -> np.ndarray:
         """Advance one interval T; returns the new true state."""

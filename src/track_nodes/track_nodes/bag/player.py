@@ -2,7 +2,7 @@
 
 Usage::
 
-    track-play BAG [--rate R] [--loop] [--topics T ...] [--start-offset S] [--wait-subscribers S]
+    track-play BAG [--rate R] [--loop] [--topics T ...] [--start-offset S] [--wait S]
     .venv/lib/track_nodes/player BAG ...          (same, through the ros2-run shim)
     ... --ros-args -p bag:=BAG -p rate:=2.0       (parameters directly)
 
@@ -19,9 +19,11 @@ Usage::
   follow bag time at any rate. A ``/clock`` topic recorded in the bag is not replayed.
 - QoS of the publishers: reliable, keep-last 100; transient-local only for topics whose
   recorded offered QoS was transient-local for every publisher, else volatile.
-- Before the first message: wait up to ``wait_subscribers`` seconds (default 2) until every
-  topic to be played has at least one matched subscription, then 0.1 s for the match to settle
-  on both sides. Topics still without a subscriber after that are played anyway.
+- Before the first message: wait up to ``--wait`` (``wait_subscribers``) seconds (default 2) until
+  every topic to be played has at least one matched subscription, then 0.5 s for the match to
+  settle on the subscriber's side too (the publisher sees the match first; a volatile reader that
+  has not yet matched the writer would miss the first message). Topics still without a
+  subscriber after that are played anyway.
 - The whole bag is validated before anything is published (opened and every message read
   once), so a truncated bag never half-plays. A bad path, a directory that is not a bag, a bag
   without metadata.yaml (killed recorder: recover it with ``track-bag-recover``), a truncated
@@ -52,7 +54,7 @@ from track_nodes.base.cli import OneLineParser, cli_overrides
 
 CLOCK_TOPIC = '/clock'
 DEPTH = 100
-SETTLE = 0.1  # wall seconds after all subscriptions matched
+SETTLE = 0.5  # wall seconds after all subscriptions matched (the subscribers' side matches later)
 ACK_TIMEOUT = 2.0
 
 BAG_PARAM = Param('bag', '', "bag directory or .mcap file (a name without '/' → bags/<name>/)")
@@ -115,7 +117,8 @@ class PlayerNode(TrackNode):
         for topic, (msgtype, transient) in self.topic_info.items():
             qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=DEPTH, reliability=ReliabilityPolicy.RELIABLE,
                              durability=DurabilityPolicy.TRANSIENT_LOCAL if transient else DurabilityPolicy.VOLATILE)
-            self.publishers_by_topic[topic] = self.create_publisher(self.classes[msgtype], topic, qos)
+            self.publishers_by_topic[topic] = self.create_publisher(self.classes[msgtype], topic, qos,
+                                                                    as_given=True)  # the recorded names
         if exit_when_done:
             self.create_timer(0.05, self._exit_if_done, clock=RosClock(clock_type=ClockType.STEADY_TIME))
         self._thread = threading.Thread(target=self._run, name='player', daemon=True)
@@ -241,8 +244,8 @@ def parse_cli(argv: Sequence[str]) -> list[Parameter]:
     ap.add_argument('--topics', nargs='+', default=None, metavar='T', help='play only these topics')
     ap.add_argument('--start-offset', type=float, default=None, metavar='S',
                     help='start S seconds of bag time after the first message')
-    ap.add_argument('--wait-subscribers', type=float, default=None, metavar='S',
-                    help='wait up to S s for a subscriber on every topic (default 2)')
+    ap.add_argument('--wait', '--wait-subscribers', dest='wait_subscribers', type=float, default=None, metavar='S',
+                    help='wait up to S s for a subscriber on every topic before the first message (default 2)')
     return cli_overrides(ap, argv, {'bag': 'bag', 'rate': 'rate', 'loop': 'loop', 'topics': 'topics',
                                     'start_offset': 'start_offset', 'wait_subscribers': 'wait_subscribers'})
 

@@ -170,7 +170,7 @@ class RecorderNode(TrackNode):
             message_lost=lambda info, t=topic: self._on_lost(t, info.total_count_change))
         self.subscriptions_by_topic[topic] = self.create_subscription(
             cls, topic, lambda data, info, t=topic: self._on_message(t, data, info), qos, raw=True,
-            event_callbacks=events)
+            event_callbacks=events, as_given=True)  # discovered, fully qualified names
         self.get_logger().info(
             f'recording {topic} [{msgtype}] ({qos.reliability.name.lower()}, {qos.durability.name.lower()})')
 

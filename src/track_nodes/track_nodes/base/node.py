@@ -14,6 +14,12 @@ per reason every ``warn_throttle`` seconds with the count (``base.refusals``), a
 ``/diagnostics`` (one ``DiagnosticStatus`` named after the node, a key per topic and reason) at
 most once a second while refusals happen, so ``ros2 topic echo /diagnostics`` shows them.
 
+Topics: the names of ``track_msgs_py.topics`` are given as they resolve in the root namespace;
+``create_publisher``/``create_subscription``/``count_publishers`` make them relative
+(``topics.relative``), so ``__ns`` and remapping apply. A name from a user's parameter (fusion's
+track topics) is taken as given (``as_given=True``): a leading '/' keeps it absolute. Log lines
+and ``/diagnostics`` keys name the resolved topic (``resolved``).
+
 ``python -m track_nodes <executable>`` (what the ``ros2 run`` shims call) looks the class up in
 ``track_nodes.registry`` and calls ``main``.
 """
@@ -22,20 +28,23 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Callable, Sequence
+from types import SimpleNamespace
 from typing import Any, ClassVar
 
 import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
 from rclpy.executors import ExternalShutdownException
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 
 from track_msgs_py.convert import diagnostic_array, diagnostic_status
 from track_msgs_py.records import DIAG_OK, DIAG_WARN
-from track_msgs_py.topics import DIAGNOSTICS
+from track_msgs_py.topics import DIAGNOSTICS, relative
 from track_nodes.base.cli import params_file_problem
-from track_nodes.base.params import Param, declare_params
+from track_nodes.base.params import Param, ParameterError, declare_params
 from track_nodes.base.refusals import RefusalCounter
 
 EXIT_BAD_INPUT = 2
@@ -54,22 +63,92 @@ class TrackNode(Node):
                  **node_kwargs: Any) -> None:
         super().__init__(node_name or self.DEFAULT_NAME, context=context, parameter_overrides=parameter_overrides,
                          cli_args=cli_args, **node_kwargs)
+        self._specs: dict[str, Param] = {}  # every Param declared through declare_params (base/params.py)
+        self._declaring: set[str] = set()
         self.p = declare_params(self, self.PARAMS)
         self.refusals = RefusalCounter(self.WARN_THROTTLE)
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._diagnostics = None  # publisher and timer made at the first refusal (most nodes never need them)
         self._diagnostics_dirty = False
         self.setup()
+        self.add_on_set_parameters_callback(self._check_params)
+        self.add_post_set_parameters_callback(self._apply_params)
 
     def setup(self) -> None:
         """The node's core object and endpoints (parameters are in ``self.p``); raise ValueError to refuse."""
+
+    # -- topics: relative names (topics.relative) --------------------------------------------------
+    def create_publisher(self, msg_type, topic: str, qos_profile, *, as_given: bool = False, **kwargs):
+        pub = super().create_publisher(msg_type, topic if as_given else relative(topic), qos_profile, **kwargs)
+        self._names()[topic] = pub.topic_name
+        return pub
+
+    def create_subscription(self, msg_type, topic: str, callback, qos_profile, *, as_given: bool = False,
+                            **kwargs):
+        sub = super().create_subscription(msg_type, topic if as_given else relative(topic), callback, qos_profile,
+                                          **kwargs)
+        self._names()[topic] = sub.topic_name
+        return sub
+
+    def _names(self) -> dict[str, str]:
+        """Topic as the code gives it → the endpoint's resolved name (rclpy's own endpoints come first)."""
+        return self.__dict__.setdefault('_resolved', {})
+
+    def count_publishers(self, topic_name: str) -> int:
+        return super().count_publishers(self.resolved(topic_name))
+
+    def count_subscribers(self, topic_name: str) -> int:
+        return super().count_subscribers(self.resolved(topic_name))
+
+    def resolved(self, topic: str) -> str:
+        """The fully qualified (namespaced, remapped) name of ``topic`` as this node uses it."""
+        names = self._names()
+        if topic in names:
+            return names[topic]
+        if topic in names.values():  # already resolved
+            return topic
+        return self.resolve_topic_name(relative(topic))
+
+    # -- parameters at run time (base/params.py) -------------------------------------------------
+    def validate_params(self, p: SimpleNamespace) -> None:
+        """Cross-checks of a candidate parameter set ``p`` (all values, changes applied); raise ParameterError."""
+
+    def apply_params(self, changed: set[str]) -> None:
+        """Put the live parameters ``changed`` (already in ``self.p``) into effect."""
+
+    def _check_params(self, params: list[Parameter]) -> SetParametersResult:
+        # declare_parameter runs these callbacks too: a parameter not declared yet is being declared
+        self._declaring = {q.name for q in params if not self.has_parameter(q.name)}
+        changes = {q.name: q.value for q in params if q.name in self._specs and q.name not in self._declaring}
+        try:
+            for name, value in changes.items():
+                spec = self._specs[name]
+                if not spec.live:  # rclpy refuses read-only ones first; this is the guard if it did not
+                    raise ParameterError(f'parameter {name} is read-only: set it at start')
+                spec.check(value)
+            if changes:
+                self.validate_params(SimpleNamespace(**{**vars(self.p), **changes}))
+        except (ParameterError, ValueError) as exc:
+            self.get_logger().warning(f'parameter change refused: {exc}')
+            return SetParametersResult(successful=False, reason=str(exc))
+        return SetParametersResult(successful=True)
+
+    def _apply_params(self, params: list[Parameter]) -> None:
+        changed = {q.name for q in params if q.name in self._specs and self._specs[q.name].live
+                   and q.name not in self._declaring}
+        for name in changed:
+            setattr(self.p, name, self.get_parameter(name).value)
+        if changed:
+            self.apply_params(changed)
+            said = ', '.join(f'{n}={getattr(self.p, n)!r}' for n in sorted(changed))
+            self.get_logger().info(f'parameters set: {said}')
 
     def steady_now(self) -> float:
         return self._steady.now().nanoseconds * 1e-9
 
     def refuse(self, topic: str, reason: str) -> None:
         """Count and (throttled) log one refused message; the caller leaves its state unchanged."""
-        line = self.refusals.refuse(topic, reason, self.steady_now())
+        line = self.refusals.refuse(self.resolved(topic), reason, self.steady_now())
         if line is not None:
             self.get_logger().warning(line)
         self._diagnostics_dirty = True

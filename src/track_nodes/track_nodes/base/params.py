@@ -7,6 +7,11 @@
 - ``declare_dataclass``: a core configuration dataclass as ``<prefix>.<field>`` parameters,
   one per number, bool or number-tuple field, with the core's own checks on the result.
 - ``vector``: a list parameter as a finite numpy vector of a fixed length, or one line.
+
+Run time (issue 19, item 6): a ``Param`` with ``live=True`` (rates, thresholds, gates) may be
+changed with ``ros2 param set``; the node base checks the new value like a start value and the
+node applies it (``TrackNode.apply_params``). Every other parameter is declared read-only, so
+``ros2 param set`` refuses it with a reason instead of answering "successful" and ignoring it.
 """
 
 from __future__ import annotations
@@ -39,6 +44,7 @@ class Param:
     lo: float | None = None
     hi: float | None = None
     choices: tuple[str, ...] | None = None
+    live: bool = False  # may change at run time (validated, then applied by the node); else read-only
 
     def allowed(self) -> str:
         if self.choices is not None:
@@ -48,7 +54,9 @@ class Param:
         return f'[{lo}, {hi}]'
 
     def descriptor(self) -> ParameterDescriptor:
-        d = ParameterDescriptor(name=self.name, description=f'{self.description} (allowed: {self.allowed()})')
+        when = 'settable at run time' if self.live else 'read-only after start'
+        d = ParameterDescriptor(name=self.name, description=f'{self.description} (allowed: {self.allowed()}; {when})',
+                                read_only=not self.live)
         if isinstance(self.default, bool) or (self.lo is None and self.hi is None):
             return d
         lo = -sys.float_info.max if self.lo is None else self.lo
@@ -70,9 +78,15 @@ class Param:
 
 
 def declare_params(node: Node, specs: Iterable[Param]) -> SimpleNamespace:
-    """Declare ``specs`` on ``node`` and return their checked values as attributes."""
+    """Declare ``specs`` on ``node`` and return their checked values as attributes.
+
+    A ``TrackNode`` remembers the specs (``node._specs``), so its run-time checks know them.
+    """
     values = {}
+    known = getattr(node, '_specs', None)
     for spec in specs:
+        if known is not None:
+            known[spec.name] = spec
         try:
             param = node.declare_parameter(spec.name, spec.default, spec.descriptor())
         except ParameterException as exc:

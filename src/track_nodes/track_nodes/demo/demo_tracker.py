@@ -34,7 +34,7 @@ PARAMS = (
     Param('sigma_v0', 5.0, 'prior standard deviation of each velocity axis at initialisation [m/s]', 1e-3, 1e3),
     Param('track_id', 'demo_track', 'child_frame_id of the published track'),
     Param('stamp_horizon', InputPolicy.horizon, 'refuse reports stamped more than this ahead of the node clock [s]',
-          1e-3, 1e9),
+          1e-3, 1e9, live=True),
 )
 
 
@@ -53,6 +53,9 @@ class DemoTrackerNode(TrackNode):
     def _reject(self, reason: str) -> None:
         self.rejected += 1
         self.refuse(DEMO_REPORTS, reason)
+
+    def apply_params(self, changed: set[str]) -> None:
+        self.policy = InputPolicy(horizon=self.p.stamp_horizon)
 
     def _on_report(self, msg: PoseWithCovarianceStamped) -> None:
         t, z, R = pose_cov_to_position(msg)

@@ -93,7 +93,7 @@ from track_msgs_py.validate import (
     pose_cov_problem,
     stamp_problem,
 )
-from track_nodes.base import Param, TrackNode
+from track_nodes.base import Param, ParameterError, TrackNode
 
 # Best effort accepts both reliable and best-effort publishers; depth covers a few rate periods.
 TRACK_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=50, reliability=ReliabilityPolicy.BEST_EFFORT)
@@ -107,23 +107,23 @@ PARAMS = (
     Param('pose_topics', [''], 'PoseWithCovarianceStamped track topics (one track per topic)'),
     Param('pose_track_topics', [''], 'PoseWithCovarianceStamped topics of many tracks of one source '
           '(header.frame_id = "<frame>#<local id>", track id = topic/<local id>)'),
-    Param('rate', 2.0, 'scoring rate [Hz]', 0.01, 100.0),
+    Param('rate', 2.0, 'scoring rate [Hz]', 0.01, 100.0, live=True),
     Param('method', 'exact', 'geofeasibility score', choices=('exact', 'glr', 'glr_thresholded', 'mc')),
     Param('n_samples', 500, 'Monte-Carlo samples per pair (method mc)', 10, 1_000_000),
-    Param('threshold', 0.5, 'associate a pair when its combined score is at least this', 0.0, 1.0),
+    Param('threshold', 0.5, 'associate a pair when its combined score is at least this', 0.0, 1.0, live=True),
     Param('combine', 'geometric', 'track-level combination of instant scores', choices=('geometric', 'harmonic')),
     Param('window', 10, 'instant scores kept per pair for the combination', 1, 100_000),
-    Param('stale_after', 2.0, 'a position report older than this drops out [s]', 1e-3, 1e6),
-    Param('max_prediction', 10.0, 'an Odometry track predicted further than this drops out [s]', 1e-3, 1e6),
+    Param('stale_after', 2.0, 'a position report older than this drops out [s]', 1e-3, 1e6, live=True),
+    Param('max_prediction', 10.0, 'an Odometry track predicted further than this drops out [s]', 1e-3, 1e6, live=True),
     Param('q_s', 0.1, 'CV process-noise intensity used when predicting tracks [m²/s³]', 0.0, 1e6),
     Param('seed', 0, 'seed of the Generator used by the mc method', 0, 2**31 - 1),
     Param('same_source_pairs', False, 'also score pairs from one source (Odometry: same topic; pose: same '
           'namespace)'),
     Param('schedule', 'timer', 'timer: score at node-clock ticks; stamps: at the data instants k/rate, '
           'deterministic (module docstring)', choices=('timer', 'stamps')),
-    Param('warn_period', 5.0, 'at most one bad-input warning per topic per this many seconds', 0.0, 1e6),
+    Param('warn_period', 5.0, 'at most one bad-input warning per topic per this many seconds', 0.0, 1e6, live=True),
     Param('stamp_horizon', InputPolicy.horizon, 'refuse reports stamped more than this ahead of the node clock [s]',
-          1e-3, 1e9),
+          1e-3, 1e9, live=True),
 )
 
 
@@ -149,17 +149,34 @@ class FusionNode(TrackNode):
         self.policy = InputPolicy(horizon=p.stamp_horizon)
         self.refusals.throttle = p.warn_period
         self.dropped: dict[str, int] = {}
-        self.subs = [self.create_subscription(Odometry, t, lambda m, t=t: self._on_odometry(t, m), TRACK_QOS)
-                     for t in odo]
-        self.subs += [self.create_subscription(PoseWithCovarianceStamped, t, lambda m, t=t: self._on_pose(t, m),
-                                               TRACK_QOS) for t in pose]
-        self.subs += [self.create_subscription(PoseWithCovarianceStamped, t,
-                                               lambda m, t=t: self._on_pose_track(t, m), TRACKS_QOS) for t in multi]
+        # The track topics are the user's names, as given: relative ones resolve in the node's namespace.
+        # Track ids use the resolved name (track_id = <resolved topic>/<id>), the same in any namespace form.
+        self.subs = [self._track_sub(Odometry, t, self._on_odometry, TRACK_QOS) for t in odo]
+        self.subs += [self._track_sub(PoseWithCovarianceStamped, t, self._on_pose, TRACK_QOS) for t in pose]
+        self.subs += [self._track_sub(PoseWithCovarianceStamped, t, self._on_pose_track, TRACKS_QOS) for t in multi]
         self.pub_scores = self.create_publisher(DiagnosticArray, FUSION_SCORES, ESTIMATE_QOS)
         self.pub_assoc = self.create_publisher(DiagnosticArray, FUSION_ASSOCIATIONS, ESTIMATE_QOS)
         self.pub_fused = self.create_publisher(Odometry, FUSION_FUSED, ESTIMATE_QOS)
         self.pub_markers = self.create_publisher(MarkerArray, FUSION_MARKERS, ESTIMATE_QOS)
         self.timer = self.create_timer(1.0 / p.rate, self.tick) if p.schedule == 'timer' else None
+
+    def _track_sub(self, cls, topic: str, handler, qos):
+        name = self.resolve_topic_name(topic)
+        return self.create_subscription(cls, topic, lambda m: handler(name, m), qos, as_given=True)
+
+    def validate_params(self, p) -> None:
+        if p.schedule == 'stamps' and p.rate != self.p.rate:
+            raise ParameterError('parameter rate is fixed with schedule=stamps (it sets the scoring instants k/rate)')
+
+    def apply_params(self, changed: set[str]) -> None:
+        p, core = self.p, self.core
+        core.threshold = float(p.threshold)
+        core.table.stale_after, core.table.max_prediction = float(p.stale_after), float(p.max_prediction)
+        self.refusals.throttle = float(p.warn_period)
+        self.policy = InputPolicy(horizon=p.stamp_horizon)
+        if 'rate' in changed and self.timer is not None:
+            self.timer.timer_period_ns = round(1e9 / p.rate)
+            self.markers.lifetime = 2.0 / p.rate
 
     @property
     def next_k(self) -> int | None:

@@ -135,12 +135,12 @@ class IdsqSensorNode(TrackNode):
         try:
             layout = convert.pointcloud2_to_layout(msg, self.p.comm_range)
         except ValueError as exc:
-            self.get_logger().error(f'{IDSQ_LAYOUT}: unusable layout: {exc}')
+            self.get_logger().error(f'{self.resolved(IDSQ_LAYOUT)}: unusable layout: {exc}')
             return
         why = ledger.layout_problem(layout, self.id, self.position, self.is_doa)
         if why is not None:
             self.disabled = True
-            self.get_logger().error(f'{IDSQ_LAYOUT}: sensor {self.id}: {why}; staying passive')
+            self.get_logger().error(f'{self.resolved(IDSQ_LAYOUT)}: sensor {self.id}: {why}; staying passive')
             return
         targets = [ledger.handoff_targets(layout, j) for j in range(layout.n)]  # K sensors
         for k in targets[self.id]:

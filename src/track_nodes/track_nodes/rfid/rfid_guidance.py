@@ -94,10 +94,11 @@ PARAMS = (
           choices=WEIGHTINGS),
     Param('reinit_factor', 3.0, 're-initialise when min |m| > factor · m₀; 0 = never', 0.0, 1e6),
     Param('max_repeats', 2, 'unusable MOVEs in a row before asking for a half turn', 1, 1000),
-    Param('max_steps', 200, 'MOVE results (repeats included) before the search ends as a failure', 1, 1_000_000),
-    Param('period', 0.1, 'timer of the first command and of re-sends [node s]', 1e-3, 60.0),
+    Param('max_steps', 200, 'MOVE results (repeats included) before the search ends as a failure', 1, 1_000_000,
+          live=True),
+    Param('period', 0.1, 'timer of the first command and of re-sends [node s]', 1e-3, 60.0, live=True),
     Param('resend_after', 2.0, 're-send the pending command after this long without its answer [node s]',
-          1e-3, 3600.0),
+          1e-3, 3600.0, live=True),
 )
 
 
@@ -137,6 +138,10 @@ class RfidGuidanceNode(TrackNode):
         self.sub_step = self.create_subscription(DiagnosticArray, RFID_STEP, self._on_step, ESTIMATE_QOS)
         self.timer = self.create_timer(p.period, self._tick)
 
+    def apply_params(self, changed: set[str]) -> None:
+        self.timer.timer_period_ns = round(self.p.period * 1e9)
+        self.loop.resend_after, self.loop.max_steps = float(self.p.resend_after), int(self.p.max_steps)
+
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
 
@@ -170,7 +175,7 @@ class RfidGuidanceNode(TrackNode):
             return  # a replayed answer already used, unsolicited, or after DONE
         reply = self.guide.on_step(res)
         if reply.warning is not None:
-            self.warnings.append(f'{RFID_STEP} #{res.seq}: {reply.warning}; filter state unchanged, '
+            self.warnings.append(f'{self.resolved(RFID_STEP)} #{res.seq}: {reply.warning}; filter state unchanged, '
                                  f'asking for {reply.command}')
             self.refuse(RFID_STEP, f'{reply.warning}; filter state unchanged, step repeated')  # counted, throttled
         elif res.kind is CommandKind.TURN:

@@ -99,8 +99,8 @@ PARAMS = (
     Param('noise', 'fixed', 'signal processing: fixed (the paper) or online (per-read noise from the data)',
           choices=('fixed', 'online')),
     Param('time_scale', 1.0, 'node seconds per second of the simulated action before answering; 0 = at once',
-          0.0, 1e3),
-    Param('tick', 0.05, 'period of the timer that publishes due answers [node s]', 1e-3, 10.0),
+          0.0, 1e3, live=True),
+    Param('tick', 0.05, 'period of the timer that publishes due answers [node s]', 1e-3, 10.0, live=True),
 )
 
 
@@ -169,6 +169,10 @@ class RfidReaderNode(TrackNode):
         self.get_logger().info(f'user {self.reader.distance_to_tag():.2f} m from the tag at '
                                f'({self.reader.pose[0]:.2f}, {self.reader.pose[1]:.2f}) m, '
                                f'{self.reader.turns} rotation(s) to find the signal')
+
+    def apply_params(self, changed: set[str]) -> None:
+        if 'tick' in changed:  # time_scale is read at each command
+            self.timer.timer_period_ns = round(self.p.tick * 1e9)
 
     def _now(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9

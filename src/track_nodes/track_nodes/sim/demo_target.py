@@ -21,7 +21,7 @@ from track_nodes.base import FixedRateSteps, Param, TrackNode, vector
 
 PARAMS = (
     Param('seed', 0, 'seed of the numpy Generator driving truth and report noise', 0, 2**31 - 1),
-    Param('period', 0.1, 'sample interval T of truth and reports [s]', 1e-3, 60.0),
+    Param('period', 0.1, 'sample interval T of truth and reports [s]', 1e-3, 60.0, live=True),
     Param('q_s', 0.05, 'process-noise intensity of the CV truth [m²/s³]', 0.0, 100.0),
     Param('sigma_r', 2.0, 'standard deviation of each position-report axis [m]', 1e-3, 1e4),
     Param('x0', [0.0, 5.0, 0.0, 2.0], 'initial state [x, vx, y, vy] in map [m, m/s]'),
@@ -43,6 +43,11 @@ class DemoTargetNode(TrackNode):
         self.pub_truth = self.create_publisher(Odometry, DEMO_TRUTH, ESTIMATE_QOS)
         self.pub_report = self.create_publisher(PoseWithCovarianceStamped, DEMO_REPORTS, SENSOR_QOS)
         self.steps = FixedRateSteps(self, p.period, self._step, p.max_time)
+
+    def apply_params(self, changed: set[str]) -> None:
+        if 'period' in changed:  # the next step comes one new period after the last one
+            self.steps.set_period(self.p.period)
+            self.target.set_period(self.p.period)
 
     def _step(self, t: float) -> None:
         x = self.target.step(self.rng)

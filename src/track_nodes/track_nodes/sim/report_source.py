@@ -27,12 +27,12 @@ PARAMS = (
     Param('targets', [0.0, 5.0, 0.0, 0.0], 'initial ship states, flat [x, vx, y, vy, ...] [m, m/s]'),
     Param('truth_seed', 0, 'seed of the ships\' process noise (same value = same ships)', 0, 2**31 - 1),
     Param('q_s', 0.01, 'process-noise intensity of the ships [m²/s³]', 0.0, 100.0),
-    Param('period', 1.0, 'report interval [s]', 1e-3, 3600.0),
+    Param('period', 1.0, 'report interval [s]', 1e-3, 3600.0, live=True),
     Param('report_targets', [-1], 'indices of the ships this source reports; [-1] = all'),
     Param('sigma_major', 20.0, '1σ error along the major axis of the report ellipse [m]', 1e-3, 1e6),
     Param('sigma_minor', 10.0, '1σ error along the minor axis [m]', 1e-3, 1e6),
     Param('bearing_deg', 0.0, 'bearing of the major axis, clockwise from north [deg]', -360.0, 360.0),
-    Param('dropout', 0.0, 'probability that a report is missing', 0.0, 0.99),
+    Param('dropout', 0.0, 'probability that a report is missing', 0.0, 0.99, live=True),
     Param('noise_seed', 1, 'seed of this source\'s report noise and dropouts', 0, 2**31 - 1),
     Param('prefix', '/source', 'topic prefix: reports on <prefix>/t<i>, truth on <prefix>/truth'),
     Param('publish_truth', False, 'also publish the true ship states (evaluation only)'),
@@ -64,6 +64,11 @@ class ReportSourceNode(TrackNode):
         self.pubs = {i: self.create_publisher(PoseWithCovarianceStamped, f'{prefix}/t{i}', ESTIMATE_QOS) for i in idx}
         self.pub_truth = self.create_publisher(Odometry, f'{prefix}/truth', ESTIMATE_QOS) if p.publish_truth else None
         self.steps = FixedRateSteps(self, p.period, self._step)
+
+    def apply_params(self, changed: set[str]) -> None:
+        if 'period' in changed:  # dropout is read at each step
+            self.steps.set_period(self.p.period)
+            self.ships.set_period(self.p.period)
 
     def _step(self, t: float) -> None:
         x = self.ships.step(self.truth_rng)  # same truth_seed → same ships in every source

@@ -92,7 +92,7 @@ PARAMS = (
     Param('seed', 0, 'seed of the measurement noise and of the particle filter (two spawned streams)', 0, 2**31 - 1),
     Param('tracker', 'ss-pf', 'ss-pf: eq. 7 scheduling; papf: passive only; acpf: active only',
           choices=TRACKERS),
-    Param('delta', 5.0, 'threshold δ of eq. 7 (Table 1: 5) [m²]', 0.0, 1e12),
+    Param('delta', 5.0, 'threshold δ of eq. 7 (Table 1: 5) [m²]', 0.0, 1e12, live=True),
     Param('P_D', [float(v) for v in np.diag(DEFAULT_P_D)],
           'desired covariance P_D of eq. 7 in [x, vx, y, vy]: 4 values (diagonal) or 16 (row-major 4x4), '
           'symmetric PSD'),
@@ -174,6 +174,11 @@ class SonarObserverNode(TrackNode):
         self.sub_truth = self.create_subscription(Odometry, SONAR_TRUTH, self._on_truth, TRUTH_QOS)
         self.last_truth = self.steady_now()
         self.wait_timer = self.create_timer(WAIT_WARN, self._check_waiting, clock=self._steady)
+
+    def apply_params(self, changed: set[str]) -> None:
+        scheduler = getattr(self.tracker, 'scheduler', None)
+        if 'delta' in changed and isinstance(scheduler, CovarianceScheduler):  # eq. 7 from the next step on
+            scheduler.delta = float(self.p.delta)
 
     # -- inputs ---------------------------------------------------------------------------
     def _on_truth(self, msg: Odometry) -> None:
