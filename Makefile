@@ -30,5 +30,5 @@ lint: $(VENV)/.deps-stamp
 test: install lint
 	$(PY) -m pytest
 
-clean:
-	rm -rf $(VENV) $(addsuffix /build,$(PKGS)) $(addsuffix /*.egg-info,$(PKGS))
+clean:   # also a colcon build's build/ install/ log/ (README, "colcon workspace")
+	rm -rf $(VENV) $(addsuffix /build,$(PKGS)) $(addsuffix /*.egg-info,$(PKGS)) build install log

@@ -1,5 +1,10 @@
 """Test harness shared by unit and integration tests.
 
+Install prefix: tests find our packages the way ``ros2 run`` does, through the ament index on
+``AMENT_PREFIX_PATH`` (``make`` sets it to ``.venv``; ``colcon test`` to the workspace's
+``install/`` prefixes; unset, it defaults to the venv). ``prefix`` is where track_nodes is
+installed (``lib/track_nodes/<shim>``, ``bin/track-*``), ``venv`` the running interpreter's prefix.
+
 ROS isolation: every test that touches ROS gets its own ``rclpy.Context`` on a unique
 ``ROS_DOMAIN_ID`` with discovery restricted to localhost, so tests never see each other's
 (or anybody else's) topics. Subprocesses started by a test get the same domain through
@@ -24,6 +29,7 @@ os.environ.pop('ROS_LOCALHOST_ONLY', None)
 
 REPO = Path(__file__).resolve().parents[1]
 VENV = Path(sys.prefix)
+os.environ.setdefault('AMENT_PREFIX_PATH', str(VENV))
 _domains = itertools.count()
 
 
@@ -55,8 +61,7 @@ class RosHarness:
         rclpy.init(context=self.context, domain_id=self.domain_id)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.nodes: list = []
-        self.env = {**os.environ, 'ROS_DOMAIN_ID': str(self.domain_id),
-                    'AMENT_PREFIX_PATH': str(VENV), 'PYTHONUNBUFFERED': '1'}
+        self.env = {**os.environ, 'ROS_DOMAIN_ID': str(self.domain_id), 'PYTHONUNBUFFERED': '1'}
 
     def add(self, node):
         """Register ``node`` with the executor; it is destroyed at teardown."""
@@ -97,10 +102,22 @@ def venv() -> Path:
     return VENV
 
 
+def package_prefix(pkg: str) -> Path:
+    """The install prefix of ``pkg`` in the ament index, as ``ros2 run`` finds it."""
+    from ament_index_python.packages import get_package_prefix
+
+    return Path(get_package_prefix(pkg))
+
+
+@pytest.fixture(scope='session')
+def prefix() -> Path:
+    """Where track_nodes is installed: ``lib/track_nodes/<executable>``, ``bin/track-*``, ``share/track_nodes``."""
+    return package_prefix('track_nodes')
+
+
 def isolated_env() -> dict[str, str]:
     """Environment for a subprocess on a fresh ROS domain (localhost-only discovery)."""
-    return {**os.environ, 'ROS_DOMAIN_ID': str(_next_domain_id()), 'AMENT_PREFIX_PATH': str(VENV),
-            'PYTHONUNBUFFERED': '1'}
+    return {**os.environ, 'ROS_DOMAIN_ID': str(_next_domain_id()), 'PYTHONUNBUFFERED': '1'}
 
 
 @pytest.fixture(scope='session')

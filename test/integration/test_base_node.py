@@ -48,12 +48,12 @@ def test_refusals_are_counted_and_published_on_diagnostics(ros):
     (None, ['--bogus-flag'], ['unknown ROS arguments', '--bogus-flag']),
     (None, ['--params-file'], ['a path is missing']),
 ])
-def test_a_bad_command_line_gets_one_line_and_exit_code_2(tmp_path, venv, env_factory, content, args, words):
+def test_a_bad_command_line_gets_one_line_and_exit_code_2(tmp_path, prefix, env_factory, content, args, words):
     import subprocess
     if content is not None:
         (tmp_path / 'p.yaml').write_text(content)
         args = ['--params-file', str(tmp_path / 'p.yaml')]
-    proc = subprocess.run([str(venv / 'lib/track_nodes/demo_target'), '--ros-args', *args],
+    proc = subprocess.run([str(prefix / 'lib/track_nodes/demo_target'), '--ros-args', *args],
                           capture_output=True, text=True, timeout=60, env=env_factory())
     lines = proc.stderr.strip().splitlines()
     assert proc.returncode == 2 and len(lines) == 1 and 'Traceback' not in proc.stderr, proc.stderr

@@ -154,7 +154,7 @@ def test_refuses_to_overwrite_a_bag(tmp_path, env_factory, repo):
     assert proc.returncode == 2 and 'exists already' in proc.stderr and 'bags/taken' in proc.stderr
 
 
-def test_player_replays_the_demo_bag_in_order(demo_bags, ros, venv):
+def test_player_replays_the_demo_bag_in_order(demo_bags, ros, prefix):
     """The player replays the recorded demo into a subscriber: every message, in order, same bytes."""
     from nav_msgs.msg import Odometry
     from rclpy.node import Node
@@ -169,7 +169,7 @@ def test_player_replays_the_demo_bag_in_order(demo_bags, ros, venv):
                                  ESTIMATE_QOS, raw=True)
     # Only the topics subscribed here, so the player's wait for subscribers (60 s: discovery on a loaded
     # machine can take seconds) ends as soon as both are matched.
-    player = subprocess.Popen([str(venv / 'lib/track_nodes/player'), str(demo_bags[0]), '--rate', '4',
+    player = subprocess.Popen([str(prefix / 'lib/track_nodes/player'), str(demo_bags[0]), '--rate', '4',
                                '--topics', *got, '--wait-subscribers', '60'],
                               env=ros.env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:

@@ -161,10 +161,10 @@ def test_start_offset_skips_the_beginning(ros, bag):
     check_clock(sink.clock, [t for msgs in content.values() for t, _ in msgs if t >= start], start)
 
 
-def test_cli_plays_to_the_end_and_exits_0(ros, bag, venv):
+def test_cli_plays_to_the_end_and_exits_0(ros, bag, prefix):
     path, content = bag
     sink = Sink(ros, {'/p/odom': Odometry})
-    proc = subprocess.Popen([venv / 'lib/track_nodes/player', str(path), '--rate', '10', '--topics', '/p/odom',
+    proc = subprocess.Popen([prefix / 'lib/track_nodes/player', str(path), '--rate', '10', '--topics', '/p/odom',
                              '--wait', '60'],  # discovery on a loaded machine can take seconds
                             env=ros.env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
@@ -237,10 +237,10 @@ def _rate0(tmp: Path, bag: Path) -> tuple[Path, Path, list[str]]:
     (_rate0, 'rate'),
 ], ids=['missing', 'not-a-bag', 'no-metadata', 'truncated', 'cut-0', 'cut-8', 'cut-9', 'cut-40', 'garbage',
         'rate-0'])
-def test_bad_input_is_one_line_and_exit_2(ros, bag, venv, tmp_path, make, problem):
+def test_bad_input_is_one_line_and_exit_2(ros, bag, prefix, tmp_path, make, problem):
     given, named, extra = make(tmp_path, bag[0])
     sink = Sink(ros)
-    proc = subprocess.run([venv / 'lib/track_nodes/player', str(given), *extra], env=ros.env,
+    proc = subprocess.run([prefix / 'lib/track_nodes/player', str(given), *extra], env=ros.env,
                           capture_output=True, text=True, timeout=60)
     assert proc.returncode == 2, proc.stderr
     lines = proc.stderr.strip().splitlines()

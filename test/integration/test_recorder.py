@@ -165,9 +165,9 @@ def test_use_sim_time_discovers_before_clock_and_stamps_with_sim_time(ros, tmp_p
     assert got == [(sim_ns, raw) for raw in sent]
 
 
-def test_refuses_to_overwrite_an_existing_bag(ros, tmp_path, venv):
+def test_refuses_to_overwrite_an_existing_bag(ros, tmp_path, prefix):
     (tmp_path / 'bags' / 'taken').mkdir(parents=True)
-    proc = subprocess.run([venv / 'lib/track_nodes/recorder', 'taken', '-t', '/x'], cwd=tmp_path, env=ros.env,
+    proc = subprocess.run([prefix / 'lib/track_nodes/recorder', 'taken', '-t', '/x'], cwd=tmp_path, env=ros.env,
                           capture_output=True, text=True, timeout=60)
     assert proc.returncode == 2, proc.stderr
     lines = proc.stderr.strip().splitlines()
@@ -176,8 +176,8 @@ def test_refuses_to_overwrite_an_existing_bag(ros, tmp_path, venv):
     assert list((tmp_path / 'bags' / 'taken').iterdir()) == []
 
 
-def start_recorder(ros, tmp_path: Path, venv: Path, name: str, *extra: str) -> subprocess.Popen:
-    return subprocess.Popen([venv / 'lib/track_nodes/recorder', name, '-t', '/sig/odom', *extra], cwd=tmp_path,
+def start_recorder(ros, tmp_path: Path, prefix: Path, name: str, *extra: str) -> subprocess.Popen:
+    return subprocess.Popen([prefix / 'lib/track_nodes/recorder', name, '-t', '/sig/odom', *extra], cwd=tmp_path,
                             env=ros.env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
@@ -188,10 +188,10 @@ def publish_acked(ros, pub, msgs) -> list[bytes]:
 
 
 @pytest.mark.parametrize('sig', [signal.SIGTERM, signal.SIGINT], ids=['SIGTERM', 'SIGINT'])
-def test_signal_closes_a_complete_bag(ros, tmp_path, venv, sig):
+def test_signal_closes_a_complete_bag(ros, tmp_path, prefix, sig):
     node = ros.add(rclpy.create_node('sig_pub', context=ros.context))
     pub = node.create_publisher(Odometry, '/sig/odom', RELIABLE)
-    proc = start_recorder(ros, tmp_path, venv, 'sig')
+    proc = start_recorder(ros, tmp_path, prefix, 'sig')
     try:
         sent = publish_acked(ros, pub, [odom(i) for i in range(N)])
         proc.send_signal(sig)
@@ -206,10 +206,10 @@ def test_signal_closes_a_complete_bag(ros, tmp_path, venv, sig):
     assert f'recorded {N} messages' in err and '/sig/odom' in err
 
 
-def test_sigkill_leaves_a_recoverable_mcap(ros, tmp_path, venv):
+def test_sigkill_leaves_a_recoverable_mcap(ros, tmp_path, prefix):
     node = ros.add(rclpy.create_node('kill_pub', context=ros.context))
     pub = node.create_publisher(Odometry, '/sig/odom', RELIABLE)
-    proc = start_recorder(ros, tmp_path, venv, 'killed', '--flush-period', '0.2')
+    proc = start_recorder(ros, tmp_path, prefix, 'killed', '--flush-period', '0.2')
     bag = tmp_path / 'bags' / 'killed'
     try:
         sent = publish_acked(ros, pub, [odom(i) for i in range(N)])
@@ -225,7 +225,7 @@ def test_sigkill_leaves_a_recoverable_mcap(ros, tmp_path, venv):
     with pytest.raises(FileNotFoundError):
         Reader(bag)
 
-    rec = subprocess.run([venv / 'bin/track-bag-recover', str(bag)], cwd=tmp_path, env=ros.env,
+    rec = subprocess.run([prefix / 'bin/track-bag-recover', str(bag)], cwd=tmp_path, env=ros.env,
                          capture_output=True, text=True, timeout=60)
     assert rec.returncode == 0, rec.stderr
     out = tmp_path / 'bags' / 'killed-recovered'
@@ -240,8 +240,8 @@ def test_sigkill_leaves_a_recoverable_mcap(ros, tmp_path, venv):
         [f'msg{i}' for i in range(len(recovered))]
 
 
-def test_bag_recover_bad_path_is_one_line(ros, tmp_path, venv):
-    proc = subprocess.run([venv / 'bin/track-bag-recover', str(tmp_path / 'nope')], env=ros.env,
+def test_bag_recover_bad_path_is_one_line(ros, tmp_path, prefix):
+    proc = subprocess.run([prefix / 'bin/track-bag-recover', str(tmp_path / 'nope')], env=ros.env,
                           capture_output=True, text=True, timeout=60)
     assert proc.returncode == 2
     assert len(proc.stderr.strip().splitlines()) == 1 and str(tmp_path / 'nope') in proc.stderr

@@ -211,14 +211,14 @@ def test_launcher_records_every_step_and_prints_the_summary(sonar_bag):
     assert res.ok and res.checked[SONAR_ESTIMATE] == RECORD_S and res.checked[SONAR_TRUTH] == RECORD_S, res.problems
 
 
-def test_replaying_the_truth_reproduces_the_estimates(sonar_bag, ros, repo, venv):
+def test_replaying_the_truth_reproduces_the_estimates(sonar_bag, ros, repo, prefix):
     """The recorded truth, played into a fresh sonar_observer (same parameters and seed), gives the
     recorded estimates and pings exactly: the observer depends on nothing but its seed and the truth."""
     bag, _ = sonar_bag
     recorded = _bag_msgs(bag)
     observer = _node(ros, repo, SonarObserverNode, 'sonar_observer')
     sink = Sink(ros)
-    player = subprocess.Popen([str(venv / 'lib/track_nodes/player'), str(bag), '--rate', '10',
+    player = subprocess.Popen([str(prefix / 'lib/track_nodes/player'), str(bag), '--rate', '10',
                                '--topics', SONAR_TRUTH, '--wait-subscribers', '60'], env=ros.env,
                               stdout=subprocess.PIPE,
                               stderr=subprocess.PIPE, text=True)
@@ -237,16 +237,16 @@ def test_replaying_the_truth_reproduces_the_estimates(sonar_bag, ros, repo, venv
 # --- any start order ------------------------------------------------------------------------------
 
 @pytest.mark.parametrize('first', ['smart_target', 'sonar_observer'])
-def test_the_pair_started_by_hand_3_s_apart_steps_together(ros, repo, venv, first):
+def test_the_pair_started_by_hand_3_s_apart_steps_together(ros, repo, prefix, first):
     """Wall time, two processes through the shims, one started 3 s after the other: estimates flow."""
     sink = Sink(ros)
     second = 'sonar_observer' if first == 'smart_target' else 'smart_target'
     cmd = ['--ros-args', '--params-file', str(repo / 'config/sonar.yaml')]
-    procs = [subprocess.Popen([str(venv / 'lib/track_nodes' / first), *cmd], env=ros.env,
+    procs = [subprocess.Popen([str(prefix / 'lib/track_nodes' / first), *cmd], env=ros.env,
                               stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)]
     try:
         ros.spin_for(3.0)  # the gap under test, not a wait for a condition
-        procs.append(subprocess.Popen([str(venv / 'lib/track_nodes' / second), *cmd], env=ros.env,
+        procs.append(subprocess.Popen([str(prefix / 'lib/track_nodes' / second), *cmd], env=ros.env,
                                       stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True))
         assert ros.spin_until(lambda: len(sink.msgs[SONAR_ESTIMATE]) >= 4, timeout=90), \
             f'no estimates: truth {len(sink.msgs[SONAR_TRUTH])}, observer {len(sink.msgs[SONAR_OBSERVER])}'
@@ -269,10 +269,10 @@ def test_the_pair_started_by_hand_3_s_apart_steps_together(ros, repo, venv, firs
     ('sonar_observer', 'tracker: kalman', ['tracker', 'kalman', 'ss-pf']),
     ('smart_target', 'p_max: 1.5', ['p_max', '1.5', 'allowed']),
 ])
-def test_bad_parameter_stops_the_shim_with_one_line(tmp_path, venv, env_factory, node, line, words):
+def test_bad_parameter_stops_the_shim_with_one_line(tmp_path, prefix, env_factory, node, line, words):
     bad = tmp_path / 'bad.yaml'
     bad.write_text(f'{node}:\n  ros__parameters:\n    {line}\n')
-    proc = subprocess.run([str(venv / 'lib/track_nodes' / node), '--ros-args', '--params-file', str(bad)],
+    proc = subprocess.run([str(prefix / 'lib/track_nodes' / node), '--ros-args', '--params-file', str(bad)],
                           capture_output=True, text=True, timeout=60, env=env_factory())
     assert proc.returncode == 2, proc.stderr
     lines = proc.stderr.strip().splitlines()

@@ -48,12 +48,14 @@ class Scenario:
 
 
 def find_scenario(name: str) -> Path:
-    """``name`` as a path, else ``./config/<name>.yaml``, else the installed share/track_nodes/config."""
+    """``name`` as a path, else ``./config/<name>.yaml``, else the installed share/track_nodes/config: of the
+    prefix the ament index gives (the first on AMENT_PREFIX_PATH holding track_nodes), then of sys.prefix."""
     candidates = [Path(name)] if name.endswith(('.yaml', '.yml')) else []
     candidates.append(Path('config') / f'{name}.yaml')
-    prefix = Path(os.environ.get('AMENT_PREFIX_PATH', sys.prefix).split(os.pathsep)[0])
-    candidates.append(prefix / 'share' / 'track_nodes' / 'config' / f'{name}.yaml')
-    candidates.append(Path(sys.prefix) / 'share' / 'track_nodes' / 'config' / f'{name}.yaml')
+    prefixes = [Path(p) for p in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep) if p]
+    indexed = [p for p in prefixes if (p / 'share/ament_index/resource_index/packages/track_nodes').is_file()]
+    for prefix in dict.fromkeys([*indexed[:1], Path(sys.prefix)]):
+        candidates.append(prefix / 'share' / 'track_nodes' / 'config' / f'{name}.yaml')
     for cand in candidates:
         if cand.is_file():
             return cand.resolve()
