@@ -22,7 +22,7 @@ from track_nodes.launch.scenario import load_scenario
 pytestmark = pytest.mark.integration
 
 
-def test_the_idsq_field_runs_in_one_process(ros, repo, venv):
+def test_the_idsq_field_runs_in_one_process(ros, repo, prefix):
     sc = load_scenario('idsq')
     entries = [f'{s.executable}:{s.name}' for s in sc.nodes]
     probe = ros.add(Node('group_probe', context=ros.context))
@@ -35,7 +35,7 @@ def test_the_idsq_field_runs_in_one_process(ros, repo, venv):
         sim[0] += 0.2
         clock.publish(Clock(clock=sec_to_stamp(sim[0])))
     probe.create_timer(0.05, tick)
-    proc = subprocess.Popen([str(venv / 'lib/track_nodes/node_group'), '--nodes', *entries,
+    proc = subprocess.Popen([str(prefix / 'lib/track_nodes/node_group'), '--nodes', *entries,
                              '--ros-args', '--params-file', str(sc.path), '-p', 'use_sim_time:=true'],
                             env=ros.env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     try:
@@ -55,8 +55,8 @@ def test_the_idsq_field_runs_in_one_process(ros, repo, venv):
     (['--nodes', 'demo_target', 'demo_target'], ['repeated', 'demo_target']),
     (['--nodes', 'demo_target', '--ros-args', '-p', 'period:=-1.0'], ['demo_target', 'period']),
 ])
-def test_a_bad_group_is_one_line_and_exit_code_2(venv, env_factory, extra, words):
-    proc = subprocess.run([str(venv / 'lib/track_nodes/node_group'), *extra], capture_output=True, text=True,
+def test_a_bad_group_is_one_line_and_exit_code_2(prefix, env_factory, extra, words):
+    proc = subprocess.run([str(prefix / 'lib/track_nodes/node_group'), *extra], capture_output=True, text=True,
                           timeout=60, env=env_factory())
     lines = proc.stderr.strip().splitlines()
     assert proc.returncode == 2 and len(lines) == 1 and 'Traceback' not in proc.stderr, proc.stderr
