@@ -1,11 +1,12 @@
-"""Where the shared real data sets live (``../shared/data`` relative to the repository).
+"""Where the real data sets live: a data folder outside the repository (``shared/data`` beside the checkout).
 
 The data are read at run time and never copied into the project. Because the packages are
 installed non-editable into ``.venv``, ``__file__`` does not point into the checkout, so the
 directory is found in this order:
 
 1. ``$TRACK_DATA_DIR`` (the folder holding ``victoria_park/`` and ``ais_solent/``);
-2. ``<dir>/../shared/data`` for the current directory and each of its parents;
+2. ``<dir>/../shared/data`` (a ``shared/data`` folder beside ``<dir>``) for the current directory
+   and each of its parents;
 3. the same walk from this file's location (a source checkout run with ``PYTHONPATH``).
 """
 

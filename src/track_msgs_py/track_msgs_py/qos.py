@@ -1,6 +1,6 @@
 """QoS profiles of the package set, and the profile for a topic from ``topics.TOPICS``.
 
-Why these profiles (DESIGN.md): sensor-like streams are best effort (a late report is worth
+Why these profiles (docs/DESIGN.md): sensor-like streams are best effort (a late report is worth
 less than the next one), estimates are reliable (a dropped estimate breaks a trajectory),
 static data (sensor layout, map) is transient-local so a late joiner still gets it.
 

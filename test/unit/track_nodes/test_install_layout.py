@@ -1,4 +1,4 @@
-"""The install prefix has the ament layout `ros2 run` needs (DESIGN.md, "Install and ros2 run").
+"""The install prefix has the ament layout `ros2 run` needs (docs/DESIGN.md, "Install, `ros2 run` and colcon").
 
 The prefix is the one the ament index gives (conftest ``prefix``): ``.venv`` under ``make test``,
 the workspace's ``install/`` under ``colcon test``. The shims must run under either.

@@ -1,4 +1,6 @@
-"""Reader of AIS CSV exports (default: the Solent file ``../shared/data/ais_solent/*.csv``) with row validation.
+"""Reader of AIS CSV exports with row validation.
+
+Default: the Solent file ``ais_solent/*.csv`` of the data folder (``track_core.data``).
 
 **Columns** (:class:`ColumnMap`). Columns are found by their header name, so their order
 (latitude before or after longitude, extra columns anywhere) does not matter. A mapping names

@@ -1,4 +1,6 @@
-"""Victoria Park loader (read at run time from ``../shared/data/victoria_park``) and GPS evaluation.
+"""Victoria Park loader and GPS evaluation.
+
+The data are read at run time from ``victoria_park/`` in the data folder (``track_core.data``).
 
 Files (data README): ``inputs.dat`` (t, encoder speed, steering), ``measurements.dat`` (t, range,
 bearing in the eq. 5 convention, tree diameter; equal t = one scan), ``gps.dat`` (t, x, y).

@@ -6,8 +6,9 @@ Usage::
 
 ``victoria-park`` reads ``inputs.dat``, ``measurements.dat`` and ``gps.dat`` of the ACFR Victoria
 Park run (default folder: ``track_core.slam.victoria.data_dir()``, i.e. ``$TRACK_VICTORIA_PARK`` or
-``../shared/data/victoria_park``) and writes a rosbag2 bag (version 9, MCAP storage, CDR, the same
-format as the recorder) to ``DIR`` (a new directory; an existing one is never overwritten) with
+``victoria_park/`` of the data folder, ``track_core.data``) and writes a rosbag2 bag (version 9,
+MCAP storage, CDR, the same format as the recorder) to ``DIR`` (a new directory; an existing one is
+never overwritten) with
 
 - ``/slam/inputs`` (geometry_msgs/TwistStamped): one per row of inputs.dat, ``twist.linear.x`` =
   encoder speed, ``twist.angular.z`` = steering angle;
@@ -132,7 +133,7 @@ def _parser() -> argparse.ArgumentParser:
                                     'to a new rosbag2 MCAP bag.')
     vp.add_argument('--out', type=Path, required=True, metavar='DIR', help='new bag directory to write')
     vp.add_argument('--data', type=Path, default=None, metavar='DIR',
-                    help='data folder (default: $TRACK_VICTORIA_PARK or ../shared/data/victoria_park)')
+                    help='data folder (default: $TRACK_VICTORIA_PARK or victoria_park/ of the data folder)')
     vp.add_argument('--t-max', type=float, default=None, metavar='SECONDS', help='keep only data with t <= SECONDS')
     return ap
 
