@@ -7,14 +7,15 @@ extend ``TOPICS`` (one entry per topic) and ``KNOWN_FRAMES``.
 
 QoS kinds (profiles in ``track_msgs_py.qos``): ``'sensor'`` best-effort depth 5,
 ``'estimate'`` reliable depth 10, ``'static'`` reliable transient-local depth 1, and
-``'clock'`` for ``/clock`` (compatible with rclpy's own /clock subscription).
+``'clock'`` for ``/clock`` (compatible with rclpy's own /clock subscription), ``'tf'`` and
+``'tf_static'`` for the transform tree (``track_msgs_py.tf``: tf2_ros's profiles).
 """
 
 from __future__ import annotations
 
 from typing import Literal, NamedTuple
 
-QosKind = Literal['sensor', 'estimate', 'static', 'clock']
+QosKind = Literal['sensor', 'estimate', 'static', 'clock', 'tf', 'tf_static']
 
 # Frames (REP-103/105): ENU, SI units. ``map`` is the only world frame of the package set.
 FRAME_MAP = 'map'
@@ -25,6 +26,9 @@ DEMO_TRUTH = '/demo/truth'
 DEMO_REPORTS = '/demo/reports'
 DEMO_TRACK = '/demo/track'
 CLOCK = '/clock'
+# The transform tree (track_msgs_py.tf): absolute names, as tf2_ros uses them.
+TF = '/tf'
+TF_STATIC = '/tf_static'
 DIAGNOSTICS = '/diagnostics'  # the standard ROS health topic: every node's counts of refused input
 
 # Track-to-track fusion (geofeasibility paper). Input track topics are parameters of the node.
@@ -44,6 +48,10 @@ class TopicSpec(NamedTuple):
 
 TOPICS: dict[str, TopicSpec] = {
     CLOCK: TopicSpec('rosgraph_msgs/msg/Clock', 'clock', 'simulated time, driven by the launcher or the player'),
+    TF: TopicSpec('tf2_msgs/msg/TFMessage', 'tf', 'dynamic transforms, stamped at the data they place '
+                  '(track_nodes.base.TrackNode.send_transforms)'),
+    TF_STATIC: TopicSpec('tf2_msgs/msg/TFMessage', 'tf_static', 'fixed transforms: one latched message per '
+                         'publisher carrying all of them (TrackNode.add_static_transforms)'),
     DIAGNOSTICS: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'estimate',
                            'per node: refused input counted per "<topic> <reason field>" (track_nodes.base.node)'),
     DEMO_TRUTH: TopicSpec('nav_msgs/msg/Odometry', 'estimate',

@@ -14,6 +14,12 @@ per reason every ``warn_throttle`` seconds with the count (``base.refusals``), a
 ``/diagnostics`` (one ``DiagnosticStatus`` named after the node, a key per topic and reason) at
 most once a second while refusals happen, so ``ros2 topic echo /diagnostics`` shows them.
 
+Transforms (``track_msgs_py.tf``): ``send_transforms(*ts)`` publishes dynamic transforms on ``/tf``;
+``add_static_transforms(*ts)`` adds fixed ones (a later one with the same child frame replaces the
+earlier) and republishes ALL of the node's static transforms as one message on the latched
+``/tf_static``, as tf2_ros's StaticTransformBroadcaster does. Both publishers are made at the first
+call, so a node that never broadcasts has no /tf endpoint.
+
 ``python -m track_nodes <executable>`` (what the ``ros2 run`` shims call) looks the class up in
 ``track_nodes.registry`` and calls ``main``.
 """
@@ -32,6 +38,7 @@ from rclpy.node import Node
 
 from track_msgs_py.convert import diagnostic_array, diagnostic_status
 from track_msgs_py.records import DIAG_OK, DIAG_WARN
+from track_msgs_py.tf import TF, TF_QOS, TF_STATIC, TF_STATIC_QOS, tf_message
 from track_msgs_py.topics import DIAGNOSTICS
 from track_nodes.base.params import Param, declare_params
 from track_nodes.base.refusals import RefusalCounter
@@ -57,6 +64,8 @@ class TrackNode(Node):
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._diagnostics = None  # publisher and timer made at the first refusal (most nodes never need them)
         self._diagnostics_dirty = False
+        self._tf_pub = self._tf_static_pub = None  # made at the first transform (most nodes never broadcast)
+        self._static_transforms: dict[str, Any] = {}  # child frame -> TransformStamped
         self.setup()
 
     def setup(self) -> None:
@@ -86,6 +95,24 @@ class TrackNode(Node):
         status = diagnostic_status(self.get_fully_qualified_name(), DIAG_WARN if counts else DIAG_OK,
                                    f'{self.refusals.total()} messages refused', counts)
         self._diagnostics[0].publish(diagnostic_array(self.get_clock().now().nanoseconds * 1e-9, [status]))
+
+    def send_transforms(self, *transforms) -> None:
+        """Publish dynamic ``TransformStamped`` s on /tf in one message (stamp them at the data they place)."""
+        if self._tf_pub is None:
+            from tf2_msgs.msg import TFMessage
+
+            self._tf_pub = self.create_publisher(TFMessage, TF, TF_QOS)
+        self._tf_pub.publish(tf_message(transforms))
+
+    def add_static_transforms(self, *transforms) -> None:
+        """Add fixed transforms (replacing any with the same child frame) and republish all on /tf_static."""
+        for tr in transforms:
+            self._static_transforms[tr.child_frame_id] = tr
+        if self._tf_static_pub is None:
+            from tf2_msgs.msg import TFMessage
+
+            self._tf_static_pub = self.create_publisher(TFMessage, TF_STATIC, TF_STATIC_QOS)
+        self._tf_static_pub.publish(tf_message(list(self._static_transforms.values())))
 
     @classmethod
     def main(cls, argv: Sequence[str] | None = None, **kwargs: Any) -> int:
