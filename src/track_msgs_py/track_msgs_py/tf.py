@@ -14,6 +14,8 @@ topics (DESIGN.md, REP-105), so RViz, Foxglove and ``tf2`` draw everything, also
   after ``frame_pair_problem`` (tf2 rejects empty ids, ids starting with '/', and parent ==
   child). Track ids that travel in ``child_frame_id`` of Odometry follow the same id rules
   (``frame_id_problem``), although they are not frames of the tree (``TRACK_CHILD_NOTE``).
+- ``pose_transform`` / ``odometry_transform``: the same for a ``Pose`` (a PoseStamped of a frame,
+  the Odometry of a body frame such as the SLAM laser), so the tree and the message agree exactly.
 """
 
 from __future__ import annotations
@@ -25,10 +27,11 @@ from geometry_msgs.msg import TransformStamped
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from track_msgs_py.convert import sec_to_stamp
-from track_msgs_py.topics import TF, TF_STATIC
+from track_msgs_py.topics import SLAM_POSE, SLAM_TRUTH, SONAR_OBSERVER, TF, TF_STATIC
 
-__all__ = ['TF', 'TF_MSGTYPE', 'TF_QOS', 'TF_STATIC', 'TF_STATIC_QOS', 'frame_id_problem', 'frame_pair_problem',
-           'planar_transform', 'tf_message']
+__all__ = ['BODY_FRAME_TOPICS', 'TF', 'TF_MSGTYPE', 'TF_QOS', 'TF_STATIC', 'TF_STATIC_QOS', 'frame_id_problem',
+           'frame_pair_problem',
+           'odometry_transform', 'planar_transform', 'pose_transform', 'tf_message']
 
 TF_MSGTYPE = 'tf2_msgs/msg/TFMessage'
 
@@ -36,6 +39,10 @@ TF_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=100, reliability=Reli
                     durability=DurabilityPolicy.VOLATILE)
 TF_STATIC_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1, reliability=ReliabilityPolicy.RELIABLE,
                            durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+# Odometry topics whose child_frame_id is a body frame placed on /tf (the pose is that frame's);
+# on every other Odometry topic the child_frame_id is a track or target id (TRACK_CHILD_NOTE).
+BODY_FRAME_TOPICS: frozenset[str] = frozenset({SLAM_POSE, SLAM_TRUTH, SONAR_OBSERVER})
 
 TRACK_CHILD_NOTE = ('child_frame_id of a track or target Odometry names the track, not a frame: tracks are '
                     'not broadcast on /tf (their pose is the message itself)')
@@ -77,6 +84,25 @@ def planar_transform(t: float, parent: str, child: str, x: float, y: float, yaw:
     msg.transform.translation.x, msg.transform.translation.y = x, y
     msg.transform.rotation.z, msg.transform.rotation.w = math.sin(yaw / 2), math.cos(yaw / 2)
     return msg
+
+
+def pose_transform(header, pose, child: str) -> TransformStamped:
+    """The ``geometry_msgs/Pose`` ``pose`` of frame ``child`` in ``header.frame_id`` at ``header.stamp``."""
+    problem = frame_pair_problem(header.frame_id, child)
+    if problem is not None:
+        raise ValueError(problem)
+    msg = TransformStamped(child_frame_id=child)
+    msg.header.stamp, msg.header.frame_id = header.stamp, header.frame_id
+    p, q = pose.position, pose.orientation
+    msg.transform.translation.x, msg.transform.translation.y, msg.transform.translation.z = p.x, p.y, p.z
+    msg.transform.rotation.x, msg.transform.rotation.y, msg.transform.rotation.z, msg.transform.rotation.w = (
+        q.x, q.y, q.z, q.w)
+    return msg
+
+
+def odometry_transform(msg) -> TransformStamped:
+    """The pose of a body-frame ``nav_msgs/Odometry`` as the transform header.frame_id → child_frame_id."""
+    return pose_transform(msg.header, msg.pose.pose, msg.child_frame_id)
 
 
 def tf_message(transforms: Sequence[TransformStamped]):

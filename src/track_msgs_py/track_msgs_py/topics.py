@@ -38,6 +38,13 @@ FUSION_FUSED = '/fusion/fused'
 FUSION_MARKERS = '/fusion/markers'
 
 
+def fused_track_id(a: str, b: str) -> str:
+    """``child_frame_id`` of the fusion of tracks ``a`` and ``b``: ``'/radar/t0', '/patrol/t0'`` →
+    ``'radar/t0+patrol/t0'``. Track ids are topic-based and start with '/', which tf2 refuses in
+    any frame id (tools that look a child_frame_id up would fail), so the slashes are dropped."""
+    return f'{a.lstrip("/")}+{b.lstrip("/")}'
+
+
 class TopicSpec(NamedTuple):
     """What travels on a topic: full type name (``pkg/msg/Type``), QoS kind, one-line description."""
 
@@ -66,7 +73,8 @@ TOPICS: dict[str, TopicSpec] = {
     FUSION_ASSOCIATIONS: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'estimate',
                                    'the associated pairs only (combined score >= threshold), same layout'),
     FUSION_FUSED: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
-                            'covariance-intersection fusion of an associated pair; child_frame_id = "A+B"'),
+                            'covariance-intersection fusion of an associated pair; child_frame_id = "A+B" without '
+                            'the leading "/" of the track ids (fused_track_id: "radar/t0+patrol/t0"), a valid tf2 id'),
     FUSION_MARKERS: TopicSpec('visualization_msgs/msg/MarkerArray', 'estimate',
                               '2σ ellipses of the live tracks and pair links coloured by score'),
 }
@@ -226,6 +234,7 @@ TOPICS.update({
 # ``header.frame_id`` = ``laser``. An empty scan (width 0) is allowed.
 FRAME_BASE = 'base_link'   # the vehicle (inputs)
 FRAME_LASER = 'laser'      # the laser; the SLAM state (x, y, φ) is the pose of this frame in map
+FRAME_LASER_TRUTH = 'laser_truth'  # slam_sim: the true laser pose (its own frame: laser is the estimate's)
 FRAME_GPS = 'gps'          # Victoria Park GPS: local east/north frame, rotated and shifted from map
 
 SLAM_INPUTS = '/slam/inputs'
@@ -251,7 +260,8 @@ TOPICS.update({
                         'GPS fix (x, y) in the gps frame (east/north, rotated and shifted from map); evaluation '
                         'only, has jumps'),
     SLAM_TRUTH: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
-                          'slam_sim: true laser pose (x, y, yaw φ) in map, zero covariance; evaluation only'),
+                          'slam_sim: true laser pose (x, y, yaw φ) in map, zero covariance; child_frame_id laser_truth '
+                          '(also on /tf); evaluation only'),
     SLAM_POSE: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
                          'SLAM laser pose after each scan: position x, y, orientation yaw φ; pose.covariance '
                          'x/y/yaw entries (0, 1, 5 of 6) from the filter, z/roll/pitch and twist unused (1e6); '
