@@ -52,6 +52,7 @@ from track_msgs_py.convert import pointcloud2_to_layout as cloud_to_layout
 from track_msgs_py.qos import CLOCK_QOS, ESTIMATE_QOS, HANDOFF_QOS
 from track_msgs_py.records.idsq import IdsqAck, IdsqLeaderEvent
 from track_msgs_py.topics import CLOCK, IDSQ_ESTIMATE, IDSQ_LEADER, idsq_ack_topic, idsq_handoff_topic
+from track_nodes.bag.frames import check_frames
 from track_nodes.launch.generate import idsq_yaml as scenario_yaml
 from track_nodes.launch.scenario import load_scenario
 
@@ -233,6 +234,7 @@ def test_one_process_per_sensor_gives_the_same_estimates(ros, k8_file, tmp_path,
     np.testing.assert_array_equal(np.array([odometry_to_cv_state(m)[1][[0, 2]] for m in est]), in_means)
     np.testing.assert_array_equal(np.array([xy_block(m.pose.covariance) for m in est]), in_covs)
     assert f'idsq: {K8_STEPS} estimates matched to truth' in proc.stdout and 're-selections 0' in proc.stdout
+    assert check_frames(tmp_path / 'bags/mp') == []
 
 
 # --- leader failure --------------------------------------------------------------------------------------

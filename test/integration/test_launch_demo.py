@@ -14,6 +14,8 @@ from rclpy.serialization import deserialize_message
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
 
+from track_nodes.bag.frames import check_frames
+
 DURATION, PERIOD = 4.0, 0.1  # demo_target period in config/demo.yaml
 N_EXPECTED = round(DURATION / PERIOD)
 TOPICS = {'/demo/truth', '/demo/reports', '/demo/track'}
@@ -54,6 +56,10 @@ def test_every_step_recorded_on_every_topic(demo_bags):
     counts = {t: len(v) for t, v in payloads(demo_bags[0]).items()}
     assert set(counts) == TOPICS
     assert all(c == N_EXPECTED for c in counts.values()), counts
+
+
+def test_every_frame_of_the_recording_is_placed_in_map(demo_bags):
+    assert check_frames(demo_bags[0]) == []  # all in map: no /tf needed (the track ids are no frames)
 
 
 def test_bag_decodes_with_rosbags(demo_bags):

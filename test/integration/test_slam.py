@@ -50,6 +50,7 @@ from track_msgs_py.qos import ESTIMATE_QOS, STATIC_QOS
 from track_msgs_py.records.slam import SlamMode
 from track_msgs_py.topics import SLAM_EVENTS, SLAM_GPS, SLAM_INPUTS, SLAM_MAP, SLAM_MODE, SLAM_POSE, SLAM_SCAN
 from track_nodes.bag.api import msg_class
+from track_nodes.bag.frames import check_frames
 from track_nodes.bag.player import PlayerNode
 from track_nodes.base import ParameterError
 from track_nodes.sim.slam_sim import SlamSimNode
@@ -253,6 +254,7 @@ def test_slam_sim_scenario_short_run(tmp_path, repo, env_factory):
     assert m, proc.stdout
     assert float(m.group(1)) < 1.0  # 6 s into the start area: well mapped, no loop closed yet
     assert 'PF switches 0' in proc.stdout
+    assert check_frames(tmp_path / 'bags/sim') == []  # laser, base_link (slam) and laser_truth (slam_sim)
 
 
 def test_victoria_park_scenario_replays_the_bag_into_slam(tmp_path, repo, env_factory):
@@ -271,6 +273,7 @@ def test_victoria_park_scenario_replays_the_bag_into_slam(tmp_path, repo, env_fa
     assert SLAM_INPUTS not in counts  # the replayed inputs and scans are not recorded again
     m = re.search(r'vs GPS: RMSE ([\d.]+) m', proc.stdout)
     assert m and float(m.group(1)) < 2.0, proc.stdout
+    assert check_frames(tmp_path / 'bags/vp') == []  # laser and base_link placed by slam; gps by the converted bag
 
 
 def test_converter_wrong_path_is_one_line(tmp_path, env_factory):

@@ -48,7 +48,9 @@ from track_msgs_py.topics import (
     SONAR_PING,
     SONAR_TARGET_STATUS,
     SONAR_TRUTH,
+    TF,
 )
+from track_nodes.bag.frames import check_frames
 from track_nodes.base import ParameterError
 from track_nodes.sim.smart_target import SmartTargetNode
 from track_nodes.sonar.sonar_observer import SonarObserverNode
@@ -202,6 +204,12 @@ def test_launcher_records_every_step_and_prints_the_summary(sonar_bag):
         assert len(msgs[topic]) == RECORD_S, topic
     assert 0 < len(msgs[SONAR_PING]) < RECORD_S
     assert 'RTAMS' in stdout and f'pings emitted {len(msgs[SONAR_PING])}/{RECORD_S}' in stdout
+
+
+def test_every_frame_of_the_recording_is_placed_in_map(sonar_bag):
+    bag, _ = sonar_bag
+    assert check_frames(bag) == []  # the observer's body frame on /tf; track ids are no frames
+    assert _bag_msgs(bag)[TF]  # broadcast at every observer step
 
 
 def test_replaying_the_truth_reproduces_the_estimates(sonar_bag, ros, repo, venv):
