@@ -20,6 +20,9 @@ def test_no_tf_endpoint_until_the_first_transform(ros):
     node = ros.add(_Broadcaster(context=ros.context))
     names = {n for n, _ in node.get_publisher_names_and_types_by_node(node.get_name(), node.get_namespace())}
     assert TF not in names and TF_STATIC not in names
+    node.advertise_transforms()  # a node that will broadcast: /tf exists before the first transform
+    names = {n for n, _ in node.get_publisher_names_and_types_by_node(node.get_name(), node.get_namespace())}
+    assert TF in names and TF_STATIC not in names
 
 
 def test_dynamic_and_static_transforms_reach_a_late_subscriber(ros):

@@ -18,7 +18,9 @@ Transforms (``track_msgs_py.tf``): ``send_transforms(*ts)`` publishes dynamic tr
 ``add_static_transforms(*ts)`` adds fixed ones (a later one with the same child frame replaces the
 earlier) and republishes ALL of the node's static transforms as one message on the latched
 ``/tf_static``, as tf2_ros's StaticTransformBroadcaster does. Both publishers are made at the first
-call, so a node that never broadcasts has no /tf endpoint.
+call, so a node that never broadcasts has no /tf endpoint; a node that will broadcast calls
+``advertise_transforms()`` in ``setup()``, so that a recorder (and the launcher, which waits for the
+recorder's subscriptions before it starts the clock) sees /tf before the first transform is sent.
 
 ``python -m track_nodes <executable>`` (what the ``ros2 run`` shims call) looks the class up in
 ``track_nodes.registry`` and calls ``main``.
@@ -96,12 +98,16 @@ class TrackNode(Node):
                                    f'{self.refusals.total()} messages refused', counts)
         self._diagnostics[0].publish(diagnostic_array(self.get_clock().now().nanoseconds * 1e-9, [status]))
 
-    def send_transforms(self, *transforms) -> None:
-        """Publish dynamic ``TransformStamped`` s on /tf in one message (stamp them at the data they place)."""
+    def advertise_transforms(self) -> None:
+        """Create the /tf publisher now (in ``setup``), not at the first transform: nothing sent is lost."""
         if self._tf_pub is None:
             from tf2_msgs.msg import TFMessage
 
             self._tf_pub = self.create_publisher(TFMessage, TF, TF_QOS)
+
+    def send_transforms(self, *transforms) -> None:
+        """Publish dynamic ``TransformStamped`` s on /tf in one message (stamp them at the data they place)."""
+        self.advertise_transforms()
         self._tf_pub.publish(tf_message(transforms))
 
     def add_static_transforms(self, *transforms) -> None:

@@ -140,6 +140,7 @@ class RfidGuidanceNode(TrackNode):
         self.pub_particles = self.create_publisher(PoseArray, RFID_PARTICLES, SENSOR_QOS)
         self.pub_estimate = self.create_publisher(PointStamped, RFID_TAG_ESTIMATE, ESTIMATE_QOS)
         self.pub_found = self.create_publisher(DiagnosticArray, RFID_FOUND, ESTIMATE_QOS)
+        self.advertise_transforms()
         self.sub_step = self.create_subscription(DiagnosticArray, RFID_STEP, self._on_step, ESTIMATE_QOS)
         self.timer = self.create_timer(p.period, self._tick)
 

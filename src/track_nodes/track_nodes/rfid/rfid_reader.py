@@ -172,6 +172,7 @@ class RfidReaderNode(TrackNode):
             raise ParameterError(f'cannot start the search: {exc}') from None
         # The handheld reader is at the user: its frame (the node name, frame of /rfid/phase) on /tf_static.
         self.add_static_transforms(planar_transform(0.0, RFID_FRAME_USER, self.get_name(), 0.0, 0.0, 0.0))
+        self.advertise_transforms()
         self.cache: AnswerCache[_Answer] = AnswerCache()  # one answer per seq (track_core.rfid.loop)
         self.pub_phase = self.create_publisher(PointCloud2, RFID_PHASE, ESTIMATE_QOS)
         self.pub_pose = self.create_publisher(PoseStamped, RFID_USER_POSE, ESTIMATE_QOS)

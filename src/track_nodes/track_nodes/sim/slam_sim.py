@@ -82,6 +82,7 @@ class SlamSimNode(TrackNode):
         self.pub_scan = self.create_publisher(PointCloud2, SLAM_SCAN, qos_for_topic(SLAM_SCAN))
         self.pub_inputs = self.create_publisher(TwistStamped, SLAM_INPUTS, qos_for_topic(SLAM_INPUTS))
         self.pub_truth = self.create_publisher(Odometry, SLAM_TRUTH, qos_for_topic(SLAM_TRUTH))
+        self.advertise_transforms()
         self.get_logger().info(f'loop world {w.width:g} x {w.height:g} m, {len(run.landmarks)} landmarks, '
                                f'{len(run.scans)} scans over {run.t[-1] + w.dt:.1f} s (seed {p.seed})')
         self.steps = FixedRateSteps(self, w.dt, self._step, p.max_time)

@@ -138,6 +138,7 @@ class SlamNode(TrackNode):
         self.sub_scan = self.create_subscription(PointCloud2, SLAM_SCAN, self._on_scan, qos)
         vehicle = self.slam.vehicle  # base_link (rear-axle centre) seen from the laser: (-a, -b), same heading
         self.add_static_transforms(planar_transform(0.0, p.child_frame_id, FRAME_BASE, -vehicle.a, -vehicle.b, 0.0))
+        self.advertise_transforms()
         self.create_timer(min(0.1, p.flush_idle / 2), self._on_idle, clock=Clock(clock_type=ClockType.STEADY_TIME))
 
     @property

@@ -178,6 +178,7 @@ class SonarObserverNode(TrackNode):
         self.pub_mode = self.create_publisher(DiagnosticArray, SONAR_MODE, ESTIMATE_QOS)
         self.pub_markers = self.create_publisher(MarkerArray, SONAR_MARKERS, ESTIMATE_QOS)
         self.pub_odom = self.create_publisher(Odometry, SONAR_OBSERVER, ESTIMATE_QOS)
+        self.advertise_transforms()
         self.sub_truth = self.create_subscription(Odometry, SONAR_TRUTH, self._on_truth, ESTIMATE_QOS)
         self.steps = FixedRateSteps(self, p.period, self._due, p.max_time)
 
