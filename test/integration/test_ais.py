@@ -158,7 +158,7 @@ def test_sources_and_fusion_in_process(ais_run):
     # 4. every frame is placed: the reports' "map#<local id>" name map, the fused ids are valid tf2 ids
     from track_nodes.bag.frames import check_frames
 
-    assert check_frames(bag) == []
+    assert check_frames(bag, stamps=True) == []
 
 
 def test_reports_without_a_track_id_or_with_a_bad_frame_are_dropped(ros, repo):

@@ -234,7 +234,7 @@ def test_one_process_per_sensor_gives_the_same_estimates(ros, k8_file, tmp_path,
     np.testing.assert_array_equal(np.array([odometry_to_cv_state(m)[1][[0, 2]] for m in est]), in_means)
     np.testing.assert_array_equal(np.array([xy_block(m.pose.covariance) for m in est]), in_covs)
     assert f'idsq: {K8_STEPS} estimates matched to truth' in proc.stdout and 're-selections 0' in proc.stdout
-    assert check_frames(tmp_path / 'bags/mp') == []
+    assert check_frames(tmp_path / 'bags/mp', stamps=True) == []
 
 
 # --- leader failure --------------------------------------------------------------------------------------

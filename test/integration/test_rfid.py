@@ -319,7 +319,7 @@ def test_launcher_records_the_search_and_the_summary_says_found(tmp_path, env_fa
             if conn.topic == RFID_FOUND:
                 found.append(deserialize_message(raw, DiagnosticArray))
     assert set(counts) == set(TYPES), counts
-    assert check_frames(bag) == []  # rfid_user, rfid_pf and the reader's frame are placed in map
+    assert check_frames(bag, stamps=True) == []  # rfid_user, rfid_pf and the reader's frame are placed in map
     ref = _reference(repo)
     assert len(found) == 1 and counts[RFID_PHASE] == ref.steps
     out = proc.stdout

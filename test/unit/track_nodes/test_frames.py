@@ -86,3 +86,23 @@ def test_every_kind_of_unplaced_or_invalid_frame_is_reported(tmp_path, capsys):
     assert not any('sonar_track' in line or "'map'" in line.split('(')[0] for line in lines)
     assert main([str(tmp_path / 'bad')]) == 1
     assert len(capsys.readouterr().out.splitlines()) == len(lines)
+
+
+def test_stamps_outside_the_dynamic_range_are_reported_only_when_asked(tmp_path, capsys):
+    def at(msg, t: float):
+        header = msg.header if hasattr(msg, 'header') else msg.transforms[0].header
+        header.stamp.sec, header.stamp.nanosec = int(t), round((t % 1) * 1e9)
+        return msg
+
+    msgs = [(TF_STATIC, tf_message([planar_transform(0.0, 'laser', 'base_link', -3.78, -0.5, 0.0)])),
+            (TF, tf_message([planar_transform(1.0, 'map', 'laser', 0.0, 0.0, 0.0)])),
+            (TF, tf_message([planar_transform(3.0, 'map', 'laser', 1.0, 0.0, 0.0)])),
+            ('/p', at(_point('base_link'), 2.0)), ('/p', at(_point('base_link'), 3.5)),  # after the last /tf
+            ('/p', at(_point('map'), 9.0)),  # map needs no transform at any time
+            (SLAM_POSE, at(_odom('map', 'laser'), 1.0))]
+    _write(tmp_path / 'late', msgs)
+    assert check_frames(tmp_path / 'late') == []  # connected
+    assert check_frames(tmp_path / 'late', stamps=True) == [
+        "/p: 1 of 2 messages in 'base_link' are stamped outside the /tf range of map -> laser [1.000, 3.000] s"]
+    assert main([str(tmp_path / 'late'), '--stamps']) == 1
+    assert 'outside the /tf range' in capsys.readouterr().out

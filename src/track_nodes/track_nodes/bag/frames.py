@@ -1,8 +1,8 @@
 """Frame check of a bag: can every frame its messages name be placed in ``map`` through its /tf and /tf_static?
 
 ``check_frames(bag)`` reads a rosbag2 bag (rosbags, no rclpy needed) and returns the problems, one
-line each; an empty list means every frame is placed. ``python -m track_nodes.bag.frames BAG [ROOT]``
-prints them (exit 1 when there are any). What is checked:
+line each; an empty list means every frame is placed. ``python -m track_nodes.bag.frames BAG [ROOT]
+[--stamps]`` prints them (exit 1 when there are any). What is checked:
 
 - every ``header.frame_id`` of every message (top-level headers, and the headers of a sequence of
   stamped messages such as ``MarkerArray.markers``), except on /tf and /tf_static themselves, must
@@ -15,15 +15,19 @@ prints them (exit 1 when there are any). What is checked:
   not placed, but it must still be a valid tf2 id (no leading '/'), since tools look it up;
 - every transform has a valid pair (``tf.frame_pair_problem``), and no frame has two parents.
 
-Connectivity only: the check does not ask whether a dynamic transform exists at each message's
-stamp (our broadcasters send them at the message stamps; tf2's interpolation rules are its own).
+With ``stamps=True`` (``--stamps``) it also asks tf2's question at each message's stamp: every
+dynamic (/tf) edge on the frame's chain must have transforms at or around it, i.e. the stamp lies
+within the first and last stamps of that edge (tf2 interpolates between them and refuses to
+extrapolate). Static (/tf_static) edges hold at every time. Without it, connectivity only.
 """
 
 from __future__ import annotations
 
 import sys
+from bisect import bisect_left, bisect_right
 from collections import defaultdict
 from dataclasses import dataclass, field
+from itertools import pairwise
 from pathlib import Path
 
 from track_msgs_py.tf import BODY_FRAME_TOPICS, frame_id_problem, frame_pair_problem
@@ -40,6 +44,20 @@ class FrameTree:
     parents: dict[str, set[str]] = field(default_factory=lambda: defaultdict(set))  # child -> parents
     used: dict[str, set[str]] = field(default_factory=lambda: defaultdict(set))     # frame -> topics
     problems: list[str] = field(default_factory=list)
+    dynamic: dict[str, list[int]] = field(default_factory=lambda: defaultdict(list))  # /tf child -> stamps [ns]
+    stamps: dict[tuple[str, str], list[int]] = field(default_factory=lambda: defaultdict(list))  # (frame, topic)
+
+    def outside(self, frame: str, topic: str, root: str = FRAME_MAP) -> tuple[int, str] | None:
+        """(count, edge) of ``frame``'s uses on ``topic`` stamped outside the /tf range of a chain edge."""
+        chain = self.chain(frame, root) or []
+        uses = sorted(self.stamps.get((frame, topic), ()))
+        for child, parent in pairwise(chain):
+            edge = sorted(self.dynamic.get(child, ()))
+            if edge:
+                inside = bisect_right(uses, edge[-1]) - bisect_left(uses, edge[0])
+                if inside < len(uses):
+                    return len(uses) - inside, f'{parent} -> {child} [{edge[0] * 1e-9:.3f}, {edge[-1] * 1e-9:.3f}] s'
+        return None
 
     def chain(self, frame: str, root: str = FRAME_MAP) -> list[str] | None:
         """``frame``, its parent, ... up to ``root``; ``None`` when the chain breaks or loops."""
@@ -83,7 +101,7 @@ class _Collector:
             self._seen.add(line)
             self.tree.problems.append(line)
 
-    def use(self, frame_id: str, topic: str, msgtype: str, field_name: str) -> None:
+    def use(self, frame_id: str, topic: str, msgtype: str, field_name: str, stamp) -> None:
         frame, _ = split_track_frame_id(frame_id)
         if not frame and msgtype in _NO_FRAME_TYPES:
             return
@@ -92,6 +110,7 @@ class _Collector:
             self.problem(f'{topic}: {reason}')
         else:
             self.tree.used[frame].add(topic)
+            self.tree.stamps[frame, topic].append(stamp.sec * 1_000_000_000 + stamp.nanosec)
 
     def transforms(self, topic: str, msg) -> None:
         for tr in msg.transforms:
@@ -100,15 +119,19 @@ class _Collector:
                 self.problem(f'{topic}: {reason}')
             else:
                 self.tree.parents[tr.child_frame_id].add(tr.header.frame_id)
+                if topic == TF:
+                    self.tree.dynamic[tr.child_frame_id].append(tr.header.stamp.sec * 1_000_000_000
+                                                                 + tr.header.stamp.nanosec)
 
     def message(self, topic: str, msgtype: str, msg, headers: list[str], sequences: list[str], child: bool) -> None:
         for name in headers:
-            self.use(getattr(msg, name).frame_id, topic, msgtype, f'{name}.frame_id')
+            header = getattr(msg, name)
+            self.use(header.frame_id, topic, msgtype, f'{name}.frame_id', header.stamp)
         for name in sequences:
             for item in getattr(msg, name):
-                self.use(item.header.frame_id, topic, msgtype, f'{name}[].header.frame_id')
+                self.use(item.header.frame_id, topic, msgtype, f'{name}[].header.frame_id', item.header.stamp)
         if child and topic in BODY_FRAME_TOPICS:
-            self.use(msg.child_frame_id, topic, msgtype, 'child_frame_id')
+            self.use(msg.child_frame_id, topic, msgtype, 'child_frame_id', msg.header.stamp)
         elif child and msg.child_frame_id:  # a track id: not a frame, but a valid tf2 id
             reason = frame_id_problem(msg.child_frame_id, 'child_frame_id (track id)')
             if reason:
@@ -135,23 +158,32 @@ def read_frame_tree(bag: Path | str) -> FrameTree:
     return out.tree
 
 
-def check_frames(bag: Path | str, root: str = FRAME_MAP) -> list[str]:
-    """Problems of ``bag``'s frames, one line each: frames that cannot be placed in ``root``, invalid ids."""
+def check_frames(bag: Path | str, root: str = FRAME_MAP, stamps: bool = False) -> list[str]:
+    """Problems of ``bag``'s frames, one line each: frames that cannot be placed in ``root``, invalid ids,
+    and with ``stamps`` messages stamped where a dynamic edge of their chain has no transforms."""
     tree = read_frame_tree(bag)
     lines = list(tree.problems)
     for frame in sorted(tree.used):
         if tree.chain(frame, root) is None:
             lines.append(f'frame {frame!r} (used on {", ".join(sorted(tree.used[frame]))}) cannot be placed in '
                          f'{root!r} through /tf and /tf_static')
+        elif stamps:
+            for topic in sorted(tree.used[frame]):
+                out = tree.outside(frame, topic, root)
+                if out is not None:
+                    lines.append(f'{topic}: {out[0]} of {len(tree.stamps[frame, topic])} messages in {frame!r} are '
+                                 f'stamped outside the /tf range of {out[1]}')
     return lines
 
 
 def main(argv: list[str] | None = None) -> int:
     args = list(sys.argv[1:] if argv is None else argv)
+    stamps = '--stamps' in args
+    args = [a for a in args if a != '--stamps']
     if not 1 <= len(args) <= 2:
-        print('usage: python -m track_nodes.bag.frames BAG [ROOT_FRAME]', file=sys.stderr)
+        print('usage: python -m track_nodes.bag.frames BAG [ROOT_FRAME] [--stamps]', file=sys.stderr)
         return 2
-    lines = check_frames(args[0], *args[1:])
+    lines = check_frames(args[0], *args[1:], stamps=stamps)
     for line in lines:
         print(line)
     if not lines:

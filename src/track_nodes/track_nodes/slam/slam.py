@@ -16,7 +16,8 @@ and publishes
 - ``/slam/particles`` (geometry_msgs/PoseArray, with headings): the particle cloud after every scan the
   PF ran on (``HybridSlam.last_particles``), including the one on which it handed back to the CEKF
   (in the PF's map frame, before the hand-over update), and an empty array at the next scan;
-- ``/tf`` (map → laser, at every pose stamp) and ``/tf_static`` (laser → base_link, the ACFR geometry
+- ``/tf`` (map → laser, at every pose stamp and at the first input, so inputs before the first scan
+  are placed too) and ``/tf_static`` (laser → base_link, the ACFR geometry
   of ``models.VehicleParams``: the laser a ahead and b left of the rear-axle centre). The tree is
   map → laser → base_link, not slam_toolbox's map → odom → base_link: the filter's state is the
   laser pose, and no node here keeps an odometry frame (the Victoria Park bag has raw encoder and
@@ -227,6 +228,8 @@ class SlamNode(TrackNode):
         if stream == INPUT:
             ok = self.slam.process_input(t, *payload)
             self.n_inputs += ok
+            if ok and self.n_inputs == 1 and not self.n_scans:  # the tree from the data's start on
+                self.send_transforms(odometry_transform(self._pose_msg(t)))
         else:
             ok = self.slam.process_scan(t, payload)
             self.n_scans += ok
@@ -242,7 +245,7 @@ class SlamNode(TrackNode):
         for ev in s.events[self._n_events:]:
             self._publish_event(ev)
         self._n_events = len(s.events)
-        pose = pose_to_odometry(t, s.pose, symmetrize(s.pose_cov), p.frame_id, p.child_frame_id)
+        pose = self._pose_msg(t)
         self.send_transforms(odometry_transform(pose))
         self.pub_pose.publish(pose)
         pf_step = s.last_particles
@@ -260,6 +263,10 @@ class SlamNode(TrackNode):
         self.pub_mode.publish(mode.to_msg(t, self.get_name()))
         if self._map_ns is None or t_ns - self._map_ns >= round(p.map_period * 1e9):
             self._publish_map(t)
+
+    def _pose_msg(self, t: float) -> Odometry:
+        s, p = self.slam, self.p
+        return pose_to_odometry(t, s.pose, symmetrize(s.pose_cov), p.frame_id, p.child_frame_id)
 
     def _publish_event(self, ev) -> None:
         x, y, yaw = (float(v) for v in self.slam.pose)
