@@ -14,9 +14,19 @@ $(VENV)/.deps-stamp: requirements.txt constraints.txt
 	$(PIP) install -r requirements.txt -c constraints.txt
 	touch $@
 
+# Interface packages we build ourselves (tf2_msgs: not on PyPI), into the venv prefix: rebuilt when
+# the ROS wheel pins (via the deps stamp), the build-only pins or the interface files change.
+# tools/build_interfaces.py patches the wheels' cmake include paths first, every time (ROS_NOTES.md).
+INTERFACE_FILES := $(shell find interfaces -type f)
+$(VENV)/.interfaces-stamp: $(VENV)/.deps-stamp requirements-interfaces.txt constraints.txt \
+		tools/build_interfaces.py $(INTERFACE_FILES)
+	$(PIP) install -r requirements-interfaces.txt -c constraints.txt
+	$(PY) tools/build_interfaces.py
+	touch $@
+
 # Non-editable install: editable installs carry no data_files, so `ros2 run` would not see them.
 # Stale build/ trees leak old modules into new wheels, so remove them first.
-install: $(VENV)/.deps-stamp
+install: $(VENV)/.deps-stamp $(VENV)/.interfaces-stamp
 	rm -rf $(addsuffix /build,$(PKGS)) $(addsuffix /*.egg-info,$(PKGS))
 	$(PIP) install --no-deps --no-build-isolation --force-reinstall $(PKGS)
 	rm -rf $(addsuffix /build,$(PKGS)) $(addsuffix /*.egg-info,$(PKGS))
@@ -30,5 +40,5 @@ lint: $(VENV)/.deps-stamp
 test: install lint
 	$(PY) -m pytest
 
-clean:   # also a colcon build's build/ install/ log/ (README, "colcon workspace")
+clean:   # also a colcon build's build/ install/ log/ (README, "colcon workspace"); build/ holds build/interfaces
 	rm -rf $(VENV) $(addsuffix /build,$(PKGS)) $(addsuffix /*.egg-info,$(PKGS)) build install log

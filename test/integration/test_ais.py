@@ -159,6 +159,10 @@ def test_sources_and_fusion_in_process(ais_run):
     one = next(line for line in lines if 'one-to-one' in line)
     assert f'F1 {m.f1:.3f}' in one and f'TP {m.tp}, FP {m.fp}, FN {m.fn}' in one
     assert any('/ais/radar/reports' in line for line in summarize(bag, 'ais'))
+    # 4. every frame is placed: the reports' "map#<local id>" name map, the fused ids are valid tf2 ids
+    from track_nodes.bag.frames import check_frames
+
+    assert check_frames(bag, stamps=True) == []
 
 
 def test_reports_without_a_track_id_or_with_a_bad_frame_are_dropped(ros, repo):

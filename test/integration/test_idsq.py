@@ -61,6 +61,7 @@ from track_msgs_py.topics import (
     idsq_handoff_topic,
 )
 from track_nodes.bag.check import check_bag
+from track_nodes.bag.frames import check_frames
 from track_nodes.launch.generate import idsq_yaml as scenario_yaml
 from track_nodes.launch.scenario import load_scenario
 
@@ -245,6 +246,7 @@ def test_one_process_per_sensor_gives_the_same_estimates(ros, k8_file, tmp_path,
     res = check_bag(tmp_path / 'bags/mp')  # issue 19: layout and belief clouds with x, y, z; planar covariances
     assert res.ok and res.checked[IDSQ_LAYOUT] == 1 and res.checked[IDSQ_BELIEF] == K8_STEPS, res.problems
     assert res.checked[IDSQ_ESTIMATE] == K8_STEPS
+    assert check_frames(tmp_path / 'bags/mp', stamps=True) == []
 
 
 # --- leader failure --------------------------------------------------------------------------------------

@@ -14,6 +14,8 @@ from rclpy.serialization import deserialize_message
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_typestore
 
+from track_nodes.bag.frames import check_frames
+
 DURATION, PERIOD = 4.0, 0.1  # demo_target period in config/demo.yaml
 N_EXPECTED = round(DURATION / PERIOD)
 TOPICS = {'/demo/truth', '/demo/reports', '/demo/track'}
@@ -62,6 +64,10 @@ def test_every_covariance_of_the_recording_draws_flat(demo_bags):
 
     res = check_bag(demo_bags[0])
     assert res.ok and dict(res.checked) == dict.fromkeys(TOPICS, N_EXPECTED), res.problems
+
+
+def test_every_frame_of_the_recording_is_placed_in_map(demo_bags):
+    assert check_frames(demo_bags[0], stamps=True) == []  # all in map: no /tf needed (the track ids are no frames)
 
 
 def test_bag_decodes_with_rosbags(demo_bags):

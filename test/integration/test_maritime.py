@@ -23,7 +23,8 @@ from rclpy.parameter import Parameter
 
 from track_msgs_py.qos import ESTIMATE_QOS
 from track_msgs_py.records.fusion import FusionPairScore
-from track_msgs_py.topics import FUSION_SCORES, IDSQ_ESTIMATE, SONAR_ESTIMATE
+from track_msgs_py.topics import FUSION_FUSED, FUSION_SCORES, IDSQ_ESTIMATE, SONAR_ESTIMATE
+from track_nodes.bag.frames import check_frames
 from track_nodes.fusion.fusion import FusionNode
 from track_nodes.launch.generate import maritime_yaml
 from track_nodes.report import maritime
@@ -80,6 +81,13 @@ def test_every_cloud_and_covariance_of_the_recording_draws(maritime_run):
     res = check_bag(maritime_run[1])
     assert res.ok, res.problems
     assert res.checked[SONAR_ESTIMATE] and res.checked[IDSQ_ESTIMATE] and res.checked['/idsq/belief'], res.checked
+
+
+def test_every_frame_of_the_recording_is_placed_in_map(maritime_run):
+    _, bag, _ = maritime_run
+    assert check_frames(bag, stamps=True) == []  # the observer's frame on /tf; fused ids are valid tf2 ids
+    fused = read_topics(bag, {FUSION_FUSED})[FUSION_FUSED]
+    assert fused and all(not m.child_frame_id.startswith('/') and '+' in m.child_frame_id for m in fused)
 
 
 def test_replay_into_a_fresh_fusion_node_gives_the_same_scores(maritime_run, ros):

@@ -28,6 +28,7 @@ from rclpy.serialization import deserialize_message
 from rosbags.rosbag2 import Reader
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import PointCloud2
+from tf2_msgs.msg import TFMessage
 
 from track_core.rfid.pf import PFParams
 from track_core.rfid.phase import PhaseModel
@@ -36,6 +37,7 @@ from track_core.rfid.world import WorldParams
 from track_msgs_py.convert import diagnostic_array, pointcloud2_to_table, sec_to_stamp
 from track_msgs_py.qos import CLOCK_QOS, ESTIMATE_QOS, SENSOR_QOS
 from track_msgs_py.records.rfid import RfidCommand, RfidStep
+from track_msgs_py.tf import TF, TF_STATIC
 from track_msgs_py.topics import (
     CLOCK,
     RFID_COMMAND,
@@ -48,13 +50,14 @@ from track_msgs_py.topics import (
     RFID_USER_STATUS,
 )
 from track_nodes.bag.check import check_bag
+from track_nodes.bag.frames import check_frames
 from track_nodes.base import ParameterError
 from track_nodes.rfid.rfid_guidance import RfidGuidanceNode
 from track_nodes.rfid.rfid_reader import RfidReaderNode
 
 TYPES = {RFID_COMMAND: DiagnosticArray, RFID_STEP: DiagnosticArray, RFID_PHASE: PointCloud2,
          RFID_USER_POSE: PoseStamped, RFID_USER_STATUS: DiagnosticArray, RFID_PARTICLES: PoseArray,
-         RFID_TAG_ESTIMATE: PointStamped, RFID_FOUND: DiagnosticArray}
+         RFID_TAG_ESTIMATE: PointStamped, RFID_FOUND: DiagnosticArray, TF: TFMessage, TF_STATIC: TFMessage}
 RECORD_S = 15.0  # node time of the launcher run: seed 4 is found after ~5 s (time_scale 0.25)
 
 
@@ -322,6 +325,7 @@ def test_launcher_records_the_search_and_the_summary_says_found(tmp_path, env_fa
             if conn.topic == RFID_FOUND:
                 found.append(deserialize_message(raw, DiagnosticArray))
     assert set(counts) == set(TYPES), counts
+    assert check_frames(bag, stamps=True) == []  # rfid_user, rfid_pf and the reader's frame are placed in map
     ref = _reference(repo)
     assert len(found) == 1 and counts[RFID_PHASE] == ref.steps
     out = proc.stdout

@@ -51,6 +51,7 @@ from track_msgs_py.records.slam import SlamMode
 from track_msgs_py.topics import SLAM_EVENTS, SLAM_GPS, SLAM_INPUTS, SLAM_MAP, SLAM_MODE, SLAM_POSE, SLAM_SCAN
 from track_nodes.bag.api import msg_class
 from track_nodes.bag.check import check_bag
+from track_nodes.bag.frames import check_frames
 from track_nodes.bag.player import PlayerNode
 from track_nodes.base import ParameterError
 from track_nodes.sim.slam_sim import SlamSimNode
@@ -256,6 +257,10 @@ def test_slam_sim_scenario_short_run(tmp_path, repo, env_factory):
     assert 'PF switches 0' in proc.stdout
     res = check_bag(tmp_path / 'bags/sim')  # issue 19: clouds with x, y, z and planar covariances
     assert res.ok and res.checked[SLAM_POSE] == counts[SLAM_POSE] and res.checked[SLAM_SCAN] > 0, res.problems
+    assert check_frames(tmp_path / 'bags/sim') == []  # laser, base_link (slam) and laser_truth (slam_sim)
+    # one per truth and per pose, none lost, and the first input's (it comes before the first scan)
+    assert counts['/tf'] == counts['/slam/truth'] + counts[SLAM_POSE] + 1
+    # not stamps=True: the run may stop with inputs after the last scan the filter has released
 
 
 def test_victoria_park_scenario_replays_the_bag_into_slam(tmp_path, repo, env_factory):
@@ -276,6 +281,7 @@ def test_victoria_park_scenario_replays_the_bag_into_slam(tmp_path, repo, env_fa
     assert m and float(m.group(1)) < 2.0, proc.stdout
     res = check_bag(tmp_path / 'bags/vp')
     assert res.ok and res.checked[SLAM_POSE] == n_scans, res.problems
+    assert check_frames(tmp_path / 'bags/vp') == []  # laser and base_link placed by slam; gps by the converted bag
 
 
 def test_converter_wrong_path_is_one_line(tmp_path, env_factory):

@@ -51,8 +51,10 @@ from track_msgs_py.topics import (
     SONAR_PING,
     SONAR_TARGET_STATUS,
     SONAR_TRUTH,
+    TF,
 )
 from track_nodes.bag.check import check_bag
+from track_nodes.bag.frames import check_frames
 from track_nodes.base import ParameterError
 from track_nodes.sim.smart_target import SmartTargetNode
 from track_nodes.sonar.sonar_observer import SonarObserverNode
@@ -209,6 +211,12 @@ def test_launcher_records_every_step_and_prints_the_summary(sonar_bag):
     assert 'RTAMS' in stdout and f'pings emitted {len(msgs[SONAR_PING])}/{RECORD_S}' in stdout
     res = check_bag(bag)  # issue 19: planar covariances (estimate, truth, observer)
     assert res.ok and res.checked[SONAR_ESTIMATE] == RECORD_S and res.checked[SONAR_TRUTH] == RECORD_S, res.problems
+
+
+def test_every_frame_of_the_recording_is_placed_in_map(sonar_bag):
+    bag, _ = sonar_bag
+    assert check_frames(bag, stamps=True) == []  # the observer's body frame on /tf; track ids are no frames
+    assert len(_bag_msgs(bag)[TF]) == RECORD_S  # one per observer step, the first one too (advertised at start)
 
 
 def test_replaying_the_truth_reproduces_the_estimates(sonar_bag, ros, repo, prefix):

@@ -9,4 +9,6 @@ Modules (imported explicitly, so ``topics`` stays free of message imports):
 - ``qos``: ``SENSOR_QOS``, ``ESTIMATE_QOS``, ``STATIC_QOS``, ``CLOCK_QOS``, ``qos_for_topic``.
 - ``convert``: numpy/float seconds ⇄ messages; the mapping table is its module docstring.
 - ``validate``: reasons (``str | None``) why an incoming message is unusable, monotonic stamps.
+- ``tf``: the transform tree: /tf and /tf_static QoS (tf2_ros's), ``planar_transform`` and
+  ``pose_transform`` with tf2's frame-id rules, ``BODY_FRAME_TOPICS`` (Odometry children that are frames).
 """

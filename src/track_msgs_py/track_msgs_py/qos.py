@@ -19,6 +19,7 @@ import copy
 
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
+from track_msgs_py.tf import TF_QOS, TF_STATIC_QOS
 from track_msgs_py.topics import TOPICS
 
 SENSOR_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=5,
@@ -50,6 +51,8 @@ QOS_BY_KIND: dict[str, QoSProfile] = {
     'estimate': ESTIMATE_QOS,
     'static': STATIC_QOS,
     'clock': CLOCK_QOS,
+    'tf': TF_QOS,
+    'tf_static': TF_STATIC_QOS,
 }
 
 

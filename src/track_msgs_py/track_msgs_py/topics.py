@@ -12,7 +12,8 @@ node's topics under ``/robot1`` and remapping rules apply (issue 19, item 5). Th
 
 QoS kinds (profiles in ``track_msgs_py.qos``): ``'sensor'`` best-effort depth 5,
 ``'estimate'`` reliable depth 10, ``'static'`` reliable transient-local depth 1, and
-``'clock'`` for ``/clock`` (compatible with rclpy's own /clock subscription).
+``'clock'`` for ``/clock`` (compatible with rclpy's own /clock subscription), ``'tf'`` and
+``'tf_static'`` for the transform tree (``track_msgs_py.tf``: tf2_ros's profiles).
 
 Covariances (issue 19; ``COV_PLANAR`` in the entries below, details in ``track_msgs_py.convert``).
 Every ``Odometry`` and ``PoseWithCovarianceStamped`` we publish is planar: the x/y block is the
@@ -34,7 +35,7 @@ from __future__ import annotations
 
 from typing import Literal, NamedTuple
 
-QosKind = Literal['sensor', 'estimate', 'static', 'clock']
+QosKind = Literal['sensor', 'estimate', 'static', 'clock', 'tf', 'tf_static']
 
 # Frames (REP-103/105): ENU, SI units. ``map`` is the only world frame of the package set.
 FRAME_MAP = 'map'
@@ -45,6 +46,9 @@ DEMO_TRUTH = '/demo/truth'
 DEMO_REPORTS = '/demo/reports'
 DEMO_TRACK = '/demo/track'
 CLOCK = '/clock'
+# The transform tree (track_msgs_py.tf): absolute names, as tf2_ros uses them.
+TF = '/tf'
+TF_STATIC = '/tf_static'
 DIAGNOSTICS = '/diagnostics'  # the standard ROS health topic: every node's counts of refused input
 
 # Track-to-track fusion (geofeasibility paper). Input track topics are parameters of the node.
@@ -67,6 +71,13 @@ COV_PLANAR = 'planar covariance: x/y block = estimate, z/roll/pitch 0, not estim
 CLOUD_XYZ = 'float32 x, y, z at offsets 0/4/8, then'
 
 
+def fused_track_id(a: str, b: str) -> str:
+    """``child_frame_id`` of the fusion of tracks ``a`` and ``b``: ``'/radar/t0', '/patrol/t0'`` →
+    ``'radar/t0+patrol/t0'``. Track ids are topic-based and start with '/', which tf2 refuses in
+    any frame id (tools that look a child_frame_id up would fail), so the slashes are dropped."""
+    return f'{a.lstrip("/")}+{b.lstrip("/")}'
+
+
 class TopicSpec(NamedTuple):
     """What travels on a topic: full type name (``pkg/msg/Type``), QoS kind, one-line description."""
 
@@ -77,6 +88,10 @@ class TopicSpec(NamedTuple):
 
 TOPICS: dict[str, TopicSpec] = {
     CLOCK: TopicSpec('rosgraph_msgs/msg/Clock', 'clock', 'simulated time, driven by the launcher or the player'),
+    TF: TopicSpec('tf2_msgs/msg/TFMessage', 'tf', 'dynamic transforms, stamped at the data they place '
+                  '(track_nodes.base.TrackNode.send_transforms)'),
+    TF_STATIC: TopicSpec('tf2_msgs/msg/TFMessage', 'tf_static', 'fixed transforms: one latched message per '
+                         'publisher carrying all of them (TrackNode.add_static_transforms)'),
     DIAGNOSTICS: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'estimate',
                            'per node: refused input counted per "<topic> <reason field>" (track_nodes.base.node)'),
     DEMO_TRUTH: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
@@ -94,7 +109,8 @@ TOPICS: dict[str, TopicSpec] = {
                                    'the associated pairs only (combined score >= threshold), same layout'),
     FUSION_FUSED: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
                             f'covariance-intersection fusion of an associated pair ({COV_PLANAR}); '
-                            'child_frame_id = "A+B"'),
+                            'child_frame_id = "A+B" without the leading "/" of the track ids '
+                            '(fused_track_id: "radar/t0+patrol/t0"), a valid tf2 id'),
     FUSION_MARKERS: TopicSpec('visualization_msgs/msg/MarkerArray', 'estimate',
                               '2σ ellipses of the live tracks and pair links coloured by score'),
 }
@@ -260,6 +276,7 @@ TOPICS.update({
 # ``header.frame_id`` = ``laser``. An empty scan (width 0) is allowed.
 FRAME_BASE = 'base_link'   # the vehicle (inputs)
 FRAME_LASER = 'laser'      # the laser; the SLAM state (x, y, φ) is the pose of this frame in map
+FRAME_LASER_TRUTH = 'laser_truth'  # slam_sim: the true laser pose (its own frame: laser is the estimate's)
 FRAME_GPS = 'gps'          # Victoria Park GPS: local east/north frame, rotated and shifted from map
 
 SLAM_INPUTS = '/slam/inputs'
@@ -288,7 +305,7 @@ TOPICS.update({
                         'only, has jumps'),
     SLAM_TRUTH: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
                           'slam_sim: true laser pose (x, y, yaw φ) in map, zero covariance (twist not estimated, '
-                          '1e6); evaluation only'),
+                          '1e6); child_frame_id laser_truth (also on /tf); evaluation only'),
     SLAM_POSE: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
                          'SLAM laser pose after each scan: position x, y, orientation yaw φ; pose.covariance '
                          f'x/y/yaw entries (0, 1, 5 of 6) from the filter ({COV_PLANAR}: the twist x/y and yaw '

@@ -22,9 +22,9 @@ from track_msgs_py.convert import (
     twist_to_inputs,
 )
 from track_msgs_py.markers.slam import map_markers
-from track_msgs_py.topics import SLAM_GPS, SLAM_INPUTS, SLAM_SCAN, TOPICS
+from track_msgs_py.topics import FRAME_GPS, FRAME_MAP, SLAM_GPS, SLAM_INPUTS, SLAM_SCAN, TF_STATIC, TOPICS
 from track_nodes.bag import dataset
-from track_nodes.bag.api import msg_class
+from track_nodes.bag.api import msg_class, qos_is_transient_local
 
 INPUTS = [(0.973, 0.0, -0.0035), (0.998, 1.5, -0.0042), (1.023, 2.0, 0.01), (1.048, 2.1, 0.02), (2.5, 2.2, 0.03)]
 MEAS = [(0.852, 20.46202, 0.88575, 0.35404), (0.852, 29.59859, 1.02102, 0.25717),
@@ -58,12 +58,21 @@ def _read(bag: Path) -> list[tuple[str, int, object]]:
 def test_bag_holds_inputs_scans_and_gps_stamped_with_the_data_times(data, tmp_path, capsys):
     out = tmp_path / 'bags' / 'vp'  # the parent folder is created
     assert dataset.main(['victoria-park', '--data', str(data), '--out', str(out)]) == 0
-    assert f'{out}: 11 messages' in capsys.readouterr().out
+    assert f'{out}: 12 messages' in capsys.readouterr().out
     assert (out / 'metadata.yaml').is_file() and list(out.glob('*.mcap'))
     msgs = _read(out)
     with Reader(out) as reader:
         assert {c.topic: c.msgtype for c in reader.connections} == {
-            t: TOPICS[t].msgtype for t in (SLAM_INPUTS, SLAM_SCAN, SLAM_GPS)}
+            t: TOPICS[t].msgtype for t in (SLAM_INPUTS, SLAM_SCAN, SLAM_GPS, TF_STATIC)}
+        static = next(c for c in reader.connections if c.topic == TF_STATIC)
+        assert qos_is_transient_local(static.ext.offered_qos_profiles)  # the player latches it
+    # first the map -> gps transform: the first fix at the map origin
+    topic, t_tf, tf = msgs[0]
+    assert topic == TF_STATIC and t_tf == 0 and len(tf.transforms) == 1
+    tr = tf.transforms[0]
+    assert (tr.header.frame_id, tr.child_frame_id) == (FRAME_MAP, FRAME_GPS)
+    assert (tr.transform.translation.x, tr.transform.translation.y, tr.transform.rotation.w) == (2.023, 1.923, 1.0)
+    msgs = msgs[1:]
     # every log time is its header stamp, and the bag is in time order with the scan before the input at 1.023
     assert all(t == stamp_to_ns(m.header.stamp) for _, t, m in msgs)
     assert [t for _, t, _ in msgs] == sorted(t for _, t, _ in msgs)
@@ -98,7 +107,7 @@ def test_bag_decodes_with_the_mcap_reader_too(data, tmp_path):
     twist = next(m for topic, m in decoded if topic == SLAM_INPUTS and m.header.stamp.sec == 0
                  and m.header.stamp.nanosec == 998_000_000)
     assert (twist.twist.linear.x, twist.twist.angular.z) == (1.5, -0.0042)
-    assert len(decoded) == 11
+    assert len(decoded) == 12
 
 
 def test_t_max_keeps_a_short_stretch(data, tmp_path):

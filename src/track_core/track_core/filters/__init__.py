@@ -25,7 +25,7 @@ __all__ = [
 ]
 
 # Particle-filter and unscented blocks (added with the sonar system; shared by every system).
-from track_core.filters.angles import circular_mean, wrap_angle
+from track_core.filters.angles import circular_mean, invert_pose, wrap_angle
 from track_core.filters.densities import cholesky_jitter, gaussian_logpdf
 from track_core.filters.particles import weighted_mean_cov
 from track_core.filters.resampling import (
@@ -46,6 +46,7 @@ __all__ += [
     'circular_mean',
     'effective_sample_size',
     'gaussian_logpdf',
+    'invert_pose',
     'normalize_log_weights',
     'sigma_points',
     'systematic_resample',

@@ -1,4 +1,4 @@
-"""Angle helpers: wrapping to (−π, π] and the (weighted) circular mean."""
+"""Angle helpers: wrapping to (−π, π], the (weighted) circular mean, and the inverse of a planar pose."""
 
 from __future__ import annotations
 
@@ -21,3 +21,14 @@ def circular_mean(a: np.ndarray, weights: np.ndarray | None = None, axis: int = 
     s = np.sum(w * np.sin(a), axis=axis)
     c = np.sum(w * np.cos(a), axis=axis)
     return wrap_angle(np.arctan2(s, c))
+
+
+def invert_pose(pose: np.ndarray) -> np.ndarray:
+    """The inverse of planar poses ``(..., 3)`` = (x, y, θ) of frame B in frame A: the pose of A in B.
+
+    (x', y') = −R(−θ)·(x, y), θ' = −θ (wrapped), so composing a pose with its inverse gives the identity.
+    """
+    pose = np.asarray(pose, dtype=float)
+    x, y, th = pose[..., 0], pose[..., 1], pose[..., 2]
+    c, s = np.cos(th), np.sin(th)
+    return np.stack([-(c * x + s * y), s * x - c * y, wrap_angle(-th)], axis=-1)

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from track_core.filters import wrap_angle
+from track_core.filters import circular_mean, wrap_angle
 from track_core.rfid.pf import PFParams, RfidParticleFilter
 from track_core.rfid.phase import PhaseModel
 from track_core.rfid.protocol import Command, CommandKind, StepResult, step_result_problem
@@ -113,6 +113,15 @@ class RfidGuidance:
         if result.kind is CommandKind.MOVE:
             return GuidanceReply(self._issue(CommandKind.TURN, a_sug), True, None, False, upd)
         return GuidanceReply(self._issue(CommandKind.MOVE), True)
+
+    def user_pose(self) -> np.ndarray:
+        """The user's pose (x, y, facing) in the filter's frame (tag at the origin): weighted mean position and
+        circular mean heading of the particles, plus the turns pending since the last MOVE; NaN before the
+        first update. The inverse places the filter's frame in the user's (``rfid_guidance`` on /tf)."""
+        if not self.pf.initialized:
+            return np.full(3, np.nan)
+        P, w = self.pf.particles, self.pf.weights
+        return np.array([w @ P[:, 0], w @ P[:, 1], float(wrap_angle(circular_mean(P[:, 2], w) + self.pending_turn))])
 
     def tag_estimate(self) -> tuple[float, float]:
         """(distance, bearing from the facing direction) of the tag; the bearing includes pending turns."""

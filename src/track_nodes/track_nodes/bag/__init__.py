@@ -1,1 +1,2 @@
-"""Bag tools: recorder, player, recovery of killed recordings, dataset conversion, and their shared API."""
+"""Bag tools: recorder, player, recovery of killed recordings, dataset conversion, the frame check (``frames``),
+and their shared API."""

@@ -16,7 +16,13 @@ never overwritten) with
   t), fields ``x``, ``y``, ``z`` (the detection in the laser frame, ``records.slam.SlamScan``),
   ``range`` (as measured, to the trunk surface; the ``slam`` node adds the radius), ``bearing``
   (unchanged: the data's convention is eq. 5's), ``diameter``;
-- ``/slam/gps`` (geometry_msgs/PointStamped, frame ``gps``): one per row of gps.dat, jumps included.
+- ``/slam/gps`` (geometry_msgs/PointStamped, frame ``gps``): one per row of gps.dat, jumps included;
+- ``/tf_static`` (tf2_msgs/TFMessage, offered as transient-local so the player latches it): one
+  message first, map → gps. The GPS frame is a rotated, shifted east–north frame whose rotation to
+  the SLAM map is only known after a fit against an estimate (``victoria.gps_rmse`` does that fit
+  for the evaluation); the transform puts the first fix at the map origin (where the vehicle and the
+  map start) with rotation 0, so the fixes are drawn near the path, not on it. The ``laser`` and
+  ``base_link`` frames of scans and inputs are placed by the ``slam`` node's /tf.
 
 Every header stamp and bag (log) time is the data's own time (seconds from the run's start);
 messages are written in time order (a scan before an input at equal t, as ``victoria.events``).
@@ -63,16 +69,22 @@ def load_victoria(data: Path | None, t_max: float | None):
 
 
 def victoria_messages(vp):
-    """(t, topic, message) of the whole run in time order (scan before input at equal t, then GPS)."""
+    """(t, topic, message) of the whole run in time order (scan before input at equal t, then GPS),
+    after the map → gps static transform (when there is GPS)."""
     import numpy as np
     from geometry_msgs.msg import PointStamped
     from std_msgs.msg import Header
 
     from track_msgs_py.convert import inputs_to_twist, scan_to_pointcloud2, sec_to_stamp
-    from track_msgs_py.topics import FRAME_GPS, SLAM_GPS, SLAM_INPUTS, SLAM_SCAN
+    from track_msgs_py.tf import planar_transform, tf_message
+    from track_msgs_py.topics import FRAME_GPS, FRAME_MAP, SLAM_GPS, SLAM_INPUTS, SLAM_SCAN, TF_STATIC
 
     t_in, t_sc, t_gps = vp.inputs[:, 0], np.asarray(vp.scan_t, dtype=float), vp.gps[:, 0]
     times = np.concatenate([t_sc, t_in, t_gps])
+    if vp.gps.shape[0]:
+        t0 = float(times.min())
+        gps0 = -vp.gps[0, 1:]  # the gps frame's origin in map: the first fix at the map origin, rotation 0
+        yield t0, TF_STATIC, tf_message([planar_transform(t0, FRAME_MAP, FRAME_GPS, gps0[0], gps0[1], 0.0)])
     prio = np.concatenate([np.zeros(t_sc.size), np.ones(t_in.size), np.full(t_gps.size, 2)])
     order = np.lexsort((prio, times))  # by time, then scan < input < gps
     k_sc, k_in = t_sc.size, t_sc.size + t_in.size
@@ -96,20 +108,25 @@ def write_bag(out: Path, messages, topics: dict[str, str]) -> dict[str, int]:
     from rosbags.typesys import Stores, get_typestore
 
     from track_msgs_py.convert import stamp_to_ns
+    from track_msgs_py.qos import qos_for_topic
+    from track_nodes.bag.api import qos_to_rosbags
 
     ts = get_typestore(Stores.ROS2_JAZZY)
     counts = dict.fromkeys(topics, 0)
     with Writer(out, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
-        conns = {topic: writer.add_connection(topic, msgtype, typestore=ts) for topic, msgtype in topics.items()}
+        conns = {topic: writer.add_connection(topic, msgtype, typestore=ts,
+                                              offered_qos_profiles=[qos_to_rosbags(qos_for_topic(topic))])
+                 for topic, msgtype in topics.items()}
         for _, topic, msg in messages:
-            writer.write(conns[topic], stamp_to_ns(msg.header.stamp), serialize_message(msg))
+            header = msg.header if hasattr(msg, 'header') else msg.transforms[0].header  # a TFMessage has none
+            writer.write(conns[topic], stamp_to_ns(header.stamp), serialize_message(msg))
             counts[topic] += 1
     set_ros_distro(out)
     return counts
 
 
 def convert_victoria_park(out: Path, data: Path | None = None, t_max: float | None = None) -> dict[str, int]:
-    from track_msgs_py.topics import SLAM_GPS, SLAM_INPUTS, SLAM_SCAN, TOPICS
+    from track_msgs_py.topics import SLAM_GPS, SLAM_INPUTS, SLAM_SCAN, TF_STATIC, TOPICS
 
     if t_max is not None and not t_max > 0:
         raise DatasetError(f'--t-max {t_max}: must be > 0')
@@ -121,7 +138,7 @@ def convert_victoria_park(out: Path, data: Path | None = None, t_max: float | No
         out.parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise DatasetError(f'{out.parent}: cannot create the folder for --out: {one_line(exc)}') from None
-    topics = {t: TOPICS[t].msgtype for t in (SLAM_INPUTS, SLAM_SCAN, SLAM_GPS)}
+    topics = {t: TOPICS[t].msgtype for t in (SLAM_INPUTS, SLAM_SCAN, SLAM_GPS, TF_STATIC)}
     return write_bag(out, victoria_messages(vp), topics)
 
 

@@ -2,14 +2,18 @@
 
 Usage::
 
-    track-record NAME [-t TOPIC ...] [-e REGEX] [--flush-period S] [--ros-args ...]
+    track-record NAME [-t TOPIC ...] [-e REGEX] [--no-tf] [--flush-period S] [--ros-args ...]
     .venv/lib/track_nodes/recorder --ros-args -p bag:=NAME -p regex:=REGEX -p topics:="['/a', '/b']"
 
 - NAME → ``bags/NAME/`` relative to the cwd, or a path if it contains '/'. An existing bag is
   never overwritten (one error line, exit 2). Without a name: ``bags/rosbag2_<timestamp>/``.
 - What is recorded: the listed ``topics``, plus every topic matching ``regex`` (``re.search``).
   With neither, every topic. ``/rosout`` and ``/parameter_events`` are only recorded when listed
-  in ``topics``. Topics that appear later are found by polling the graph every
+  in ``topics``. The transform tree, ``/tf`` and ``/tf_static``, is recorded too whatever the
+  filter (a bag whose frames cannot be placed is of little use in RViz or Foxglove), unless
+  ``tf`` is false (``--no-tf``); a topic listed in ``topics`` is recorded even then. ``/tf_static``
+  publishers are transient-local (one message each with all their static transforms), so a
+  recorder started after them still gets every one. Topics that appear later are found by polling the graph every
   ``discovery_period`` seconds; a topic is subscribed once it has a publisher (its type and QoS
   come from the publishers). Discovery and flushing run on the steady wall clock, also under
   ``use_sim_time`` (a launcher may start /clock only once the recorder has subscribed).
@@ -40,6 +44,7 @@ from rclpy.clock import Clock, ClockType
 from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.parameter import Parameter
 
+from track_msgs_py.topics import TF, TF_STATIC
 from track_nodes.bag.api import (
     bag_path,
     check_mcap_writer_internals,
@@ -54,11 +59,13 @@ from track_nodes.base import Param, TrackNode, run_node
 from track_nodes.base.cli import OneLineParser, cli_overrides
 
 EXCLUDED_BY_DEFAULT = ('/rosout', '/parameter_events')
+TF_TOPICS = (TF, TF_STATIC)  # recorded whatever the filter, unless tf is false
 
 PARAMS = (
     Param('bag', '', "bag name (→ bags/<name>/) or a path containing '/'; empty: rosbag2_<timestamp>"),
     Param('topics', [''], 'topics to record (empty: only those matching regex, or all)'),
     Param('regex', '', 'record every topic matching this regular expression (re.search)'),
+    Param('tf', True, 'also record /tf and /tf_static when topics or regex select other topics'),
     Param('discovery_period', 0.1, 'interval between graph polls for new topics [s]', 0.01, 60.0),
     Param('flush_period', 1.0, 'interval between flushes of the pending data to the file [s]', 0.01, 3600.0),
     Param('warn_throttle', 5.0, 'at most one warning about lost messages per this many seconds [s]', 0.0, 3600.0),
@@ -121,12 +128,15 @@ class RecorderNode(TrackNode):
             what.append('topics ' + ', '.join(sorted(self.explicit)))
         if self.regex is not None:
             what.append(f'topics matching {self.regex.pattern!r}' if self.regex.pattern else 'all topics')
+        what.append('/tf and /tf_static' if p.tf else 'not /tf or /tf_static')
         self.get_logger().info(f'recording {" and ".join(what)} to {self.path}')
 
     # -- discovery ------------------------------------------------------------------------
     def wanted(self, topic: str) -> bool:
         if topic in self.explicit:
             return True
+        if topic in TF_TOPICS:
+            return self.p.tf
         if topic in EXCLUDED_BY_DEFAULT or self.regex is None:
             return False
         return self.regex.search(topic) is not None
@@ -249,10 +259,13 @@ def parse_cli(argv: Sequence[str]) -> list[Parameter]:
     ap.add_argument('name', nargs='?', help="bag name (→ bags/NAME/) or a path containing '/'")
     ap.add_argument('-t', '--topics', nargs='+', default=None, metavar='TOPIC', help='topics to record')
     ap.add_argument('-e', '--regex', default=None, help='record every topic matching REGEX')
+    ap.add_argument('--no-tf', dest='no_tf', action='store_true',
+                    help='do not record /tf and /tf_static (recorded by default, whatever the filter)')
     ap.add_argument('--flush-period', type=float, default=None, metavar='S',
                     help='flush pending messages to the file every S seconds (default 1)')
-    return cli_overrides(ap, argv, {'name': 'bag', 'topics': 'topics', 'regex': 'regex',
-                                    'flush_period': 'flush_period'})
+    overrides = cli_overrides(ap, argv, {'name': 'bag', 'topics': 'topics', 'regex': 'regex',
+                                         'flush_period': 'flush_period', 'no_tf': 'tf'})
+    return [Parameter('tf', value=False) if o.name == 'tf' else o for o in overrides]  # --no-tf: tf false
 
 
 def main(argv: Sequence[str] | None = None) -> int:

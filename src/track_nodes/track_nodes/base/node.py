@@ -20,6 +20,14 @@ Topics: the names of ``track_msgs_py.topics`` are given as they resolve in the r
 track topics) is taken as given (``as_given=True``): a leading '/' keeps it absolute. Log lines
 and ``/diagnostics`` keys name the resolved topic (``resolved``).
 
+Transforms (``track_msgs_py.tf``): ``send_transforms(*ts)`` publishes dynamic transforms on ``/tf``;
+``add_static_transforms(*ts)`` adds fixed ones (a later one with the same child frame replaces the
+earlier) and republishes ALL of the node's static transforms as one message on the latched
+``/tf_static``, as tf2_ros's StaticTransformBroadcaster does. Both publishers are made at the first
+call, so a node that never broadcasts has no /tf endpoint; a node that will broadcast calls
+``advertise_transforms()`` in ``setup()``, so that a recorder (and the launcher, which waits for the
+recorder's subscriptions before it starts the clock) sees /tf before the first transform is sent.
+
 ``python -m track_nodes <executable>`` (what the ``ros2 run`` shims call) looks the class up in
 ``track_nodes.registry`` and calls ``main``.
 """
@@ -43,6 +51,7 @@ from rclpy.parameter import Parameter
 
 from track_msgs_py.convert import diagnostic_array, diagnostic_status
 from track_msgs_py.records import DIAG_OK, DIAG_WARN
+from track_msgs_py.tf import TF, TF_QOS, TF_STATIC, TF_STATIC_QOS, tf_message
 from track_msgs_py.topics import DIAGNOSTICS, relative
 from track_nodes.base.cli import params_file_problem
 from track_nodes.base.params import Param, ParameterError, declare_params
@@ -71,6 +80,8 @@ class TrackNode(Node):
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._diagnostics = None  # publisher and timer made at the first refusal (most nodes never need them)
         self._diagnostics_dirty = False
+        self._tf_pub = self._tf_static_pub = None  # made at the first transform (most nodes never broadcast)
+        self._static_transforms: dict[str, Any] = {}  # child frame -> TransformStamped
         self.setup()
         self.add_on_set_parameters_callback(self._check_params)
         self.add_post_set_parameters_callback(self._apply_params)
@@ -171,6 +182,28 @@ class TrackNode(Node):
         status = diagnostic_status(self.get_fully_qualified_name(), DIAG_WARN if counts else DIAG_OK,
                                    f'{self.refusals.total()} messages refused', counts)
         self._diagnostics[0].publish(diagnostic_array(self.get_clock().now().nanoseconds * 1e-9, [status]))
+
+    def advertise_transforms(self) -> None:
+        """Create the /tf publisher now (in ``setup``), not at the first transform: nothing sent is lost."""
+        if self._tf_pub is None:
+            from tf2_msgs.msg import TFMessage
+
+            self._tf_pub = self.create_publisher(TFMessage, TF, TF_QOS)
+
+    def send_transforms(self, *transforms) -> None:
+        """Publish dynamic ``TransformStamped`` s on /tf in one message (stamp them at the data they place)."""
+        self.advertise_transforms()
+        self._tf_pub.publish(tf_message(transforms))
+
+    def add_static_transforms(self, *transforms) -> None:
+        """Add fixed transforms (replacing any with the same child frame) and republish all on /tf_static."""
+        for tr in transforms:
+            self._static_transforms[tr.child_frame_id] = tr
+        if self._tf_static_pub is None:
+            from tf2_msgs.msg import TFMessage
+
+            self._tf_static_pub = self.create_publisher(TFMessage, TF_STATIC, TF_STATIC_QOS)
+        self._tf_static_pub.publish(tf_message(list(self._static_transforms.values())))
 
     @classmethod
     def main(cls, argv: Sequence[str] | None = None, **kwargs: Any) -> int:

@@ -44,7 +44,7 @@ combination zero, as the paper's means do), and publishes:
 |---|---|---|
 | /fusion/scores | DiagnosticArray | one status per pair ``A | B``: score, combined, instants, associated, method |
 | /fusion/associations | DiagnosticArray | the pairs whose combined score ≥ ``threshold`` |
-| /fusion/fused | Odometry | covariance intersection of each associated pair, child_frame_id ``A+B`` |
+| /fusion/fused | Odometry | covariance intersection of each associated pair, child_frame_id ``A+B`` (no leading '/') |
 | /fusion/markers | MarkerArray | 2σ ellipse per track, a link per pair coloured red→green by score |
 
 The pairing, masking, windows, thresholds and covariance intersection are
@@ -81,6 +81,7 @@ from track_msgs_py.topics import (
     FUSION_MARKERS,
     FUSION_SCORES,
     KNOWN_FRAMES,
+    fused_track_id,
     split_track_frame_id,
 )
 from track_msgs_py.validate import (
@@ -257,7 +258,7 @@ class FusionNode(TrackNode):
             P4 = np.zeros((4, 4))
             P4[np.ix_([0, 2], [0, 2])] = f.P
             self.pub_fused.publish(cv_state_to_odometry(t, np.array([f.mu[0], 0.0, f.mu[1], 0.0]), P4, FRAME_MAP,
-                                                        f'{f.a}+{f.b}'))
+                                                        fused_track_id(f.a, f.b)))
         statuses = [FusionPairScore(q.score, q.combined, q.instants, q.associated, self.p.method).pair_status(q.a, q.b)
                     for q in instant.pairs]
         self.pub_scores.publish(diagnostic_array(t, statuses))

@@ -11,7 +11,7 @@ from rosgraph_msgs.msg import Clock
 
 from track_msgs_py.convert import sec_to_stamp
 from track_msgs_py.qos import CLOCK_QOS
-from track_msgs_py.topics import CLOCK
+from track_msgs_py.topics import CLOCK, TF, TF_STATIC
 from track_nodes.bag.api import msg_class, recording_qos
 
 IGNORED_TOPICS = ('/rosout', '/parameter_events', CLOCK)
@@ -56,7 +56,8 @@ class LauncherNode(Node):
         pattern = re.compile(regex)
         missing = []
         for topic, _ in self.get_topic_names_and_types():
-            if topic in IGNORED_TOPICS or not pattern.search(topic) or not self.count_publishers(topic):
+            recorded = pattern.search(topic) or topic in (TF, TF_STATIC)  # the recorder's tf default
+            if topic in IGNORED_TOPICS or not recorded or not self.count_publishers(topic):
                 continue
             subs = {info.node_name for info in self.get_subscriptions_info_by_topic(topic)}
             if recorder not in subs:

@@ -13,6 +13,10 @@ Wraps ``track_core.rfid.guidance.RfidGuidance``: it consumes the step results of
 - after each usable result: ``/rfid/tag_estimate`` (geometry_msgs/PointStamped in ``rfid_user``,
   x forward, y left): the tag at distance d (weighted mean of |pᵢ|) and bearing b (the suggested
   turn minus the turns made since the last MOVE) from the user;
+- after each usable result: ``/tf`` rfid_user → rfid_pf, the inverse of the user's estimated pose in
+  the filter's frame (``RfidGuidance.user_pose``), so particles drawn in ``rfid_pf`` sit around the
+  user wherever the reader places ``rfid_user`` in map (the filter frame's rotation is a free gauge:
+  this estimate fixes it, as a localiser's map → odom does);
 - ``/rfid/found`` (diagnostic_msgs/DiagnosticArray, one status ``<node>/found``) once, when a step
   result reports the user at the tag. The search then ends with DONE.
 
@@ -57,6 +61,7 @@ import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PointStamped, PoseArray
 
+from track_core.filters import invert_pose
 from track_core.rfid.guidance import RfidGuidance
 from track_core.rfid.loop import CommandLoop, Tick, Use
 from track_core.rfid.pf import SUGGESTION_RULES, WEIGHTINGS, PFParams
@@ -65,6 +70,7 @@ from track_core.rfid.protocol import Command, CommandKind
 from track_msgs_py.convert import DIAG_OK, DIAG_WARN, diagnostic_array, positions_to_pose_array, sec_to_stamp
 from track_msgs_py.qos import ESTIMATE_QOS, SENSOR_QOS
 from track_msgs_py.records.rfid import RfidCommand, RfidFound, read_step
+from track_msgs_py.tf import planar_transform
 from track_msgs_py.topics import (
     RFID_COMMAND,
     RFID_FOUND,
@@ -135,6 +141,7 @@ class RfidGuidanceNode(TrackNode):
         self.pub_particles = self.create_publisher(PoseArray, RFID_PARTICLES, SENSOR_QOS)
         self.pub_estimate = self.create_publisher(PointStamped, RFID_TAG_ESTIMATE, ESTIMATE_QOS)
         self.pub_found = self.create_publisher(DiagnosticArray, RFID_FOUND, ESTIMATE_QOS)
+        self.advertise_transforms()
         self.sub_step = self.create_subscription(DiagnosticArray, RFID_STEP, self._on_step, ESTIMATE_QOS)
         self.timer = self.create_timer(p.period, self._tick)
 
@@ -197,6 +204,9 @@ class RfidGuidanceNode(TrackNode):
         pf = self.guide.pf
         if not pf.initialized:
             return
+        pf_in_user = invert_pose(self.guide.user_pose())
+        if np.all(np.isfinite(pf_in_user)):
+            self.send_transforms(planar_transform(t, RFID_FRAME_USER, RFID_FRAME_PF, *pf_in_user))
         if updated:
             P = pf.particles
             self.pub_particles.publish(positions_to_pose_array(t, P[:, :2], RFID_FRAME_PF, headings=P[:, 2]))

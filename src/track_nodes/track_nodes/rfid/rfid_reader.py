@@ -13,7 +13,9 @@ publishes, in this order,
   dwells);
 - ``/rfid/user/pose`` (geometry_msgs/PoseStamped in ``map``, tag at the origin) and
   ``/rfid/user/status`` (diagnostic_msgs/DiagnosticArray: steps, turns, distance walked, ...):
-  the truth, for evaluation only (the guidance never reads them);
+  the truth, for evaluation only (the guidance never reads them); the pose also goes on ``/tf`` as
+  map → rfid_user (the user's body frame) at the same stamp, and ``/tf_static`` places the reader's
+  frame (the node name, frame of ``/rfid/phase``) at the user: rfid_user → <node name>, identity;
 - ``/rfid/step`` (diagnostic_msgs/DiagnosticArray): the step result, last. One status; its values
   are the fields of ``StepResult`` (``seq``, ``kind``, ``dphi``, ``turn``, ``n_reads``,
   ``n_outliers``, ``ok``, ``reason``, ``found``) plus ``duration``, the record
@@ -62,7 +64,16 @@ from track_msgs_py.convert import DIAG_OK, DIAG_WARN, diagnostic_array, sec_to_s
 from track_msgs_py.qos import ESTIMATE_QOS
 from track_msgs_py.records import RecordError
 from track_msgs_py.records.rfid import RfidPhase, RfidStep, RfidUserStatus, read_command
-from track_msgs_py.topics import FRAME_MAP, RFID_COMMAND, RFID_PHASE, RFID_STEP, RFID_USER_POSE, RFID_USER_STATUS
+from track_msgs_py.tf import planar_transform, pose_transform
+from track_msgs_py.topics import (
+    FRAME_MAP,
+    RFID_COMMAND,
+    RFID_FRAME_USER,
+    RFID_PHASE,
+    RFID_STEP,
+    RFID_USER_POSE,
+    RFID_USER_STATUS,
+)
 from track_nodes.base import Param, ParameterError, TrackNode
 from track_nodes.rfid.params import PHASE_PARAMS
 
@@ -161,6 +172,9 @@ class RfidReaderNode(TrackNode):
             self.reader = SimReader(self.world, np.random.default_rng(world_ss), start=start, unwrap=unwrap)
         except ValueError as exc:
             raise ParameterError(f'cannot start the search: {exc}') from None
+        # The handheld reader is at the user: its frame (the node name, frame of /rfid/phase) on /tf_static.
+        self.add_static_transforms(planar_transform(0.0, RFID_FRAME_USER, self.get_name(), 0.0, 0.0, 0.0))
+        self.advertise_transforms()
         self.cache: AnswerCache[_Answer] = AnswerCache()  # one answer per seq (track_core.rfid.loop)
         self.pub_phase = self.create_publisher(PointCloud2, RFID_PHASE, ESTIMATE_QOS)
         self.pub_pose = self.create_publisher(PoseStamped, RFID_USER_POSE, ESTIMATE_QOS)
@@ -207,7 +221,7 @@ class RfidReaderNode(TrackNode):
         elif verdict is Verdict.EXECUTE:
             if self.cache.seq is None:  # the start pose (seq 0), once, before the first answer
                 pose, status = self._truth(self._now(), 0)
-                self.pub_pose.publish(pose)
+                self._publish_pose(pose)
                 self.pub_status.publish(status)
             self._execute(cmd)
             if self.p.time_scale == 0.0:
@@ -241,6 +255,11 @@ class RfidReaderNode(TrackNode):
             return
         if a.stream is not None:
             self.pub_phase.publish(a.stream)
-        self.pub_pose.publish(a.pose)
+        self._publish_pose(a.pose)
         self.pub_status.publish(a.status)
         self.pub_step.publish(a.step)
+
+    def _publish_pose(self, pose: PoseStamped) -> None:
+        """The true user pose, and the same as map → rfid_user on /tf (the user's body frame)."""
+        self.send_transforms(pose_transform(pose.header, pose.pose, RFID_FRAME_USER))
+        self.pub_pose.publish(pose)

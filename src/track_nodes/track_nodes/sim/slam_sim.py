@@ -12,7 +12,13 @@ item whose data time has come, stamped ``origin + data time`` (origin 0 under ``
   also when empty;
 - ``/slam/inputs`` (geometry_msgs/TwistStamped): the noisy inputs (speed, steering angle in
   ``angular.z``) applied from their stamp on;
-- ``/slam/truth`` (nav_msgs/Odometry): the true laser pose (x, y, yaw), zero covariance.
+- ``/slam/truth`` (nav_msgs/Odometry): the true laser pose (x, y, yaw), zero covariance, child frame
+  ``laser_truth``, and the same pose on ``/tf`` as map → laser_truth at the truth stamps.
+
+Frames: the scans are in ``laser`` and the inputs in ``base_link``, the frames of the vehicle as the
+``slam`` node places them (map → laser → base_link, see its docstring), as on a real robot whose
+localiser places its sensor frames. The simulator does not broadcast ``laser`` itself: a second
+map → laser (the truth) would give the frame two parents. Its truth is a frame of its own.
 
 At equal stamps the order is scan, input, truth. When the run is over (the vehicle has closed the
 loop and driven ``world.run_on`` metres on) the node logs it once and publishes nothing more.
@@ -32,7 +38,8 @@ from track_core.slam.sim import LoopWorld, simulate
 from track_msgs_py.convert import inputs_to_twist, pose_to_odometry
 from track_msgs_py.qos import qos_for_topic
 from track_msgs_py.records.slam import SlamScan
-from track_msgs_py.topics import FRAME_MAP, SLAM_INPUTS, SLAM_SCAN, SLAM_TRUTH
+from track_msgs_py.tf import odometry_transform
+from track_msgs_py.topics import FRAME_LASER_TRUTH, FRAME_MAP, SLAM_INPUTS, SLAM_SCAN, SLAM_TRUTH
 from track_nodes.base import FixedRateSteps, Param, ParameterError, TrackNode, declare_dataclass
 
 PARAMS = (
@@ -76,6 +83,7 @@ class SlamSimNode(TrackNode):
         self.pub_scan = self.create_publisher(PointCloud2, SLAM_SCAN, qos_for_topic(SLAM_SCAN))
         self.pub_inputs = self.create_publisher(TwistStamped, SLAM_INPUTS, qos_for_topic(SLAM_INPUTS))
         self.pub_truth = self.create_publisher(Odometry, SLAM_TRUTH, qos_for_topic(SLAM_TRUTH))
+        self.advertise_transforms()
         self.get_logger().info(f'loop world {w.width:g} x {w.height:g} m, {len(run.landmarks)} landmarks, '
                                f'{len(run.scans)} scans over {run.t[-1] + w.dt:.1f} s (seed {p.seed})')
         self.steps = FixedRateSteps(self, w.dt, self._step, p.max_time)
@@ -99,7 +107,9 @@ class SlamSimNode(TrackNode):
             elif kind == _INPUT:
                 self.pub_inputs.publish(inputs_to_twist(t, *data))
             else:
-                self.pub_truth.publish(pose_to_odometry(t, data, np.zeros((3, 3)), FRAME_MAP))
+                truth = pose_to_odometry(t, data, np.zeros((3, 3)), FRAME_MAP, FRAME_LASER_TRUTH)
+                self.send_transforms(odometry_transform(truth))
+                self.pub_truth.publish(truth)
         if self.next >= len(items) and not self._done_logged:
             self._done_logged = True
             self.get_logger().info(f'simulated run complete at t = {self.duration:.1f} s')

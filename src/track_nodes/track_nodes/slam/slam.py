@@ -17,6 +17,13 @@ and publishes
 - ``/slam/particles`` (geometry_msgs/PoseArray, with headings): the particle cloud after every scan the
   PF ran on (``HybridSlam.last_particles``), including the one on which it handed back to the CEKF
   (in the PF's map frame, before the hand-over update), and an empty array at the next scan;
+- ``/tf`` (map → laser, at every pose stamp and at the first input, so inputs before the first scan
+  are placed too) and ``/tf_static`` (laser → base_link, the ACFR geometry
+  of ``models.VehicleParams``: the laser a ahead and b left of the rear-axle centre). The tree is
+  map → laser → base_link, not slam_toolbox's map → odom → base_link: the filter's state is the
+  laser pose, and no node here keeps an odometry frame (the Victoria Park bag has raw encoder and
+  steering inputs only), so there is no odom → base_link for a map → odom correction to hang on.
+  Scans (``laser``) and inputs (``base_link``) are placed through it, in a replay too;
 - ``/slam/map`` (visualization_msgs/MarkerArray, transient-local, ``markers.slam.map_markers``):
   landmark means and 2σ ellipses, at most every ``map_period`` seconds of data time
   (``HybridSlam.map_estimate``: exact, without a copy or a global update of the filter, but
@@ -76,7 +83,17 @@ from track_msgs_py.markers.slam import map_markers
 from track_msgs_py.qos import ESTIMATE_QOS, SENSOR_QOS, STATIC_QOS
 from track_msgs_py.records import RecordError
 from track_msgs_py.records.slam import SlamEvent, SlamMode, SlamScan
-from track_msgs_py.topics import SLAM_EVENTS, SLAM_INPUTS, SLAM_MAP, SLAM_MODE, SLAM_PARTICLES, SLAM_POSE, SLAM_SCAN
+from track_msgs_py.tf import frame_pair_problem, odometry_transform, planar_transform
+from track_msgs_py.topics import (
+    FRAME_BASE,
+    SLAM_EVENTS,
+    SLAM_INPUTS,
+    SLAM_MAP,
+    SLAM_MODE,
+    SLAM_PARTICLES,
+    SLAM_POSE,
+    SLAM_SCAN,
+)
 from track_msgs_py.validate import InputPolicy, clock_now, speed_steer_problem, stamp_problem
 from track_nodes.base import TrackNode, declare_dataclass, declare_params, run_node, vector
 from track_nodes.slam.params import CORE_GROUPS, PROFILE_PARAM, PROFILES, node_params
@@ -101,6 +118,9 @@ class SlamNode(TrackNode):
         pose0, var0 = vector('pose0', p.pose0, 3), vector('pose0_var', p.pose0_var, 3, positive=True)
         self.slam = HybridSlam(pose0, np.diag(var0), np.random.default_rng(p.seed), cores['slam'], cores['pf'],
                                cores['hybrid'], compressed=p.compressed)
+        problem = frame_pair_problem(p.frame_id, p.child_frame_id) or frame_pair_problem(p.child_frame_id, FRAME_BASE)
+        if problem:
+            raise ValueError(f'parameters frame_id={p.frame_id!r}, child_frame_id={p.child_frame_id!r}: {problem}')
         self.policy = InputPolicy(horizon=p.stamp_horizon)
         self.refusals.throttle = p.warn_throttle
         self.merger = StreamMerger(p.pause_wall, p.flush_idle, p.drain_budget, time.monotonic())
@@ -118,6 +138,9 @@ class SlamNode(TrackNode):
                          reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
         self.sub_inputs = self.create_subscription(TwistStamped, SLAM_INPUTS, self._on_input, qos)
         self.sub_scan = self.create_subscription(PointCloud2, SLAM_SCAN, self._on_scan, qos)
+        vehicle = self.slam.vehicle  # base_link (rear-axle centre) seen from the laser: (-a, -b), same heading
+        self.add_static_transforms(planar_transform(0.0, p.child_frame_id, FRAME_BASE, -vehicle.a, -vehicle.b, 0.0))
+        self.advertise_transforms()
         self.create_timer(min(0.1, p.flush_idle / 2), self._on_idle, clock=Clock(clock_type=ClockType.STEADY_TIME))
 
     @property
@@ -206,6 +229,8 @@ class SlamNode(TrackNode):
         if stream == INPUT:
             ok = self.slam.process_input(t, *payload)
             self.n_inputs += ok
+            if ok and self.n_inputs == 1 and not self.n_scans:  # the tree from the data's start on
+                self.send_transforms(odometry_transform(self._pose_msg(t)))
         else:
             ok = self.slam.process_scan(t, payload)
             self.n_scans += ok
@@ -221,7 +246,9 @@ class SlamNode(TrackNode):
         for ev in s.events[self._n_events:]:
             self._publish_event(ev)
         self._n_events = len(s.events)
-        self.pub_pose.publish(pose_to_odometry(t, s.pose, symmetrize(s.pose_cov), p.frame_id, p.child_frame_id))
+        pose = self._pose_msg(t)
+        self.send_transforms(odometry_transform(pose))
+        self.pub_pose.publish(pose)
         pf_step = s.last_particles
         if pf_step is not None and pf_step.scan == s.n_scans:  # the PF ran on this scan (maybe its last)
             parts = pf_step.particles[::max(1, math.ceil(len(pf_step.particles) / p.max_particles_published))]
@@ -237,6 +264,10 @@ class SlamNode(TrackNode):
         self.pub_mode.publish(mode.to_msg(t, self.get_name()))
         if self._map_ns is None or t_ns - self._map_ns >= round(p.map_period * 1e9):
             self._publish_map(t)
+
+    def _pose_msg(self, t: float) -> Odometry:
+        s, p = self.slam, self.p
+        return pose_to_odometry(t, s.pose, symmetrize(s.pose_cov), p.frame_id, p.child_frame_id)
 
     def _publish_event(self, ev) -> None:
         x, y, yaw = (float(v) for v in self.slam.pose)

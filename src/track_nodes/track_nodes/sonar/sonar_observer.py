@@ -21,7 +21,10 @@ For every target truth (``/sonar/target/truth``), in step order, the observer
    - ``/sonar/markers`` (visualization_msgs/MarkerArray: the 2σ position ellipse, ns
      ``sonar_estimate``, id 0: ``track_msgs_py.markers.sonar``);
    - ``/sonar/observer/odom`` (nav_msgs/Odometry of the observer, zero covariance) last: it tells
-     the smart target that step k is complete (see ``smart_target`` for the ordering rule).
+     the smart target that step k is complete (see ``smart_target`` for the ordering rule), just after
+     the same pose on ``/tf`` as map → ``observer_id`` (the AUV's body frame, identity orientation like
+     the Odometry: the CV state carries no heading). The estimate's ``child_frame_id`` names the track,
+     not a frame, and is not broadcast.
 
 Determinism rule (``track_core.sonar.lockstep.TruthGate``): the target's truth sets the time. The
 first truth accepted is step 1 and fixes the step grid (its stamp + k·T); step k is taken when the
@@ -74,6 +77,7 @@ from track_msgs_py.convert import (
 from track_msgs_py.markers.sonar import estimate_markers
 from track_msgs_py.qos import ESTIMATE_QOS, SENSOR_QOS, TRUTH_QOS
 from track_msgs_py.records.sonar import SonarMode
+from track_msgs_py.tf import frame_pair_problem, odometry_transform
 from track_msgs_py.topics import (
     FRAME_MAP,
     KNOWN_FRAMES,
@@ -149,6 +153,9 @@ class SonarObserverNode(TrackNode):
         start = np.asarray(p.start, dtype=float)
         if start.shape != (2,) or not np.all(np.isfinite(start)):
             raise ValueError(f'parameter start={list(p.start)!r} is invalid: allowed 2 finite numbers [x, y]')
+        problem = frame_pair_problem(FRAME_MAP, p.observer_id)
+        if problem:
+            raise ValueError(f'parameter observer_id={p.observer_id!r}: {problem}')
         self.sonar = SonarParams(T=p.period, q_s=p.q_s, sigma_b=math.radians(p.sigma_b_deg), sigma_d=p.sigma_d,
                                  n_particles=p.n_particles)
         self.trajectory = ObserverTrajectory(start=(float(start[0]), float(start[1])), speed=p.speed,
@@ -171,6 +178,7 @@ class SonarObserverNode(TrackNode):
         self.pub_mode = self.create_publisher(DiagnosticArray, SONAR_MODE, ESTIMATE_QOS)
         self.pub_markers = self.create_publisher(MarkerArray, SONAR_MARKERS, ESTIMATE_QOS)
         self.pub_odom = self.create_publisher(Odometry, SONAR_OBSERVER, ESTIMATE_QOS)
+        self.advertise_transforms()
         self.sub_truth = self.create_subscription(Odometry, SONAR_TRUTH, self._on_truth, TRUTH_QOS)
         self.last_truth = self.steady_now()
         self.wait_timer = self.create_timer(WAIT_WARN, self._check_waiting, clock=self._steady)
@@ -231,8 +239,9 @@ class SonarObserverNode(TrackNode):
         status = mode_rec.to_status(f'{self.get_name()}/sensor_mode', DIAG_OK, est.mode.value)
         self.pub_mode.publish(_stamped(diagnostic_array(t, [status]), stamp))
         self.pub_markers.publish(_stamped(estimate_markers(t, est.mean, est.cov), stamp))
-        odom = cv_state_to_odometry(t, obs_state, np.zeros((4, 4)), FRAME_MAP, self.p.observer_id)
-        self.pub_odom.publish(_stamped(odom, stamp))  # last: the target's step k+1 waits for it
+        odom = _stamped(cv_state_to_odometry(t, obs_state, np.zeros((4, 4)), FRAME_MAP, self.p.observer_id), stamp)
+        self.send_transforms(odometry_transform(odom))
+        self.pub_odom.publish(odom)  # last: the target's step k+1 waits for it
 
 
 def _stamped(msg, stamp):

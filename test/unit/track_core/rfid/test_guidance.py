@@ -117,3 +117,19 @@ def test_problem_rule_directly():
     assert step_result_problem(StepResult(CommandKind.MOVE, 3, dphi=1.0, n_reads=10), c) is None
     assert 'TURN' in step_result_problem(StepResult(CommandKind.TURN, 3), c)
     assert str(Command(CommandKind.TURN, math.radians(30), 4, True)) == '#4 TURN +30.0° (repeat)'
+
+
+def test_user_pose_is_the_weighted_particle_mean_plus_pending_turns():
+    from track_core.filters import invert_pose
+
+    g = RfidGuidance(PFParams(n_particles=4), rng=np.random.default_rng(0))
+    assert np.all(np.isnan(g.user_pose()))  # before the first update
+    g.pf.particles = np.array([[2.0, 0.0, 0.1], [4.0, 0.0, -0.1], [3.0, 2.0, 0.0], [3.0, -2.0, 0.0]])
+    g.pf.weights = np.full(4, 0.25)
+    g.pending_turn = 0.5
+    pose = g.user_pose()
+    np.testing.assert_allclose(pose, [3.0, 0.0, 0.5], atol=1e-12)
+    # the tag (origin of the filter frame) seen from the user: 3 m behind, turned by -0.5 rad
+    tag_in_user = invert_pose(pose)[:2]
+    np.testing.assert_allclose(np.hypot(*tag_in_user), 3.0)
+    assert math.isclose(math.atan2(tag_in_user[1], tag_in_user[0]), math.pi - 0.5)
