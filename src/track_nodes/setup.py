@@ -20,6 +20,7 @@ setup(
         (f'share/{PKG}', ['package.xml']),
         (f'share/{PKG}/launch', sorted(str(p.relative_to(HERE)) for p in (HERE / 'launch').glob('*.py'))),
         (f'share/{PKG}/config', sorted(str(p.relative_to(HERE)) for p in (HERE / 'config').glob('*.yaml'))),
+        (f'share/{PKG}/displays', sorted(str(p.relative_to(HERE)) for p in (HERE / 'displays').glob('*.*'))),
         (f'lib/{PKG}', SHIMS),
     ],
     install_requires=['track_core', 'track_msgs_py', 'PyYAML', 'rosbags', 'mcap', 'mcap-ros2-support'],
