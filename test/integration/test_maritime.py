@@ -113,6 +113,33 @@ def test_replay_into_a_fresh_fusion_node_gives_the_same_scores(maritime_run, ros
     assert _scores(got) == recorded  # every pair, instant, score and verdict
 
 
+def test_offline_replay_reproduces_the_recorded_network_and_scores(maritime_run):
+    """``report.network_replay`` (issue 17's measuring tool) re-runs the network on the recorded truths and
+    scores it against the recorded sonar and radar tracks: the same estimates and covariances, and the
+    same verdicts (the scores to the record's 6 decimals); the bank's handoffs carry the whole joint belief."""
+    from track_core.idsq.handoff import BANK_BYTES, HEADER_BYTES
+    from track_nodes.report import network_replay
+
+    cfg, bag, _ = maritime_run
+    d = maritime.load(bag)
+    setup, layout = network_replay.sensors_of(cfg)
+    assert setup.tracker.prediction == 'bank' and layout.comm_range == 60.0
+    rows = network_replay.replay(d, setup, layout)
+    t, x, P = d['tracks'][maritime.NETWORK_TRACK]
+    np.testing.assert_array_equal([r['t'] for r in rows], t)
+    np.testing.assert_array_equal([r['mean'] for r in rows], x)
+    np.testing.assert_array_equal([r['cov'] for r in rows], P)
+    assert all((r['bytes'] - HEADER_BYTES - BANK_BYTES) % 8 == 0 and r['bytes'] > 1000 for r in rows)
+    scores = network_replay.fuse(d, rows)
+    assert scores.keys() == d['scores'].keys()
+    for pair, got in scores.items():  # the record carries the scores with 6 decimals
+        want = d['scores'][pair]
+        np.testing.assert_array_equal(got[:, [0, 3]], want[:, [0, 3]])  # instants and verdicts
+        np.testing.assert_allclose(got[:, 1:3], want[:, 1:3], rtol=0, atol=1e-6)
+    s = network_replay.summary(d, rows, scores)
+    assert s['fraction'] == maritime.verdicts(d)[SONAR_NET]['fraction'] and not s['decoy_ever']
+
+
 def test_scenario_file_is_the_generator_output(repo: Path):
     """config/maritime.yaml is what ``maritime_yaml()`` writes (its sensors match vehicle_sim's layout)."""
     assert (repo / 'config/maritime.yaml').read_text() == maritime_yaml()

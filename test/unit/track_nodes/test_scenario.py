@@ -51,3 +51,25 @@ def test_every_scenario_file_is_a_valid_params_file(ros, repo):
                     automatically_declare_parameters_from_overrides=True)
         assert node.get_parameter('nodes').value, cfg.name
         node.destroy_node()
+
+
+@pytest.mark.parametrize('seed', [1, 2, 3, 4, 5])
+def test_maritime_radio_range_links_the_columns(seed):
+    """``maritime_yaml``'s comm_range (60 m, the 99.9 % quantile of the distance between row neighbours in
+    adjacent columns under the §5.1 jitter) links every such pair, which the §5.1 40 m does not (issue 17)."""
+    import numpy as np
+    import yaml
+
+    from track_core.idsq.simulation import scenario_of
+    from track_nodes.launch.generate import maritime_yaml
+
+    cfg = yaml.safe_load(maritime_yaml(seed=seed))
+    ranges = {v['ros__parameters']['comm_range'] for k, v in cfg.items() if k.startswith('sensor_')}
+    assert ranges == {60.0}
+    _, layout, _ = scenario_of(seed, 40, 0.3)
+    rows = layout.positions.reshape(10, 4, 2)
+    d = np.hypot(*(rows[:, 1:] - rows[:, :-1]).transpose(2, 0, 1))  # (10 rows, 3 column gaps)
+    assert d.max() <= 60.0 and (d > 40.0).any()
+    rng = np.random.default_rng(0)  # the 99.9 % quantile of that distance (columns 37.5 m apart, jitter N(0, 25 m²))
+    e = rng.normal(0.0, np.sqrt(50.0), (200_000, 2))
+    assert abs(np.quantile(np.hypot(37.5 + e[:, 0], e[:, 1]), 0.999) - 60.0) < 1.0

@@ -56,7 +56,8 @@ class TrackerParams:
     drift_gate: float = 4.0        # v̂ observed only when both spreads < drift_gate·(v_max·Δt)² [m²]
     drift_speed: float | None = None  # |v − v̂| bound of the drift disk [m/s]; None = v_max
     bank_step: float = 5.0         # velocity-lattice spacing of prediction='bank' [m/s]
-    bank_switch: float = 0.1       # probability of switching to a neighbouring velocity per step
+    bank_switch: float = 0.1       # probability of switching to a neighbouring velocity per bank_switch_dt
+    bank_switch_dt: float = 0.5    # [s] the interval bank_switch is given for (a rate: see switch_per_step)
 
     def __post_init__(self) -> None:
         pos = {'v_max': self.v_max, 'dt': self.dt, 'sigma_a': self.sigma_a, 'sigma_doa': self.sigma_doa,
@@ -84,6 +85,8 @@ class TrackerParams:
             raise ValueError(f'bank_step={self.bank_step} must be in (0, v_max={self.v_max}] m/s')
         if not 0.0 <= self.bank_switch <= 1.0:
             raise ValueError(f'bank_switch={self.bank_switch} must be in [0, 1]')
+        if not (np.isfinite(self.bank_switch_dt) and self.bank_switch_dt > 0):
+            raise ValueError(f'bank_switch_dt={self.bank_switch_dt} must be finite and > 0 s')
         if not (np.isfinite(self.drift_gain) and 0.0 < self.drift_gain <= 1.0):
             raise ValueError(f'drift_gain={self.drift_gain} must be in (0, 1]')
         if not (np.isfinite(self.drift_gate) and self.drift_gate > 0):
@@ -92,6 +95,15 @@ class TrackerParams:
             object.__setattr__(self, 'drift_speed', self.v_max)
         elif not (np.isfinite(self.drift_speed) and self.drift_speed >= 0):
             raise ValueError(f'drift_speed={self.drift_speed} must be finite and >= 0 m/s')
+
+    @property
+    def switch_per_step(self) -> float:
+        """Probability that the bank's velocity switches during one step Δt: ``bank_switch`` is given per
+        ``bank_switch_dt``, i.e. a manoeuvre rate, so a step of Δt switches with 1 − (1 − bank_switch)^(Δt /
+        bank_switch_dt) (exactly ``bank_switch`` when Δt = bank_switch_dt; ``prediction.py``)."""
+        if self.dt == self.bank_switch_dt or self.bank_switch in (0.0, 1.0):
+            return float(self.bank_switch)
+        return float(-np.expm1(np.log1p(-self.bank_switch) * (self.dt / self.bank_switch_dt)))
 
     @property
     def radius(self) -> float:

@@ -12,7 +12,8 @@ What runs (``config/maritime.yaml``, written by ``scenario_yaml`` below):
   and the decoy's truth: each sensor senses the loudest (nearest) source, so the network tracks
   whatever is loudest in its field with IDSQ; track ``/idsq/estimate`` (child ``idsq_track``).
   The sensors predict with the velocity-hypothesis bank (``prediction: bank``, issue 17,
-  ``track_core.idsq.prediction``) on a grid reaching 300 m north.
+  ``track_core.idsq.prediction``) on a grid reaching 300 m north, with a 60 m radio range (the
+  §5.1 40 m leaves a third of the links between adjacent columns out, ``launch.generate``).
   The decoy sails well east of the field, so the loudest source in the field is the smart target.
   Every node steps at Δt = T = 1 s: the truth stamped k·T is the network's step k − 1.
 - ``report_source`` named ``radar``: a coastal radar that sees only the decoy, a constant-velocity

@@ -168,6 +168,27 @@ def test_bank_lattice_and_prediction_keep_mass_and_move_each_hypothesis():
     np.testing.assert_allclose(bank_velocity(got, BANK.v_max), [0.0, 10.0], atol=1e-9)
 
 
+def test_bank_switching_is_a_rate_so_a_longer_step_switches_more():
+    """``bank_switch`` is given per ``bank_switch_dt`` (0.5 s, the §5.1 step): at Δt = 0.5 s it is used as it is
+    (Table 4 unchanged), a 1 s step (the maritime scenario) switches with 1 − 0.9² = 0.19, and the prediction
+    moves that much of a single hypothesis' mass to its lattice neighbours."""
+    assert BANK.switch_per_step == 0.1
+    slow = replace(BANK, dt=1.0)
+    assert slow.switch_per_step == pytest.approx(0.19, abs=1e-12)
+    assert replace(BANK, dt=0.25).switch_per_step == pytest.approx(1 - np.sqrt(0.9), abs=1e-12)
+    assert replace(BANK, dt=1.0, bank_switch=0.0).switch_per_step == 0.0
+    with pytest.raises(ValueError, match='bank_switch_dt'):
+        TrackerParams(prediction='bank', bank_switch_dt=0.0)
+    vel, _ = bank_velocities(5.0, 15.0)
+    b = _blob(72.5, 122.5, s=4.0)
+    j = int(np.flatnonzero((vel == [0.0, 5.0]).all(axis=1))[0])
+    one = SparseBelief(GRID, b.idx, b.mass, Bank(5.0, vel.shape[0], j * GRID.n_cells + b.idx, b.mass))
+    for p in (BANK, slow):  # no sparsification: the neighbours' faint tails would be dropped and renormalised
+        got = predict(one, replace(p, sparsity=0.0)).motion
+        w = np.bincount(got.key // GRID.n_cells, weights=got.mass, minlength=vel.shape[0])
+        assert w[j] == pytest.approx(1.0 - p.switch_per_step, abs=1e-9), p.dt
+
+
 def test_bank_update_weights_hypotheses_by_the_likelihood():
     """Two hypotheses predict different positions; a measurement near one of them makes it dominate."""
     vel, _ = bank_velocities(5.0, 15.0)
