@@ -1,7 +1,7 @@
 """``node_group`` (issue 19, item 8): the whole IDSQ field as one process, each sensor still a ROS node.
 
-The IDSQ nodes stamp step s at (s + 1)·dt from a clock origin of 0, so the field runs on /clock,
-driven here by the test at about 4x real time.
+On wall time, started by hand: the sensors count steps from the layout's stamp (vehicle_sim's
+clock origin), so no /clock is needed (issue 19: no clock origin shared by convention).
 """
 
 from __future__ import annotations
@@ -12,11 +12,9 @@ import subprocess
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
-from rosgraph_msgs.msg import Clock
 
-from track_msgs_py.convert import sec_to_stamp
-from track_msgs_py.qos import CLOCK_QOS, ESTIMATE_QOS
-from track_msgs_py.topics import CLOCK, IDSQ_LEADER
+from track_msgs_py.qos import ESTIMATE_QOS
+from track_msgs_py.topics import IDSQ_LEADER
 from track_nodes.launch.scenario import load_scenario
 
 pytestmark = pytest.mark.integration
@@ -28,21 +26,13 @@ def test_the_idsq_field_runs_in_one_process(ros, repo, prefix):
     probe = ros.add(Node('group_probe', context=ros.context))
     events: list = []
     probe.create_subscription(DiagnosticArray, IDSQ_LEADER, events.append, ESTIMATE_QOS)
-    clock = probe.create_publisher(Clock, CLOCK, CLOCK_QOS)
-    sim = [0.0]
-
-    def tick() -> None:
-        sim[0] += 0.2
-        clock.publish(Clock(clock=sec_to_stamp(sim[0])))
-    probe.create_timer(0.05, tick)
     proc = subprocess.Popen([str(prefix / 'lib/track_nodes/node_group'), '--nodes', *entries,
-                             '--ros-args', '--params-file', str(sc.path), '-p', 'use_sim_time:=true'],
+                             '--ros-args', '--params-file', str(sc.path)],
                             env=ros.env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     try:
         want = {s.name for s in sc.nodes}
         assert ros.spin_until(lambda: want <= set(probe.get_node_names()), timeout=120), \
             sorted(want - set(probe.get_node_names()))
-        sim[0] = 0.0  # every node is up: the run starts
         assert ros.spin_until(lambda: len(events) >= 3, timeout=120), 'no leader events from the field'
     finally:
         proc.send_signal(signal.SIGINT)

@@ -70,15 +70,19 @@ TRUTH_WINDOW = MAX_TRUTH  # a truth step at most this far after the horizon (an 
 
 # --- time, randomness, start, order ------------------------------------------------------------
 
-def stamp_of_step(step: int, dt: float) -> float:
-    """Time [s] of tracker step ``step``: (step + 1)·Δt (the first tick is one period after the origin)."""
-    return (int(step) + 1) * dt
+def stamp_of_step(step: int, dt: float, origin: float = 0.0) -> float:
+    """Time [s] of tracker step ``step``: origin + (step + 1)·Δt (the first tick is one period after the origin).
+
+    The origin is the stamp of the sensor layout (``vehicle_sim``'s clock origin): 0 on /clock, a whole
+    second of wall time otherwise, so the field needs no clock origin shared by convention.
+    """
+    return origin + (int(step) + 1) * dt
 
 
-def step_of_stamp(t: float, dt: float) -> int | None:
-    """Tracker step of a truth stamp, or ``None`` when ``t`` is not (s + 1)·Δt for an s >= 0."""
-    s = round(t / dt) - 1
-    return s if s >= 0 and abs(stamp_of_step(s, dt) - t) <= 1e-6 else None
+def step_of_stamp(t: float, dt: float, origin: float = 0.0) -> int | None:
+    """Tracker step of a truth stamp, or ``None`` when ``t`` is not origin + (s + 1)·Δt for an s >= 0."""
+    s = round((t - origin) / dt) - 1
+    return s if s >= 0 and abs(stamp_of_step(s, dt, origin) - t) <= 1e-6 else None
 
 
 def measurement_normal(seed: int, sensor: int, step: int) -> float:

@@ -14,16 +14,18 @@ class FixedRateSteps:
     Stamps come from the step counter, not from when the timer happened to fire, and a late
     timer catches up one step at a time, so a seeded simulator publishes the same payloads
     whatever the executor timing. Under ``use_sim_time`` the origin is 0 (the launcher's
-    clock starts there); on wall time it is the whole second at the first tick.
+    clock starts there); on wall time it is the whole second at the first tick, unless the node
+    fixes it (``origin``) and tells the others (``vehicle_sim`` stamps its layout with it).
     ``max_time`` > 0 stops stepping after that much node time since the origin.
     ``set_period`` (a live ``period`` parameter) keeps the steps taken: the next one comes one new
     period after the last.
     """
 
-    def __init__(self, node: Node, period: float, step: Callable[[float], None], max_time: float = 0.0) -> None:
+    def __init__(self, node: Node, period: float, step: Callable[[float], None], max_time: float = 0.0,
+                 origin: float | None = None) -> None:
         self.node, self.period, self.step, self.max_time = node, period, step, max_time
         self.k = 0
-        self.origin: float | None = None
+        self.origin: float | None = origin  # None: fixed at the first tick (see above)
         self.offset = 0.0  # node time from the origin to step 0 of the current period
         self.timer = node.create_timer(period, self._tick)
 

@@ -31,6 +31,8 @@ and timer are made at the first refusal only: a network never sent bad input kee
 
 from __future__ import annotations
 
+from collections import deque
+
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.msg import Odometry
@@ -86,6 +88,8 @@ class IdsqSensorNode(TrackNode):
             raise ParameterError('parameter truth_topics is empty: allowed one or more Odometry topics')
         self.core = ledger.HandoffLedger(sensor_setup(p, pos, tuple(self.truth_topics)))
         self.disabled = False
+        self.origin: float | None = None  # the layout's stamp: step s is stamped origin + (s + 1)·dt
+        self.early: deque[tuple[Odometry, str]] = deque(maxlen=ledger.TRUTH_WINDOW)  # truths before the layout
         self.ack_timers: dict[tuple[int, int], object] = {}  # (step, receiver) → steady-clock ack timer
         for sub in [s for s in self.subscriptions if s.topic_name == CLOCK]:
             self.destroy_subscription(sub)  # no ROS clock needed (module docstring)
@@ -142,6 +146,7 @@ class IdsqSensorNode(TrackNode):
             self.disabled = True
             self.get_logger().error(f'{self.resolved(IDSQ_LAYOUT)}: sensor {self.id}: {why}; staying passive')
             return
+        self.origin = convert.stamp_to_sec(msg.header.stamp)
         targets = [ledger.handoff_targets(layout, j) for j in range(layout.n)]  # K sensors
         for k in targets[self.id]:
             self._handoff_pub(k)
@@ -149,11 +154,17 @@ class IdsqSensorNode(TrackNode):
             if self.id in targets[j]:
                 self._ack_pub(j)
         self._do(self.core.set_layout(layout))
+        while self.early:  # the truths that came first, in their order
+            self._on_truth(*self.early.popleft())
 
     def _on_truth(self, msg: Odometry, topic: str = IDSQ_TRUTH) -> None:
+        if self.origin is None:  # steps count from the layout's stamp: hold the truth until it comes
+            if not self.disabled:
+                self.early.append((msg, topic))
+            return
         t = convert.stamp_to_sec(msg.header.stamp)
-        step = ledger.step_of_stamp(t, self.p.dt)
-        reason = odometry_problem(msg, KNOWN_FRAMES) or self.core.truth_problem(step, t, self.p.dt)
+        step = ledger.step_of_stamp(t, self.p.dt, self.origin)
+        reason = odometry_problem(msg, KNOWN_FRAMES) or self.core.truth_problem(step, t - self.origin, self.p.dt)
         if reason is not None:
             self.refuse(topic, reason)
             return
@@ -188,7 +199,7 @@ class IdsqSensorNode(TrackNode):
             elif isinstance(fx, ledger.Log):
                 self.get_logger().warning(fx.text)
             elif isinstance(fx, ledger.Reply):
-                t = ledger.stamp_of_step(fx.step, self.p.dt)  # a malformed header may carry any u32 step
+                t = ledger.stamp_of_step(fx.step, self.p.dt, self.origin or 0.0)  # a malformed header: any u32 step
                 status = IdsqAck.reply(fx.step, fx.sender, self.id, fx.refusal)
                 self._ack_pub(fx.sender).publish(convert.diagnostic_array(t if t < 2**31 - 1 else 0.0, [status]))
             elif isinstance(fx, ledger.Led):
@@ -215,7 +226,7 @@ class IdsqSensorNode(TrackNode):
 
     def _publish_led(self, fx: ledger.Led) -> None:
         """The outputs of a led step: estimate, belief cloud, markers, the ``step`` event."""
-        t, res, est = ledger.stamp_of_step(fx.step, self.p.dt), fx.result, fx.result.estimate
+        t, res, est = ledger.stamp_of_step(fx.step, self.p.dt, self.origin or 0.0), fx.result, fx.result.estimate
         P = np.diag([0.0, convert.NOT_ESTIMATED_VARIANCE, 0.0, convert.NOT_ESTIMATED_VARIANCE])  # velocity
         P[np.ix_([0, 2], [0, 2])] = est.cov
         self.pub_est.publish(convert.cv_state_to_odometry(t, np.array([est.mean[0], 0.0, est.mean[1], 0.0]), P,
@@ -230,7 +241,7 @@ class IdsqSensorNode(TrackNode):
             handoff_bytes=len(res.payload) if fx.next != self.id else 0))
 
     def _event(self, ev: IdsqLeaderEvent) -> None:
-        t = ledger.stamp_of_step(ev.step, self.p.dt)
+        t = ledger.stamp_of_step(ev.step, self.p.dt, self.origin or 0.0)
         self.pub_leader.publish(convert.diagnostic_array(t, [ev.to_status()]))
 
 

@@ -10,8 +10,11 @@
   seed gives the layout of the core experiments' run with that seed.
 - Every Δt of node time (``FixedRateSteps``) it publishes the vehicle truth of tracker step s on
   ``/idsq/vehicle/truth`` (``nav_msgs/Odometry``, zero covariance, velocity (0, speed),
-  ``child_frame_id`` = ``vehicle_id``), stamped (s + 1)·Δt: the first tick comes one period after
-  the clock origin, and the vehicle enters the field (x = W/2, y = 0) then. It stops when the
+  ``child_frame_id`` = ``vehicle_id``), stamped origin + (s + 1)·Δt: the first tick comes one period
+  after the clock origin, and the vehicle enters the field (x = W/2, y = 0) then. The origin is 0
+  on /clock and the whole second of wall time at start otherwise; the layout carries it as its
+  stamp, and the sensors count steps from it (``ledger.step_of_stamp``), so the field also runs on
+  wall time, started by hand in any order. It stops when the
   vehicle leaves the field (``Scenario.n_steps``, 72 for §5.1) or after ``max_steps``.
 
 With ``publish_truth:=false`` it publishes only the layout: the maritime scenario's sensors hear
@@ -23,6 +26,8 @@ layout: ``track_nodes.launch.generate.idsq_yaml`` writes a launcher scenario wit
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 from nav_msgs.msg import Odometry
@@ -65,8 +70,12 @@ class VehicleSimNode(TrackNode):
         self.published = 0
         self.pub_layout = self.create_publisher(PointCloud2, IDSQ_LAYOUT, STATIC_QOS)
         self.pub_truth = self.create_publisher(Odometry, IDSQ_TRUTH, TRUTH_QOS)
-        self.pub_layout.publish(layout_to_pointcloud2(0.0, self.layout))
-        self.steps = FixedRateSteps(self, p.dt, self._step, n * p.dt)
+        # The layout's stamp is the step origin the sensors count from (ledger.stamp_of_step): 0 on
+        # /clock, the current whole second on wall time.
+        now = self.get_clock().now().nanoseconds * 1e-9
+        origin = 0.0 if self.get_parameter('use_sim_time').value or now == 0.0 else float(math.floor(now))
+        self.pub_layout.publish(layout_to_pointcloud2(origin, self.layout))
+        self.steps = FixedRateSteps(self, p.dt, self._step, n * p.dt, origin=origin)
         self.get_logger().info(f'{self.layout.n} sensors ({int(self.layout.is_doa.sum())} DOA), '
                                f'{n} truth steps of {p.dt:g} s')
 
