@@ -51,3 +51,18 @@ def test_a_bad_group_is_one_line_and_exit_code_2(prefix, env_factory, extra, wor
     lines = proc.stderr.strip().splitlines()
     assert proc.returncode == 2 and len(lines) == 1 and 'Traceback' not in proc.stderr, proc.stderr
     assert all(w in lines[0] for w in words), lines[0]
+
+
+@pytest.mark.parametrize('delay', [0.3, 1.5, 3.0])
+def test_ctrl_c_at_any_moment_of_the_start_is_clean(ros, prefix, delay):
+    """SIGINT while importing, while building the 25 nodes or while they run: no traceback (issue 19, item 8)."""
+    sc = load_scenario('idsq')
+    proc = subprocess.Popen([str(prefix / 'lib/track_nodes/node_group'), '--nodes',
+                             *[f'{s.executable}:{s.name}' for s in sc.nodes], '--ros-args', '--params-file',
+                             str(sc.path)], env=ros.env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    try:
+        ros.spin_for(delay)  # the moment under test, not a wait for a condition
+    finally:
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+    assert proc.returncode in (0, 130) and 'Traceback' not in err, err  # 130: interrupted while importing

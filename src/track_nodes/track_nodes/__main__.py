@@ -12,11 +12,13 @@ def main(argv: list[str] | None = None) -> int:
               file=sys.stderr)
         return 2
     try:
-        entry = main_of(args[0])
+        entry = main_of(args[0])  # imports the node's module (numpy, scipy, rclpy: seconds on a busy machine)
+        return entry([args[0], *args[1:]])
     except UnknownExecutableError:
         print(f'track_nodes: unknown executable {args[0]!r}; known: {", ".join(executables())}', file=sys.stderr)
         return 2
-    return entry([args[0], *args[1:]])
+    except KeyboardInterrupt:  # Ctrl-C before rclpy took over SIGINT (still importing): no traceback
+        return 130
 
 
 if __name__ == '__main__':

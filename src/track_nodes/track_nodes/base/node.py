@@ -241,6 +241,8 @@ def run_nodes(makers: Sequence[tuple[str, Callable[[], Node]]], argv: Sequence[s
             try:
                 nodes.append(make())
             except (ValueError, OSError) as exc:
+                if not rclpy.ok():
+                    raise  # Ctrl-C while starting, handled below
                 print(f'{name}: {exc}', file=sys.stderr)
                 return EXIT_BAD_INPUT
         executor = rclpy.get_global_executor() if len(nodes) == 1 else SingleThreadedExecutor()
@@ -248,6 +250,11 @@ def run_nodes(makers: Sequence[tuple[str, Callable[[], Node]]], argv: Sequence[s
             executor.add_node(node)
         with contextlib.suppress(KeyboardInterrupt, ExternalShutdownException):
             executor.spin()
+    except (Exception, KeyboardInterrupt):
+        if rclpy.ok():
+            raise
+        # Ctrl-C while the nodes were being built or inside a callback: rclpy's signal handler shut
+        # the context down under them (rcl then raises "context is invalid"); that is a clean stop.
     finally:
         for node in nodes:
             node.destroy_node()
