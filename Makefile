@@ -16,7 +16,7 @@ $(VENV)/.deps-stamp: requirements.txt constraints.txt
 
 # Interface packages we build ourselves (tf2_msgs: not on PyPI), into the venv prefix: rebuilt when
 # the ROS wheel pins (via the deps stamp), the build-only pins or the interface files change.
-# tools/build_interfaces.py patches the wheels' cmake include paths first, every time (ROS_NOTES.md).
+# tools/build_interfaces.py patches the wheels' cmake include paths first, every time (docs/DESIGN.md, "Building tf2_msgs").
 INTERFACE_FILES := $(shell find interfaces -type f)
 $(VENV)/.interfaces-stamp: $(VENV)/.deps-stamp requirements-interfaces.txt constraints.txt \
 		tools/build_interfaces.py $(INTERFACE_FILES)

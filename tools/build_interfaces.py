@@ -2,7 +2,7 @@
 
 Why: ``tf2_msgs`` (the type of ``/tf`` and ``/tf_static``) is not on PyPI, but the rosidl
 generators are, so we build it ourselves with cmake and the machine's compilers, straight into
-the venv prefix (ROS_NOTES.md, "Building an interface package"). Run by ``make install`` through
+the venv prefix (docs/DESIGN.md, "Building tf2_msgs"). Run by ``make install`` through
 a stamp that depends on the ROS wheel pins and the interface files.
 
 Steps, every run (the script is idempotent: running it twice gives the same venv):
