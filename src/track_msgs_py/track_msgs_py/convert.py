@@ -370,7 +370,8 @@ def pointcloud2_to_table(msg: PointCloud2) -> dict[str, np.ndarray]:
                          f'(point_step {msg.point_step}, row_step {row_step})')
     rows = np.ascontiguousarray(raw[:height * row_step].reshape(height, row_step)[:, :width * msg.point_step])
     points = rows.view(dtype).reshape(height * width)
-    return {name: points[name].astype(np.float64) for name in names}
+    with np.errstate(invalid='ignore'):  # a hostile cloud's NaN in an integer field: the caller's checks refuse it
+        return {name: points[name].astype(np.float64) for name in names}
 
 
 # --- SLAM topics (hybrid CEKF/PF SLAM; the mapping table is in track_msgs_py.topics) -------------

@@ -21,7 +21,8 @@ class CovarianceError(ValueError):
 def symmetrize(P: np.ndarray) -> np.ndarray:
     """Return ½(P + Pᵀ) over the last two axes; removes rounding asymmetry after updates."""
     P = np.asarray(P, dtype=float)
-    return 0.5 * (P + np.swapaxes(P, -1, -2))
+    with np.errstate(over='ignore', invalid='ignore'):  # hostile 1e308 entries: inf, refused by the finite checks
+        return 0.5 * (P + np.swapaxes(P, -1, -2))
 
 
 def covariance_problem(P: np.ndarray, *, definite: bool = False) -> str | None:
