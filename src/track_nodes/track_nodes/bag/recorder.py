@@ -26,7 +26,9 @@ Usage::
   the middleware's message-lost events where several publishers share a topic), warned about
   while recording (one line per ``warn_throttle`` seconds with the count) and printed in the
   final line.
-- Timestamps: receive time on the node's clock (sim time under ``use_sim_time``).
+- Timestamps: the middleware's receive time (message info ``received_timestamp``, system clock),
+  so a backlog keeps each message's arrival time; under ``use_sim_time`` the node's clock when
+  the batch is taken.
 - Durability: every ``flush_period`` seconds the pending MCAP chunk is written and the file
   flushed, so after a SIGKILL the .mcap holds every message up to the last flush; recover it
   with ``track-bag-recover``. SIGINT/SIGTERM (and destroying the node) close the bag cleanly.
@@ -37,6 +39,7 @@ from __future__ import annotations
 import re
 import sys
 import threading
+import time
 from collections.abc import Sequence
 from datetime import datetime
 
@@ -55,11 +58,13 @@ from track_nodes.bag.api import (
     set_ros_distro,
 )
 from track_nodes.bag.loss import LossCounter
+from track_nodes.bag.take import can_take, take_pending
 from track_nodes.base import Param, TrackNode, run_node
 from track_nodes.base.cli import OneLineParser, cli_overrides
 
 EXCLUDED_BY_DEFAULT = ('/rosout', '/parameter_events')
 TF_TOPICS = (TF, TF_STATIC)  # recorded whatever the filter, unless tf is false
+TAKE_LIMIT = 1000  # messages taken per callback beyond the one the executor delivered
 
 PARAMS = (
     Param('bag', '', "bag name (→ bags/<name>/) or a path containing '/'; empty: rosbag2_<timestamp>"),
@@ -84,6 +89,8 @@ class RecorderNode(TrackNode):
         self._writer = None
         self._closed = False
         self._lock = threading.Lock()
+        self._clock = self.get_clock()
+        self._batching = True  # until a subscription lacks take_message (bag.take.can_take)
         p = self.p
         self.explicit = {_normalise(t) for t in p.topics if t}
         try:
@@ -182,18 +189,27 @@ class RecorderNode(TrackNode):
         self.subscriptions_by_topic[topic] = self.create_subscription(
             cls, topic, lambda data, info, t=topic: self._on_message(t, data, info), qos, raw=True,
             event_callbacks=events, as_given=True)  # discovered, fully qualified names
+        self._batching = self._batching and can_take(self.subscriptions_by_topic[topic])
         self.get_logger().info(
             f'recording {topic} [{msgtype}] ({qos.reliability.name.lower()}, {qos.durability.name.lower()})')
 
     # -- writing --------------------------------------------------------------------------
     def _on_message(self, topic: str, data: bytes, info: dict | None = None) -> None:
-        stamp = self.get_clock().now().nanoseconds
+        batch = [(data, info or {})]
+        sub = self.subscriptions_by_topic.get(topic)
+        if sub is not None and self._batching:
+            batch += take_pending(sub, TAKE_LIMIT)  # the messages queued behind this one (bag.take)
+        sim = self._clock.ros_time_is_active  # sim time: one clock reading for the batch
+        now = self._clock.now().nanoseconds if sim else 0
+        lost = 0
         with self._lock:
             if self._closed:
                 return
-            self._writer.write(self.connections[topic], stamp, data)
-            self.counts[topic] += 1
-            lost = self.losses.received(topic, (info or {}).get('publication_sequence_number'))
+            conn, write, received = self.connections[topic], self._writer.write, self.losses.received
+            for raw, inf in batch:
+                write(conn, now if sim else inf.get('received_timestamp') or time.time_ns(), raw)
+                lost += received(topic, inf.get('publication_sequence_number'))
+            self.counts[topic] += len(batch)
         if lost:
             self._warn_lost(topic)
 
