@@ -220,7 +220,7 @@ def recorder_benchmark(cfg: RunConfig) -> Outcome:
     table = format_table(['path', 'msgs/s', 'lost'], rows)
     table += (f'\nnav_msgs/Odometry, {size} B CDR each; per run {rounds} bursts of {BURST} (reliable, keep-last 100 '
               f'publisher), {runs} run(s), medians; lost = published - received')
-    data = {'message_bytes': size, 'burst': BURST, 'rounds': rounds, 'runs': results,
+    data = {'message_bytes': size, 'burst': BURST, 'rounds': rounds, 'per_run': results,
             'recorder_msgs_per_s': rate['recorder'], 'rclpy_ceiling_msgs_per_s': rate['ceiling'],
             'writer_msgs_per_s': rate['writer'],
             **{f'rclpy_{k}_executor_msgs_per_s': rate[f'ceiling_{k}'] for k in others},
