@@ -300,10 +300,10 @@ BURSTER = """
 import sys, time, rclpy
 from nav_msgs.msg import Odometry
 from rclpy.qos import QoSProfile, ReliabilityPolicy
-n, rate, best_effort = int(sys.argv[1]), float(sys.argv[2]), sys.argv[3] == '1'
+n, rate, best_effort, depth = int(sys.argv[1]), float(sys.argv[2]), sys.argv[3] == '1', int(sys.argv[5])
 rclpy.init()
 node = rclpy.create_node('burster')
-qos = QoSProfile(depth=5000, reliability=ReliabilityPolicy.BEST_EFFORT if best_effort else ReliabilityPolicy.RELIABLE)
+qos = QoSProfile(depth=depth, reliability=ReliabilityPolicy.BEST_EFFORT if best_effort else ReliabilityPolicy.RELIABLE)
 pub = node.create_publisher(Odometry, '/burst', qos)
 deadline = time.monotonic() + 60
 while pub.get_subscription_count() == 0 and time.monotonic() < deadline:
@@ -332,11 +332,11 @@ def _busy_neighbour(ros, load: float) -> None:
     ros.add(rclpy.create_node('busy', context=ros.context)).create_timer(0.05, hog)
 
 
-def _burst(ros, tmp_path, venv, n: int, rate: float, best_effort: bool, linger: float = 5.0):
+def _burst(ros, tmp_path, venv, n: int, rate: float, best_effort: bool, linger: float = 5.0, depth: int = 5000):
     rec = make_recorder(ros, tmp_path / 'burst', topics=['/burst'], warn_throttle=0.5)
     _busy_neighbour(ros, 0.8)
     proc = subprocess.Popen([str(venv / 'bin/python3'), '-c', BURSTER, str(n), str(rate), '1' if best_effort else '0',
-                             str(linger)], env=ros.env)
+                             str(linger), str(depth)], env=ros.env)
     return rec, proc
 
 
@@ -345,6 +345,23 @@ def test_a_burst_from_a_reliable_publisher_with_enough_history_is_recorded_whole
     queue of 100 lost about 70 % of such bursts)."""
     n = 5000
     rec, proc = _burst(ros, tmp_path, venv, n, 2000.0, best_effort=False, linger=30.0)
+    try:
+        assert ros.spin_until(lambda: rec.message_counts().get('/burst', 0) >= n, 120.0), rec.summary()
+    finally:
+        proc.kill()
+        proc.wait()
+    assert rec.losses.total() == 0
+    close_node(ros, rec)
+    payloads, _ = read_bag(tmp_path / 'burst')
+    assert [deserialize_message(raw, Odometry).child_frame_id for raw in payloads['/burst']] == [
+        f'msg{i}' for i in range(n)]
+
+
+def test_a_10k_burst_as_fast_as_the_publisher_can_is_recorded_whole(ros, tmp_path, venv):
+    """10,000 messages published back to back (history 10,000) while another node holds the executor 80 %
+    of the time: twice the 5000 samples a Fast DDS reader holds by default."""
+    n = 10_000
+    rec, proc = _burst(ros, tmp_path, venv, n, 1e9, best_effort=False, linger=30.0, depth=n)
     try:
         assert ros.spin_until(lambda: rec.message_counts().get('/burst', 0) >= n, 120.0), rec.summary()
     finally:
