@@ -181,11 +181,12 @@ class PairAssociator:
         slots = np.array([self._slot_of(k) for k in ids], np.int64)
         combined, instants = self.windows.add(slots[i] * _STRIDE + slots[j], np.clip(s, 0.0, 1.0), t)
         associated = combined >= self.threshold
+        a, b = i[associated], j[associated]
         fused = []
-        for k in np.flatnonzero(associated).tolist():
-            a, b = i[k], j[k]
-            m, P, _ = covariance_intersection(mu[a], R[a], mu[b], R[b])
-            fused.append(FusedPair(ids[a], ids[b], m, P))
+        if a.size:
+            m, P, _ = covariance_intersection(mu[a], R[a], mu[b], R[b])   # batched over the associated pairs
+            fused = [FusedPair(ids[x], ids[y], m[k], P[k])
+                     for k, (x, y) in enumerate(zip(a.tolist(), b.tolist(), strict=True))]
         pairs = PairScores(ids, i, j, s, combined, instants, associated)
         return Instant(t, ids, mu, R, pairs, tuple(fused), skipped=skipped)
 

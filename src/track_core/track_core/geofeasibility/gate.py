@@ -99,7 +99,10 @@ def gated_score(mu, R, i, j, method: str = 'exact', **kw) -> tuple[np.ndarray, n
     s = np.zeros(i.size)
     ci, cj = candidate_pairs(mu, R)
     n = max(len(mu), 1)
-    cand = np.isin(i * n + j, ci * n + cj)
+    ckeys = ci.astype(np.int64) * n + cj                      # sorted: candidate_pairs orders (i, j)
+    keys = i.astype(np.int64) * n + j
+    pos = np.minimum(np.searchsorted(ckeys, keys), max(ckeys.size - 1, 0))
+    cand = (ckeys[pos] == keys) if ckeys.size else np.zeros(i.size, bool)
     if cand.any():
         s[cand] = np.atleast_1d(score(mu[i[cand]], R[i[cand]], mu[j[cand]], R[j[cand]], method, **kw))
     return s, cand

@@ -168,11 +168,13 @@ class PairWindows:
         pos, found = _lookup(self.keys, keys)
         count = np.where(found, self.count[pos] if self.keys.size else 0, 0)
         count = np.minimum(count + 1, self.k)
-        merged = np.union1d(self.keys, keys)
-        new_count = np.zeros(merged.size, np.int64)
-        new_count[np.searchsorted(merged, self.keys)] = self.count
-        new_count[np.searchsorted(merged, keys)] = count
-        self.keys, self.count = merged, new_count
+        if found.all():
+            self.count[pos] = count
+        else:                                   # new pairs: merge them into the sorted keys
+            merged = np.concatenate([self.keys, keys[~found]])
+            order = np.argsort(merged, kind='stable')
+            self.keys, self.count = merged[order], np.concatenate([self.count, count[~found]])[order]
+            self.count[np.searchsorted(self.keys, keys[found])] = count[found]
         # runs: positive pairs extend theirs, zero pairs lose theirs, absent pairs keep theirs
         rpos, rfound = _lookup(self.run_keys, keys)
         prev_len = np.where(rfound, self.run_len[rpos] if self.run_keys.size else 0, 0)
@@ -187,7 +189,7 @@ class PairWindows:
                 old[:, width - self.run_vals.shape[1]:] = self.run_vals
                 vals[:, :-1] = np.where(rfound[kp, None], old[rpos[kp], 1:], np.nan)
             vals[:, -1] = g[kp]
-        keep = ~np.isin(self.run_keys, keys)   # runs of pairs not in this call
+        keep = ~_lookup(np.sort(keys), self.run_keys)[1]   # runs of pairs not in this call
         old_vals = self.run_vals[keep]
         if old_vals.shape[1] < width:
             old_vals = np.concatenate([np.full((old_vals.shape[0], width - old_vals.shape[1]), np.nan), old_vals], 1)
