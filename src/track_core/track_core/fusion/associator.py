@@ -84,6 +84,10 @@ class PairScores(Sequence):
         """The ``PairScore`` of the pairs where ``mask`` (a boolean column expression) holds."""
         return [self[int(k)] for k in np.flatnonzero(mask)]
 
+    def nonzero(self) -> list[PairScore]:
+        """The pairs with a positive instant or combined score, or associated (the others score 0 throughout)."""
+        return self.select((self.score > 0) | (self.combined > 0) | self.associated)
+
 
 @dataclass(frozen=True)
 class FusedPair:

@@ -26,7 +26,8 @@ class FusionMarkers:
         self.lifetime, self.frame_id = lifetime, frame_id
         self.marker_ids: dict[str, int] = {}
 
-    def build(self, instant: Instant) -> MarkerArray:
+    def build(self, instant: Instant, pairs=None) -> MarkerArray:
+        """Ellipses of every track, links of ``pairs`` (default: every pair of the instant)."""
         t, mu = instant.t, instant.mu
         out = MarkerArray()
         for k, track_id in enumerate(instant.ids):
@@ -37,7 +38,7 @@ class FusionMarkers:
         link.header.stamp, link.header.frame_id = sec_to_stamp(t), self.frame_id
         link.scale.x = 0.5
         link.pose.orientation.w = 1.0
-        for q in instant.pairs:
+        for q in instant.pairs if pairs is None else pairs:
             c = ColorRGBA(r=float(1.0 - q.combined), g=float(q.combined), b=0.0, a=1.0)
             link.points += [Point(x=float(mu[q.ia][0]), y=float(mu[q.ia][1])),
                             Point(x=float(mu[q.ib][0]), y=float(mu[q.ib][1]))]

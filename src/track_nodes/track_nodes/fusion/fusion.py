@@ -47,6 +47,12 @@ combination zero, as the paper's means do), and publishes:
 | /fusion/fused | Odometry | covariance intersection of each associated pair, child_frame_id ``A+B`` (no leading '/') |
 | /fusion/markers | MarkerArray | 2σ ellipse per track, a link per pair coloured red→green by score |
 
+``publish_pairs:=nonzero`` publishes (scores, links) only the pairs with a positive instant or combined
+score or associated; every pair left out scored 0 and has a combined score of 0. With the exact
+score most pairs of a large picture are never scored (the core's gate), and one status per pair of
+1000 tracks (250,000 a tick) is more than a node can publish at 1 Hz; ``all`` (default) keeps one
+status per scored pair.
+
 The pairing, masking, windows, thresholds and covariance intersection are
 ``track_core.fusion.PairAssociator``; a pair's status is ``track_msgs_py.records.fusion.FusionPairScore``;
 the markers are built by ``track_msgs_py.markers.fusion``. This node validates and converts the
@@ -123,6 +129,8 @@ PARAMS = (
           'namespace)'),
     Param('schedule', 'timer', 'timer: score at node-clock ticks; stamps: at the data instants k/rate, '
           'deterministic (module docstring)', choices=('timer', 'stamps')),
+    Param('publish_pairs', 'all', 'all: a status and a link per scored pair; nonzero: only the pairs with a '
+          'positive score or combined score, or associated (module docstring)', choices=('all', 'nonzero')),
     Param('warn_period', 5.0, 'at most one bad-input warning per topic per this many seconds', 0.0, 1e6, live=True),
     Param('stamp_horizon', InputPolicy.horizon, 'refuse reports stamped more than this ahead of the node clock [s]',
           1e-3, 1e9, live=True),
@@ -259,9 +267,10 @@ class FusionNode(TrackNode):
             P4[np.ix_([0, 2], [0, 2])] = f.P
             self.pub_fused.publish(cv_state_to_odometry(t, np.array([f.mu[0], 0.0, f.mu[1], 0.0]), P4, FRAME_MAP,
                                                         fused_track_id(f.a, f.b)))
+        pairs = instant.pairs.nonzero() if self.p.publish_pairs == 'nonzero' else instant.pairs
         statuses = [FusionPairScore(q.score, q.combined, q.instants, q.associated, self.p.method).pair_status(q.a, q.b)
-                    for q in instant.pairs]
+                    for q in pairs]
         self.pub_scores.publish(diagnostic_array(t, statuses))
-        self.pub_assoc.publish(diagnostic_array(t, [st for st, q in zip(statuses, instant.pairs, strict=True)
+        self.pub_assoc.publish(diagnostic_array(t, [st for st, q in zip(statuses, pairs, strict=True)
                                                     if q.associated]))
-        self.pub_markers.publish(self.markers.build(instant))
+        self.pub_markers.publish(self.markers.build(instant, pairs))
