@@ -99,3 +99,11 @@ def test_only_the_exact_method_is_gated():
     mu, R = _random_layout(np.random.default_rng(0), 5, 10.0)
     with pytest.raises(ValueError, match='cannot be gated'):
         gated_score(mu, R, np.array([0]), np.array([1]), 'glr')
+
+
+@pytest.mark.parametrize('gap', [0.0, 1e-15, -1e-15, 1e-12, 1e-9])
+def test_the_exact_score_of_externally_tangent_or_barely_apart_ellipses_is_exactly_zero(gap):
+    """What the gate relies on at its margin: tangency (a double root) gives 0.0, not a rounding residue."""
+    mu, R = ellipse_to_gaussian([0.0, 8.0 + gap, 50.0, 62.0 + 4.0 * gap], [0.0, 0.0, 0.0, 0.0],
+                                [5.0, 3.0, 8.0, 4.0], [5.0, 3.0, 2.0, 1.0], [0.0, 0.0, np.pi / 2, np.pi / 2])
+    assert score(mu[[0, 2]], R[[0, 2]], mu[[1, 3]], R[[1, 3]]).tolist() == [0.0, 0.0]
