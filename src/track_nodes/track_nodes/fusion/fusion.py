@@ -264,7 +264,7 @@ class FusionNode(TrackNode):
         t = instant.t
         for f in instant.fused:
             P4 = np.zeros((4, 4))
-            P4[np.ix_([0, 2], [0, 2])] = f.P
+            P4[0::2, 0::2] = f.P  # the x/y rows and columns of the CV state [x, ẋ, y, ẏ]
             self.pub_fused.publish(cv_state_to_odometry(t, np.array([f.mu[0], 0.0, f.mu[1], 0.0]), P4, FRAME_MAP,
                                                         fused_track_id(f.a, f.b)))
         pairs = instant.pairs.nonzero() if self.p.publish_pairs == 'nonzero' else instant.pairs
