@@ -36,7 +36,9 @@ The rule lives in ``track_core.fusion.StampSchedule``, run by the associator.
 At ``rate`` Hz it brings every live track to the current node time (``TrackTable``: Odometry
 tracks are predicted with their velocity, position reports are held until ``stale_after``),
 scores every pair from different sources with ``method`` (paper eqs. 49–71, batched over pairs;
-``mc`` shares one draw among the pairs of an instant), keeps the last ``window`` instant
+``mc`` shares one draw among the pairs of an instant; ``exact`` scores only the pairs whose 2σ
+ellipses may overlap, the others score 0 as scoring gives: ``track_core.geofeasibility.gate``),
+keeps the last ``window`` instant
 scores per pair and combines them (harmonic or geometric mean, §1; one zero instant makes the
 combination zero, as the paper's means do), and publishes:
 
