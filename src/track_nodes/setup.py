@@ -42,6 +42,7 @@ setup(
         ],
         'track.benchmarks': [
             'recorder = track_nodes.bag.bench:recorder_benchmark',
+            'fusion-node = track_nodes.fusion.bench:bench',
         ],
     },
 )

@@ -109,3 +109,59 @@ def test_no_topics_is_a_clear_error(ros):
     with pytest.raises(ParameterError, match='method'):
         FusionNode(context=ros.context, parameter_overrides=[Parameter('method', value='bogus'),
                                                              Parameter('pose_topics', value=['/a'])])
+
+
+def _three_tracks(ros, publish_pairs):
+    """Radar r0 overlapping patrol p0, patrol p1 far away: the statuses /fusion/scores carries per tick."""
+    from track_msgs_py.topics import FRAME_MAP, track_frame_id
+
+    ros.add(FusionNode(node_name='fusion', context=ros.context, parameter_overrides=[
+        Parameter('pose_track_topics', value=['/radar/reports', '/patrol/reports']), Parameter('rate', value=10.0),
+        Parameter('stale_after', value=1.0), Parameter('publish_pairs', value=publish_pairs)]))
+    src = ros.add(Node('tracks', context=ros.context))
+    pubs = {s: src.create_publisher(PoseWithCovarianceStamped, f'/{s}/reports', ESTIMATE_QOS)
+            for s in ('radar', 'patrol')}
+    seen: list[set] = []
+    sink = ros.add(Node('sink', context=ros.context))
+    sink.create_subscription(DiagnosticArray, FUSION_SCORES,
+                             lambda m: seen.append({frozenset(FusionPairScore.read(st)[0]) for st in m.status}),
+                             ESTIMATE_QOS)
+
+    def send() -> None:
+        now = src.get_clock().now().nanoseconds * 1e-9
+        for s, local, xy in (('radar', 'r0', (0.0, 0.0)), ('patrol', 'p0', (1.0, 0.5)), ('patrol', 'p1', (500.0, 0.0))):
+            pubs[s].publish(position_to_pose_cov(now, np.array(xy), 4.0 * np.eye(2), track_frame_id(FRAME_MAP, local)))
+
+    src.create_timer(0.05, send)
+    assert ros.spin_until(lambda: len(seen) >= 10, timeout=20), seen
+    return seen[-5:]
+
+
+NEAR = frozenset({'/radar/reports/r0', '/patrol/reports/p0'})
+FAR = frozenset({'/radar/reports/r0', '/patrol/reports/p1'})
+
+
+def test_publish_pairs_nonzero_leaves_out_only_the_pairs_that_score_zero(ros):
+    assert all(s == {NEAR} for s in _three_tracks(ros, 'nonzero'))
+
+
+def test_publish_pairs_all_keeps_every_scored_pair(ros):
+    assert all(s == {NEAR, FAR} for s in _three_tracks(ros, 'all'))
+
+
+def test_fusion_node_bench_runs_the_node_on_every_track(tmp_path):
+    """``track-bench fusion-node`` (small): the node scored ticks holding every published track; no timing asserted."""
+    import json
+
+    import pytest
+
+    from track_core.ais import default_path
+    from track_core.cli import bench_main
+
+    if not default_path().is_file():
+        pytest.skip(f'shared AIS data not found: {default_path()}')
+    out = tmp_path / 'node.json'
+    assert bench_main(['fusion-node', '--quick', '--set', 'tracks=100', '--set', 'seconds=3', '--json', str(out)]) == 0
+    data = json.loads(out.read_text())
+    assert data['tracks'] == 100 and data['ticks'] >= 2 and data['live_tracks_max'] == 100
+    assert data['pairs_per_tick'] == 50 * 50 and data['cpu_share'] > 0 and data['reports_received_per_s'] > 0

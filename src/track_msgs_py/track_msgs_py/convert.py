@@ -178,11 +178,14 @@ _YAW = 5
 
 def _planar_cov(C: np.ndarray, yaw_variance: float = NOT_ESTIMATED_VARIANCE) -> np.ndarray:
     """2×2 x/y block → 36 row-major entries: z/roll/pitch ``PLANAR_VARIANCE``, yaw ``yaw_variance``."""
-    full = np.zeros((6, 6))
-    full[_PLANAR_IDX, _PLANAR_IDX] = PLANAR_VARIANCE
+    full = _PLANAR_TEMPLATE.copy()
     full[_YAW, _YAW] = yaw_variance
     full[:2, :2] = C
     return full.reshape(36)
+
+
+_PLANAR_TEMPLATE = np.zeros((6, 6))
+_PLANAR_TEMPLATE[_PLANAR_IDX, _PLANAR_IDX] = PLANAR_VARIANCE
 
 
 def not_estimated(variance) -> np.ndarray:
@@ -216,8 +219,8 @@ def cv_state_to_odometry(t: float, x: np.ndarray, P: np.ndarray, frame_id: str =
     msg.pose.pose.position.x, msg.pose.pose.position.y = float(x[0]), float(x[2])
     msg.pose.pose.orientation.w = 1.0
     msg.twist.twist.linear.x, msg.twist.twist.linear.y = float(x[1]), float(x[3])
-    msg.pose.covariance = _planar_cov(P[np.ix_(_POS, _POS)])
-    msg.twist.covariance = _planar_cov(P[np.ix_(_VEL, _VEL)])
+    msg.pose.covariance = _planar_cov(P[0::2, 0::2])   # rows/columns _POS = [0, 2] (a slice: no fancy index)
+    msg.twist.covariance = _planar_cov(P[1::2, 1::2])  # _VEL = [1, 3]
     return msg
 
 
@@ -461,16 +464,40 @@ def covariance_ellipse_marker(t: float, mean: np.ndarray, cov: np.ndarray, frame
 
     ``lifetime`` 0 keeps the marker until replaced (same ns/id) or deleted.
     """
-    pts = ellipse_points(mean, cov, n_sigma, n_points)
-    life = sec_to_stamp(lifetime)
+    mean = _as_shape(mean, (2,), 'mean')
+    cov = _as_shape(cov, (2, 2), 'cov')
+    return covariance_ellipse_markers(t, mean[None], cov[None], frame_id, ns=ns, marker_ids=[marker_id],
+                                      n_sigma=n_sigma, n_points=n_points, z=z, line_width=line_width, color=color,
+                                      lifetime=lifetime)[0]
+
+
+def covariance_ellipse_markers(t: float, means: np.ndarray, covs: np.ndarray, frame_id: str = FRAME_MAP, *,
+                               ns: str = 'covariance', marker_ids: Sequence[int], n_sigma: float = 2.0,
+                               n_points: int = 72, z: float = 0.0, line_width: float = 0.05,
+                               color: Sequence[float] = (1.0, 0.5, 0.0, 1.0), lifetime: float = 0.0) -> list[Marker]:
+    """:func:`covariance_ellipse_marker` of means (n, 2), covs (n, 2, 2): one outline computation for all.
+
+    Each covariance is checked (``ValueError`` naming its row and the reason).
+    """
+    means = np.asarray(means, dtype=float).reshape(-1, 2)
+    covs = np.asarray(covs, dtype=float).reshape(-1, 2, 2)
+    for k, cov in enumerate(covs):
+        reason = covariance_problem(cov)
+        if reason is not None:
+            raise ValueError(f'cov{f" {k}" if len(covs) > 1 else ""}: {reason}')
+    pts = gaussian_ellipse_points(means, covs, n_sigma, n_points) if len(covs) else np.zeros((0, n_points + 1, 2))
+    stamp, life = sec_to_stamp(t), sec_to_stamp(lifetime)
     r, g, b, a = (float(c) for c in color)
-    msg = Marker(header=_header(t, frame_id), ns=ns, id=int(marker_id), type=Marker.LINE_STRIP,
-                 action=Marker.ADD, color=ColorRGBA(r=r, g=g, b=b, a=a),
-                 lifetime=Duration(sec=life.sec, nanosec=life.nanosec))
-    msg.pose.orientation.w = 1.0
-    msg.scale.x = float(line_width)
-    msg.points = [Point(x=px, y=py, z=float(z)) for px, py in pts.tolist()]  # message needs Point objects
-    return msg
+    out = []
+    for mid, loop in zip(marker_ids, pts.tolist(), strict=True):
+        msg = Marker(header=Header(stamp=Time(sec=stamp.sec, nanosec=stamp.nanosec), frame_id=frame_id), ns=ns,
+                     id=int(mid), type=Marker.LINE_STRIP, action=Marker.ADD, color=ColorRGBA(r=r, g=g, b=b, a=a),
+                     lifetime=Duration(sec=life.sec, nanosec=life.nanosec))
+        msg.pose.orientation.w = 1.0
+        msg.scale.x = float(line_width)
+        msg.points = [Point(x=px, y=py, z=float(z)) for px, py in loop]  # message needs Point objects
+        out.append(msg)
+    return out
 
 
 #: DiagnosticStatus levels as ints (the message stores them as one byte).

@@ -4,13 +4,17 @@
   (§3) and ``"exact"`` (eq. 49 in closed form).
 - :func:`ellipse_to_gaussian`, :func:`gaussian_to_ellipse` — eqs. 56–59 (φ: bearing of the r_x
   axis, clockwise from north).
-- :func:`combine_scores`, :func:`track_score`, :class:`ScoreWindow` — track-level combination.
+- :func:`combine_scores`, :func:`track_score`, :class:`ScoreWindow` — track-level combination;
+  :class:`PairWindows` — ScoreWindow for many pairs at once (vectorised).
 - :func:`containment` — exact "one contains the other" / "no overlap" tests.
+- :func:`candidate_pairs`, :func:`gated_score` — the pairs whose 2σ ellipses may overlap (cKDTree
+  radius gate + separating-ellipse test, :mod:`.gate`): scoring only those equals scoring all pairs.
 """
 
 from track_core.geofeasibility.ellipse import ellipse_to_gaussian, gaussian_to_ellipse
+from track_core.geofeasibility.gate import candidate_pairs, gated_score
 from track_core.geofeasibility.scores import METHODS, score
-from track_core.geofeasibility.track import ScoreWindow, combine_scores, common_instants, track_score
+from track_core.geofeasibility.track import PairWindows, ScoreWindow, combine_scores, common_instants, track_score
 from track_core.geofeasibility.validate import check_pairs
 
 
@@ -25,12 +29,15 @@ def containment(mu1, R1, mu2, R2):
 
 __all__ = [
     'METHODS',
+    'PairWindows',
     'ScoreWindow',
+    'candidate_pairs',
     'check_pairs',
     'combine_scores',
     'common_instants',
     'containment',
     'ellipse_to_gaussian',
+    'gated_score',
     'gaussian_to_ellipse',
     'score',
     'track_score',

@@ -116,3 +116,108 @@ class ScoreWindow:
     def value(self) -> float:
         """Combined score of the instants in the window; ``ValueError`` when empty."""
         return combine_scores([g for _, g in self._buf], self.mean)
+
+
+class PairWindows:
+    """:class:`ScoreWindow` (``max_instants`` only) for many pairs at once, keyed by integer pair keys.
+
+    ``add(keys, g, t)`` appends one instant score per pair (each key once) and returns, per pair, the
+    combined score and the number of instants in its window, equal to what one ``ScoreWindow(mean,
+    max_instants=K)`` per pair gives: a pair's window holds its last min(count, K) instant scores,
+    and their mean is 0 as soon as one of them is 0. So a pair is stored by its count (capped at K)
+    and the trailing run of its positive scores (at most K, newest last): its combination is the
+    mean of the last min(count, K) scores when the run is at least that long and 0 otherwise. Only
+    pairs whose newest score is positive keep a run, so a gated picture (most pairs exactly 0) costs
+    one count per pair. Pairs not in a call keep their window untouched. Vectorised over pairs; the
+    means are taken per window length in one batch (``numpy`` reductions along the window).
+    """
+
+    def __init__(self, mean: str = 'harmonic', max_instants: int = 10) -> None:
+        if mean not in MEANS:
+            raise ValueError(f'unknown mean {mean!r}; choose one of {", ".join(MEANS)}')
+        if max_instants < 1:
+            raise ValueError(f'max_instants must be >= 1, got {max_instants}')
+        self.mean, self.k = mean, int(max_instants)
+        self.keys = np.zeros(0, np.int64)         # every pair seen, sorted
+        self.count = np.zeros(0, np.int64)        # instants in its window (≤ k)
+        self.run_keys = np.zeros(0, np.int64)     # pairs with a positive newest score, sorted
+        self.run_len = np.zeros(0, np.int64)
+        self.run_vals = np.zeros((0, 0))          # trailing positive scores, right-aligned (newest last)
+        self.last_t: float | None = None
+
+    def __len__(self) -> int:
+        return self.keys.size
+
+    def instants(self, keys) -> np.ndarray:
+        """Instants in the windows of ``keys`` (0 for a pair never added)."""
+        keys = np.asarray(keys, np.int64)
+        pos, found = _lookup(self.keys, keys)
+        return np.where(found, self.count[pos] if self.keys.size else 0, 0)
+
+    def add(self, keys, g, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """Add score ``g[k]`` at ``t`` to pair ``keys[k]``; → (combined (P,), instants (P,))."""
+        keys, g = np.asarray(keys, np.int64), np.asarray(g, float)
+        if keys.size == 0:
+            return np.zeros(0), np.zeros(0, np.int64)
+        if self.last_t is not None and t < self.last_t:
+            raise ValueError(f'time went backwards: {t} < {self.last_t}')
+        if not np.all(np.isfinite(g) & (g >= 0.0) & (g <= 1.0)):
+            raise ValueError(f'scores must be in [0, 1], got {g[~((g >= 0) & (g <= 1))][:5].tolist()}')
+        self.last_t = float(t)
+        # counts
+        pos, found = _lookup(self.keys, keys)
+        count = np.where(found, self.count[pos] if self.keys.size else 0, 0)
+        count = np.minimum(count + 1, self.k)
+        if found.all():
+            self.count[pos] = count
+        else:                                   # new pairs: merge them into the sorted keys
+            merged = np.concatenate([self.keys, keys[~found]])
+            order = np.argsort(merged, kind='stable')
+            self.keys, self.count = merged[order], np.concatenate([self.count, count[~found]])[order]
+            self.count[np.searchsorted(self.keys, keys[found])] = count[found]
+        # runs: positive pairs extend theirs, zero pairs lose theirs, absent pairs keep theirs
+        rpos, rfound = _lookup(self.run_keys, keys)
+        prev_len = np.where(rfound, self.run_len[rpos] if self.run_keys.size else 0, 0)
+        pos_g = g > 0.0
+        run_len = np.where(pos_g, np.minimum(prev_len + 1, self.k), 0)
+        width = int(max(self.run_vals.shape[1], run_len.max(initial=0)))
+        kp = np.flatnonzero(pos_g)
+        vals = np.full((kp.size, width), np.nan)
+        if width:
+            if self.run_keys.size and width > 1:
+                old = np.full((self.run_vals.shape[0], width), np.nan)
+                old[:, width - self.run_vals.shape[1]:] = self.run_vals
+                vals[:, :-1] = np.where(rfound[kp, None], old[rpos[kp], 1:], np.nan)
+            vals[:, -1] = g[kp]
+        keep = ~_lookup(np.sort(keys), self.run_keys)[1]   # runs of pairs not in this call
+        old_vals = self.run_vals[keep]
+        if old_vals.shape[1] < width:
+            old_vals = np.concatenate([np.full((old_vals.shape[0], width - old_vals.shape[1]), np.nan), old_vals], 1)
+        rk = np.concatenate([self.run_keys[keep], keys[kp]])
+        order = np.argsort(rk, kind='stable')
+        self.run_keys = rk[order]
+        self.run_len = np.concatenate([self.run_len[keep], run_len[kp]])[order]
+        self.run_vals = np.concatenate([old_vals, vals])[order]
+        # combination: positive when the run covers the whole window
+        combined = np.zeros(keys.size)
+        full = pos_g & (run_len >= count)
+        for n in np.unique(count[full]):
+            sel = np.flatnonzero(full & (count == n))
+            w = np.ascontiguousarray(vals[np.searchsorted(kp, sel), width - n:])
+            combined[sel] = _combine_rows(w, self.mean)
+        return combined, count
+
+
+def _lookup(sorted_keys: np.ndarray, keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Positions of ``keys`` in ``sorted_keys`` and whether each is there."""
+    if sorted_keys.size == 0:
+        return np.zeros(keys.size, np.intp), np.zeros(keys.size, bool)
+    pos = np.minimum(np.searchsorted(sorted_keys, keys), sorted_keys.size - 1)
+    return pos, sorted_keys[pos] == keys
+
+
+def _combine_rows(g: np.ndarray, mean: str) -> np.ndarray:
+    """:func:`combine_scores` of each row of positive scores (m, n), the same arithmetic along the rows."""
+    if mean == 'harmonic':
+        return g.shape[1] / np.sum(1.0 / g, axis=1)
+    return np.exp(np.mean(np.log(g), axis=1))

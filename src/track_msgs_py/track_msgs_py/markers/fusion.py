@@ -13,7 +13,7 @@ from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
 from track_core.fusion import Instant
-from track_msgs_py.convert import covariance_ellipse_marker, sec_to_stamp
+from track_msgs_py.convert import covariance_ellipse_markers, sec_to_stamp
 from track_msgs_py.topics import FRAME_MAP
 
 TRACKS_NS, LINKS_NS = 'fusion_tracks', 'fusion_links'
@@ -26,18 +26,18 @@ class FusionMarkers:
         self.lifetime, self.frame_id = lifetime, frame_id
         self.marker_ids: dict[str, int] = {}
 
-    def build(self, instant: Instant) -> MarkerArray:
+    def build(self, instant: Instant, pairs=None) -> MarkerArray:
+        """Ellipses of every track, links of ``pairs`` (default: every pair of the instant)."""
         t, mu = instant.t, instant.mu
         out = MarkerArray()
-        for k, track_id in enumerate(instant.ids):
-            mid = self.marker_ids.setdefault(track_id, len(self.marker_ids))
-            out.markers.append(covariance_ellipse_marker(t, mu[k], instant.R[k], self.frame_id, ns=TRACKS_NS,
-                                                         marker_id=mid, lifetime=self.lifetime))
+        mids = [self.marker_ids.setdefault(track_id, len(self.marker_ids)) for track_id in instant.ids]
+        out.markers += covariance_ellipse_markers(t, mu, instant.R, self.frame_id, ns=TRACKS_NS, marker_ids=mids,
+                                                  lifetime=self.lifetime)
         link = Marker(ns=LINKS_NS, id=0, type=Marker.LINE_LIST, action=Marker.ADD)
         link.header.stamp, link.header.frame_id = sec_to_stamp(t), self.frame_id
         link.scale.x = 0.5
         link.pose.orientation.w = 1.0
-        for q in instant.pairs:
+        for q in instant.pairs if pairs is None else pairs:
             c = ColorRGBA(r=float(1.0 - q.combined), g=float(q.combined), b=0.0, a=1.0)
             link.points += [Point(x=float(mu[q.ia][0]), y=float(mu[q.ia][1])),
                             Point(x=float(mu[q.ib][0]), y=float(mu[q.ib][1]))]

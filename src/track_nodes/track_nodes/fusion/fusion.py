@@ -36,7 +36,9 @@ The rule lives in ``track_core.fusion.StampSchedule``, run by the associator.
 At ``rate`` Hz it brings every live track to the current node time (``TrackTable``: Odometry
 tracks are predicted with their velocity, position reports are held until ``stale_after``),
 scores every pair from different sources with ``method`` (paper eqs. 49–71, batched over pairs;
-``mc`` shares one draw among the pairs of an instant), keeps the last ``window`` instant
+``mc`` shares one draw among the pairs of an instant; ``exact`` scores only the pairs whose 2σ
+ellipses may overlap, the others score 0 as scoring gives: ``track_core.geofeasibility.gate``),
+keeps the last ``window`` instant
 scores per pair and combines them (harmonic or geometric mean, §1; one zero instant makes the
 combination zero, as the paper's means do), and publishes:
 
@@ -46,6 +48,12 @@ combination zero, as the paper's means do), and publishes:
 | /fusion/associations | DiagnosticArray | the pairs whose combined score ≥ ``threshold`` |
 | /fusion/fused | Odometry | covariance intersection of each associated pair, child_frame_id ``A+B`` (no leading '/') |
 | /fusion/markers | MarkerArray | 2σ ellipse per track, a link per pair coloured red→green by score |
+
+``publish_pairs:=nonzero`` publishes (scores, links) only the pairs with a positive instant or combined
+score or associated; every pair left out scored 0 and has a combined score of 0. With the exact
+score most pairs of a large picture are never scored (the core's gate), and one status per pair of
+1000 tracks (250,000 a tick) is more than a node can publish at 1 Hz; ``all`` (default) keeps one
+status per scored pair.
 
 The pairing, masking, windows, thresholds and covariance intersection are
 ``track_core.fusion.PairAssociator``; a pair's status is ``track_msgs_py.records.fusion.FusionPairScore``;
@@ -123,6 +131,8 @@ PARAMS = (
           'namespace)'),
     Param('schedule', 'timer', 'timer: score at node-clock ticks; stamps: at the data instants k/rate, '
           'deterministic (module docstring)', choices=('timer', 'stamps')),
+    Param('publish_pairs', 'all', 'all: a status and a link per scored pair; nonzero: only the pairs with a '
+          'positive score or combined score, or associated (module docstring)', choices=('all', 'nonzero')),
     Param('warn_period', 5.0, 'at most one bad-input warning per topic per this many seconds', 0.0, 1e6, live=True),
     Param('stamp_horizon', InputPolicy.horizon, 'refuse reports stamped more than this ahead of the node clock [s]',
           1e-3, 1e9, live=True),
@@ -256,12 +266,13 @@ class FusionNode(TrackNode):
         t = instant.t
         for f in instant.fused:
             P4 = np.zeros((4, 4))
-            P4[np.ix_([0, 2], [0, 2])] = f.P
+            P4[0::2, 0::2] = f.P  # the x/y rows and columns of the CV state [x, ẋ, y, ẏ]
             self.pub_fused.publish(cv_state_to_odometry(t, np.array([f.mu[0], 0.0, f.mu[1], 0.0]), P4, FRAME_MAP,
                                                         fused_track_id(f.a, f.b)))
+        pairs = instant.pairs.nonzero() if self.p.publish_pairs == 'nonzero' else instant.pairs
         statuses = [FusionPairScore(q.score, q.combined, q.instants, q.associated, self.p.method).pair_status(q.a, q.b)
-                    for q in instant.pairs]
+                    for q in pairs]
         self.pub_scores.publish(diagnostic_array(t, statuses))
-        self.pub_assoc.publish(diagnostic_array(t, [st for st, q in zip(statuses, instant.pairs, strict=True)
+        self.pub_assoc.publish(diagnostic_array(t, [st for st, q in zip(statuses, pairs, strict=True)
                                                     if q.associated]))
-        self.pub_markers.publish(self.markers.build(instant))
+        self.pub_markers.publish(self.markers.build(instant, pairs))

@@ -155,3 +155,38 @@ def test_valid_batches_take_the_batch_path_unchanged():
     a.update('patrol', 'p0', TrackReport(1.0, np.array([0.5, 0.2]), np.diag([2.0, 1.0])))
     inst = a.score(1.0)
     assert inst.skipped == () and len(inst.pairs) == 1
+
+
+def _picture_run(gate: bool, combine: str, seed: int, rows_scored: list | None = None):
+    """60 tracks of two sources in clusters, moving, some dropping out: every instant's pairs and fusions."""
+    rng = np.random.default_rng(seed)
+    core = PairAssociator('exact', 0.3, combine, 4, gate=gate, stale_after=1.5)
+    centre = rng.uniform(0, 400.0, (60, 2))
+    centre[30:] = centre[:30] + rng.normal(0, 3.0, (30, 2))       # source 2 sees the ships of source 1
+    vel = rng.normal(0, 2.0, (60, 2))
+    out = []
+    for t in range(12):
+        for k in np.flatnonzero(rng.random(60) > 0.1):
+            a = rng.uniform(2.0, 30.0)
+            c, s = np.cos(k + t), np.sin(k + t)
+            U = np.array([[c, -s], [s, c]])
+            R = U @ np.diag([a, a / rng.uniform(1, 6)]) @ U.T
+            core.update('one' if k < 30 else 'two', f't{k}', TrackReport(float(t), centre[k] + vel[k] * t, R))
+        inst = core.score(float(t))
+        out.append([[q.a, q.b, q.score, q.combined, q.instants, q.associated] for q in inst.pairs]
+                   + [[f.a, f.b, f.mu.tolist(), f.P.tolist()] for f in inst.fused])
+    return out
+
+
+@pytest.mark.parametrize('combine', ['geometric', 'harmonic'])
+@pytest.mark.parametrize('seed', [0, 1])
+def test_the_gate_changes_no_pair_result(combine, seed, monkeypatch):
+    import track_core.geofeasibility.gate as gate_mod
+
+    scored = []
+    real = gate_mod.score
+    monkeypatch.setattr(gate_mod, 'score', lambda mu1, *a, **kw: scored.append(len(mu1)) or real(mu1, *a, **kw))
+    gated = _picture_run(True, combine, seed)
+    assert _picture_run(False, combine, seed) == gated
+    assert sum(len(x) for x in gated) > 10 * sum(scored)         # most pairs were never scored
+    assert any(q[3] > 0 for x in gated for q in x if len(q) == 6)  # and some pairs were associated

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from track_core.geofeasibility import ScoreWindow, combine_scores, common_instants, score, track_score
+from track_core.geofeasibility import PairWindows, ScoreWindow, combine_scores, common_instants, score, track_score
 
 
 def test_means():
@@ -50,3 +50,34 @@ def test_score_window_streaming():
         w.add(1.0, 0.5)
     with pytest.raises(ValueError):
         ScoreWindow(window=0.0)
+
+
+@pytest.mark.parametrize('mean', ['harmonic', 'geometric'])
+@pytest.mark.parametrize('k', [1, 3, 10, 12])
+def test_pair_windows_equal_one_score_window_per_pair(mean, k):
+    """PairWindows (count + trailing positive run) gives ScoreWindow's combination bit for bit."""
+    rng = np.random.default_rng(k)
+    n_pairs = 60
+    ref = {p: ScoreWindow(mean, max_instants=k) for p in range(n_pairs)}
+    win = PairWindows(mean, max_instants=k)
+    for step in range(40):
+        keys = np.flatnonzero(rng.random(n_pairs) < 0.7)               # some pairs absent at some instants
+        g = np.where(rng.random(keys.size) < 0.15, 0.0, rng.uniform(1e-3, 1.0, keys.size))
+        g[rng.random(keys.size) < 0.05] = 1.0
+        combined, instants = win.add(keys * 7 + 3, g, float(step))
+        for p, v, c, m in zip(keys, g, combined, instants, strict=True):
+            ref[p].add(float(step), float(v))
+            assert (c, m) == (ref[p].value(), len(ref[p]))
+    assert len(win) == n_pairs
+    np.testing.assert_array_equal(win.instants(np.arange(n_pairs) * 7 + 3), [len(ref[p]) for p in range(n_pairs)])
+
+
+def test_pair_windows_refuse_what_score_window_refuses():
+    win = PairWindows('geometric', 3)
+    win.add([1, 2], [0.5, 0.0], 1.0)
+    with pytest.raises(ValueError, match='backwards'):
+        win.add([1], [0.5], 0.5)
+    with pytest.raises(ValueError, match=r'\[0, 1\]'):
+        win.add([1], [1.5], 2.0)
+    with pytest.raises(ValueError, match='max_instants'):
+        PairWindows('geometric', 0)
