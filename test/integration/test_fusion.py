@@ -65,10 +65,12 @@ def test_true_pairs_associated_and_decoy_rejected(ros, repo):
 
     assert ros.spin_until(settled, timeout=30), f'scores seen: {sorted(latest)}'
     history.clear()
-    ros.spin_for(10.0)  # the verdicts are autocorrelated (10-instant windows): judge a long stretch
+    # The verdicts are autocorrelated (10-instant windows): judge a long stretch, ~10 s quiet. Counted, not
+    # timed, so a loaded machine (fewer ticks per second) judges as many verdicts.
+    assert ros.spin_until(lambda: all(len(history.get(p, [])) >= 200 for p in true_pairs), timeout=180), \
+        {p: len(history.get(p, [])) for p in true_pairs}
     for pair in true_pairs:
         verdicts = history.get(pair, [])
-        assert len(verdicts) >= 20, (pair, len(verdicts))
         # ~75 % at steady state; one 10 s stretch holds only a few independent windows (0.39 was seen once
         # over 5 s), so the bound is loose; the decoy below must never be associated.
         assert np.mean(verdicts) >= 0.3, (pair, np.mean(verdicts), latest[pair])
