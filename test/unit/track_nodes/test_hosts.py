@@ -1,0 +1,52 @@
+"""Simulated hosts (``track_nodes.launch.hosts``): names, subnet and env; create and always remove.
+
+The namespace tests need root and ``ip netns``; they skip with the reason otherwise.
+"""
+
+from __future__ import annotations
+
+import ipaddress
+import subprocess
+
+import pytest
+
+from track_nodes.launch.hosts import Hosts, round_robin, unavailable
+
+REASON = unavailable()
+needs_netns = pytest.mark.skipif(REASON is not None, reason=f'no simulated hosts here: {REASON}')
+
+
+def test_unavailable_is_none_or_a_reason():
+    assert REASON is None or (isinstance(REASON, str) and REASON)
+
+
+def test_names_subnet_and_env_are_per_run():
+    a, b = Hosts(3), Hosts(3)
+    assert a.tag != b.tag and not set(a.names) & set(b.names)
+    assert a.subnet.prefixlen == 24 and a.subnet.subnet_of(ipaddress.ip_network('10.0.0.0/8'))
+    assert all(len(f'{a.tag}rb') <= 15 for _ in a.names)  # Linux device names: at most 15 characters
+    env = a.env({'ROS_DOMAIN_ID': '42', 'ROS_LOCALHOST_ONLY': '1'})
+    assert env['ROS_DOMAIN_ID'] == '42' and 'ROS_LOCALHOST_ONLY' not in env
+    assert env['ROS_AUTOMATIC_DISCOVERY_RANGE'] == 'LOCALHOST'
+    assert env['ROS_STATIC_PEERS'].split(';') == [*a.addresses, a.launcher_address]
+    assert a.prefix(2) == ['ip', 'netns', 'exec', a.names[2]]
+    assert round_robin(range(7), 3) == [0, 1, 2, 0, 1, 2, 0]
+
+
+@needs_netns
+def test_hosts_get_their_addresses_and_are_removed():
+    with Hosts(3) as hosts:
+        assert hosts.setup_s < 10
+        assert sorted(hosts.leftovers()) == sorted([*hosts.names, hosts.hub])
+        for i in range(3):
+            out = subprocess.run([*hosts.prefix(i), 'ip', '-4', 'addr'], capture_output=True, text=True).stdout
+            assert f'{hosts.addresses[i]}/24' in out and 'inet 127.0.0.1' in out
+    assert hosts.leftovers() == []
+    assert hosts.root_veth not in subprocess.run(['ip', 'link'], capture_output=True, text=True).stdout
+
+
+@needs_netns
+def test_hosts_are_removed_when_the_body_raises():
+    with pytest.raises(RuntimeError), Hosts(2) as hosts:
+        raise RuntimeError('boom')
+    assert hosts.leftovers() == []
