@@ -1,8 +1,10 @@
 """Launcher: ``python -m track_nodes.launch SCENARIO [--record [NAME]] [--duration S] [--processes]
-[--params FILE] [--rate R]``.
+[--hosts N] [--params FILE] [--rate R]``.
 
 Reads ``config/SCENARIO.yaml`` (see ``track_nodes.launch.scenario``) and runs its nodes, either all in
-this process on one MultiThreadedExecutor (default) or one process per node (``--processes``).
+this process on one MultiThreadedExecutor (default) or one process per node (``--processes``),
+optionally spread round-robin over N simulated hosts that the launcher creates and always removes
+(``--hosts N``, root only; see ``track_nodes.launch.hosts``).
 
 Time: with ``--rate R > 0`` (default: the scenario's ``rate``) every node gets
 ``use_sim_time:=true`` and this launcher publishes ``/clock``, starting at 0, in steps of
@@ -45,6 +47,7 @@ from rclpy.parameter import Parameter
 
 from track_nodes.base import EXIT_BAD_INPUT
 from track_nodes.launch.graph import LauncherNode
+from track_nodes.launch.hosts import Hosts, unavailable
 from track_nodes.launch.processes import spawn_nodes, stop_processes
 from track_nodes.launch.scenario import Scenario, ScenarioError, load_scenario
 
@@ -71,6 +74,8 @@ def _parse(argv: list[str] | None) -> argparse.Namespace:
                     help='record to bags/NAME/ (default NAME: <scenario>-<timestamp>)')
     ap.add_argument('--duration', type=float, default=None, help='run length in node time [s]')
     ap.add_argument('--processes', action='store_true', help='one process per node')
+    ap.add_argument('--hosts', type=int, default=0, metavar='N',
+                    help='with --processes: spread the nodes over N simulated hosts (network namespaces, root)')
     ap.add_argument('--params', type=Path, default=None, metavar='FILE', help='extra params file on top')
     ap.add_argument('--rate', type=float, default=None,
                     help='drive /clock at R x real time; 0 = wall time (default: the scenario)')
@@ -103,7 +108,20 @@ class Launch:
         self.record_regex = str(opts.get('record_regex', '.*'))
 
     # -- the two ways of running the nodes ------------------------------------------------
-    def run(self, processes: bool) -> int:
+    def run(self, processes: bool, n_hosts: int = 0) -> int:
+        if not n_hosts:
+            return self._run(processes, None)
+        if not processes or n_hosts < 1:
+            raise LaunchError('--hosts N needs --processes and N >= 1')
+        if (reason := unavailable()) is not None:
+            raise LaunchError(f'--hosts: {reason}')
+        with Hosts(n_hosts) as hosts:
+            print(f'hosts: {n_hosts} namespaces {hosts.tag}-*, {hosts.subnet}, set up in {hosts.setup_s:.2f} s',
+                  flush=True)
+            os.environ.update(hosts.env())  # the launcher's own participant reaches every host
+            return self._run(processes, hosts)
+
+    def _run(self, processes: bool, hosts: Hosts | None) -> int:
         self.context = context = Context()
         ros_args = ['--ros-args', *[a for f in self.params_files for a in ('--params-file', f)]]
         rclpy.init(args=ros_args if not processes else None, context=context)
@@ -113,7 +131,8 @@ class Launch:
         nodes, children = [], []
         try:
             if processes:
-                children = spawn_nodes(self.sc.nodes, self.params_files, self.sim, self.bag, self.record_regex)
+                children = spawn_nodes(self.sc.nodes, self.params_files, self.sim, self.bag, self.record_regex,
+                                       hosts)
             else:
                 nodes = self._create_all(context)
                 for node in nodes:
@@ -209,7 +228,7 @@ class Launch:
         while True:
             for child in children:
                 if child.poll() is not None:
-                    raise LaunchError(f'{" ".join(child.args[3:4])} exited with code {child.returncode} at start')
+                    raise LaunchError(f'{child.label} exited with code {child.returncode} at start')
             missing = launcher.nodes_missing(names)
             if not missing and self.bag is not None:
                 missing = [f'recorder subscription to {t}' for t in
@@ -259,7 +278,7 @@ def main(argv: list[str] | None = None) -> int:
               f' ({"processes" if args.processes else "one process"}, '
               f'{f"/clock at {launch.rate:g}x" if launch.sim else "wall time"}'
               f'{f", {launch.duration:g} s" if launch.duration else ""})', flush=True)
-        code = launch.run(args.processes)
+        code = launch.run(args.processes, args.hosts)
     except (ScenarioError, LaunchError) as exc:
         print(f'track_nodes.launch: {exc}', file=sys.stderr)
         return EXIT_BAD_INPUT
