@@ -13,7 +13,11 @@
 
 from __future__ import annotations
 
+import contextlib
 import math
+import os
+import re
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -63,6 +67,7 @@ from track_msgs_py.topics import (
 from track_nodes.bag.check import check_bag
 from track_nodes.bag.frames import check_frames
 from track_nodes.launch.generate import idsq_yaml as scenario_yaml
+from track_nodes.launch.hosts import unavailable
 from track_nodes.launch.scenario import load_scenario
 
 DT = 0.5
@@ -247,6 +252,66 @@ def test_one_process_per_sensor_gives_the_same_estimates(ros, k8_file, tmp_path,
     assert res.ok and res.checked[IDSQ_LAYOUT] == 1 and res.checked[IDSQ_BELIEF] == K8_STEPS, res.problems
     assert res.checked[IDSQ_ESTIMATE] == K8_STEPS
     assert check_frames(tmp_path / 'bags/mp', stamps=True) == []
+
+
+# --- across simulated hosts (issue 15, part 1) -----------------------------------------------------------
+
+HOSTS_REASON = unavailable()
+HOST_STEPS = 20  # 10 s of config/idsq.yaml (K = 24, 25 processes)
+
+
+def _stop_leftovers(tag: str) -> list[str]:
+    """Belt and braces after a launcher that did not exit cleanly: kill what still runs in the
+    run's namespaces (by pid) and delete them; return the names that were left."""
+    listed = subprocess.run(['ip', 'netns', 'list'], capture_output=True, text=True).stdout.split()
+    left = [n for n in listed if n.startswith(f'{tag}-')]
+    for name in left:
+        pids = subprocess.run(['ip', 'netns', 'pids', name], capture_output=True, text=True).stdout.split()
+        for pid in pids:
+            with contextlib.suppress(ProcessLookupError, ValueError):
+                os.kill(int(pid), signal.SIGKILL)
+        subprocess.run(['ip', 'netns', 'del', name], capture_output=True)
+    return left
+
+
+@pytest.mark.skipif(HOSTS_REASON is not None, reason=f'no simulated hosts on this machine: {HOSTS_REASON}')
+def test_idsq_over_three_hosts_gives_the_in_process_track(ros, repo, tmp_path, env_factory):
+    """config/idsq.yaml, 20 steps, 25 processes over 3 network namespaces (--hosts 3): the recorded
+    estimates equal, bit for bit, the in-process network's with the same seed."""
+    net = Network(ros, repo / 'config/idsq.yaml')
+    net.run_to(HOST_STEPS - 1)
+    in_means, in_covs = net.track()
+    proc = subprocess.Popen([sys.executable, '-m', 'track_nodes.launch', str(repo / 'config/idsq.yaml'),
+                             '--processes', '--hosts', '3', '--duration', str(HOST_STEPS * DT), '--record', 'h3'],
+                            cwd=tmp_path, env=env_factory(), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, start_new_session=True)
+    out, err = '', ''
+    try:
+        out, err = proc.communicate(timeout=300)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGTERM)  # the launcher stops its children and removes the hosts
+        try:
+            out, err = proc.communicate(timeout=60)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            out, err = proc.communicate()
+    finally:
+        tag = re.search(r'hosts: 3 namespaces (\S+)-\*', out or '')
+        left = _stop_leftovers(tag.group(1)) if tag else []
+    assert tag, (out[-2000:], err[-3000:])
+    assert left == [], f'namespaces left behind: {left}'
+    assert proc.returncode == 0, err[-3000:]
+    print(re.search(r'hosts: .*', out).group(0))
+    est = []
+    with Reader(tmp_path / 'bags/h3') as reader:
+        conns = [c for c in reader.connections if c.topic == IDSQ_ESTIMATE]
+        for _, _, raw in reader.messages(connections=conns):
+            est.append(deserialize_message(raw, Odometry))
+    steps = [step_of_stamp(stamp_to_sec(m.header.stamp), DT) for m in est]
+    assert steps == list(range(HOST_STEPS)), (steps, out[-3000:], err[-3000:])
+    np.testing.assert_array_equal(np.array([odometry_to_cv_state(m)[1][[0, 2]] for m in est]), in_means)
+    np.testing.assert_array_equal(np.array([xy_block(m.pose.covariance) for m in est]), in_covs)
+    assert f'idsq: {HOST_STEPS} estimates matched to truth' in out and 're-selections 0' in out
 
 
 # --- leader failure --------------------------------------------------------------------------------------

@@ -50,3 +50,8 @@ def test_hosts_are_removed_when_the_body_raises():
     with pytest.raises(RuntimeError), Hosts(2) as hosts:
         raise RuntimeError('boom')
     assert hosts.leftovers() == []
+
+
+def test_not_root_is_a_reason(monkeypatch):
+    monkeypatch.setattr('os.geteuid', lambda: 1000)
+    assert unavailable() == 'simulated hosts need root (ip netns add)'
