@@ -60,7 +60,7 @@ GRACE = 1.0  # wall seconds for messages in flight after the clock stops
 QUIET = 2.0  # --processes: the graph is drained once no watched topic delivered for this long [wall s] ...
 DRAIN_MAX = 120.0  # ... waiting at most this long after the clock stopped
 WATCH_EVERY = 50  # clock steps between looks for new topics to watch (--processes)
-READY_TIMEOUT = 30.0
+READY_TIMEOUT = 90.0  # a deadline, not a wait: 25 processes importing scipy on a loaded 2-core machine
 
 
 class LaunchError(RuntimeError):
