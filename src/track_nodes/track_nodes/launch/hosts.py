@@ -1,6 +1,6 @@
 """Simulated hosts on one machine: Linux network namespaces on a bridge (``--hosts N``).
 
-Layout (docs: ../shared/ROS_NOTES.md, "Several hosts on one machine"): a hub namespace holds a
+Layout (checked on this kind of machine, as root): a hub namespace holds a
 bridge (``mcast_snooping 0``); host ``i`` is a namespace with one veth into that bridge, address
 ``.i+1`` of a /24 that is unique per run. The launcher's own namespace (normally the root one) gets
 one more veth into the bridge, address ``.254``: the launcher (/clock, graph watching) and the
