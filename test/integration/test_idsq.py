@@ -226,6 +226,19 @@ def test_network_tracks_the_vehicle_and_equals_the_core_loop(ros, repo):
     assert all(s.refused == s.timeouts == s.nacks == 0 for s in net.sensors.values())
 
 
+
+def _assert_recorded_track(bag, n_steps: int, in_means, in_covs, log: str) -> None:
+    """The bag's /idsq/estimate: one per step 0..n-1, means and x/y covariances equal bit for bit."""
+    est = []
+    with Reader(bag) as reader:
+        conns = [c for c in reader.connections if c.topic == IDSQ_ESTIMATE]
+        for _, _, raw in reader.messages(connections=conns):
+            est.append(deserialize_message(raw, Odometry))
+    steps = [step_of_stamp(stamp_to_sec(m.header.stamp), DT) for m in est]
+    assert steps == list(range(n_steps)), (steps, log[-6000:])
+    np.testing.assert_array_equal(np.array([odometry_to_cv_state(m)[1][[0, 2]] for m in est]), in_means)
+    np.testing.assert_array_equal(np.array([xy_block(m.pose.covariance) for m in est]), in_covs)
+
 def test_one_process_per_sensor_gives_the_same_estimates(ros, k8_file, tmp_path, env_factory):
     """K = 8, 20 steps: the launcher with --processes records exactly the in-process estimates."""
     net = Network(ros, k8_file)
@@ -238,15 +251,7 @@ def test_one_process_per_sensor_gives_the_same_estimates(ros, k8_file, tmp_path,
                            '--record', 'mp'], cwd=tmp_path, env=env_factory(), capture_output=True, text=True,
                           timeout=120)
     assert proc.returncode == 0, proc.stderr[-3000:]
-    est = []
-    with Reader(tmp_path / 'bags/mp') as reader:
-        conns = [c for c in reader.connections if c.topic == IDSQ_ESTIMATE]
-        for _, _, raw in reader.messages(connections=conns):
-            est.append(deserialize_message(raw, Odometry))
-    steps = [step_of_stamp(stamp_to_sec(m.header.stamp), DT) for m in est]
-    assert steps == list(range(K8_STEPS)), (steps, proc.stdout[-3000:], proc.stderr[-3000:])
-    np.testing.assert_array_equal(np.array([odometry_to_cv_state(m)[1][[0, 2]] for m in est]), in_means)
-    np.testing.assert_array_equal(np.array([xy_block(m.pose.covariance) for m in est]), in_covs)
+    _assert_recorded_track(tmp_path / 'bags/mp', K8_STEPS, in_means, in_covs, proc.stdout + proc.stderr)
     assert f'idsq: {K8_STEPS} estimates matched to truth' in proc.stdout and 're-selections 0' in proc.stdout
     res = check_bag(tmp_path / 'bags/mp')  # issue 19: layout and belief clouds with x, y, z; planar covariances
     assert res.ok and res.checked[IDSQ_LAYOUT] == 1 and res.checked[IDSQ_BELIEF] == K8_STEPS, res.problems
@@ -305,15 +310,7 @@ def test_idsq_over_three_hosts_gives_the_in_process_track(ros, repo, tmp_path, e
     assert left == [], f'namespaces left behind: {left}'
     assert proc.returncode == 0, err[-3000:]
     print(re.search(r'hosts: .*', out).group(0))
-    est = []
-    with Reader(tmp_path / 'bags/h3') as reader:
-        conns = [c for c in reader.connections if c.topic == IDSQ_ESTIMATE]
-        for _, _, raw in reader.messages(connections=conns):
-            est.append(deserialize_message(raw, Odometry))
-    steps = [step_of_stamp(stamp_to_sec(m.header.stamp), DT) for m in est]
-    assert steps == list(range(HOST_STEPS)), (steps, out[-3000:], err[-3000:])
-    np.testing.assert_array_equal(np.array([odometry_to_cv_state(m)[1][[0, 2]] for m in est]), in_means)
-    np.testing.assert_array_equal(np.array([xy_block(m.pose.covariance) for m in est]), in_covs)
+    _assert_recorded_track(tmp_path / 'bags/h3', HOST_STEPS, in_means, in_covs, out + err)
     assert f'idsq: {HOST_STEPS} estimates matched to truth' in out and 're-selections 0' in out
 
 
