@@ -77,8 +77,9 @@ def ais_run(ros, repo, tmp_path):
         return recorder.message_counts().get(topic, 0)
 
     # /clock visits every report stamp and every fusion tick (5 s); the timers catch up in between
-    events = np.unique(np.round(np.concatenate([radar.stamps, patrol.stamps, np.arange(5.0, DURATION + 1e-9, 5.0)]),
-                                6))
+    # (and 0.5 first: each source's origin is the whole second of its first clock reading, here 0)
+    events = np.unique(np.round(np.concatenate([[0.5], radar.stamps, patrol.stamps,
+                                                np.arange(5.0, DURATION + 1e-9, 5.0)]), 6))
     n_ticks = 0
     for t in events.tolist():
         clock.publish(Clock(clock=sec_to_stamp(t)))
@@ -89,7 +90,7 @@ def ais_run(ros, repo, tmp_path):
 
         def done(want=want, n_ticks=n_ticks):
             pub = sum(want.values())
-            return (all(s.next == n for s, n in want.items()) and received['n'] == pub
+            return (all(s.next == n and s.steps.origin == 0.0 for s, n in want.items()) and received['n'] == pub
                     and recorded(radar.topic) + recorded(patrol.topic) == pub and len(got['scores']) == n_ticks
                     and recorded(FUSION_SCORES) == n_ticks)
 

@@ -34,6 +34,7 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 from rosbags.rosbag2 import Reader
 from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import UInt8MultiArray
 
 from track_core.idsq import (
@@ -71,6 +72,7 @@ from track_nodes.launch.hosts import unavailable
 from track_nodes.launch.scenario import load_scenario
 
 DT = 0.5
+EPOCH = 1000  # the in-process network's /clock starts here (the launcher's at --epoch, by default now)
 K8_STEPS = 20  # 10 s of the K = 8 scenario
 
 
@@ -126,7 +128,7 @@ class Network:
         return all(s.pub_est.get_subscription_count() > 0 for s in self.sensors.values())
 
     def _on_estimate(self, msg: Odometry) -> None:
-        step = step_of_stamp(stamp_to_sec(msg.header.stamp), DT)
+        step = step_of_stamp(stamp_to_sec(msg.header.stamp), DT, EPOCH)
         assert step not in self.estimates, f'two estimates for step {step}'
         self.estimates[step] = msg
 
@@ -145,7 +147,7 @@ class Network:
         """Advance /clock one tracker step at a time until the estimate of ``step`` is in."""
         while self.step < step:
             self.step += 1
-            self.clock.publish(Clock(clock=sec_to_stamp((self.step + 1) * DT)))
+            self.clock.publish(Clock(clock=sec_to_stamp(EPOCH + (self.step + 1) * DT)))
             s = self.step
             assert self.ros.spin_until(lambda s=s: s in self.estimates and s in self.led, timeout=timeout), \
                 f'no estimate of step {s}'
@@ -229,12 +231,16 @@ def test_network_tracks_the_vehicle_and_equals_the_core_loop(ros, repo):
 
 def _assert_recorded_track(bag, n_steps: int, in_means, in_covs, log: str) -> None:
     """The bag's /idsq/estimate: one per step 0..n-1, means and x/y covariances equal bit for bit."""
-    est = []
+    est, origin = [], None
     with Reader(bag) as reader:
-        conns = [c for c in reader.connections if c.topic == IDSQ_ESTIMATE]
-        for _, _, raw in reader.messages(connections=conns):
-            est.append(deserialize_message(raw, Odometry))
-    steps = [step_of_stamp(stamp_to_sec(m.header.stamp), DT) for m in est]
+        conns = [c for c in reader.connections if c.topic in (IDSQ_ESTIMATE, IDSQ_LAYOUT)]
+        for conn, _, raw in reader.messages(connections=conns):
+            if conn.topic == IDSQ_LAYOUT:  # the last, stamped, layout carries the step origin
+                origin = stamp_to_sec(deserialize_message(raw, PointCloud2).header.stamp)
+            else:
+                est.append(deserialize_message(raw, Odometry))
+    assert origin, 'no stamped layout in the bag'
+    steps = [step_of_stamp(stamp_to_sec(m.header.stamp), DT, origin) for m in est]
     assert steps == list(range(n_steps)), (steps, log[-6000:])
     np.testing.assert_array_equal(np.array([odometry_to_cv_state(m)[1][[0, 2]] for m in est]), in_means)
     np.testing.assert_array_equal(np.array([xy_block(m.pose.covariance) for m in est]), in_covs)
@@ -254,7 +260,8 @@ def test_one_process_per_sensor_gives_the_same_estimates(ros, k8_file, tmp_path,
     _assert_recorded_track(tmp_path / 'bags/mp', K8_STEPS, in_means, in_covs, proc.stdout + proc.stderr)
     assert f'idsq: {K8_STEPS} estimates matched to truth' in proc.stdout and 're-selections 0' in proc.stdout
     res = check_bag(tmp_path / 'bags/mp')  # issue 19: layout and belief clouds with x, y, z; planar covariances
-    assert res.ok and res.checked[IDSQ_LAYOUT] == 1 and res.checked[IDSQ_BELIEF] == K8_STEPS, res.problems
+    # two layouts: stamped 0 (origin pending) before the clock started, then stamped with the origin
+    assert res.ok and res.checked[IDSQ_LAYOUT] == 2 and res.checked[IDSQ_BELIEF] == K8_STEPS, res.problems
     assert res.checked[IDSQ_ESTIMATE] == K8_STEPS
     assert check_frames(tmp_path / 'bags/mp', stamps=True) == []
 

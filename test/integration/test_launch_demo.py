@@ -17,6 +17,8 @@ from rosbags.typesys import Stores, get_typestore
 from track_nodes.bag.frames import check_frames
 
 DURATION, PERIOD = 4.0, 0.1  # demo_target period in config/demo.yaml
+EPOCH = '2026-01-01T00:00:00'  # both runs of the fixture: a seed and an epoch reproduce every payload
+EPOCH_S = 1767225600
 N_EXPECTED = round(DURATION / PERIOD)
 TOPICS = {'/demo/truth', '/demo/reports', '/demo/track'}
 
@@ -40,7 +42,8 @@ def demo_bags(tmp_path_factory, env_factory, repo):
     cwd = tmp_path_factory.mktemp('launch')
     results = []
     for name in ('run1', 'run2'):
-        proc = launch(repo, cwd, env_factory(), '--record', name, '--duration', str(DURATION), '--rate', '20')
+        proc = launch(repo, cwd, env_factory(), '--record', name, '--duration', str(DURATION), '--rate', '20',
+                      '--epoch', EPOCH)
         assert proc.returncode == 0, proc.stderr
         results.append(proc)
     return cwd / 'bags/run1', cwd / 'bags/run2', results[0].stdout
@@ -75,8 +78,8 @@ def test_bag_decodes_with_rosbags(demo_bags):
     with Reader(demo_bags[0]) as reader:
         msgs = [(c.topic, ts.deserialize_cdr(raw, c.msgtype)) for c, _, raw in reader.messages()]
     truth = [m for t, m in msgs if t == '/demo/truth']
-    stamps = [m.header.stamp.sec + m.header.stamp.nanosec * 1e-9 for m in truth]
-    assert stamps == pytest.approx([PERIOD * (k + 1) for k in range(N_EXPECTED)])
+    stamps = [(m.header.stamp.sec - EPOCH_S) + m.header.stamp.nanosec * 1e-9 for m in truth]
+    assert stamps == pytest.approx([PERIOD * (k + 1) for k in range(N_EXPECTED)], abs=1e-6)  # 1e-7 s: float seconds
     assert truth[0].child_frame_id == 'demo_target' and truth[0].header.frame_id == 'map'
 
 
@@ -119,10 +122,26 @@ def test_tracker_output_is_accurate(demo_bags):
 
 
 def test_processes_mode_records_the_same_topics(tmp_path, env_factory, repo):
+    before = time.time_ns()
     proc = launch(repo, tmp_path, env_factory(), '--processes', '--record', 'p', '--duration', '2', '--rate', '10')
+    after = time.time_ns()
     assert proc.returncode == 0, proc.stderr
     counts = {t: len(v) for t, v in payloads(tmp_path / 'bags/p').items()}
     assert set(counts) == TOPICS and all(c == 20 for c in counts.values()), counts
+    # Issue 19 item 10: the default epoch is now, so a sim-time bag shows the day it was recorded
+    with Reader(tmp_path / 'bags/p') as reader:
+        assert before - 10**9 <= reader.start_time <= reader.end_time <= after, (before, reader.start_time, after)
+
+
+def test_fixed_epoch_starts_the_bag_there(demo_bags):
+    with Reader(demo_bags[0]) as reader:
+        assert reader.start_time >= EPOCH_S * 10**9 and reader.end_time <= (EPOCH_S + DURATION + 1) * 10**9
+
+
+@pytest.mark.parametrize('epoch', ['0', '1.5', 'yesterday', '99999999999'])
+def test_bad_epoch_is_one_line_and_exit_2(tmp_path, env_factory, repo, epoch):
+    proc = launch(repo, tmp_path, env_factory(), '--duration', '1', '--rate', '10', '--epoch', epoch, timeout=60)
+    assert proc.returncode == 2 and proc.stderr.count('\n') == 1 and '--epoch' in proc.stderr, proc.stderr
 
 
 def test_sigint_stops_cleanly_with_a_complete_bag(tmp_path, env_factory, repo):

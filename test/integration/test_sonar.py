@@ -135,8 +135,10 @@ def in_process_run(ros, repo):
     for k in range(1, STEPS + 1):
         for t in (k - 0.5, k):  # half-step ticks: the timers never fire twice in one tick
             clock.publish(Clock(clock=sec_to_stamp(t)))
+            # the target's step origin is the whole second of its first clock reading (t = 0.5)
             assert ros.spin_until(lambda t=t: observer.k >= math.floor(t) and len(sink.msgs[SONAR_OBSERVER])
-                                  >= math.floor(t), timeout=10), f'step at t={t} not taken'
+                                  >= math.floor(t) and target.steps.origin == 0.0, timeout=10), \
+                f'step at t={t} not taken'
     per_step = (SONAR_ESTIMATE, SONAR_TRUTH, SONAR_MODE, SONAR_OBSERVER, SONAR_TARGET_STATUS)
     assert ros.spin_until(lambda: all(len(sink.msgs[t]) >= STEPS for t in per_step)
                           and len(sink.msgs[SONAR_PING]) == observer.pings)

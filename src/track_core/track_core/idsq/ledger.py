@@ -73,8 +73,9 @@ TRUTH_WINDOW = MAX_TRUTH  # a truth step at most this far after the horizon (an 
 def stamp_of_step(step: int, dt: float, origin: float = 0.0) -> float:
     """Time [s] of tracker step ``step``: origin + (step + 1)·Δt (the first tick is one period after the origin).
 
-    The origin is the stamp of the sensor layout (``vehicle_sim``'s clock origin): 0 on /clock, a whole
-    second of wall time otherwise, so the field needs no clock origin shared by convention.
+    The origin is the stamp of the sensor layout (``vehicle_sim``'s clock origin): the whole second of
+    node time when it started (the launcher's ``--epoch`` on /clock), so the field needs no clock origin
+    shared by convention.
     """
     return origin + (int(step) + 1) * dt
 

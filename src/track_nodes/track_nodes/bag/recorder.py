@@ -28,7 +28,7 @@ Usage::
   final line.
 - Timestamps: the middleware's receive time (message info ``received_timestamp``, system clock),
   so a backlog keeps each message's arrival time; under ``use_sim_time`` the node's clock when
-  the batch is taken.
+  the batch is taken (a message taken before the first /clock is written at the first reading).
 - Durability: every ``flush_period`` seconds the pending MCAP chunk is written and the file
   flushed, so after a SIGKILL the .mcap holds every message up to the last flush; recover it
   with ``track-bag-recover``. SIGINT/SIGTERM (and destroying the node) close the bag cleanly.
@@ -96,6 +96,7 @@ class RecorderNode(TrackNode):
         self._writer = None
         self._closed = False
         self._lock = threading.Lock()
+        self._before_clock: list[tuple[object, bytes]] = []  # (connection, CDR) taken before the first /clock
         self._clock = self.get_clock()
         self._batching = True  # until a subscription lacks take_message (bag.take.can_take)
         p = self.p
@@ -213,12 +214,25 @@ class RecorderNode(TrackNode):
             if self._closed:
                 return
             conn, write, received = self.connections[topic], self._writer.write, self.losses.received
+            if sim and now == 0:  # before the first /clock: written when the clock starts (see below)
+                self._before_clock += [(conn, raw) for raw, _ in batch]
+            elif self._before_clock:
+                self._write_before_clock(now)
             for raw, inf in batch:
-                write(conn, now if sim else inf.get('received_timestamp') or time.time_ns(), raw)
+                if not (sim and now == 0):
+                    write(conn, now if sim else inf.get('received_timestamp') or time.time_ns(), raw)
                 lost += received(topic, inf.get('publication_sequence_number'))
             self.counts[topic] += len(batch)
         if lost:
             self._warn_lost(topic)
+
+    def _write_before_clock(self, now: int) -> None:
+        """Under ``use_sim_time`` the messages taken before the first /clock (transient-local ones:
+        /tf_static, a layout) get the first clock reading as their log time, not 0: a bag whose
+        clock starts at an epoch must not begin in 1970. Called with the lock held."""
+        for conn, raw in self._before_clock:
+            self._writer.write(conn, now, raw)
+        self._before_clock = []
 
     def _on_lost(self, topic: str, count_change: int) -> None:
         with self._lock:
@@ -256,6 +270,8 @@ class RecorderNode(TrackNode):
                 self._closed = True
                 return
             self._closed = True
+            if self._before_clock:  # the clock never started: they keep log time 0
+                self._write_before_clock(0)
             self._writer.close()
             set_ros_distro(self.path)
         line = self.summary()

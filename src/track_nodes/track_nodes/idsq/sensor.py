@@ -3,6 +3,8 @@
 Each instance is one sensor (``id``, ``position``, ``type``); the rest of the network (positions,
 types, hence its §5.1 neighbours) comes from ``vehicle_sim``'s transient-local ``/idsq/layout``,
 which must agree with those three parameters (else one error line and the node stays passive).
+Its stamp is the step origin; a zero stamp means "origin pending": the sensor sets up its topics
+and holds truths until the stamped copy of the same layout comes.
 The protocol (handoffs, acks, the start rule, re-selection, randomness) is
 ``track_core.idsq.ledger.HandoffLedger``; this node converts messages and carries out its effects:
 
@@ -134,19 +136,26 @@ class IdsqSensorNode(TrackNode):
 
     # -- inputs -------------------------------------------------------------------------------------
     def _on_layout(self, msg: PointCloud2) -> None:
-        if self.layout is not None or self.disabled:
+        if self.origin is not None or self.disabled:
             return
         try:
             layout = convert.pointcloud2_to_layout(msg, self.p.comm_range)
         except ValueError as exc:
             self.get_logger().error(f'{self.resolved(IDSQ_LAYOUT)}: unusable layout: {exc}')
             return
+        if self.layout is not None:  # the stamped copy of a layout that came with its origin pending
+            if not (np.array_equal(layout.positions, self.layout.positions)
+                    and np.array_equal(layout.is_doa, self.layout.is_doa)):
+                self.get_logger().error(f'{self.resolved(IDSQ_LAYOUT)}: sensor {self.id}: a second, different '
+                                        'layout; keeping the first')
+                return
+            self._set_origin(msg)
+            return
         why = ledger.layout_problem(layout, self.id, self.position, self.is_doa)
         if why is not None:
             self.disabled = True
             self.get_logger().error(f'{self.resolved(IDSQ_LAYOUT)}: sensor {self.id}: {why}; staying passive')
             return
-        self.origin = convert.stamp_to_sec(msg.header.stamp)
         targets = [ledger.handoff_targets(layout, j) for j in range(layout.n)]  # K sensors
         for k in targets[self.id]:
             self._handoff_pub(k)
@@ -154,6 +163,14 @@ class IdsqSensorNode(TrackNode):
             if self.id in targets[j]:
                 self._ack_pub(j)
         self._do(self.core.set_layout(layout))
+        self._set_origin(msg)
+
+    def _set_origin(self, msg: PointCloud2) -> None:
+        """The layout's stamp is the step origin; 0 means pending (its publisher's /clock had not
+        started), and a stamped copy of the same layout follows."""
+        if msg.header.stamp.sec == 0 and msg.header.stamp.nanosec == 0:
+            return
+        self.origin = convert.stamp_to_sec(msg.header.stamp)
         while self.early:  # the truths that came first, in their order
             self._on_truth(*self.early.popleft())
 

@@ -9,7 +9,7 @@ from rclpy.context import Context
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 
-from track_msgs_py.convert import sec_to_stamp
+from track_msgs_py.convert import ns_to_stamp
 from track_msgs_py.qos import CLOCK_QOS
 from track_msgs_py.topics import CLOCK, TF, TF_STATIC
 from track_nodes.bag.api import msg_class, recording_qos
@@ -45,8 +45,8 @@ class LauncherNode(Node):
     def _seen(self, _data: bytes) -> None:
         self.last_message = time.monotonic()
 
-    def publish_clock(self, t: float) -> None:
-        self.clock_pub.publish(Clock(clock=sec_to_stamp(t)))
+    def publish_clock(self, t_ns: int) -> None:
+        self.clock_pub.publish(Clock(clock=ns_to_stamp(t_ns)))
 
     def nodes_missing(self, names: list[str]) -> list[str]:
         present = set(self.get_node_names())

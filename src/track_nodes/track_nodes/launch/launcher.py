@@ -1,5 +1,5 @@
 """Launcher: ``python -m track_nodes.launch SCENARIO [--record [NAME]] [--duration S] [--processes]
-[--hosts N] [--params FILE] [--rate R]``.
+[--hosts N] [--params FILE] [--rate R] [--epoch E]``.
 
 Reads ``config/SCENARIO.yaml`` (see ``track_nodes.launch.scenario``) and runs its nodes, either all in
 this process on one MultiThreadedExecutor (default) or one process per node (``--processes``),
@@ -7,11 +7,16 @@ optionally spread round-robin over N simulated hosts that the launcher creates a
 (``--hosts N``, root only; see ``track_nodes.launch.hosts``).
 
 Time: with ``--rate R > 0`` (default: the scenario's ``rate``) every node gets
-``use_sim_time:=true`` and this launcher publishes ``/clock``, starting at 0, in steps of
+``use_sim_time:=true`` and this launcher publishes ``/clock``, starting at the epoch E (``--epoch``:
+``now``, the default, is the whole second of wall time when the clock starts, so a recording shows
+its real date; or whole seconds since 1970, at least 1 because ROS time 0 means "not set", or an
+ISO date in UTC), in steps of
 min(R·CLOCK_TICK, MAX_CLOCK_STEP) seconds, at most R times faster than the wall clock. In one
 process the clock runs in lock-step: after each step the launcher runs every callback that became ready
 (inline, in order) until the graph is idle, and only then advances the clock. A slow machine
-therefore runs slower than R×, never differently: a seed reproduces every payload. With
+therefore runs slower than R×, never differently: a seed and an epoch reproduce every payload
+(another epoch shifts every stamp by the difference; the values agree to float rounding, ~1e-16
+of the epoch, because float seconds near 1.8e9 resolve 2.4e-7 s). With
 ``--processes`` the other processes cannot be observed, so the clock is only paced by R.
 ``--rate 0`` runs on wall time, callbacks on the MultiThreadedExecutor's threads.
 
@@ -31,7 +36,7 @@ import signal
 import subprocess
 import sys
 import time
-from datetime import datetime
+from datetime import UTC, datetime
 from pathlib import Path
 
 import rclpy
@@ -79,7 +84,27 @@ def _parse(argv: list[str] | None) -> argparse.Namespace:
     ap.add_argument('--params', type=Path, default=None, metavar='FILE', help='extra params file on top')
     ap.add_argument('--rate', type=float, default=None,
                     help='drive /clock at R x real time; 0 = wall time (default: the scenario)')
+    ap.add_argument('--epoch', default='now', metavar='E',
+                    help="node time at which /clock starts: 'now' (default), whole seconds since 1970, "
+                         'or an ISO date (UTC)')
     return ap.parse_args(argv)
+
+
+def parse_epoch(text: str) -> int | None:
+    """``--epoch``: whole seconds since 1970, or None for 'now' (fixed when the clock starts)."""
+    if text == 'now':
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        try:
+            when = datetime.fromisoformat(text)
+        except ValueError:
+            raise LaunchError(f"--epoch {text!r}: not 'now', seconds or an ISO date") from None
+        value = (when if when.tzinfo else when.replace(tzinfo=UTC)).timestamp()
+    if not (1 <= value <= 2**31 - 1 and value == int(value)):  # ROS time 0 means "not set"
+        raise LaunchError(f'--epoch {text!r}: must be whole seconds in [1, 2^31 - 1] (ROS time 0 is unset)')
+    return int(value)
 
 
 class Launch:
@@ -93,6 +118,7 @@ class Launch:
         if self.duration is not None and not float(self.duration) > 0:
             raise LaunchError(f'--duration must be > 0, got {self.duration}')
         self.sim = self.rate > 0
+        self.epoch = parse_epoch(str(args.epoch))  # None: now, fixed when the clock starts
         self.params_files = [str(scenario.path)]
         if args.params is not None:
             if not args.params.is_file():
@@ -247,6 +273,12 @@ class Launch:
         step = min(self.rate * CLOCK_TICK, MAX_CLOCK_STEP)
         wall_step = step / self.rate if self.sim else CLOCK_TICK
         t0, k = time.monotonic(), 0
+        if self.epoch is None:
+            self.epoch = int(time.time())
+        epoch_ns = self.epoch * 1_000_000_000
+        if self.sim:
+            print(f'/clock from {datetime.fromtimestamp(self.epoch, UTC):%Y-%m-%d %H:%M:%S} UTC'
+                  f' (--epoch {self.epoch})', flush=True)
         while self.context.ok():
             if any(c.poll() is not None for c in children):
                 return
@@ -258,7 +290,7 @@ class Launch:
                 self._pump(executor, time.monotonic() + CLOCK_TICK)
                 continue
             node_time = k * step if duration is None else min(k * step, duration)
-            launcher.publish_clock(node_time)
+            launcher.publish_clock(epoch_ns + round(node_time * 1e9))
             if lockstep:
                 self._run_until_idle(executor)
             # Never faster than R x real time: wait for the wall time of the next step.

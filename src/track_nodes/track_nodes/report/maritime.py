@@ -106,6 +106,7 @@ def load(bag: Path) -> dict:
     d['detections'] = detections
     layout = msgs.get(IDSQ_LAYOUT, [])
     d['sensors'] = pointcloud2_to_table(layout[-1]) if layout else None
+    d['origin'] = stamp_to_sec(layout[-1].header.stamp) if layout else 0.0  # the network's step origin
     scores: dict[tuple[str, str], list] = {}
     for arr in msgs.get(FUSION_SCORES, []):
         t = stamp_to_sec(arr.header.stamp)

@@ -32,7 +32,7 @@ import yaml
 from track_core.fusion import PairAssociator, TrackReport
 from track_core.idsq.grid import uniform_belief
 from track_core.idsq.handoff import decode_handoff
-from track_core.idsq.ledger import loudest, measurement_normal, start_leader_of
+from track_core.idsq.ledger import loudest, measurement_normal, stamp_of_step, start_leader_of
 from track_core.idsq.models import simulate_measurement
 from track_core.idsq.network import SensorLayout
 from track_core.idsq.tracker import leader_step
@@ -58,11 +58,11 @@ def sensors_of(scenario: Path, comm_range: float | None = None, **tracker):
 
 def replay(d: dict, setup, layout: SensorLayout) -> list[dict]:
     """One row per network step: stamp, leader, estimate, belief and handoff size (``maritime.load`` data ``d``)."""
-    dt = setup.tracker.dt
+    dt, origin = setup.tracker.dt, d.get('origin', 0.0)
     by_step: dict[int, dict[str, np.ndarray]] = {}
     for key in (mar.RADAR_DECOY, mar.NETWORK_TRACK):  # truth topic order: /radar/truth < /sonar/target/truth
         for t, xy in zip(*d['truth'][key], strict=True):
-            by_step.setdefault(round(t / dt) - 1, {})[key] = xy
+            by_step.setdefault(round((t - origin) / dt) - 1, {})[key] = xy
     steps = sorted(s for s, v in by_step.items() if s >= 0 and len(v) == 2)
     truth = {s: np.array([by_step[s][mar.RADAR_DECOY], by_step[s][mar.NETWORK_TRACK]]) for s in steps}
     leader, prev = start_leader_of(layout, truth[steps[0]], setup.noise, setup.seed), None
@@ -73,7 +73,8 @@ def replay(d: dict, setup, layout: SensorLayout) -> list[dict]:
                                  measurement_normal(setup.seed, leader, s))
         res = leader_step(belief, z, leader, layout, setup.tracker, step=s, previous=prev, selection=setup.selection)
         target = by_step[s][mar.NETWORK_TRACK]
-        rows.append({'t': (s + 1) * dt, 'leader': leader, 'doa': doa, 'range': float(np.hypot(*(pos - target))),
+        rows.append({'t': stamp_of_step(s, dt, origin), 'leader': leader, 'doa': doa,
+                     'range': float(np.hypot(*(pos - target))),
                      'mean': res.estimate.mean, 'cov': res.estimate.cov, 'size': res.estimate.size,
                      'bytes': len(res.payload), 'truth': target})
         belief = decode_handoff(res.payload).belief()  # what the next leader receives (float32 body)

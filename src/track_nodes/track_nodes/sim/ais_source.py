@@ -5,10 +5,10 @@ At start the node reads the AIS file (``file``; default the Solent file under
 line), projects it to east/north metres in the tangent plane at the data centroid
 (``track_core.ais.projection``; every source uses the same origin, so their ``map`` frames
 agree) and simulates this source's reports (``track_core.ais.sources``) for the data window
-[``start``, ``start`` + ``duration``] seconds after the first AIS report. Node time 0 is data time
-``start``: a report of data time τ is stamped τ − ``start`` and published when the node clock
-reaches its stamp, so the replay runs as fast as ``/clock`` (the launcher's ``--rate``). On wall
-time (no ``use_sim_time``) node time 0 is the whole second at the first timer tick.
+[``start``, ``start`` + ``duration``] seconds after the first AIS report. The whole second of node
+time at the first timer tick (the origin) is data time ``start``: a report of data time τ is stamped
+origin + τ − ``start`` and published when the node clock reaches its stamp, so the replay runs as
+fast as ``/clock`` (the launcher's ``--rate``).
 
 The source reports every ship it sees at ``offset + k·period`` (node time), each report missing
 with probability ``dropout``, as the true position plus Gaussian noise with its own 2σ ellipse
@@ -137,7 +137,7 @@ class AisSourceNode(TrackNode):
         self.steps = FixedRateSteps(self, p.tick, self._step, max_time=p.duration)
 
     def _step(self, t: float) -> None:
-        # node time = origin + (data time − start); the origin is 0 on /clock, a whole second on wall time
+        # node time = origin + (data time − start); the origin is the whole second of node time at the first tick
         origin = self.steps.origin or 0.0
         rep, k = self.reports, self.next
         while k < len(rep) and origin + self.stamps[k] <= t + 1e-9:

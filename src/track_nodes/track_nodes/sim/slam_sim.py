@@ -4,7 +4,7 @@ At start the node draws one run of ``sim.simulate(LoopWorld(...), default_rng(se
 path, the noisy vehicle inputs and the laser scans (the same generator as the ``slam-loop``
 experiment). It then plays that run against node time: every ``world.dt`` (``FixedRateSteps``,
 so under ``/clock`` the stamps are exact and a seed reproduces every payload) it publishes every
-item whose data time has come, stamped ``origin + data time`` (origin 0 under ``use_sim_time``):
+item whose data time has come, stamped ``origin + data time`` (origin: the whole second of node time at the first tick):
 
 - ``/slam/scan`` (sensor_msgs/PointCloud2, ``records.slam.SlamScan``): fields ``x``, ``y``, ``z`` (the
   detection in the laser frame), ``range``, ``bearing`` (eq. 5), ``diameter`` (0: point landmarks)

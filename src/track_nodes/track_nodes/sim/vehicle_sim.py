@@ -11,8 +11,9 @@
 - Every Δt of node time (``FixedRateSteps``) it publishes the vehicle truth of tracker step s on
   ``/idsq/vehicle/truth`` (``nav_msgs/Odometry``, zero covariance, velocity (0, speed),
   ``child_frame_id`` = ``vehicle_id``), stamped origin + (s + 1)·Δt: the first tick comes one period
-  after the clock origin, and the vehicle enters the field (x = W/2, y = 0) then. The origin is 0
-  on /clock and the whole second of wall time at start otherwise; the layout carries it as its
+  after the clock origin, and the vehicle enters the field (x = W/2, y = 0) then. The origin is the
+  whole second of node time at start (at the first /clock if /clock has not started: the layout
+  is then published first stamped 0, "origin pending", and again stamped); the layout carries it as its
   stamp, and the sensors count steps from it (``ledger.step_of_stamp``), so the field also runs on
   wall time, started by hand in any order. It stops when the
   vehicle leaves the field (``Scenario.n_steps``, 72 for §5.1) or after ``max_steps``.
@@ -26,8 +27,6 @@ layout: ``track_nodes.launch.generate.idsq_yaml`` writes a launcher scenario wit
 """
 
 from __future__ import annotations
-
-import math
 
 import numpy as np
 from nav_msgs.msg import Odometry
@@ -70,14 +69,19 @@ class VehicleSimNode(TrackNode):
         self.published = 0
         self.pub_layout = self.create_publisher(PointCloud2, IDSQ_LAYOUT, STATIC_QOS)
         self.pub_truth = self.create_publisher(Odometry, IDSQ_TRUTH, TRUTH_QOS)
-        # The layout's stamp is the step origin the sensors count from (ledger.stamp_of_step): 0 on
-        # /clock, the current whole second on wall time.
-        now = self.get_clock().now().nanoseconds * 1e-9
-        origin = 0.0 if self.get_parameter('use_sim_time').value or now == 0.0 else float(math.floor(now))
-        self.pub_layout.publish(layout_to_pointcloud2(origin, self.layout))
-        self.steps = FixedRateSteps(self, p.dt, self._step, n * p.dt, origin=origin)
+        # The layout's stamp is the step origin the sensors count from (ledger.stamp_of_step): the
+        # current whole second of node time. On a /clock that has not started yet it is 0, "origin
+        # pending" (ROS time 0 is unset): the sensors set up their topics at once, so nothing is
+        # lost to discovery, and the layout is published again, stamped, at the first /clock.
+        now_ns = self.get_clock().now().nanoseconds
+        origin = None if now_ns == 0 else float(now_ns // 1_000_000_000)
+        self.steps = FixedRateSteps(self, p.dt, self._step, n * p.dt, origin=origin, on_origin=self._publish_layout)
+        self._publish_layout(origin or 0.0)
         self.get_logger().info(f'{self.layout.n} sensors ({int(self.layout.is_doa.sum())} DOA), '
                                f'{n} truth steps of {p.dt:g} s')
+
+    def _publish_layout(self, origin: float) -> None:
+        self.pub_layout.publish(layout_to_pointcloud2(origin, self.layout))
 
     def _step(self, t: float) -> None:
         s = self.steps.k - 1
