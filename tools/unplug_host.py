@@ -152,6 +152,13 @@ def main() -> int:
     code = proc.wait()
     for t in threads:
         t.join()
+    report(args, scenario, out, err, down, up, code)
+    return code
+
+
+def report(args, scenario: Path, out: list[str], err: list[str], down: float, up: float, code: int) -> None:
+    """Print the run and its figures; the launcher's whole output goes to RECORD.log."""
+    Path(f'{args.record}.log').write_text(''.join(out) + ''.join(err))
     print(f'host {args.host} unplugged at {down:.2f} s, plugged back at {up:.2f} s (wall, after the first leader)')
     print(''.join(line for line in out if 'recording /' not in line))
     warn = [line for line in err if 'WARN' in line or 'ERROR' in line]
@@ -161,11 +168,11 @@ def main() -> int:
     res = {'host': args.host, 'gap_s': args.gap, 'at_s': args.at, 'rate': args.rate,
            'down_s': round(down, 2), 'up_s': round(up, 2), 'launcher_exit': code,
            'revokes_logged': sum('revok' in line and 'revoked its handoff' not in line for line in err),
+           'expired_logged': sum('expired:' in line for line in err),
            **analyse(Path('bags') / args.record, gap, node_hosts(scenario, 3), args.host, args.end_steps)}
     print(json.dumps(res, indent=1))
     if args.json:
         args.json.write_text(json.dumps(res, indent=1) + '\n')
-    return code
 
 
 if __name__ == '__main__':

@@ -52,6 +52,11 @@ Protocol (Table 1 of Liu, Reich, Zhao 2002, one leader at a time):
   ``tools/unplug_host.py``). A revoke that cannot be delivered (all its history evicted) leaves
   the void chain running; the handoff QoS keeps enough history that this did not happen in the
   unplug runs (``track_msgs_py.qos.HANDOFF_QOS``).
+  Fewer void chains to revoke: a handoff that reaches the receiver more than ``ack_timeout``
+  after it was published (``age``: DDS reception minus source timestamp, so the receiver's own
+  executor delay does not count) is refused as *expired*: its sender has re-selected by then.
+  This assumes host clocks agree to well within ``ack_timeout``; where they do not, the revoke
+  still ends the chain.
 - Several sources (beyond the paper): each truth topic carries one or more sources (one child
   frame each); a step is sensed once every topic has delivered it, and each sensor hears the
   loudest source at its position, the nearest one (same amplitude A, A/r falls with range).
@@ -303,7 +308,7 @@ class HandoffLedger:
         self.layout: SensorLayout | None = None
         self.truth: dict[int, np.ndarray] = {}  # step → (M, 2) source positions, once every topic has it
         self._sources: dict[int, dict[tuple[str, str], np.ndarray]] = {}  # step → (topic, child) → xy
-        self.inbox: list[bytes] = []
+        self.inbox: list[tuple[bytes, float | None]] = []
         self.pending: Pending | None = None
         self.outgoing: dict[int, Outgoing] = {}  # step → handoff awaiting its ack (several if acks lag)
         self.start_checked = False
@@ -353,8 +358,9 @@ class HandoffLedger:
             return f'step: truth step {step} is more than {TRUTH_WINDOW} after step {h}'
         return None
 
-    def on_handoff(self, data: bytes) -> list[Effect]:
-        self.inbox.append(data)
+    def on_handoff(self, data: bytes, age: float | None = None) -> list[Effect]:
+        """Handoff (or revoke) bytes; ``age`` [s]: how long after its publication they were received."""
+        self.inbox.append((data, age))
         return self.advance()
 
     def on_reply(self, step: int, sender: int, receiver: int, result: str, message: str = '') -> list[Effect]:
@@ -400,7 +406,7 @@ class HandoffLedger:
             return []
         fx: list[Effect] = []
         while self.inbox:
-            fx += self._receive(self.inbox.pop(0))
+            fx += self._receive(*self.inbox.pop(0))
         if not self.start_checked and 0 in self.truth:
             self.start_checked = True
             if start_leader_of(self.layout, self.truth[0], self.s.noise, self.s.seed) == self.me:
@@ -413,13 +419,15 @@ class HandoffLedger:
             fx += self._lead(pend)
         return fx
 
-    def _receive(self, data: bytes) -> list[Effect]:
+    def _receive(self, data: bytes, age: float | None = None) -> list[Effect]:
         rev = decode_revoke(data)
         if rev is not None:
             return self._on_revoke(*rev)
         h, why = receive_handoff(data, self.s.grid, self.layout.n, receiver=self.me)
         head = peek_header(data)
-        if why is None and self.pending is not None:
+        if why is None and age is not None and age > self.s.ack_timeout:
+            why = f'expired: received {age:.1f} s after it was sent, beyond the ack timeout ({self.s.ack_timeout:g} s)'
+        elif why is None and self.pending is not None:
             why = f'busy: already holding the belief for step {self.pending.step}'
         elif why is None and h.step + 1 <= self.last_led:
             why = f'stale: step {h.step + 1} is not after step {self.last_led}, already led here'

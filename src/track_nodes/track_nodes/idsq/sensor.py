@@ -173,8 +173,11 @@ class IdsqSensorNode(TrackNode):
         _, x, _ = convert.odometry_to_cv_state(msg)
         self._do(self.core.on_truth(step, topic, msg.child_frame_id, x[[0, 2]]))
 
-    def _on_handoff(self, msg: UInt8MultiArray) -> None:
-        self._do(self.core.on_handoff(convert.uint8_array_to_handoff(msg)))
+    def _on_handoff(self, msg: UInt8MultiArray, info) -> None:
+        """(With the message info: the ledger refuses a handoff that arrived after the ack timeout.)"""
+        src, rcv = info.get('source_timestamp', 0), info.get('received_timestamp', 0)
+        age = (rcv - src) * 1e-9 if src > 0 and rcv > 0 else None
+        self._do(self.core.on_handoff(convert.uint8_array_to_handoff(msg), age))
 
     def _on_ack(self, msg: DiagnosticArray) -> None:
         for st in msg.status:

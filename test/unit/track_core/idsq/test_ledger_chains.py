@@ -106,3 +106,17 @@ def test_a_revoke_from_another_sender_or_for_another_sensor_changes_nothing():
     fx = leds[a].on_handoff(encode_revoke(0, s, other))
     assert 'addressed to sensor' in fx[0].text and leds[a].pending is not None
     assert np.isfinite(leds[a].pending.belief.mass).all()
+
+
+def test_a_handoff_received_after_the_ack_timeout_is_refused_as_expired():
+    """(A partition that heals replays old handoffs: refused, nothing changes but the counter.)"""
+    leds, layout, truth = _net()
+    s = start_leader_of(layout, truth[0], SimNoise(), SEED)
+    leds[s].on_truth(0, 'truth', 'vehicle', truth[0])
+    out = leds[s].outgoing[0]
+    from track_core.idsq.handoff import Handoff, encode_handoff
+    data = encode_handoff(Handoff.from_belief(0, s, out.receiver, out.belief))
+    late = leds[out.receiver].on_handoff(data, age=2.5)  # ack_timeout 2 s
+    assert late[-1].refusal is not None and late[-1].refusal.startswith('expired: ')
+    assert leds[out.receiver].pending is None and leds[out.receiver].refused == 1
+    assert leds[out.receiver].on_handoff(data, age=0.003)[0].refusal is None  # in time: taken
