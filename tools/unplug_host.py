@@ -6,8 +6,10 @@ GAP seconds, then up again. Then it reads the bag and reports (and with ``--json
 
 - ``gap_steps``: the tracker steps whose truth was published while the host was unplugged (wall
   time after the first leader × rate / Δt; the first leader starts at step 0);
-- error against the truth per step (every estimate of a step counts: a parallel chain's too):
+- error against the truth per step (the worst estimate of a step: a parallel chain's too):
   RTAMS (root of the mean squared error) and max, ``before``, ``during`` the gap steps and ``after``;
+  ``error_kept_chain``: the same without the estimates of void leads (an estimate is matched to its
+  leader's ``step`` event by its spread, the trace of its covariance);
 - ``chains``: per step, the leaders that led it (``step`` events minus ``void`` events, the chain
   rule of ``track_core.idsq.ledger``); ``max_chains_after`` over the steps after the gap and
   ``chains_at_end`` over the last ``--end-steps`` recorded steps (1 = converged to one chain);
@@ -52,20 +54,33 @@ def analyse(bag: Path, gap_steps: tuple[int, int], host_of: dict[int, int], host
     for m in msgs.get(IDSQ_TRUTH, []):
         s = step_of_stamp(stamp_to_sec(m.header.stamp), dt, origin)
         truth[s] = odometry_to_cv_state(m)[1][[0, 2]]
-    est = defaultdict(list)
+    est = defaultdict(list)  # step → [(xy, trace of the xy covariance)]
     for m in msgs.get(IDSQ_ESTIMATE, []):
         s = step_of_stamp(stamp_to_sec(m.header.stamp), dt, origin)
-        est[s].append(odometry_to_cv_state(m)[1][[0, 2]])
+        est[s].append((odometry_to_cv_state(m)[1][[0, 2]], m.pose.covariance[0] + m.pose.covariance[7]))
     events = [IdsqLeaderEvent.from_status(st) for arr in msgs.get(IDSQ_LEADER, []) for st in arr.status]
-    led, void = defaultdict(set), defaultdict(set)
+    led, void, spread = defaultdict(set), defaultdict(set), defaultdict(list)
     for e in events:
         if e.event in ('step', 'void'):
             (led if e.event == 'step' else void)[e.step].add(e.leader)
+        if e.event == 'step':
+            spread[e.step].append((e.leader, e.spread_m2))
     last = max(est) if est else -1
-    err = {s: max(float(np.hypot(*(x - truth[s]))) for x in xs) for s, xs in est.items() if s in truth}
+
+    def kept(s: int, tr: float) -> bool:
+        """Is the estimate of step s with spread tr from a leader whose lead was not voided? (Matched
+        to the step event of that step with the nearest spread = trace of the covariance.)"""
+        if not spread[s]:
+            return True
+        leader = min(spread[s], key=lambda ls: abs(ls[1] - tr))[0]
+        return leader not in void.get(s, set())
+
+    err_all = {s: max(float(np.hypot(*(x - truth[s]))) for x, _ in xs) for s, xs in est.items() if s in truth}
+    err_kept = {s: max(e) for s, xs in est.items() if s in truth
+                and (e := [float(np.hypot(*(x - truth[s]))) for x, tr in xs if kept(s, tr)])}
     g0, g1 = gap_steps
 
-    def stats(lo: int, hi: int) -> dict:
+    def stats(lo: int, hi: int, err: dict) -> dict:
         e = np.array([err[s] for s in range(lo, hi + 1) if s in err])
         return {'steps': [lo, hi], 'n': int(e.size), 'rtams_m': round(float(np.sqrt(np.mean(e ** 2))), 2) if e.size
                 else None, 'max_m': round(float(e.max()), 2) if e.size else None}
@@ -75,8 +90,10 @@ def analyse(bag: Path, gap_steps: tuple[int, int], host_of: dict[int, int], host
     tail = sorted(live)[-end_steps:]
     return {
         'gap_steps': [g0, g1], 'last_step_recorded': last, 'truth_steps': len(truth),
-        'error': {'before': stats(0, g0 - 1), 'during': stats(g0, g1), 'after': stats(g1 + 1, last),
-                  'all': stats(0, last)},
+        'error': {'before': stats(0, g0 - 1, err_all), 'during': stats(g0, g1, err_all),
+                  'after': stats(g1 + 1, last, err_all), 'all': stats(0, last, err_all)},
+        'error_kept_chain': {'during': stats(g0, g1, err_kept), 'after': stats(g1 + 1, last, err_kept),
+                             'all': stats(0, last, err_kept)},
         'steps_lost': [s for s in range(last + 1) if s not in est],
         'duplicated_steps': sorted(s for s in led if len(led[s]) > 1),
         'max_chains_after': max((len(live[s]) for s in after), default=0),
