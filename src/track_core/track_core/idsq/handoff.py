@@ -21,6 +21,10 @@ f32 [m/s], number of hypotheses J u16), then n × u32 key j·n_cells + cell and 
 ``HEADER_BYTES + BANK_BYTES + 8·n``. The receiver rebuilds the lattice from the spacing and its
 v_max, and the position belief as the marginal of the joint.
 
+Revoke (issue 15, the chain rule of ``ledger``): ``'<4sBxHHI'`` = 14 bytes, magic b'IDSR', version
+1, sender u16, receiver u16, step u32: "the handoff of ``step`` that ``sender`` sent you is void".
+It travels on the same topic as the handoffs (``encode_revoke``, ``decode_revoke``).
+
 ``validate_handoff`` returns ``None`` or a one-line reason (never raises) so that a node can
 refuse a malformed package with a warning and let the sender re-select; ``decode_handoff``
 raises ``ValueError`` with the same kind of one-line reason for undecodable bytes, and
@@ -50,6 +54,8 @@ BANK_BYTES = _BANK.size
 _ADDRESS = struct.Struct('<4sBxHHI')  # the header up to the step: magic, version, sender, receiver, step
 _HEADER = struct.Struct(_ADDRESS.format + 'dddHHI')
 HEADER_BYTES = _HEADER.size
+REVOKE_MAGIC = b'IDSR'
+REVOKE_BYTES = _ADDRESS.size
 MASS_TOL = 1e-3  # |Σ mass − 1| allowed (float32 body)
 
 
@@ -216,3 +222,16 @@ def peek_header(data: bytes) -> tuple[int, int, int] | None:
         return None
     magic, version, sender, receiver, step = _ADDRESS.unpack_from(data)
     return (sender, receiver, step) if magic == MAGIC and version in VERSIONS else None
+
+
+def encode_revoke(step: int, sender: int, receiver: int) -> bytes:
+    """The 14-byte revoke of ``sender``'s handoff of ``step`` to ``receiver`` (module docstring)."""
+    return _ADDRESS.pack(REVOKE_MAGIC, 1, sender, receiver, step)
+
+
+def decode_revoke(data: bytes) -> tuple[int, int, int] | None:
+    """``(sender, receiver, step)`` of a revoke, ``None`` if ``data`` is not one."""
+    if len(data) != REVOKE_BYTES:
+        return None
+    magic, version, sender, receiver, step = _ADDRESS.unpack_from(data)
+    return (sender, receiver, step) if magic == REVOKE_MAGIC and version == 1 else None

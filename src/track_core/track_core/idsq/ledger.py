@@ -32,8 +32,31 @@ Protocol (Table 1 of Liu, Reich, Zhao 2002, one leader at a time):
   neighbour), finally the sensor itself, which then leads the next step too, so the track never
   stops. A neighbour that timed out is tried last afterwards, until it acknowledges again.
   Outstanding handoffs are kept per step: a sensor may lead again before the ack of its
-  previous handoff arrives (a leader ring under load). An ack arriving after its timeout is
-  ignored (a slow rather than dead receiver would lead a forked track).
+  previous handoff arrives (a leader ring under load).
+- One chain (issue 15, beyond the paper): the *sender decides* who leads next. A handoff that
+  times out can still be delivered later (a partition that heals: reliable DDS re-sends it, and a
+  transient-local writer replays its history to a reader that matches again), or the receiver
+  took it in time and its ack was held up; either way the receiver leads a second, parallel chain
+  (measured before this rule: a 5 s unplug of one of 3 hosts left 4 chains). So each sensor
+  remembers, for the last ``STEP_WINDOW`` steps it led, every receiver it sent the handoff to
+  (``sent``) and the one that took it in time (``handed``: the acker, or itself after a self-lead).
+  An ack from any other receiver it sent to is answered with a *revoke* (``handoff.encode_revoke``,
+  on the handoff topic): "the handoff of step t I sent you is void". A sensor revoked for step t
+  by the sensor its belief came from (``parent``) drops that belief if it still holds it; if it
+  already led t + 1 it voids that step (``Void``; it no longer counts for the stale rule) and
+  revokes every handoff of step t + 1 it sent, its own continuation after a self-lead included,
+  so the revoke walks the void chain to its head, which stops leading. The kept chain is the
+  one every sender vouches for; nothing depends on clocks, timing or which message came first,
+  and a run without late acks takes exactly the path it took before this rule. The void chain
+  leaves the estimates it published before its revoke came (a few duplicated steps, counted by
+  ``tools/unplug_host.py``). A revoke that cannot be delivered (all its history evicted) leaves
+  the void chain running; the handoff QoS keeps enough history that this did not happen in the
+  unplug runs (``track_msgs_py.qos.HANDOFF_QOS``).
+  Fewer void chains to revoke: a handoff that reaches the receiver more than ``ack_timeout``
+  after it was published (``age``: DDS reception minus source timestamp, so the receiver's own
+  executor delay does not count) is refused as *expired*: its sender has re-selected by then.
+  This assumes host clocks agree to well within ``ack_timeout``; where they do not, the revoke
+  still ends the chain.
 - Several sources (beyond the paper): each truth topic carries one or more sources (one child
   frame each); a step is sensed once every topic has delivered it, and each sensor hears the
   loudest source at its position, the nearest one (same amplitude A, A/r falls with range).
@@ -55,7 +78,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from track_core.idsq.grid import GridSpec, SparseBelief, uniform_belief
-from track_core.idsq.handoff import Handoff, encode_handoff, peek_header, receive_handoff
+from track_core.idsq.handoff import (
+    Handoff,
+    decode_revoke,
+    encode_handoff,
+    encode_revoke,
+    peek_header,
+    receive_handoff,
+)
 from track_core.idsq.models import SimNoise, TrackerParams, loudest_source, simulate_measurement
 from track_core.idsq.network import SensorLayout
 from track_core.idsq.network import handoff_targets as core_handoff_targets
@@ -206,7 +236,25 @@ class Log:
     refusal: tuple[str, str] | None = None  # ('handoff' or 'ack', reason): a refused message, for the node's refuse
 
 
-Effect = Reply | Send | Disarm | Led | Reselect | SelfLead | Log
+@dataclass(frozen=True)
+class Revoke:
+    """Publish ``payload`` (a revoke of the handoff of ``step``) to ``receiver``, no timer; log ``text``."""
+
+    step: int
+    receiver: int
+    payload: bytes
+    text: str
+
+
+@dataclass(frozen=True)
+class Void:
+    """This sensor's lead of ``step`` (its belief from ``parent``) was revoked: its chain ends here."""
+
+    step: int
+    parent: int | None
+
+
+Effect = Reply | Send | Disarm | Led | Reselect | SelfLead | Log | Revoke | Void
 
 
 @dataclass
@@ -216,6 +264,7 @@ class Pending:
     belief: SparseBelief
     step: int
     previous: int | None
+    parent: int | None = None  # whose handoff it is: the sender, this sensor after a self-lead, None at the start
 
 
 @dataclass
@@ -260,7 +309,7 @@ class HandoffLedger:
         self.layout: SensorLayout | None = None
         self.truth: dict[int, np.ndarray] = {}  # step → (M, 2) source positions, once every topic has it
         self._sources: dict[int, dict[tuple[str, str], np.ndarray]] = {}  # step → (topic, child) → xy
-        self.inbox: list[bytes] = []
+        self.inbox: list[tuple[bytes, float | None]] = []
         self.pending: Pending | None = None
         self.outgoing: dict[int, Outgoing] = {}  # step → handoff awaiting its ack (several if acks lag)
         self.start_checked = False
@@ -268,6 +317,12 @@ class HandoffLedger:
         self.led: list[int] = []  # steps this sensor led
         self.suspects: set[int] = set()
         self.refused = self.timeouts = self.nacks = 0
+        # the chain rule (module docstring), for the last STEP_WINDOW led steps:
+        self.sent: dict[int, list[int]] = {}  # step → every receiver its handoff was sent to
+        self.handed: dict[int, int] = {}  # step → who took it in time (this sensor after a self-lead)
+        self.parent: dict[int, int | None] = {}  # led step → whose handoff its belief was
+        self.void: set[int] = set()  # led steps revoked since
+        self.revokes = 0  # revokes sent
 
     # -- inputs ------------------------------------------------------------------------------------
     def set_layout(self, layout: SensorLayout) -> list[Effect]:
@@ -304,8 +359,9 @@ class HandoffLedger:
             return f'step: truth step {step} is more than {TRUTH_WINDOW} after step {h}'
         return None
 
-    def on_handoff(self, data: bytes) -> list[Effect]:
-        self.inbox.append(data)
+    def on_handoff(self, data: bytes, age: float | None = None) -> list[Effect]:
+        """Handoff (or revoke) bytes; ``age`` [s]: how long after its publication they were received."""
+        self.inbox.append((data, age))
         return self.advance()
 
     def on_reply(self, step: int, sender: int, receiver: int, result: str, message: str = '') -> list[Effect]:
@@ -315,12 +371,17 @@ class HandoffLedger:
         if sender != self.me:
             return []
         if out is None or out.receiver != receiver:
-            return [Log('warning', f'late {result} from sensor {receiver} for the handoff of step {step} '
-                                   'ignored (already re-selected or done)',
-                        ('ack', f'late reply: {result} from sensor {receiver} for step {step}'))]
+            fx = [Log('warning', f'late {result} from sensor {receiver} for the handoff of step {step} '
+                                 'ignored (already re-selected or done)',
+                      ('ack', f'late reply: {result} from sensor {receiver} for step {step}'))]
+            if result == 'ack' and receiver in self.sent.get(step, ()) and self.handed.get(step) != receiver:
+                fx.append(self._revoke(step, receiver, f'sensor {receiver} took the handoff of step {step} '
+                                                       'after it was re-selected: revoking its chain'))
+            return fx
         fx: list[Effect] = [Disarm(step, receiver)]
         if result == 'ack':
             self.suspects.discard(receiver)
+            self.handed[step] = receiver
             del self.outgoing[step]
             return fx
         self.nacks += 1
@@ -346,7 +407,7 @@ class HandoffLedger:
             return []
         fx: list[Effect] = []
         while self.inbox:
-            fx += self._receive(self.inbox.pop(0))
+            fx += self._receive(*self.inbox.pop(0))
         if not self.start_checked and 0 in self.truth:
             self.start_checked = True
             if start_leader_of(self.layout, self.truth[0], self.s.noise, self.s.seed) == self.me:
@@ -359,10 +420,15 @@ class HandoffLedger:
             fx += self._lead(pend)
         return fx
 
-    def _receive(self, data: bytes) -> list[Effect]:
+    def _receive(self, data: bytes, age: float | None = None) -> list[Effect]:
+        rev = decode_revoke(data)
+        if rev is not None:
+            return self._on_revoke(*rev)
         h, why = receive_handoff(data, self.s.grid, self.layout.n, receiver=self.me)
         head = peek_header(data)
-        if why is None and self.pending is not None:
+        if why is None and age is not None and age > self.s.ack_timeout:
+            why = f'expired: received {age:.1f} s after it was sent, beyond the ack timeout ({self.s.ack_timeout:g} s)'
+        elif why is None and self.pending is not None:
             why = f'busy: already holding the belief for step {self.pending.step}'
         elif why is None and h.step + 1 <= self.last_led:
             why = f'stale: step {h.step + 1} is not after step {self.last_led}, already led here'
@@ -375,7 +441,7 @@ class HandoffLedger:
             if head is not None and head[0] < self.layout.n:
                 fx.append(Reply(head[0], head[2], why))
             return fx
-        self.pending = Pending(h.belief(), h.step + 1, h.sender)
+        self.pending = Pending(h.belief(), h.step + 1, h.sender, h.sender)
         return [Reply(h.sender, h.step, None)]
 
     def _lead(self, pend: Pending) -> list[Effect]:
@@ -388,6 +454,12 @@ class HandoffLedger:
                           selection=s.selection, rng=rng)
         self.last_led = step
         self.led.append(step)
+        self.parent[step] = pend.parent
+        self.sent[step] = []
+        for book in (self.parent, self.sent, self.handed):  # the chain rule's memory: STEP_WINDOW steps
+            for old in [k for k in book if k < step - STEP_WINDOW]:
+                del book[old]
+        self.void = {v for v in self.void if v >= step - STEP_WINDOW}
         order = handoff_order(res.candidates, res.scores, layout.neighbours[self.me], pend.previous, self.me,
                               first=res.next_leader, last=self.suspects)
         self.outgoing[step] = out = Outgoing(step, res.belief, order)
@@ -401,6 +473,7 @@ class HandoffLedger:
         fx: list[Effect] = []
         if k == self.me:
             del self.outgoing[out.step]
+            self.handed[out.step] = self.me
             if why is not None:
                 fx += [Log('warning', f'no neighbour took the handoff of step {out.step} (tried {out.tried}); '
                                       f'sensor {self.me} leads step {out.step + 1} itself'),
@@ -409,10 +482,45 @@ class HandoffLedger:
                 fx.append(Log('warning', f'dropping the belief of step {out.step}: already holding the one for '
                                          f'step {self.pending.step}'))
                 return fx
-            self.pending = Pending(out.belief, out.step + 1, None)
+            self.pending = Pending(out.belief, out.step + 1, None, self.me)
             return fx
+        self.sent.setdefault(out.step, []).append(k)
         payload = encode_handoff(Handoff.from_belief(out.step, self.me, k, out.belief))
         if why is not None:
             fx.append(Reselect(out.step, k, out.receiver, why, len(payload)))
         out.receiver = k
         return [*fx, Send(out.step, k, payload)]
+
+    # -- the chain rule (module docstring) ------------------------------------------------------------
+    def _revoke(self, step: int, receiver: int, text: str) -> Revoke:
+        self.revokes += 1
+        return Revoke(step, receiver, encode_revoke(step, self.me, receiver), text)
+
+    def _on_revoke(self, sender: int, receiver: int, step: int) -> list[Effect]:
+        """``sender`` says its handoff of ``step`` to this sensor is void."""
+        if receiver != self.me or sender >= self.layout.n:
+            self.refused += 1
+            why = f'revoke of step {step} from sensor {sender} addressed to sensor {receiver}'
+            return [Log('warning', f'refused {why}', ('handoff', why))]
+        return self._cut(step, sender)
+
+    def _cut(self, step: int, parent: int) -> list[Effect]:
+        """End the chain that ``parent``'s handoff of ``step`` started here, if it did."""
+        nxt = step + 1
+        if self.pending is not None and self.pending.step == nxt and self.pending.parent == parent:
+            self.pending = None
+            return [Log('warning', f'sensor {parent} revoked its handoff of step {step}: dropping the belief '
+                                   f'of step {nxt}'), Void(nxt, parent)]
+        if nxt not in self.parent or self.parent[nxt] != parent or nxt in self.void:
+            return []  # not from that handoff, or already cut
+        self.void.add(nxt)
+        self.last_led = max((s for s in self.led if s not in self.void), default=-1)
+        fx: list[Effect] = [Log('warning', f'sensor {parent} revoked its handoff of step {step}: my lead of step '
+                                           f'{nxt} is void, revoking what I handed on'), Void(nxt, parent)]
+        out = self.outgoing.pop(nxt, None)
+        if out is not None and out.receiver is not None:
+            fx.append(Disarm(nxt, out.receiver))
+        self.handed.pop(nxt, None)
+        for k in dict.fromkeys(self.sent.get(nxt, ())):
+            fx.append(self._revoke(nxt, k, f'revoking the handoff of step {nxt} to sensor {k} (void chain)'))
+        return fx + self._cut(nxt, self.me)  # and my own continuation after a self-lead

@@ -20,7 +20,7 @@ from track_msgs_py.convert import points_to_pointcloud2, stamp_to_sec
 from track_msgs_py.records import DIAG_OK, DIAG_WARN, RecordError, StatusRecord, read_cloud
 from track_msgs_py.topics import FRAME_MAP
 
-LEADER_EVENTS = ('step', 'reselect', 'self')
+LEADER_EVENTS = ('step', 'reselect', 'self', 'void')
 
 
 @dataclass(frozen=True)
@@ -55,7 +55,8 @@ def _bool_word(b: bool) -> str:
 class IdsqLeaderEvent(StatusRecord):
     """One ``/idsq/leader`` event of sensor ``leader``: ``step`` (it led ``step``; the estimate's fields),
     ``reselect`` (the handoff of ``step`` goes to ``next`` after ``failed`` timed out or refused,
-    ``reason``) or ``self`` (no neighbour took it, ``tried``; ``leader`` leads step + 1 itself).
+    ``reason``), ``self`` (no neighbour took it, ``tried``; ``leader`` leads step + 1 itself) or ``void``
+    (its lead of ``step``, from ``previous``'s handoff, was revoked: a parallel chain ended, issue 15).
     ``previous`` is -1 for no previous leader; ``handoff_bytes`` is 0 when nothing is sent."""
 
     KIND = 'idsq leader event'

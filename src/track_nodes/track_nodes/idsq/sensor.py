@@ -13,7 +13,9 @@ The protocol (handoffs, acks, the start rule, re-selection, randomness) is
   ``truth_topics`` topic (Odometry, one ``child_frame_id`` per source; step s stamped (s + 1)·Δt);
 - out: the reply on the sender's ``/idsq/sensor_<j>/ack``; when leading a step, ``/idsq/estimate``
   (Odometry with the belief covariance), ``/idsq/belief`` (``records.idsq.IdsqBelief``), ``/idsq/markers``,
-  the ``/idsq/leader`` events (``records.idsq.IdsqLeaderEvent``) and the handoff to the next sensor.
+  the ``/idsq/leader`` events (``records.idsq.IdsqLeaderEvent``) and the handoff to the next sensor;
+  a ``void`` event when its lead of a step was revoked (one chain: ``track_core.idsq.ledger``), and
+  the revokes it sends on with it, on the handoff topics.
 
 QoS: handoff and ack topics are reliable and transient-local (depth 4), so a handoff published
 while discovery is settling is delivered when they match. ``/idsq/vehicle/truth`` is reliable and
@@ -188,8 +190,11 @@ class IdsqSensorNode(TrackNode):
         _, x, _ = convert.odometry_to_cv_state(msg)
         self._do(self.core.on_truth(step, topic, msg.child_frame_id, x[[0, 2]]))
 
-    def _on_handoff(self, msg: UInt8MultiArray) -> None:
-        self._do(self.core.on_handoff(convert.uint8_array_to_handoff(msg)))
+    def _on_handoff(self, msg: UInt8MultiArray, info) -> None:
+        """(With the message info: the ledger refuses a handoff that arrived after the ack timeout.)"""
+        src, rcv = info.get('source_timestamp', 0), info.get('received_timestamp', 0)
+        age = (rcv - src) * 1e-9 if src > 0 and rcv > 0 else None
+        self._do(self.core.on_handoff(convert.uint8_array_to_handoff(msg), age))
 
     def _on_ack(self, msg: DiagnosticArray) -> None:
         for st in msg.status:
@@ -234,6 +239,12 @@ class IdsqSensorNode(TrackNode):
                     clock=self._steady)
             elif isinstance(fx, ledger.Disarm):
                 self._disarm(fx.step, fx.receiver)
+            elif isinstance(fx, ledger.Revoke):  # the chain rule (track_core.idsq.ledger)
+                self.get_logger().warning(fx.text)
+                self._handoff_pub(fx.receiver).publish(convert.handoff_to_uint8_array(fx.payload))
+            elif isinstance(fx, ledger.Void):
+                self._event(IdsqLeaderEvent('void', fx.step, self.id, self.id,
+                                            previous=-1 if fx.parent is None else fx.parent))
 
     def _disarm(self, step: int, receiver: int) -> None:
         timer = self.ack_timers.pop((step, receiver), None)

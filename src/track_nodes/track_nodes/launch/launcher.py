@@ -184,6 +184,8 @@ class Launch:
             launcher.destroy_node()
             context.try_shutdown()
         failed = [c for c in children if c.returncode not in (0, -signal.SIGINT, None)]
+        for c in failed:  # say who: a bare exit code 2 after a full run is not diagnosable
+            print(f'track_nodes.launch: {c.label} exited with code {c.returncode}', file=sys.stderr)
         return EXIT_BAD_INPUT if failed else 0
 
     def _drain(self, launcher: LauncherNode, executor: MultiThreadedExecutor) -> None:

@@ -50,5 +50,7 @@ def stop_processes(children: Sequence[subprocess.Popen]) -> None:
         try:
             child.wait(timeout=10)
         except subprocess.TimeoutExpired:
+            print(f'track_nodes.launch: {getattr(child, "label", child.pid)} still running 10 s after SIGINT: '
+                  'killed', file=sys.stderr)
             child.kill()
             child.wait()
