@@ -15,7 +15,9 @@ over all tracking steps and runs, as in Table 4. Each entry writes the error fig
 analogue) and a Fig. 8 snapshot (belief, sensors, leader, candidates, target) of K = 40, 30 % DOA.
 
 Known residual difference from the paper (seed 0, 20 runs): our Table 4 errors are 9-22 % below
-the paper's at every K (ratio K=24/K=64 2.21 vs 1.94) and the |N| column matches, but our belief
+the paper's at every K (ratio K=24/K=64 2.21 vs 1.94; measured with the former 1.5°/m near-field DOA
+slope; with the derived 4°/m of models.py K = 24 / 40 / 64 are 8 / 11 / 19 % below, 22.27 / 14.20 /
+10.05 m, the other K not re-run) and the |N| column matches, but our belief
 spread is only 40-46 % of the paper's and the cell count 60-70 %. The error is mostly an
 along-track lag (mean north error −21 / −13 / −9 m at K = 24 / 40 / 64 after step 5, cross-track
 mean ≈ 0): the disk prediction has no drift, the vehicle does (the velocity-aware predictions of

@@ -9,12 +9,20 @@ Conventions and interpretations:
 - Eq. 11 ignores the 2π periodicity; we evaluate it on the wrapped innovation wrap(z − θ), which
   equals eq. 11 when σ is small and is correct across ±π.
 - Fig. 6 σ(r) (tracker's DOA model): σ₀ = 10° on [r_near, r_far] = [20, 100] m; the slopes are
-  not given. Ours: near field σ grows linearly as r falls, +1.5°/m (σ(0) = 40°); far field
-  +0.2°/m beyond r_far (σ(200 m) = 30°); capped at 90° (beyond that a bearing says nothing and
-  the wrapped Gaussian is no longer a density on the circle to any useful accuracy).
-  The slopes matter little in the §5.1 runs: with a 4°/m near slope (σ(0) = 90°, "no evidence"
-  at the sensor) the error is 22.3 / 14.2 / 10.1 m at K = 24 / 40 / 64 and 6.3 m all-DOA
-  (20 runs, seed 0), against 22.0 / 13.9 / 9.9 and 5.8 m with 1.5°/m.
+  not given. Far field: +0.2°/m beyond r_far (σ(200 m) = 30°); capped at σ_max = 90° (beyond that
+  a bearing says nothing and the wrapped Gaussian is no longer a density on the circle to any
+  useful accuracy). Near field: σ grows linearly as r falls (Fig. 6) and reaches the cap at the
+  sensor, σ(0) = σ_max, i.e. the slope is (σ_max − σ₀)/r_near = 4°/m by default (``near_slope=None``
+  derives it from the other three; a number overrides). Reason: §3.2 / Fig. 7 say the likelihood
+  "fans out" in the near range, where "the angle measurement does not provide much evidence about
+  the target's location", and a source *at* the array has no bearing at all; the fixed 1.5°/m we
+  used before (σ(0) = 40°) claimed a bearing from 1.5 m was as good as ±40°, so the near cells off
+  the measured ray were cut like far ones (a cell 60° off kept exp(−½(60/38)²) = 0.28 of its
+  prior weight; now exp(−½(60/84)²) = 0.78 at σ(1.5 m) = 84°) and, with the wedge's area growing
+  with r, the posterior of a DOA leader 1.5 m from the target went 17 m out along its bearing
+  (issue 17, maritime seed 3, t = 28 s). Now the near disk keeps its prior shape and the ray
+  adds to it; the sensor's MI falls as well (the bearings of near cells are predicted to say
+  little). Table 4 (diffusion, 20 runs, seed 0) changes by ≤ 0.3 m: see the README.
 - Eq. 6 is the density of z given the range r (a ~ U[a_lo, a_hi], w ~ N(0, σ²)). Φ is the
   standard normal CDF (``scipy.stats.norm.cdf``). r = 0 gives 0 (the limit of eq. 6).
 - Simulation (§5.1): acoustic z = A/‖x − ζ‖ + N(0, 0.05²); DOA z = θ + N(0, (3°)²), wrapped.
@@ -47,7 +55,7 @@ class TrackerParams:
     r_near: float = 20.0           # m
     r_far: float = 100.0           # m
     sigma_doa: float = 10.0 * DEG  # Fig. 6 σ in [r_near, r_far]
-    near_slope: float = 1.5 * DEG  # rad per m, as r falls below r_near
+    near_slope: float | None = None  # rad per m as r falls below r_near; None: σ(0) = sigma_doa_max (see above)
     far_slope: float = 0.2 * DEG   # rad per m, beyond r_far
     sigma_doa_max: float = 90.0 * DEG
     sparsity: float = SPARSITY_THRESHOLD  # relative threshold of §2.3 (see grid.py)
@@ -72,6 +80,9 @@ class TrackerParams:
         if not 0.0 <= self.sparsity < 1.0:
             raise ValueError(f'sparsity={self.sparsity} must be in [0, 1)')
         self._check_prediction()
+        if self.near_slope is None:  # Fig. 6 near field reaching "no evidence" (σ_max) at the sensor
+            slope = (self.sigma_doa_max - self.sigma_doa) / self.r_near if self.r_near > 0 else 0.0
+            object.__setattr__(self, 'near_slope', float(max(slope, 0.0)))
         for k in ('near_slope', 'far_slope'):
             v = getattr(self, k)
             if not (np.isfinite(v) and v >= 0):

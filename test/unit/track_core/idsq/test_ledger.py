@@ -47,6 +47,7 @@ from track_core.idsq.ledger import (
     start_leader_of,
     step_of_stamp,
 )
+from track_core.idsq.models import DEG
 from track_core.idsq.simulation import scenario_of
 
 FIXTURE = Path(__file__).parent / 'data' / 'ledger_cases.json'
@@ -125,12 +126,17 @@ def canonical(effects) -> tuple[str, list[float]]:
 
 # --- replay ---------------------------------------------------------------------------------------
 
+# The cases were recorded with the former Fig. 6 near slope (1.5°/m; models.py now derives 4°/m from
+# σ(0) = σ_max): the replay checks the protocol, so it keeps the sensor model the outputs were made with.
+RECORDED_MODEL = TrackerParams(near_slope=1.5 * DEG)
+
+
 def replay(case: dict) -> tuple[list[str], list[list[float]], list]:
     _, layout, truth = scenario_of(case['lseed'], case['n'], 0.3)
     truthb = truth + np.random.default_rng(case['bseed']).normal(0, 30.0, truth.shape)
     me = case['me']
     led = HandoffLedger(SensorSetup(me, layout.positions[me].copy(), bool(layout.is_doa[me]),
-                                    GridSpec.for_field(*FIELD, case['cell']), TrackerParams(), SimNoise(),
+                                    GridSpec.for_field(*FIELD, case['cell']), RECORDED_MODEL, SimNoise(),
                                     case['seed'], case['sel'], tuple(CASES['topics'][:case['topics']]), 0.3))
     outs, floats = [], []
     for ev in case['events']:

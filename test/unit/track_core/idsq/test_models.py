@@ -54,6 +54,38 @@ def test_fig6_sigma_flat_in_working_range_and_growing_outside():
     assert s[-1] == P.sigma_doa_max
 
 
+def test_fig6_near_field_reaches_no_evidence_at_the_sensor():
+    """The derived near slope (σ(0) = σ_max, models.py) follows σ₀, r_near and σ_max; a number overrides it."""
+    assert np.isclose(P.near_slope, 4 * DEG)
+    assert np.isclose(doa_sigma(0.0, P), P.sigma_doa_max) and np.isclose(doa_sigma(P.r_near, P), P.sigma_doa)
+    q = TrackerParams(sigma_doa=5 * DEG, r_near=10.0, sigma_doa_max=45 * DEG)
+    assert np.isclose(doa_sigma(0.0, q), 45 * DEG) and np.isclose(q.near_slope, 4 * DEG)
+    assert TrackerParams(near_slope=1.5 * DEG).near_slope == 1.5 * DEG
+    assert TrackerParams(r_near=0.0).near_slope == 0.0
+
+
+def test_near_field_doa_leader_keeps_the_near_prior():
+    """Issue 17, maritime seed 3, t = 28 s (prior 14 m off, DOA leader 1.5 m from the target, exact bearing):
+    with σ(0) = σ_max the posterior keeps more mass near the sensor and ends nearer the target than with the
+    former 1.5°/m near slope (σ(0) = 40°), which cut the near cells off the ray like far ones."""
+    from track_core.idsq.grid import GridSpec, estimate, sparsify, uniform_belief
+    from track_core.idsq.tracker import update
+
+    g = GridSpec.for_field(150.0, 300.0, 5.0)
+    u = uniform_belief(g)
+    prior_mean, truth, sensor = np.array([107.0, 254.4]), np.array([97.2, 244.4]), np.array([96.0, 245.3])
+    prior = sparsify(g, u.idx, np.exp(-0.5 * np.sum((u.centers() - prior_mean) ** 2, axis=1) / 11.0**2), P.sparsity)
+    z = float(bearings(truth, sensor))
+    out = {}
+    for name, p in (('derived', P), ('1.5deg/m', TrackerParams(near_slope=1.5 * DEG))):
+        post, ok = update(prior, z, sensor, True, p)
+        assert ok
+        near = np.hypot(*(post.centers() - sensor).T) < 10.0
+        out[name] = (float(np.hypot(*(estimate(post).mean - truth))), float(post.mass[near].sum() / post.mass.sum()))
+    assert out['derived'][0] < out['1.5deg/m'][0] - 0.5  # 12.5 vs 13.5 m
+    assert out['derived'][1] > out['1.5deg/m'][1] + 0.01  # 0.231 vs 0.215
+
+
 def test_simulated_measurements_have_the_paper_noise():
     rng = np.random.default_rng(0)
     n, noise = 4000, SimNoise()
