@@ -128,9 +128,9 @@ def test_processes_mode_records_the_same_topics(tmp_path, env_factory, repo):
     assert proc.returncode == 0, proc.stderr
     counts = {t: len(v) for t, v in payloads(tmp_path / 'bags/p').items()}
     assert set(counts) == TOPICS and all(c == 20 for c in counts.values()), counts
-    # Issue 19 item 10: the default epoch is now, so a sim-time bag shows the day it was recorded
+    # Issue 19 item 10: the default epoch is now (its whole minute), so a sim-time bag shows when it was recorded
     with Reader(tmp_path / 'bags/p') as reader:
-        assert before - 10**9 <= reader.start_time <= reader.end_time <= after, (before, reader.start_time, after)
+        assert before - 60 * 10**9 <= reader.start_time <= reader.end_time <= after, (before, reader.start_time, after)
 
 
 def test_fixed_epoch_starts_the_bag_there(demo_bags):

@@ -148,7 +148,7 @@ class _Runner:
                  clock_pub=None, rate: float = 0.0) -> None:
         self.executor, self.context, self.result = executor, context, result
         self.clock_pub, self.rate = clock_pub, rate
-        self.sim = 0.0
+        self.sim = float(int(time.time()) // 60 * 60)  # like the launcher's default --epoch (ROS time 0 is unset)
         self.sim_cap: float | None = None  # attack: the clock may not pass this
         self.last_wall = time.monotonic()
         self.last_tick = -1.0

@@ -8,7 +8,7 @@ optionally spread round-robin over N simulated hosts that the launcher creates a
 
 Time: with ``--rate R > 0`` (default: the scenario's ``rate``) every node gets
 ``use_sim_time:=true`` and this launcher publishes ``/clock``, starting at the epoch E (``--epoch``:
-``now``, the default, is the whole second of wall time when the clock starts, so a recording shows
+``now``, the default, is the whole minute of wall time when the clock starts, so a recording shows
 its real date; or whole seconds since 1970, at least 1 because ROS time 0 means "not set", or an
 ISO date in UTC), in steps of
 min(R·CLOCK_TICK, MAX_CLOCK_STEP) seconds, at most R times faster than the wall clock. In one
@@ -276,7 +276,9 @@ class Launch:
         wall_step = step / self.rate if self.sim else CLOCK_TICK
         t0, k = time.monotonic(), 0
         if self.epoch is None:
-            self.epoch = int(time.time())
+            # A whole minute: rcl phases a node-time timer from time 0, so an epoch that every period of a
+            # scenario divides (0.1 ... 5 s, 1 min) keeps the timers on the simulators' step grids.
+            self.epoch = int(time.time()) // 60 * 60
         epoch_ns = self.epoch * 1_000_000_000
         if self.sim:
             print(f'/clock from {datetime.fromtimestamp(self.epoch, UTC):%Y-%m-%d %H:%M:%S} UTC'
