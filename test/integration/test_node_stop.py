@@ -1,5 +1,6 @@
-"""How a node process stops (issue 15): SIGUSR1 dumps its stacks without stopping it; after SIGINT it
-tears down and leaves without CPython's module finalization, with exit code 0."""
+"""How node processes stop (issue 15): SIGUSR1 dumps a node's stacks without stopping it; after SIGINT it
+tears down and leaves without CPython's module finalization, with exit code 0; the launcher kills only
+children that do not work towards their exit; a domain Fast DDS cannot use is refused before it starts."""
 
 from __future__ import annotations
 
@@ -51,3 +52,15 @@ def test_the_launcher_kills_an_idle_child_and_waits_for_a_working_one(monkeypatc
     err = capfd.readouterr().err
     assert 'idle_child still running' in err and 'idle for' in err and 'busy_child' not in err, err
     assert 'most recent call first' in err, err  # the idle child's stack, before the kill
+
+
+def test_a_domain_fast_dds_cannot_use_is_one_line_before_anything_starts(repo, tmp_path, env_factory):
+    """Fast DDS exit(1)s in the first node's creation above domain 232 (no message of ours; with
+    --hosts the namespaces were left behind): the launcher refuses it first, one line, exit 2."""
+    env = {**env_factory(), 'ROS_DOMAIN_ID': '233'}
+    proc = subprocess.run([sys.executable, '-m', 'track_nodes.launch', str(repo / 'config/idsq.yaml'), '--processes',
+                           '--hosts', '1', '--duration', '1'], cwd=tmp_path, env=env, capture_output=True, text=True,
+                          timeout=60)
+    assert proc.returncode == 2 and proc.stderr.strip().splitlines() == [
+        'track_nodes.launch: ROS_DOMAIN_ID=233: Fast DDS needs 0..232 (its UDP ports)'], proc.stderr
+    assert 'hosts:' not in proc.stdout
