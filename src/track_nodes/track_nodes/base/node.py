@@ -35,6 +35,8 @@ recorder's subscriptions before it starts the clock) sees /tf before the first t
 from __future__ import annotations
 
 import contextlib
+import faulthandler
+import signal
 import sys
 from collections.abc import Callable, Sequence
 from types import SimpleNamespace
@@ -58,6 +60,9 @@ from track_nodes.base.params import Param, ParameterError, declare_params
 from track_nodes.base.refusals import RefusalCounter
 
 EXIT_BAD_INPUT = 2
+# Set once run_nodes has destroyed its nodes and shut rclpy down: what is left of the process is
+# CPython's own finalization, which ``python -m track_nodes`` skips (track_nodes/__main__.py).
+TEARDOWN = SimpleNamespace(done=False)
 
 
 
@@ -224,6 +229,10 @@ def run_nodes(makers: Sequence[tuple[str, Callable[[], Node]]], argv: Sequence[s
     line on stderr (``<name>: <problem>``) and nothing runs.
     """
     args = list(sys.argv if argv is None else argv)
+    # A process that does not stop gets SIGUSR1 from the launcher before the kill (launch/processes.py):
+    # every thread's Python stack goes to stderr (a C-level handler: it fires with the main thread in C too).
+    with contextlib.suppress(AttributeError, ValueError, RuntimeError):
+        faulthandler.register(signal.SIGUSR1, all_threads=True)
     problem = params_file_problem(args)
     if problem is None:
         try:
@@ -257,6 +266,7 @@ def run_nodes(makers: Sequence[tuple[str, Callable[[], Node]]], argv: Sequence[s
         # the context down under them (rcl then raises "context is invalid"); that is a clean stop.
     finally:
         for node in nodes:
-            node.destroy_node()
+            node.destroy_node()  # the last node of the context takes the DDS participant with it (rmw_fastrtps)
         rclpy.try_shutdown()
+        TEARDOWN.done = True
     return max((getattr(node, 'exit_code', 0) for node in nodes), default=0)

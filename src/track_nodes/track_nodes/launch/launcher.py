@@ -66,6 +66,7 @@ QUIET = 2.0  # --processes: the graph is drained once no watched topic delivered
 DRAIN_MAX = 120.0  # ... waiting at most this long after the clock stopped
 WATCH_EVERY = 50  # clock steps between looks for new topics to watch (--processes)
 READY_TIMEOUT = 90.0  # a deadline, not a wait: 25 processes importing scipy on a loaded 2-core machine
+MAX_DOMAIN_ID = 232  # Fast DDS's default port mapping (7400 + 250 d + ...) leaves the UDP range above it
 
 
 class LaunchError(RuntimeError):
@@ -135,6 +136,10 @@ class Launch:
 
     # -- the two ways of running the nodes ------------------------------------------------
     def run(self, processes: bool, n_hosts: int = 0) -> int:
+        domain = os.environ.get('ROS_DOMAIN_ID', '').strip()
+        if domain and not (domain.isdigit() and int(domain) <= MAX_DOMAIN_ID):
+            # Fast DDS exit(1)s inside the first node's creation: no message of ours, namespaces left behind
+            raise LaunchError(f'ROS_DOMAIN_ID={domain}: Fast DDS needs 0..{MAX_DOMAIN_ID} (its UDP ports)')
         if not n_hosts:
             return self._run(processes, None)
         if not processes or n_hosts < 1:

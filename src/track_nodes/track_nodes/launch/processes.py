@@ -3,15 +3,18 @@
 With ``hosts`` (``--hosts N``) node k runs in simulated host k mod N (``ip netns exec``); the
 recorder stays in the launcher's namespace, which reaches every host (see ``hosts``).
 
-A terminal Ctrl-C then reaches only the launcher, which stops the children in order (SIGINT,
-then a kill after 10 s) so the recorder closes its bag.
+A terminal Ctrl-C then reaches only the launcher, which stops the children (SIGINT, then a kill
+of those that do not stop: ``stop_processes``) so the recorder closes its bag. A child that is
+killed is asked for its Python stacks first (SIGUSR1), so a real hang says where.
 """
 
 from __future__ import annotations
 
+import contextlib
 import signal
 import subprocess
 import sys
+import time
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -41,16 +44,52 @@ def spawn_nodes(specs: Sequence[NodeSpec], params_files: Sequence[str], sim: boo
     return children
 
 
+STOP_WAIT = 10.0  # [wall s] after the SIGINT, a child that does not work towards its exit is killed ...
+STOP_IDLE = 3.0  # ... "does not work": its main thread took no CPU time for this long (Linux /proc)
+STOP_MAX = 60.0  # [wall s] a child still running this long after the SIGINT is killed, working or not
+
+
 def stop_processes(children: Sequence[subprocess.Popen]) -> None:
-    """SIGINT every child still running, wait up to 10 s each, then kill."""
+    """SIGINT every child still running; kill those that do not stop (see ``STOP_WAIT``).
+
+    The stop is CPU work (destroy the nodes, close the bag, delete the DDS participant): on a loaded
+    machine 25 processes doing it at once can take longer than ``STOP_WAIT`` of wall time, so a child
+    whose main thread is still taking CPU time gets up to ``STOP_MAX``. A child that is killed is
+    asked for its Python stacks first (SIGUSR1, faulthandler: see ``base/node.py``) and named.
+    """
     for child in children:
         if child.poll() is None:
             child.send_signal(signal.SIGINT)
-    for child in children:
-        try:
-            child.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            print(f'track_nodes.launch: {getattr(child, "label", child.pid)} still running 10 s after SIGINT: '
-                  'killed', file=sys.stderr)
-            child.kill()
-            child.wait()
+    t0 = time.monotonic()
+    cpu: dict[int, float | None] = {}
+    busy: dict[int, float] = {}  # pid -> last time its main thread was seen taking CPU
+    while alive := [c for c in children if c.poll() is None]:
+        now = time.monotonic()
+        for child in alive:
+            used = _main_thread_cpu(child.pid)
+            if used is not None and used != cpu.get(child.pid):
+                busy[child.pid] = now
+            cpu[child.pid] = used
+            elapsed, idle = now - t0, now - busy.get(child.pid, t0)
+            if elapsed >= STOP_MAX or (elapsed >= STOP_WAIT and idle >= STOP_IDLE):
+                why = f'working {elapsed:.0f} s' if idle < STOP_IDLE else f'idle for {idle:.0f} s'
+                print(f'track_nodes.launch: {getattr(child, "label", child.pid)} still running {elapsed:.0f} s '
+                      f'after SIGINT ({why}): its Python stacks follow (SIGUSR1), then killed',
+                      file=sys.stderr, flush=True)
+                with contextlib.suppress(ProcessLookupError):
+                    child.send_signal(signal.SIGUSR1)  # faulthandler in base/node.py: every thread's stack
+                with contextlib.suppress(subprocess.TimeoutExpired):
+                    child.wait(timeout=1.0)
+                child.kill()
+                child.wait()
+        time.sleep(0.1)
+
+
+def _main_thread_cpu(pid: int) -> float | None:
+    """CPU time [clock ticks] of ``pid``'s main thread, None where /proc does not tell (or it is gone)."""
+    try:
+        with open(f'/proc/{pid}/task/{pid}/stat') as f:
+            fields = f.read().rsplit(')', 1)[1].split()
+    except (OSError, IndexError):
+        return None
+    return float(fields[11]) + float(fields[12])  # utime, stime (fields 14 and 15 of proc(5))
