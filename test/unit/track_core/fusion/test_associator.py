@@ -3,12 +3,17 @@
 ``data/associator_cases.json`` holds 300 random sequences of track reports (and, for the timer
 schedule, scoring ticks) with what the pre-issue-12 fusion node (``FusionNode._store``/``_score``
 at commit 3ac9344) published for them: every pair's raw and combined score, window length and
-verdict, and every fused estimate. The core must reproduce them exactly (float equality).
+verdict, and every fused estimate. The core must reproduce them: every discrete value (pairs,
+window lengths, verdicts, ids) exactly, every float to 1e-6 relative. (Exact float equality held on
+the machine that made the file, an AVX-512 one; numpy's SIMD loops sum in another order on AVX2,
+and there 76 of the 300 cases differed in the floats only: by ~1e-16 relative, and by up to 1.1e-7
+in the Monte-Carlo scores, which carry such differences through their sampling.)
 """
 
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -64,11 +69,21 @@ def test_the_saved_cases_cover_every_method_and_both_schedules():
     assert 0.2 < np.mean(verdicts) < 0.8  # both verdicts occur often
 
 
+def _same(got, want) -> bool:
+    """Discrete values equal, floats to 1e-6 relative, recursively (lists of instants, pairs, fused)."""
+    if isinstance(want, float) or isinstance(got, float):
+        return not isinstance(got, bool) and math.isclose(got, want, rel_tol=1e-6, abs_tol=1e-9)
+    if isinstance(want, list):
+        return isinstance(got, list) and len(got) == len(want) and all(map(_same, got, want))
+    return got == want
+
+
 @pytest.mark.parametrize('k', range(len(DATA['cases'])))
 def test_identical_to_the_old_node_path(k):
     values, events, expected = DATA['cases'][k]
     p = dict(zip(DATA['params'], values, strict=True))
-    assert _run(p, events) == expected
+    got = _run(p, events)
+    assert _same(got, expected), next((g, w) for g, w in zip(got, expected, strict=False) if not _same(g, w))
 
 
 def test_same_source_pairs_are_masked_unless_asked_for():
