@@ -33,6 +33,7 @@ import argparse
 import contextlib
 import os
 import signal
+import socket
 import subprocess
 import sys
 import time
@@ -154,6 +155,7 @@ class Launch:
 
     def _run(self, processes: bool, hosts: Hosts | None) -> int:
         self.context = context = Context()
+        self._watch_sigint()
         ros_args = ['--ros-args', *[a for f in self.params_files for a in ('--params-file', f)]]
         rclpy.init(args=ros_args if not processes else None, context=context)
         launcher = LauncherNode(context)
@@ -230,7 +232,25 @@ class Launch:
             idle = 0
             handler()
             if handler.exception() is not None:
+                if self._interrupted():  # Ctrl-C inside a callback (e.g. during a take): a clean stop
+                    raise KeyboardInterrupt from handler.exception()
                 raise handler.exception()
+
+    def _watch_sigint(self) -> None:
+        """Note every signal in a socket (``signal.set_wakeup_fd``): a Ctrl-C that lands inside a
+        callback can surface as another error (rclpy's take: "Unable to convert call argument"),
+        and the launcher must still stop cleanly then."""
+        self._sig_r, self._sig_w = socket.socketpair()
+        for sock in (self._sig_r, self._sig_w):
+            sock.setblocking(False)
+        with contextlib.suppress(ValueError):  # not the main thread: no watch
+            signal.set_wakeup_fd(self._sig_w.fileno(), warn_on_full_buffer=False)
+        self._sigint = False
+
+    def _interrupted(self) -> bool:
+        with contextlib.suppress(BlockingIOError, AttributeError, OSError):
+            self._sigint = self._sigint or signal.SIGINT in self._sig_r.recv(64)
+        return getattr(self, '_sigint', False)
 
     def _overrides(self) -> list[Parameter]:
         return [Parameter('use_sim_time', value=self.sim)]
