@@ -12,11 +12,10 @@ Usage::
   in ``topics``. The transform tree, ``/tf`` and ``/tf_static``, is recorded too whatever the
   filter (a bag whose frames cannot be placed is of little use in RViz or Foxglove), unless
   ``tf`` is false (``--no-tf``); a topic listed in ``topics`` is recorded even then. ``/tf_static``
-  publishers are transient-local (one message each with all their static transforms), so a
-  recorder started after them still gets every one. Topics that appear later are found by polling the graph every
-  ``discovery_period`` seconds; a topic is subscribed once it has a publisher (its type and QoS
-  come from the publishers). Discovery and flushing run on the steady wall clock, also under
-  ``use_sim_time`` (a launcher may start /clock only once the recorder has subscribed).
+  is transient-local, so a recorder started late still gets every static transform. Topics that
+  appear later are found by polling the graph every ``discovery_period`` seconds; a topic is
+  subscribed once it has a publisher (its type and QoS come from the publishers). Discovery and
+  flushing run on the steady clock, also under ``use_sim_time`` (/clock may start only later).
 - Subscriptions are raw (the CDR bytes are written as received). QoS
   (``bag.api.recording_qos``): best effort if any publisher is best effort, transient-local if
   all are, else reliable; keep-last 100,000 (best effort 1000), though Fast DDS holds at most
@@ -32,13 +31,9 @@ Usage::
 - Durability: every ``flush_period`` seconds the pending MCAP chunk is written and the file
   flushed, so after a SIGKILL the .mcap holds every message up to the last flush; recover it
   with ``track-bag-recover``. SIGINT/SIGTERM (and destroying the node) close the bag cleanly.
-- Throughput (``track-bench recorder``, bursts of 5000 716-B Odometry): an executor pass costs
-  ~170 µs a message (a bare raw subscription: 5.8k/s), 25× a ``Writer.write``; so a callback also
-  takes the messages queued behind its own (``bag.take``, ≤ ``TAKE_LIMIT``: timers and other topics
-  keep their turn) under one lock: 81k/s, 13× that ceiling, 0.54 of the Writer alone. Kept the
-  SingleThreadedExecutor: the EventsExecutor (bare: 184k/s) fails on message-info callbacks, which
-  loss counting needs; MultiThreaded: 2.2k/s bare, 19-30k/s batched. A writer thread fed by a
-  queue gave 76-83k/s against 85-125k/s inline (the GIL: hand-offs, no parallel work).
+- Throughput: a callback also takes the messages queued behind its own (``bag.take``, ≤ ``TAKE_LIMIT``)
+  under one lock: 81k msgs/s in ``track-bench recorder``, 13× a bare raw subscription on the same
+  executor; ``bag.take`` has the figures and the executors tried.
 """
 
 from __future__ import annotations
@@ -65,7 +60,7 @@ from track_nodes.bag.api import (
     set_ros_distro,
 )
 from track_nodes.bag.loss import LossCounter
-from track_nodes.bag.take import can_take, take_pending
+from track_nodes.bag.take import BeforeClock, can_take, take_pending
 from track_nodes.base import Param, TrackNode, run_node
 from track_nodes.base.cli import OneLineParser, cli_overrides
 
@@ -96,7 +91,7 @@ class RecorderNode(TrackNode):
         self._writer = None
         self._closed = False
         self._lock = threading.Lock()
-        self._before_clock: list[tuple[object, bytes]] = []  # (connection, CDR) taken before the first /clock
+        self._before_clock = BeforeClock()
         self._clock = self.get_clock()
         self._batching = True  # until a subscription lacks take_message (bag.take.can_take)
         p = self.p
@@ -214,25 +209,17 @@ class RecorderNode(TrackNode):
             if self._closed:
                 return
             conn, write, received = self.connections[topic], self._writer.write, self.losses.received
-            if sim and now == 0:  # before the first /clock: written when the clock starts (see below)
-                self._before_clock += [(conn, raw) for raw, _ in batch]
-            elif self._before_clock:
-                self._write_before_clock(now)
-            for raw, inf in batch:
-                if not (sim and now == 0):
+            if sim and now == 0:  # before the first /clock: written at its first reading (bag.take.BeforeClock)
+                self._before_clock.hold(conn, [raw for raw, _ in batch])
+            else:
+                self._before_clock.release(write, now)
+                for raw, inf in batch:
                     write(conn, now if sim else inf.get('received_timestamp') or time.time_ns(), raw)
+            for _, inf in batch:
                 lost += received(topic, inf.get('publication_sequence_number'))
             self.counts[topic] += len(batch)
         if lost:
             self._warn_lost(topic)
-
-    def _write_before_clock(self, now: int) -> None:
-        """Under ``use_sim_time`` the messages taken before the first /clock (transient-local ones:
-        /tf_static, a layout) get the first clock reading as their log time, not 0: a bag whose
-        clock starts at an epoch must not begin in 1970. Called with the lock held."""
-        for conn, raw in self._before_clock:
-            self._writer.write(conn, now, raw)
-        self._before_clock = []
 
     def _on_lost(self, topic: str, count_change: int) -> None:
         with self._lock:
@@ -266,12 +253,10 @@ class RecorderNode(TrackNode):
     def close(self) -> None:
         """Close the bag (writes the MCAP summary and metadata.yaml); idempotent."""
         with self._lock:
-            if self._closed or self._writer is None:
-                self._closed = True
+            closed, self._closed = self._closed, True
+            if closed or self._writer is None:
                 return
-            self._closed = True
-            if self._before_clock:  # the clock never started: they keep log time 0
-                self._write_before_clock(0)
+            self._before_clock.release(self._writer.write, 0)  # the clock never started: log time 0
             self._writer.close()
             set_ros_distro(self.path)
         line = self.summary()
