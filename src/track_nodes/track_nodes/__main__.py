@@ -31,9 +31,9 @@ def _exit(code: int) -> None:
     processes for idsq) on a shared machine: it took over 10 s of wall time, and the launcher killed
     the last ones as hung (issue 15). Any other program (bag tools) exits the normal way.
     """
-    from track_nodes.base import node
+    from track_nodes.base.teardown import TEARDOWN
 
-    if not node.TEARDOWN.done:
+    if not TEARDOWN.done:
         raise SystemExit(code)
     import atexit
     import os

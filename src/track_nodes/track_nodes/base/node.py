@@ -58,11 +58,9 @@ from track_msgs_py.topics import DIAGNOSTICS, relative
 from track_nodes.base.cli import params_file_problem
 from track_nodes.base.params import Param, ParameterError, declare_params
 from track_nodes.base.refusals import RefusalCounter
+from track_nodes.base.teardown import TEARDOWN, dds_alarm
 
 EXIT_BAD_INPUT = 2
-# Set once run_nodes has destroyed its nodes and shut rclpy down: what is left of the process is
-# CPython's own finalization, which ``python -m track_nodes`` skips (track_nodes/__main__.py).
-TEARDOWN = SimpleNamespace(done=False)
 
 
 
@@ -210,6 +208,11 @@ class TrackNode(Node):
             self._tf_static_pub = self.create_publisher(TFMessage, TF_STATIC, TF_STATIC_QOS)
         self._tf_static_pub.publish(tf_message(list(self._static_transforms.values())))
 
+    def destroy_node(self) -> None:
+        """Delete the DDS entities (subclasses close their files first, then call this)."""
+        with dds_alarm():
+            super().destroy_node()
+
     @classmethod
     def main(cls, argv: Sequence[str] | None = None, **kwargs: Any) -> int:
         return run_node(cls, argv, **kwargs)
@@ -245,6 +248,7 @@ def run_nodes(makers: Sequence[tuple[str, Callable[[], Node]]], argv: Sequence[s
         print(f'{program}: {problem}', file=sys.stderr)
         return EXIT_BAD_INPUT
     nodes: list[Node] = []
+    TEARDOWN.alarm = True  # a node process: a DDS deletion that hangs ends it (base/teardown.py)
     try:
         for name, make in makers:
             try:
@@ -267,6 +271,7 @@ def run_nodes(makers: Sequence[tuple[str, Callable[[], Node]]], argv: Sequence[s
     finally:
         for node in nodes:
             node.destroy_node()  # the last node of the context takes the DDS participant with it (rmw_fastrtps)
-        rclpy.try_shutdown()
+        with dds_alarm():
+            rclpy.try_shutdown()
         TEARDOWN.done = True
     return max((getattr(node, 'exit_code', 0) for node in nodes), default=0)

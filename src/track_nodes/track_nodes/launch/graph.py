@@ -48,6 +48,11 @@ class LauncherNode(Node):
     def publish_clock(self, t_ns: int) -> None:
         self.clock_pub.publish(Clock(clock=ns_to_stamp(t_ns)))
 
+    def clock_unmatched(self) -> int:
+        """How many of the graph's /clock subscriptions our publisher has not matched yet."""
+        known = [i for i in self.get_subscriptions_info_by_topic(CLOCK) if i.node_name != self.get_name()]
+        return max(0, len(known) - self.clock_pub.get_subscription_count())
+
     def nodes_missing(self, names: list[str]) -> list[str]:
         present = set(self.get_node_names())
         return [n for n in names if n not in present]

@@ -20,8 +20,9 @@ of the epoch, because float seconds near 1.8e9 resolve 2.4e-7 s). With
 ``--processes`` the other processes cannot be observed, so the clock is only paced by R.
 ``--rate 0`` runs on wall time, callbacks on the MultiThreadedExecutor's threads.
 
-Before the clock starts, the launcher waits until every node is up and, when recording, until
-the recorder has subscribed to every recordable topic, then lets discovery settle: nothing
+Before the clock starts, the launcher waits until every node is up, every node's ``/clock``
+subscription has matched its publisher (under sim time) and, when recording, until the recorder
+has subscribed to every recordable topic, then lets discovery settle: nothing
 published at t = 0 is lost. The clock stops exactly at ``--duration``, the launcher waits a
 short grace period for messages in flight, then stops every node (the recorder closes its
 bag). Ctrl-C stops everything the same way.
@@ -54,7 +55,7 @@ from rclpy.parameter import Parameter
 from track_nodes.base import EXIT_BAD_INPUT
 from track_nodes.launch.graph import LauncherNode
 from track_nodes.launch.hosts import Hosts, unavailable
-from track_nodes.launch.processes import spawn_nodes, stop_processes
+from track_nodes.launch.processes import failed_children, spawn_nodes, stop_processes
 from track_nodes.launch.scenario import Scenario, ScenarioError, load_scenario
 
 CLOCK_TICK = 0.01  # wall seconds per /clock step at the nominal rate ...
@@ -121,6 +122,7 @@ class Launch:
             raise LaunchError(f'--duration must be > 0, got {self.duration}')
         self.sim = self.rate > 0
         self.epoch = parse_epoch(str(args.epoch))  # None: now, fixed when the clock starts
+        self.clock_said = False
         self.params_files = [str(scenario.path)]
         if args.params is not None:
             if not args.params.is_file():
@@ -190,10 +192,7 @@ class Launch:
                 node.destroy_node()  # the recorder closes its bag here
             launcher.destroy_node()
             context.try_shutdown()
-        failed = [c for c in children if c.returncode not in (0, -signal.SIGINT, None)]
-        for c in failed:  # say who: a bare exit code 2 after a full run is not diagnosable
-            print(f'track_nodes.launch: {c.label} exited with code {c.returncode}', file=sys.stderr)
-        return EXIT_BAD_INPUT if failed else 0
+        return EXIT_BAD_INPUT if failed_children(children) else 0
 
     def _drain(self, launcher: LauncherNode, executor: MultiThreadedExecutor) -> None:
         """--processes: after the clock stopped, wait until the other processes' work is done.
@@ -286,12 +285,34 @@ class Launch:
             if not missing and self.bag is not None:
                 missing = [f'recorder subscription to {t}' for t in
                            launcher.topics_unrecorded(self.record_regex, 'recorder')]
+            if not missing and self.sim and (unmatched := launcher.clock_unmatched()):
+                missing = [f'{unmatched} /clock subscription(s) to match']
             if not missing:
                 break
             if time.monotonic() > deadline or not self.context.ok():
                 raise LaunchError(f'not ready after {READY_TIMEOUT:.0f} s: waiting for {", ".join(missing)}')
             self._pump(executor, time.monotonic() + 0.05)
-        self._pump(executor, time.monotonic() + (SETTLE_PROCESSES if children else SETTLE))
+        if not (children and self.sim):
+            self._pump(executor, time.monotonic() + (SETTLE_PROCESSES if children else SETTLE))
+            return
+        # Other processes run their first callback when their CPU share allows (seen: 0.4 s late with
+        # 25 processes on 2 cores): the clock is held at the epoch while discovery settles, so each
+        # node's first reading, which fixes its step origin (FixedRateSteps), is the epoch itself.
+        settled = time.monotonic() + SETTLE_PROCESSES
+        while time.monotonic() < settled and self.context.ok():
+            launcher.publish_clock(self._epoch_ns())
+            self._pump(executor, time.monotonic() + CLOCK_TICK)
+
+    def _epoch_ns(self) -> int:
+        if self.epoch is None:
+            # A whole minute: rcl phases a node-time timer from time 0, so an epoch that every period of a
+            # scenario divides (0.1 ... 5 s, 1 min) keeps the timers on the simulators' step grids.
+            self.epoch = int(time.time()) // 60 * 60
+        if not self.clock_said:
+            self.clock_said = True
+            print(f'/clock from {datetime.fromtimestamp(self.epoch, UTC):%Y-%m-%d %H:%M:%S} UTC'
+                  f' (--epoch {self.epoch})', flush=True)
+        return self.epoch * 1_000_000_000
 
     def _drive(self, launcher: LauncherNode, executor: MultiThreadedExecutor,
                children: list[subprocess.Popen]) -> None:
@@ -300,14 +321,7 @@ class Launch:
         step = min(self.rate * CLOCK_TICK, MAX_CLOCK_STEP)
         wall_step = step / self.rate if self.sim else CLOCK_TICK
         t0, k = time.monotonic(), 0
-        if self.epoch is None:
-            # A whole minute: rcl phases a node-time timer from time 0, so an epoch that every period of a
-            # scenario divides (0.1 ... 5 s, 1 min) keeps the timers on the simulators' step grids.
-            self.epoch = int(time.time()) // 60 * 60
-        epoch_ns = self.epoch * 1_000_000_000
-        if self.sim:
-            print(f'/clock from {datetime.fromtimestamp(self.epoch, UTC):%Y-%m-%d %H:%M:%S} UTC'
-                  f' (--epoch {self.epoch})', flush=True)
+        epoch_ns = self._epoch_ns() if self.sim else 0
         while self.context.ok():
             if any(c.poll() is not None for c in children):
                 return

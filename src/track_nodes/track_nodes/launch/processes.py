@@ -18,6 +18,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from track_nodes.base.teardown import DDS_TEARDOWN_MAX, DDS_TEARDOWN_SIGNAL
 from track_nodes.launch.hosts import Hosts
 from track_nodes.launch.scenario import NodeSpec
 
@@ -93,3 +94,23 @@ def _main_thread_cpu(pid: int) -> float | None:
     except (OSError, IndexError):
         return None
     return float(fields[11]) + float(fields[12])  # utime, stime (fields 14 and 15 of proc(5))
+
+
+def failed_children(children: Sequence[subprocess.Popen]) -> list[subprocess.Popen]:
+    """The children that failed, each named on stderr with its exit code.
+
+    A stop by SIGINT is clean; so is an end by the teardown alarm (-SIGALRM, base/teardown.py): the
+    node had done its work and its own cleanup, and Fast DDS's entity deletion hung. That one is
+    named too, as a warning, so that the hang is counted, not hidden.
+    """
+    failed = []
+    for child in children:
+        label = getattr(child, 'label', child.pid)
+        if child.returncode == -DDS_TEARDOWN_SIGNAL:
+            print(f'track_nodes.launch: {label}: its DDS teardown did not return within {DDS_TEARDOWN_MAX} s '
+                  '(a Fast DDS 2.14 deletion hang, see track_nodes.base.teardown); it ended itself',
+                  file=sys.stderr)
+        elif child.returncode not in (0, -signal.SIGINT, None):
+            print(f'track_nodes.launch: {label} exited with code {child.returncode}', file=sys.stderr)
+            failed.append(child)
+    return failed
