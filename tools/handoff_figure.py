@@ -33,6 +33,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from watched_launch import WatchedLaunch
 
 N_SENSORS = 24
 DT = 0.5
@@ -115,54 +116,31 @@ def run_mode(scenario: Path, hosts: int, rate: float, record: str) -> dict:
     cmd = [sys.executable, '-m', 'track_nodes.launch', str(scenario), '--rate', str(rate), '--record', record]
     if hosts:
         cmd += ['--processes', '--hosts', str(hosts)]
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    out, err, tag, net, started, probe_box = [], [], [], [], threading.Event(), []
-
-    def read(stream, sink, watch):
-        for line in stream:
-            sink.append(line)
-            watch(line)
-
-    def on_out(line):
-        if m := re.search(r'hosts: \d+ namespaces (\S+)-\*, (\S+),', line):
-            tag.append(m.group(1))
-            net.append(m.group(2))
-
-    def on_err(line):
-        if 'leading from a uniform belief' in line:
-            started.set()
-
-    threads = [threading.Thread(target=read, args=(proc.stdout, out, on_out), daemon=True),
-               threading.Thread(target=read, args=(proc.stderr, err, on_err), daemon=True)]
-    for t in threads:
-        t.start()
+    run = WatchedLaunch(cmd)
     env = {**os.environ, 'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST'}
     if hosts:
-        t_end = time.monotonic() + 30
-        while not net and time.monotonic() < t_end:
-            time.sleep(0.05)
+        run.hosts_known.wait(30)
         import ipaddress
-        sub = ipaddress.ip_network(net[0])
+        sub = ipaddress.ip_network(run.subnet)
         env['ROS_STATIC_PEERS'] = ';'.join(str(sub[i]) for i in [*range(1, hosts + 1), 254])
     probe_file = Path(f'{record}-probe.json')
-    probe_box.append(subprocess.Popen([sys.executable, __file__, '--probe', str(probe_file)], stdin=subprocess.PIPE,
-                                      env=env, text=True))
+    probe = subprocess.Popen([sys.executable, __file__, '--probe', str(probe_file)], stdin=subprocess.PIPE,
+                             env=env, text=True)
     samples = []  # (wall s after the first leader, hub bytes)
-    if not started.wait(240):
-        proc.terminate()
+    if not run.started.wait(240):
+        run.proc.terminate()
     t0 = time.monotonic()
-    while proc.poll() is None:
-        if tag:
-            samples.append((time.monotonic() - t0, hub_bytes(f'{tag[0]}-hub')))
+    while run.proc.poll() is None:
+        if run.tag:
+            samples.append((time.monotonic() - t0, hub_bytes(f'{run.tag}-hub')))
         time.sleep(1.0)
-    for t in threads:
-        t.join()
-    probe_box[0].communicate('', timeout=60)
+    run.wait()
+    probe.communicate('', timeout=60)
     probe = json.loads(probe_file.read_text())
-    summary = ''.join(line for line in out if line.startswith(('idsq:', '  ')))
+    summary = ''.join(line for line in run.out if line.startswith(('idsq:', '  ')))
     steps_led = int(m.group(1)) if (m := re.search(r'idsq: (\d+) estimates', summary)) else 0
-    return {'exit': proc.returncode, 'handoffs': probe['handoffs'], 'acks': probe['acks'], 'samples': samples,
-            'steps_led': steps_led, 'summary': summary, 'stderr_tail': ''.join(err[-5:])}
+    return {'exit': run.proc.returncode, 'handoffs': probe['handoffs'], 'acks': probe['acks'], 'samples': samples,
+            'steps_led': steps_led, 'summary': summary, 'stderr_tail': ''.join(run.err[-5:])}
 
 
 def figures(raw: dict, rate: float, steps_led: int) -> dict:

@@ -31,12 +31,12 @@ import json
 import re
 import subprocess
 import sys
-import threading
 import time
 from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
+from watched_launch import WatchedLaunch
 
 
 def analyse(bag: Path, gap_steps: tuple[int, int], host_of: dict[int, int], host: int, end_steps: int) -> dict:
@@ -133,42 +133,21 @@ def main() -> int:
     scenario = Path(args.scenario).resolve()
     cmd = [args.python, '-m', 'track_nodes.launch', str(scenario), '--processes',
            '--hosts', '3', '--record', args.record, '--rate', str(args.rate)]
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    tag, started, out, err = [], threading.Event(), [], []
-
-    def read(stream, sink, watch):
-        for line in stream:
-            sink.append(line)
-            watch(line)
-
-    def on_out(line):
-        if m := re.search(r'hosts: 3 namespaces (\S+)-\*', line):
-            tag.append(m.group(1))
-
-    def on_err(line):
-        if 'leading from a uniform belief' in line:
-            started.set()
-
-    threads = [threading.Thread(target=read, args=(proc.stdout, out, on_out), daemon=True),
-               threading.Thread(target=read, args=(proc.stderr, err, on_err), daemon=True)]
-    for t in threads:
-        t.start()
-    if not started.wait(180) or not tag:
-        proc.terminate()
-        proc.wait()
-        print(''.join(out[-20:]), ''.join(err[-20:]))
+    run = WatchedLaunch(cmd)
+    if not run.started.wait(180) or not run.tag:
+        run.stop()
+        print(''.join(run.out[-20:]), ''.join(run.err[-20:]))
         return 1
     t0 = time.monotonic()
     time.sleep(args.at)
-    port = ['ip', '-n', f'{tag[0]}-hub', 'link', 'set', f'{tag[0]}b{args.host}']
+    port = ['ip', '-n', f'{run.tag}-hub', 'link', 'set', f'{run.tag}b{args.host}']
     subprocess.run([*port, 'down'], check=True)
     down = time.monotonic() - t0
     time.sleep(args.gap)
     subprocess.run([*port, 'up'], check=True)
     up = time.monotonic() - t0
-    code = proc.wait()
-    for t in threads:
-        t.join()
+    code = run.wait()
+    out, err = run.out, run.err
     report(args, scenario, out, err, down, up, code)
     return code
 
