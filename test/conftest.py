@@ -34,8 +34,13 @@ _domains = itertools.count()
 
 
 def _next_domain_id() -> int:
-    # 1..100, offset by pid so two suites running at once rarely collide.
-    return 1 + (os.getpid() + next(_domains)) % 100
+    # 1..100, offset by pid so two suites running at once rarely collide; under pytest-xdist each
+    # worker has its own slice (2 workers: 1..50 and 51..100), so a suite's workers never collide.
+    workers = int(os.environ.get('PYTEST_XDIST_WORKER_COUNT', '1'))
+    worker = os.environ.get('PYTEST_XDIST_WORKER', 'gw0')
+    size = 100 // max(1, min(workers, 100))
+    k = int(worker[2:]) if worker[2:].isdigit() else 0
+    return 1 + k * size + (os.getpid() + next(_domains)) % size
 
 
 def spin_until(executor, predicate: Callable[[], bool], timeout: float = 10.0, step: float = 0.05) -> bool:
