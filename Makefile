@@ -37,8 +37,11 @@ demo: install
 lint: $(VENV)/.deps-stamp
 	$(VENV)/bin/ruff check .
 
+# Two workers (this machine has 2 cores; most tests wait on DDS, subprocesses or a paced /clock):
+# 9.6 min serial against 5.6 min. --dist loadfile keeps a file's tests (and its module fixtures)
+# on one worker; test/conftest.py gives each worker its own slice of ROS domains.
 test: install lint
-	$(PY) -m pytest
+	$(PY) -m pytest -n 2 --dist loadfile
 
 clean:   # also a colcon build's build/ install/ log/ (README, "colcon workspace"); build/ holds build/interfaces
 	rm -rf $(VENV) $(addsuffix /build,$(PKGS)) $(addsuffix /*.egg-info,$(PKGS)) build install log
