@@ -48,7 +48,8 @@ def analyse(bag: Path, gap_steps: tuple[int, int], host_of: dict[int, int], host
     from track_nodes.report.read import read_topics
 
     msgs = read_topics(bag, {IDSQ_TRUTH, IDSQ_ESTIMATE, IDSQ_LEADER, IDSQ_LAYOUT})
-    origin = stamp_to_sec(msgs[IDSQ_LAYOUT][0].header.stamp) if msgs.get(IDSQ_LAYOUT) else 0.0
+    # the last layout is the stamped one (the first may be stamped 0, "origin pending")
+    origin = stamp_to_sec(msgs[IDSQ_LAYOUT][-1].header.stamp) if msgs.get(IDSQ_LAYOUT) else 0.0
     dt = 0.5
     truth = {}
     for m in msgs.get(IDSQ_TRUTH, []):
