@@ -17,7 +17,9 @@ process the clock runs in lock-step: after each step the launcher runs every cal
 therefore runs slower than R×, never differently: a seed and an epoch reproduce every payload
 (another epoch shifts every stamp by the difference; the values agree to float rounding, ~1e-16
 of the epoch, because float seconds near 1.8e9 resolve 2.4e-7 s). With
-``--processes`` the other processes cannot be observed, so the clock is only paced by R.
+``--processes`` the other processes cannot be observed, so the clock is only paced by R, and it
+is held at the epoch while discovery settles (a process whose first callback runs late still
+reads the epoch first, so its step origin is the epoch's).
 ``--rate 0`` runs on wall time, callbacks on the MultiThreadedExecutor's threads.
 
 Before the clock starts, the launcher waits until every node is up, every node's ``/clock``
@@ -295,9 +297,10 @@ class Launch:
         if not (children and self.sim):
             self._pump(executor, time.monotonic() + (SETTLE_PROCESSES if children else SETTLE))
             return
-        # Other processes run their first callback when their CPU share allows (seen: 0.4 s late with
-        # 25 processes on 2 cores): the clock is held at the epoch while discovery settles, so each
-        # node's first reading, which fixes its step origin (FixedRateSteps), is the epoch itself.
+        # Other processes run their first callback when their CPU share allows (seen: up to 2 s late
+        # with 25 processes on 2 cores, and the origin was as late): the clock is held at the epoch
+        # while discovery settles, so each node's first reading, which fixes its step origin
+        # (FixedRateSteps), is the epoch itself.
         settled = time.monotonic() + SETTLE_PROCESSES
         while time.monotonic() < settled and self.context.ok():
             launcher.publish_clock(self._epoch_ns())
