@@ -21,7 +21,7 @@ from track_nodes.fuzz.harness import FuzzResult, run_case
 from track_nodes.fuzz.table import cases
 
 MESSAGES = 300
-AFTER_TIMEOUT = 60.0   # a deadline: wall s for new valid output after the attack (outputs come every 0.05–1 s of node time)
+AFTER_TIMEOUT = 60.0   # a deadline [wall s] for new valid output after the attack (outputs: every 0.05–1 s)
 CASES = cases()
 _results: dict[str, FuzzResult] = {}
 
