@@ -124,8 +124,8 @@ def run_mode(scenario: Path, hosts: int, rate: float, record: str) -> dict:
         sub = ipaddress.ip_network(run.subnet)
         env['ROS_STATIC_PEERS'] = ';'.join(str(sub[i]) for i in [*range(1, hosts + 1), 254])
     probe_file = Path(f'{record}-probe.json')
-    probe = subprocess.Popen([sys.executable, __file__, '--probe', str(probe_file)], stdin=subprocess.PIPE,
-                             env=env, text=True)
+    probe_proc = subprocess.Popen([sys.executable, __file__, '--probe', str(probe_file)], stdin=subprocess.PIPE,
+                                  env=env, text=True)
     samples = []  # (wall s after the first leader, hub bytes)
     if not run.started.wait(240):
         run.proc.terminate()
@@ -135,7 +135,7 @@ def run_mode(scenario: Path, hosts: int, rate: float, record: str) -> dict:
             samples.append((time.monotonic() - t0, hub_bytes(f'{run.tag}-hub')))
         time.sleep(1.0)
     run.wait()
-    probe.communicate('', timeout=60)
+    probe_proc.communicate('', timeout=60)
     probe = json.loads(probe_file.read_text())
     summary = ''.join(line for line in run.out if line.startswith(('idsq:', '  ')))
     steps_led = int(m.group(1)) if (m := re.search(r'idsq: (\d+) estimates', summary)) else 0

@@ -148,8 +148,7 @@ def main() -> int:
     subprocess.run([*port, 'up'], check=True)
     up = time.monotonic() - t0
     code = run.wait()
-    out, err = run.out, run.err
-    report(args, scenario, out, err, down, up, code)
+    report(args, scenario, run.out, run.err, down, up, code)
     return code
 
 

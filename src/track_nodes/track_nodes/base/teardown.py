@@ -34,11 +34,13 @@ TEARDOWN = SimpleNamespace(done=False, alarm=False)
 @contextlib.contextmanager
 def dds_alarm() -> Iterator[None]:
     """Within a node process: end the process if the block (a DDS deletion) takes > DDS_TEARDOWN_MAX s."""
-    previous = None
+    armed = False
     if TEARDOWN.alarm:
         with contextlib.suppress(ValueError):  # not the main thread: no alarm
+            # (the previous handler may be None: one installed outside Python, restored as SIG_DFL)
             previous = signal.signal(DDS_TEARDOWN_SIGNAL, signal.SIG_DFL)
-    if previous is None:
+            armed = True
+    if not armed:
         yield
         return
     signal.alarm(DDS_TEARDOWN_MAX)
@@ -46,4 +48,4 @@ def dds_alarm() -> Iterator[None]:
         yield
     finally:
         signal.alarm(0)
-        signal.signal(DDS_TEARDOWN_SIGNAL, previous)
+        signal.signal(DDS_TEARDOWN_SIGNAL, signal.SIG_DFL if previous is None else previous)
