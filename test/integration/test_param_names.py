@@ -91,3 +91,22 @@ def test_a_node_process_refuses_a_typo_in_one_line_with_exit_code_2(prefix, env_
     lines = err.strip().splitlines()
     assert proc.returncode == 2 and len(lines) == 1 and 'Traceback' not in err, err
     assert lines[0].startswith('demo_target: unknown parameter') and 'seed' in lines[0], lines[0]
+
+
+def test_the_player_declares_after_the_base_constructor_and_is_checked_after_it(ros, tmp_path):
+    from rclpy.serialization import serialize_message
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+    from std_msgs.msg import String
+
+    from track_nodes.bag.player import PlayerNode
+
+    bag = tmp_path / 'b'
+    with Writer(bag, version=9, storage_plugin=StoragePlugin.MCAP) as w:
+        c = w.add_connection('/names/x', 'std_msgs/msg/String', typestore=get_typestore(Stores.ROS2_JAZZY))
+        w.write(c, 1, serialize_message(String(data='a')))
+    given = [Parameter('bag', value=str(bag)), Parameter('wait_subscribers', value=0.0)]
+    player = _build(ros, PlayerNode, parameter_overrides=[*given, Parameter('rate', value=2.0)])
+    assert player.p.rate == 2.0
+    with pytest.raises(ParameterError, match=r"'rat' \(did you mean rate\?\)"):
+        _build(ros, PlayerNode, parameter_overrides=[*given, Parameter('rat', value=2.0)])

@@ -109,7 +109,7 @@ def undeclared_problem(node: Any, args: Sequence[str], overrides: Iterable[str])
     if not unknown:
         return None
     return unknown_line('parameter' + ('s' if len(unknown) > 1 else ''), unknown, declared,
-                        f' for node {node.get_fully_qualified_name()}')
+                        f' for node {node.get_fully_qualified_name()}', known='declared')
 
 
 class CheckedNames(type):

@@ -114,7 +114,7 @@ def section_problem(doc: Any, names: list[str]) -> str | None:
     if not unknown:
         return None
     return unknown_line('node section' + ('s' if len(unknown) > 1 else ''), unknown, [*names, RECORDER],
-                        ' (no node of the scenario has that name)')
+                        known="the scenario's nodes")
 
 
 def params_file_sections(path: Path, scenario: Scenario) -> str | None:
