@@ -1,15 +1,19 @@
-"""A scan the slam node refuses leaves its stream merger and filter untouched: a broken scan (no usable
-observation, whatever its stamp) must neither advance the scan stream's stamp nor reach the filter,
-or every valid scan after it is refused as "time went backwards" and the node publishes nothing more."""
+"""Broken scans must not wedge the slam node. A scan it refuses leaves the stream merger's stamps, buffer
+and filter untouched: a scan with no usable observation, whatever its stamp, must neither advance the scan
+stream nor reach the filter, or every valid scan after it is refused as "time went backwards". And a
+flood of refused scans is no pause of the scan stream (``StreamMerger.heard``), or the inputs run past
+the next valid scans and each of those is refused as late, for good."""
 
 from __future__ import annotations
 
 import copy
+import time
 
 import numpy as np
 import pytest
+from rclpy.parameter import Parameter
 
-from track_msgs_py.convert import inputs_to_twist, scan_to_pointcloud2
+from track_msgs_py.convert import inputs_to_twist, scan_to_pointcloud2, table_to_pointcloud2
 from track_nodes.fuzz.generate import Fuzzer
 from track_nodes.slam.slam import SlamNode
 
@@ -18,9 +22,10 @@ pytestmark = pytest.mark.integration
 TREES = np.array([[10.0, 1.0], [12.0, 2.0], [15.0, 1.5]])
 
 
-def _slam(ros):
+def _slam(ros, **params):
     """A slam node fed by calling its callbacks (deterministic); poses captured instead of published."""
-    slam = ros.add(SlamNode(context=ros.context))
+    over = [Parameter(k, value=v) for k, v in params.items()]
+    slam = ros.add(SlamNode(context=ros.context, parameter_overrides=over))
     poses: list = []
     slam.pub_pose.publish = poses.append
     return slam, poses
@@ -75,3 +80,23 @@ def test_broken_scans_stamped_ahead_do_not_wedge_the_node(ros):
     for k in range(10):
         _feed(slam, 1.2 + 0.1 * k)
     assert slam.n_scans == 11 and len(poses) == 11, slam.refusals.by_key()
+
+
+def test_a_flood_of_refused_scans_does_not_pause_the_scan_stream(ros):
+    pause = 0.05
+    slam, poses = _slam(ros, pause_wall=pause)
+    slam._on_input(inputs_to_twist(1.0, 1.0, 0.0))
+    for k in range(5):
+        _feed(slam, 1.05 + 0.1 * k)
+    assert len(poses) == 5
+    t, t0 = 1.55, time.monotonic()
+    while time.monotonic() - t0 < 4 * pause:  # broken scans only, for longer than pause_wall; inputs go on
+        slam._on_scan(table_to_pointcloud2(t, 'laser', {'r': np.ones(2)}))  # no range/bearing: refused
+        slam._on_input(inputs_to_twist(t, 1.0, 0.0))
+        t += 0.001
+    assert slam.n_bad_scans > 0
+    n = len(poses)
+    for k in range(10):  # valid again, each scan arriving after the input 50 ms later (laser latency)
+        slam._on_input(inputs_to_twist(t + 0.1 * k + 0.05, 1.0, 0.0))
+        slam._on_scan(_scan(t + 0.1 * k))
+    assert len(poses) - n == 10, slam.refusals.by_key()

@@ -125,6 +125,7 @@ class SlamNode(TrackNode):
         self.policy = InputPolicy(horizon=p.stamp_horizon)
         self.refusals.throttle = p.warn_throttle
         self.merger = StreamMerger(p.pause_wall, p.flush_idle, p.drain_budget, time.monotonic())
+        self._heard: dict[str, float | None] = {INPUT: None, SCAN: None}  # last message per stream, even refused
         self._map_ns: int | None = None  # stamp of the last map published
         self._map_dirty = self._pf_published = False  # a scan since that map; the last cloud was not empty
         self._n_events = 0
@@ -158,12 +159,12 @@ class SlamNode(TrackNode):
 
     def _after_message(self) -> None:
         self._take_pending()
-        self.merger.end_callback(self._step, time.monotonic)
+        self.merger.end_callback(self._step, time.monotonic, self._heard)
 
     def _on_idle(self) -> None:
         now = time.monotonic()
         took = self._take_pending() > 0
-        if self.merger.on_idle(now, took, self._step, time.monotonic) and self._map_dirty:
+        if self.merger.on_idle(now, took, self._step, time.monotonic, self._heard) and self._map_dirty:
             self._publish_map(self.processed_ns / 1e9)
 
     def _take_pending(self) -> int:
@@ -185,6 +186,7 @@ class SlamNode(TrackNode):
         return taken
 
     def _add_input(self, msg: TwistStamped) -> None:
+        self._heard[INPUT] = time.monotonic()  # refused or not, the stream is not silent (streams: pause rule)
         _, speed, steer = twist_to_inputs(msg)
         reason = speed_steer_problem(speed, steer, self.policy)
         if reason:
@@ -194,6 +196,7 @@ class SlamNode(TrackNode):
         self._offer(INPUT, msg.header.stamp, (speed, steer))
 
     def _add_scan(self, msg: PointCloud2) -> None:
+        self._heard[SCAN] = time.monotonic()
         try:
             scan = SlamScan.from_msg(msg)
         except RecordError as exc:
