@@ -12,6 +12,8 @@ node exactly (``node:``, ``/node:``, ``/ns/node:``, or nested ``ns: node:``). Ke
 sections (``/**:``, ``/ns/*:``, ``/**/node:``) are shared by nodes that declare different sets, so
 they are not refused here; sections for other nodes never reach this node. rclpy's own parameters
 (``use_sim_time``, ``start_type_description_service``, ``qos_overrides./topic...``) are valid.
+A ``-p name:=value`` without a node prefix is addressed to every node of the process, so in a
+``node_group`` give a parameter that only some nodes have as ``-p NODE:name:=value`` (or in a section).
 
 The process-wide ``--ros-args`` are not kept by rclpy; ``remember_args(context, args)`` records them
 where the context is initialised (``run_nodes``, the launcher), so their params files can be read.
