@@ -110,3 +110,20 @@ def test_the_player_declares_after_the_base_constructor_and_is_checked_after_it(
     assert player.p.rate == 2.0
     with pytest.raises(ParameterError, match=r"'rat' \(did you mean rate\?\)"):
         _build(ros, PlayerNode, parameter_overrides=[*given, Parameter('rat', value=2.0)])
+
+
+@pytest.mark.parametrize(('edit', 'words'), [
+    (lambda t: t.replace('demo_tracker:\n', 'demo_trackr:\n'), ["node section 'demo_trackr'", 'demo_tracker']),
+    (lambda t: t.replace('    q_s:', '    q_ss:'), ["'q_ss' (did you mean q_s?) for node /demo_target"]),
+    (lambda t: t + '\n/**:\n  ros__parameters:\n    sead: 3\n', ["'sead'", 'under /**', 'seed']),
+])
+def test_the_launcher_refuses_a_misspelt_scenario_in_one_line(repo, tmp_path, env_factory, edit, words):
+    import sys
+
+    scenario = tmp_path / 'demo.yaml'
+    scenario.write_text(edit((repo / 'config/demo.yaml').read_text()))
+    proc = subprocess.run([sys.executable, '-m', 'track_nodes.launch', str(scenario), '--duration', '1'],
+                          cwd=tmp_path, env=env_factory(), capture_output=True, text=True, timeout=120)
+    errors = [line for line in proc.stderr.splitlines() if line.startswith('track_nodes.launch: ')]
+    assert proc.returncode == 2 and len(errors) == 1 and 'Traceback' not in proc.stderr, proc.stderr
+    assert all(w in errors[0] for w in words), errors[0]

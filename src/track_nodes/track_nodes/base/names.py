@@ -10,7 +10,8 @@ Addressed to this node means: a ``parameter_overrides`` entry, a ``-p name:=valu
 ``-p node:name:=value`` with this node's name), or a key under a params-file section that names this
 node exactly (``node:``, ``/node:``, ``/ns/node:``, or nested ``ns: node:``). Keys under wildcard
 sections (``/**:``, ``/ns/*:``, ``/**/node:``) are shared by nodes that declare different sets, so
-they are not refused here; sections for other nodes never reach this node. rclpy's own parameters
+they are not refused here (``shared_names_problem`` checks ``/**`` against all the nodes of a run that
+holds them all); sections for other nodes never reach this node. rclpy's own parameters
 (``use_sim_time``, ``start_type_description_service``, ``qos_overrides./topic...``) are valid.
 A ``-p name:=value`` without a node prefix is addressed to every node of the process, so in a
 ``node_group`` give a parameter that only some nodes have as ``-p NODE:name:=value`` (or in a section).
@@ -112,6 +113,29 @@ def undeclared_problem(node: Any, args: Sequence[str], overrides: Iterable[str])
         return None
     return unknown_line('parameter' + ('s' if len(unknown) > 1 else ''), unknown, declared,
                         f' for node {node.get_fully_qualified_name()}', known='declared')
+
+
+def shared_names_problem(nodes: Sequence[Any], params_files: Sequence[str]) -> str | None:
+    """One line naming the keys under ``/**`` of ``params_files`` that no node of ``nodes`` declares, or
+    None: for a process that holds every node those files are for (the launcher's one-process run)."""
+    import yaml
+
+    declared = {name for node in nodes for name in node._parameters}
+    unknown = set()
+    for path in params_files:
+        try:
+            with open(path, encoding='utf-8') as f:
+                doc = yaml.safe_load(f)
+        except (OSError, yaml.YAMLError):
+            continue
+        for section, keys in file_sections(doc):
+            if section == '/**':
+                unknown |= {k for k in keys if k not in declared and k not in RCLPY_OWN
+                            and not k.startswith(RCLPY_PREFIXES)}
+    if not unknown:
+        return None
+    return unknown_line('parameter' + ('s' if len(unknown) > 1 else ''), unknown, declared,
+                        ' under /** (no node of the run declares it)', known='declared')
 
 
 class CheckedNames(type):

@@ -54,7 +54,7 @@ from rclpy.executors import (
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from track_nodes.base import EXIT_BAD_INPUT, remember_args
+from track_nodes.base import EXIT_BAD_INPUT, remember_args, shared_names_problem
 from track_nodes.launch.graph import LauncherNode
 from track_nodes.launch.hosts import Hosts, unavailable
 from track_nodes.launch.processes import failed_children, spawn_nodes, stop_processes
@@ -275,6 +275,10 @@ class Launch:
             nodes.append(RecorderNode(context=context, parameter_overrides=[
                 *self._overrides(), Parameter('bag', value=str(self.bag)),
                 Parameter('regex', value=self.record_regex)]))
+        if (problem := shared_names_problem(nodes, self.params_files)) is not None:  # base/names.py
+            for node in nodes:
+                node.destroy_node()
+            raise LaunchError(problem)
         return nodes
 
     # -- start, clock, stop ---------------------------------------------------------------
