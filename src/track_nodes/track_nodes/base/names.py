@@ -60,6 +60,18 @@ def file_sections(doc: Any, path: str = '') -> list[tuple[str, list[str]]]:
     return out
 
 
+def _sections_of(path: str) -> list[tuple[str, list[str]]]:
+    """``file_sections`` of the params file ``path``; none when it cannot be read (an unreadable file
+    is refused before any node is built: ``cli.params_file_problem``)."""
+    import yaml
+
+    try:
+        with open(path, encoding='utf-8') as f:
+            return file_sections(yaml.safe_load(f))
+    except (OSError, yaml.YAMLError):
+        return []
+
+
 def ros_options(args: Sequence[str]) -> list[tuple[str, str]]:
     """(option, value) pairs of the ``--ros-args ... [--]`` parts of ``args`` (rcl reads only those)."""
     out, in_ros = [], False
@@ -86,20 +98,11 @@ def _dash_p(options: list[tuple[str, str]], node_name: str) -> set[str]:
 
 def addressed_names(node: Any, args: Sequence[str], overrides: Iterable[str]) -> set[str]:
     """Parameter names that ``args`` (``--ros-args`` style) and ``overrides`` address to ``node`` itself."""
-    import yaml
-
     fqn, name = node.get_fully_qualified_name(), node.get_name()
     options = ros_options(args)
     names = set(overrides) | _dash_p(options, name)
     for path in (value for opt, value in options if opt == '--params-file'):
-        try:
-            with open(path, encoding='utf-8') as f:
-                doc = yaml.safe_load(f)
-        except (OSError, yaml.YAMLError):
-            continue  # refused before the node is built (cli.params_file_problem)
-        for section, keys in file_sections(doc):
-            if '*' not in section and section == fqn:
-                names.update(keys)
+        names.update(k for section, keys in _sections_of(path) if section == fqn for k in keys)
     return names
 
 
@@ -118,20 +121,9 @@ def undeclared_problem(node: Any, args: Sequence[str], overrides: Iterable[str])
 def shared_names_problem(nodes: Sequence[Any], params_files: Sequence[str]) -> str | None:
     """One line naming the keys under ``/**`` of ``params_files`` that no node of ``nodes`` declares, or
     None: for a process that holds every node those files are for (the launcher's one-process run)."""
-    import yaml
-
     declared = {name for node in nodes for name in node._parameters}
-    unknown = set()
-    for path in params_files:
-        try:
-            with open(path, encoding='utf-8') as f:
-                doc = yaml.safe_load(f)
-        except (OSError, yaml.YAMLError):
-            continue
-        for section, keys in file_sections(doc):
-            if section == '/**':
-                unknown |= {k for k in keys if k not in declared and k not in RCLPY_OWN
-                            and not k.startswith(RCLPY_PREFIXES)}
+    unknown = {k for path in params_files for section, keys in _sections_of(path) if section == '/**'
+               for k in keys if k not in declared and k not in RCLPY_OWN and not k.startswith(RCLPY_PREFIXES)}
     if not unknown:
         return None
     return unknown_line('parameter' + ('s' if len(unknown) > 1 else ''), unknown, declared,
