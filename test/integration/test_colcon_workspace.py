@@ -20,6 +20,10 @@ from pathlib import Path
 
 import pytest
 import rclpy
+from nav_msgs.msg import Odometry
+
+from track_msgs_py.qos import ESTIMATE_QOS
+from track_msgs_py.topics import DEMO_TRUTH
 
 pytestmark = pytest.mark.integration
 
@@ -87,16 +91,18 @@ def test_a_node_runs_from_install_as_ros2_run_finds_it(workspace, ros):
     assert not (workspace / 'install/track_nodes/bin/python3').exists()  # python3 comes from PATH
 
     probe = ros.add(rclpy.create_node('colcon_probe', context=ros.context))
+    truths: list = []
+    probe.create_subscription(Odometry, DEMO_TRUTH, truths.append, ESTIMATE_QOS)
     proc = subprocess.Popen(sourced(workspace, 'python3', '-c', ROS2_RUN, 'demo_target'), env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
-        up = ros.spin_until(lambda: 'demo_target' in probe.get_node_names(), 30.0)
+        up = ros.spin_until(lambda: len(truths) > 0, 60.0)  # spinning, not only named in the graph
         proc.send_signal(signal.SIGINT)
         out, err = proc.communicate(timeout=30)
     finally:
         proc.kill()
     assert out.splitlines()[0] == str(workspace / 'install/track_nodes/lib/track_nodes/demo_target'), out + err
-    assert up, f'demo_target never seen over DDS: {out}{err}'
+    assert up, f'no truth from demo_target over DDS: {out}{err}'
     assert proc.returncode == 0, err
     assert 'Traceback' not in err
 

@@ -4,7 +4,11 @@ Packages register entries in their setup.py under the groups ``track.experiments
 ``track.benchmarks`` (``name = module:function``). An entry is a function taking a
 ``RunConfig`` and returning an ``Outcome``; the runner owns argument parsing, the output
 directory, the JSON file and error reporting, so entries contain only their science.
-Entries are imported lazily, so ``--help`` never imports rclpy.
+Entries are imported lazily, so ``--help`` never imports rclpy (``NAME --help`` imports that entry).
+
+An entry declares the ``--set`` keys it reads once, with ``@set_keys(key='what it sets', ...)``:
+the runner refuses any other key in one line with the closest declared ones (exit code 2), and
+``track-experiment NAME --help`` lists them. An entry without the decorator takes no ``--set``.
 """
 
 from __future__ import annotations
@@ -19,6 +23,8 @@ from dataclasses import dataclass, field
 from importlib.metadata import entry_points
 from pathlib import Path
 from typing import Any
+
+from track_core.names import unknown_line
 
 GROUPS = {'experiment': 'track.experiments', 'bench': 'track.benchmarks'}
 
@@ -55,6 +61,39 @@ class Outcome:
     table: str
     data: dict[str, Any]
     figures: list[Path] = field(default_factory=list)
+
+
+def set_keys(**keys: str) -> Callable[[Callable], Callable]:
+    """Declare the ``--set`` keys an entry reads (``key='what it sets (default)'``); see the module doc."""
+    def mark(fn: Callable) -> Callable:
+        fn.set_keys = dict(keys)
+        return fn
+    return mark
+
+
+def entry_keys(fn: Callable) -> dict[str, str]:
+    """The ``--set`` keys an entry declared (``set_keys``): key → description."""
+    return dict(getattr(fn, 'set_keys', {}))
+
+
+def unknown_keys_problem(fn: Callable, options: dict[str, str]) -> str | None:
+    """One line naming the ``--set`` keys that ``fn`` does not declare, or None."""
+    unknown = set(options) - set(entry_keys(fn))
+    return None if not unknown else unknown_line('--set key' + ('s' if len(unknown) > 1 else ''), unknown,
+                                                 entry_keys(fn))
+
+
+def _keys_help(entries: dict[str, Any], argv: list[str] | None) -> str:
+    """For ``NAME --help``: the ``--set`` keys of NAME (importing that entry only)."""
+    args = sys.argv[1:] if argv is None else argv
+    if not {'-h', '--help'} & set(args):
+        return ''
+    name = next((a for a in args if not a.startswith('-')), None)
+    if name not in entries:
+        return ''
+    keys = entry_keys(entries[name].load())
+    lines = [f'  {k}: {v}' for k, v in sorted(keys.items())] or ['  (none)']
+    return '\n'.join([f'--set keys of {name}:', *lines])
 
 
 def registry(kind: str) -> dict[str, Any]:
@@ -102,12 +141,13 @@ def _main(kind: str, argv: list[str] | None) -> int:
     entries = registry(kind)
     prog = f'track-{kind}'
     parser = argparse.ArgumentParser(
-        prog=prog,
+        prog=prog, formatter_class=argparse.RawDescriptionHelpFormatter,
         description=(
             'Reproduce a paper table or figure.' if kind == 'experiment'
             else 'Time our code against a baseline or peer in the same run and report ratios.'
         ),
-        epilog='registered: ' + (', '.join(sorted(entries)) or '(none)'),
+        epilog='\n\n'.join(x for x in ('registered: ' + (', '.join(sorted(entries)) or '(none)'),
+                                         _keys_help(entries, argv)) if x),
     )
     parser.add_argument('name', nargs='?', help='entry to run (see "registered" below)')
     parser.add_argument('--list', action='store_true', help='list registered entries and exit')
@@ -139,8 +179,10 @@ def _main(kind: str, argv: list[str] | None) -> int:
     cfg = RunConfig(seed=args.seed, runs=args.runs, quick=args.quick, out=args.out,
                     show_progress=not args.no_progress, options=options, reading=args.reading)
     try:
-        cfg.out.mkdir(parents=True, exist_ok=True)
         fn = entries[args.name].load()
+        if (problem := unknown_keys_problem(fn, options)) is not None:
+            raise ValueError(problem)  # before anything runs or is written
+        cfg.out.mkdir(parents=True, exist_ok=True)
         outcome: Outcome = fn(cfg)
     except (ValueError, OSError) as exc:
         print(f'{prog} {args.name}: {exc}', file=sys.stderr)

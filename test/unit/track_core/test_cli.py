@@ -67,6 +67,7 @@ def test_set_options_reach_the_entry_and_the_json(tmp_path, monkeypatch):
 
     seen = {}
 
+    @cli.set_keys(file='a file', k='a key')
     def fake(cfg):
         seen.update(cfg.options)
         return cli.Outcome('ok', {})
@@ -82,3 +83,23 @@ def test_set_options_reach_the_entry_and_the_json(tmp_path, monkeypatch):
     proc = subprocess.run([sys.executable, '-m', 'track_core.cli', 'demo-kf', '--set', 'novalue'],
                           capture_output=True, text=True)
     assert proc.returncode == 2 and 'KEY=VALUE' in proc.stderr
+
+
+@pytest.mark.parametrize(('argv', 'words'), [
+    (['geo-fig5', '--set', 'bogus=1'], ["unknown --set key 'bogus'", 'known: none']),
+    (['ais-association', '--set', 'fil=x.csv'], ["'fil' (did you mean file?)"]),
+])
+def test_an_unknown_set_key_is_refused_with_the_closest_one(argv, words, tmp_path):
+    proc = subprocess.run([sys.executable, '-m', 'track_core.cli', *argv, '--out', str(tmp_path / 'o')],
+                          capture_output=True, text=True, timeout=120)
+    lines = proc.stderr.strip().splitlines()
+    assert proc.returncode == 2 and len(lines) == 1 and 'Traceback' not in proc.stderr, proc.stderr
+    assert all(w in lines[0] for w in words), lines[0]
+    assert not (tmp_path / 'o').exists()  # refused before anything ran
+
+
+def test_entry_help_lists_its_set_keys():
+    proc = subprocess.run([sys.executable, '-m', 'track_core.cli', 'ais-association', '--help'],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0 and '--set keys of ais-association:' in proc.stdout, proc.stdout
+    assert '  max_gap: ' in proc.stdout and '  file: ' in proc.stdout

@@ -73,3 +73,34 @@ def test_maritime_radio_range_links_the_columns(seed):
     rng = np.random.default_rng(0)  # the 99.9 % quantile of that distance (columns 37.5 m apart, jitter N(0, 25 m²))
     e = rng.normal(0.0, np.sqrt(50.0), (200_000, 2))
     assert abs(np.quantile(np.hypot(37.5 + e[:, 0], e[:, 1]), 0.999) - 60.0) < 1.0
+
+
+@pytest.mark.parametrize(('extra', 'words'), [
+    ('demo_trackr:\n  ros__parameters:\n    q_s: 1.0\n', ["node section 'demo_trackr' (did you mean demo_tracker"]),
+    ('/ns/demo_tracker:\n  ros__parameters:\n    q_s: 1.0\n', ["'ns/demo_tracker'"]),
+])
+def test_a_section_for_no_node_of_the_scenario_is_refused(repo, tmp_path, extra, words):
+    f = tmp_path / 'demo.yaml'
+    f.write_text((repo / 'config/demo.yaml').read_text() + '\n' + extra)
+    with pytest.raises(ScenarioError) as exc:
+        load_scenario(str(f))
+    assert all(w in str(exc.value) for w in words) and '\n' not in str(exc.value), exc.value
+
+
+def test_wildcard_and_recorder_sections_are_for_every_scenario(repo, tmp_path):
+    f = tmp_path / 'demo.yaml'
+    f.write_text((repo / 'config/demo.yaml').read_text() + '\n/**:\n  ros__parameters:\n    use_sim_time: true\n'
+                 'recorder:\n  ros__parameters:\n    regex: x\n')
+    assert [n.name for n in load_scenario(str(f)).nodes] == ['demo_target', 'demo_tracker']
+
+
+def test_an_unknown_launch_option_is_refused(repo, tmp_path):
+    f = tmp_path / 'demo.yaml'
+    f.write_text((repo / 'config/demo.yaml').read_text().replace('    duration:', '    duraton:'))
+    with pytest.raises(ScenarioError, match=r"unknown track_launch option 'duraton' \(did you mean duration\?\)"):
+        load_scenario(str(f))
+
+
+def test_every_shipped_scenario_passes_the_name_check(repo):
+    for cfg in sorted((repo / 'config').glob('*.yaml')):
+        assert load_scenario(str(cfg)).nodes, cfg.name

@@ -106,13 +106,23 @@ from track_core.ais.sources import (
     resolve_site,
     simulate_source,
 )
-from track_core.cli import Outcome, RunConfig, format_table
+from track_core.cli import Outcome, RunConfig, format_table, set_keys, unknown_keys_problem
 from track_core.geofeasibility.scores import METHODS
 from track_core.plotting import pyplot
 
 PAPER_EVALS_PER_HOUR = 100_000
-OPTIONS = ('file', 'columns', 'max_distance_km', 'max_gap', 'radar_site', 'duration', 'sweep', 'prior_weight',
-           'max_pairs')
+#: The ``--set`` keys (module docstring): key → what it sets.
+OPTIONS = {
+    'file': 'an AIS CSV (default: the Solent file)',
+    'columns': 'a reader preset or "time=...;mmsi=...;lat=...;lon=..." (default: from the header)',
+    'max_distance_km': 'auto | off | km: the region kept',
+    'max_gap': 'auto | s: the longest gap a ship track bridges',
+    'radar_site': 'hull:<bearing> | origin | lat,lon',
+    'duration': 's of data',
+    'sweep': 'noise scales, e.g. 1,4',
+    'prior_weight': 'ν of the short-pair rule (0: plain majority)',
+    'max_pairs': 'pair-instants per scored chunk',
+}
 ORDER = ('exact', 'glr', 'glr_thresholded', 'mc')
 assert set(ORDER) == set(METHODS)
 
@@ -329,9 +339,8 @@ def _site(text: str | None, default):
 
 def setup(cfg: RunConfig, data: AisData | None = None) -> tuple[AisData, ShipTruth, SourceModel, Settings]:
     """The data, truth, radar model and settings of a run from ``cfg.options`` (the module docstring's keys)."""
-    unknown = set(cfg.options) - set(OPTIONS)
-    if unknown:
-        raise ValueError(f'unknown --set key(s) {", ".join(sorted(unknown))}; known: {", ".join(OPTIONS)}')
+    if (problem := unknown_keys_problem(ais_association, cfg.options)) is not None:
+        raise ValueError(problem)
     if data is None:
         region = _option_float(cfg, 'max_distance_km', 'auto', {'auto': 'auto', 'off': None})
         data = read_ais(cfg.options.get('file') or None, columns=cfg.options.get('columns') or None,
@@ -383,6 +392,7 @@ def _noise_sweep(cfg, truth, radar, patrol, scales, seeds, t_end, settings, resu
     return sweep, sweep_f1
 
 
+@set_keys(**OPTIONS)
 def ais_association(cfg: RunConfig, data: AisData | None = None) -> Outcome:
     """Precision/recall/F1 of same-ship decisions per method, pair evaluations, noise sweep, map."""
     data, truth, radar, settings = setup(cfg, data)

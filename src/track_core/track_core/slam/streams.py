@@ -13,9 +13,14 @@ Pause rule. A stream that pauses (no trees in view; no scan publisher at all) mu
 filter: it is left out of the watermark once it has been silent for ``pause_wall`` seconds *and*
 the other stream has delivered at least two events meanwhile. That is sound only if "silent"
 means "nothing queued", so the node offers everything waiting in both subscriptions before it
-asks for the watermark. When neither stream bounds the watermark (both paused, or one never heard
-from and not paused) ``watermark`` is ``None`` and a drain releases everything buffered; this is
-the behaviour of the node before issue 12, kept (the saved cases check it).
+asks for the watermark; and only if it means "no message at all": a stream whose messages are
+refused (malformed, late) is not silent. The caller says when each stream last delivered any
+message (``heard``; the merger itself is left untouched by a refused message). Otherwise a flood of
+broken scans pauses the scan stream, the inputs are processed past the next valid scans, each of
+those is refused as late, and the stream never counts as heard again. When neither stream bounds the watermark (both
+paused, or one never heard from and not paused) ``watermark`` is ``None`` and a drain releases
+everything buffered; this is the behaviour of the node before issue 12, kept (the saved cases
+check it).
 
 Flush on idle. Everything buffered is released when no event has been offered for ``flush_idle``
 seconds (the end of a bag), counted from the end of the last message callback
@@ -33,7 +38,7 @@ from __future__ import annotations
 
 import heapq
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
@@ -47,6 +52,8 @@ _OTHER = {INPUT: SCAN, SCAN: INPUT}
 #: ``step(stream, t_ns, payload) -> bool``: feed one released event to the filter; False = the filter
 #: refused it (state unchanged), so it does not count as processed.
 Step = Callable[[str, int, Any], bool]
+#: stream → the caller's clock when that stream last delivered a message, accepted or refused (pause rule).
+Heard = Mapping[str, float | None] | None
 
 
 class StreamMerger:
@@ -86,11 +93,15 @@ class StreamMerger:
             self._first_arrival = now
         return None
 
-    def watermark(self, now: float) -> int | None:
-        """Stamp up to which nothing can still arrive; None when no stream bounds it (module docstring)."""
+    def watermark(self, now: float, heard: Heard = None) -> int | None:
+        """Stamp up to which nothing can still arrive; None when no stream bounds it (module docstring).
+        ``heard``: stream → when it last delivered a message, accepted or refused (not silent then)."""
         limits = []
         for stream in (INPUT, SCAN):
             since = self._arrival[stream] if self._arrival[stream] is not None else self._first_arrival
+            last_heard = (heard or {}).get(stream)
+            if last_heard is not None and (since is None or last_heard > since):
+                since = last_heard
             paused = (since is not None and now - since >= self.pause_wall
                       and self._count[_OTHER[stream]] - self._other_at[stream] >= 2)
             if paused:
@@ -113,9 +124,9 @@ class StreamMerger:
                 self.processed_ns = t_ns
         return n
 
-    def end_callback(self, step: Step, clock: Callable[[], float]) -> None:
+    def end_callback(self, step: Step, clock: Callable[[], float], heard: Heard = None) -> None:
         """After a message callback has offered everything queued: drain up to the watermark, mark activity."""
-        self.drain(self.watermark(clock()), step, clock)
+        self.drain(self.watermark(clock(), heard), step, clock)
         self._mark(clock())
 
     def _mark(self, now: float) -> None:
@@ -124,14 +135,14 @@ class StreamMerger:
         if self._seq != self._seq_marked:
             self.last_activity, self._seq_marked = now, self._seq
 
-    def on_idle(self, now: float, took: bool, step: Step, clock: Callable[[], float]) -> bool:
+    def on_idle(self, now: float, took: bool, step: Step, clock: Callable[[], float], heard: Heard = None) -> bool:
         """The periodic timer (``took``: it offered queued messages at ``now``): drain up to the watermark,
         or everything once idle for ``flush_idle``. → True when idle with nothing left buffered."""
         if took:
             self._mark(now)
         idle = now - self.last_activity >= self.flush_idle
         if self._heap:
-            self.drain(None if idle else self.watermark(now), step, clock)
+            self.drain(None if idle else self.watermark(now, heard), step, clock)
         return idle and not self._heap
 
 

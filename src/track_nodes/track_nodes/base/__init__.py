@@ -1,8 +1,10 @@
 """What every node and tool of track_nodes shares: the node base, parameters, step clock, CLI parsing."""
 
+from track_nodes.base.names import remember_args, shared_names_problem
 from track_nodes.base.node import EXIT_BAD_INPUT, TrackNode, run_node
 from track_nodes.base.params import Param, ParameterError, declare_dataclass, declare_params, vector
 from track_nodes.base.steps import FixedRateSteps
 
 __all__ = ['EXIT_BAD_INPUT', 'FixedRateSteps', 'Param', 'ParameterError', 'TrackNode', 'declare_dataclass',
-           'declare_params', 'run_node', 'vector']
+           'declare_params', 'remember_args', 'run_node', 'shared_names_problem',
+           'vector']

@@ -56,6 +56,7 @@ from track_msgs_py.records import DIAG_OK, DIAG_WARN
 from track_msgs_py.tf import TF, TF_QOS, TF_STATIC, TF_STATIC_QOS, tf_message
 from track_msgs_py.topics import DIAGNOSTICS, relative
 from track_nodes.base.cli import params_file_problem
+from track_nodes.base.names import CheckedNames, remember_args
 from track_nodes.base.params import Param, ParameterError, declare_params
 from track_nodes.base.refusals import RefusalCounter
 from track_nodes.base.teardown import TEARDOWN, dds_alarm
@@ -64,8 +65,9 @@ EXIT_BAD_INPUT = 2
 
 
 
-class TrackNode(Node):
-    """A node of this package set: declared parameters in ``self.p``, endpoints in ``__init__``."""
+class TrackNode(Node, metaclass=CheckedNames):
+    """A node of this package set: declared parameters in ``self.p``, endpoints in ``__init__``; an
+    undeclared parameter addressed to it is refused once it is built (``base/names.py``)."""
 
     DEFAULT_NAME: ClassVar[str] = 'track_node'
     PARAMS: ClassVar[tuple[Param, ...]] = ()
@@ -240,6 +242,7 @@ def run_nodes(makers: Sequence[tuple[str, Callable[[], Node]]], argv: Sequence[s
     if problem is None:
         try:
             rclpy.init(args=args)
+            remember_args(rclpy.get_default_context(), args)  # its params files, for base/names.py
         except _rclpy.UnknownROSArgsError as exc:
             problem = f'unknown ROS arguments {exc}'
         except _rclpy.RCLError as exc:  # other arguments rcl refuses: the first line of its message

@@ -7,6 +7,8 @@
 - ``declare_dataclass``: a core configuration dataclass as ``<prefix>.<field>`` parameters,
   one per number, bool or number-tuple field, with the core's own checks on the result.
 - ``vector``: a list parameter as a finite numpy vector of a fixed length, or one line.
+- Names: an override addressed to a node that names no parameter it declares (a typo) is refused
+  once the node is built, with the closest declared names (``base/names.py``).
 
 Run time (issue 19, item 6): a ``Param`` with ``live=True`` (rates, thresholds, gates) may be
 changed with ``ros2 param set``; the node base checks the new value like a start value and the

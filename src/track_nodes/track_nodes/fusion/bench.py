@@ -28,7 +28,7 @@ import time
 
 import numpy as np
 
-from track_core.cli import Outcome, RunConfig, format_table
+from track_core.cli import Outcome, RunConfig, format_table, set_keys
 
 TOPICS = ('/bench/radar/reports', '/bench/patrol/reports')
 WARMUP = 3.0
@@ -161,6 +161,8 @@ def run_node(mu: np.ndarray, R: np.ndarray, seconds: float, publish_pairs: str, 
             'reports_received_per_s': received / wall, **_figures(probe, wall0, wall)}
 
 
+@set_keys(tracks='tracks held (1000; --quick: 200)', seconds='wall seconds measured (20; --quick: 4)',
+          publish_pairs='nonzero or all (nonzero)', stale_after='seconds a report lives in the node (2.5)')
 def bench(cfg: RunConfig) -> Outcome:
     from track_core.fusion.benchmark import solent_layout
 

@@ -10,13 +10,14 @@ from __future__ import annotations
 
 import os
 
-from track_core.cli import Outcome, RunConfig, format_table
+from track_core.cli import Outcome, RunConfig, format_table, set_keys
 from track_nodes.fuzz.harness import run_case
 from track_nodes.fuzz.table import cases
 
 QUICK_MESSAGES = 300
 
 
+@set_keys(node='a case of table.cases() or all (all)', messages='bad messages per case (10000; --quick: 300)')
 def fuzz_experiment(cfg: RunConfig) -> Outcome:
     table = cases()
     which = cfg.options.get('node', 'all')

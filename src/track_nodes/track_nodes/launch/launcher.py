@@ -54,11 +54,11 @@ from rclpy.executors import (
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from track_nodes.base import EXIT_BAD_INPUT
+from track_nodes.base import EXIT_BAD_INPUT, remember_args, shared_names_problem
 from track_nodes.launch.graph import LauncherNode
 from track_nodes.launch.hosts import Hosts, unavailable
 from track_nodes.launch.processes import failed_children, spawn_nodes, stop_processes
-from track_nodes.launch.scenario import Scenario, ScenarioError, load_scenario
+from track_nodes.launch.scenario import Scenario, ScenarioError, load_scenario, params_file_sections
 
 CLOCK_TICK = 0.01  # wall seconds per /clock step at the nominal rate ...
 MAX_CLOCK_STEP = 0.05  # ... but never more than this many node seconds per step (bounded bursts)
@@ -129,6 +129,8 @@ class Launch:
         if args.params is not None:
             if not args.params.is_file():
                 raise LaunchError(f'--params {args.params}: no such file')
+            if (problem := params_file_sections(args.params, scenario)) is not None:
+                raise LaunchError(problem)
             self.params_files.append(str(args.params.resolve()))
         self.bag: Path | None = None
         if args.record is not None:
@@ -162,6 +164,7 @@ class Launch:
         self._watch_sigint()
         ros_args = ['--ros-args', *[a for f in self.params_files for a in ('--params-file', f)]]
         rclpy.init(args=ros_args if not processes else None, context=context)
+        remember_args(context, ros_args if not processes else None)  # node parameter names (base/names.py)
         launcher = LauncherNode(context)
         executor = MultiThreadedExecutor(context=context)
         executor.add_node(launcher)
@@ -272,6 +275,10 @@ class Launch:
             nodes.append(RecorderNode(context=context, parameter_overrides=[
                 *self._overrides(), Parameter('bag', value=str(self.bag)),
                 Parameter('regex', value=self.record_regex)]))
+        if (problem := shared_names_problem(nodes, self.params_files)) is not None:  # base/names.py
+            for node in nodes:
+                node.destroy_node()
+            raise LaunchError(problem)
         return nodes
 
     # -- start, clock, stop ---------------------------------------------------------------

@@ -1,9 +1,14 @@
 """Scenario files: ``config/<scenario>.yaml`` in the ``node_name: ros__parameters:`` layout.
 
 One extra top-level entry, ``track_launch``, belongs to no node and tells the launcher what to
-run (``nodes: [executable[:node_name], ...]``) and its defaults (``record_regex``,
-``summary``, ``duration``, ``rate``). Because it has the same layout, the whole file stays a
-valid ``--params-file`` for every node and for ``ros2 launch``.
+run (``nodes: [executable[:node_name], ...]``) and its defaults (``LAUNCH_OPTIONS``). Because it
+has the same layout, the whole file stays a valid ``--params-file`` for every node and for
+``ros2 launch``.
+
+Names are checked, since rcl gives a section that names no node to nobody: a ``track_launch`` option
+or a node section (``name:`` or ``/name:``) that is not the scenario's is refused in one line with the
+closest valid names. Wildcard sections (``/**:``) are for every node; the keys under a node's own
+section are checked by the node itself (``base/names.py``).
 """
 
 from __future__ import annotations
@@ -16,10 +21,21 @@ from typing import Any
 
 import yaml
 
+from track_core.names import unknown_line
+from track_nodes.base.names import file_sections
 from track_nodes.registry import UnknownExecutableError
 from track_nodes.registry import node_class as registered_class
 
 LAUNCH_KEY = 'track_launch'
+#: The ``track_launch`` options: name → what it sets (the launcher's command line overrides the last two).
+LAUNCH_OPTIONS = {
+    'nodes': 'the nodes to run, executable[:node_name]',
+    'record_regex': 'topics --record writes (regular expression)',
+    'summary': 'the summary printed after a recorded run (report.summary)',
+    'duration': 'run length [s of node time]',
+    'rate': 'lock-step clock rate (x real time; 0 = wall time)',
+}
+RECORDER = 'recorder'  # the node the launcher adds for --record
 
 
 class ScenarioError(ValueError):
@@ -81,4 +97,31 @@ def load_scenario(name: str) -> Scenario:
     names = [n.name for n in nodes]
     if len(set(names)) != len(names):
         raise ScenarioError(f'{path}: node names must be unique, got {names}')
+    unknown = set(opts) - set(LAUNCH_OPTIONS)
+    if unknown:
+        raise ScenarioError(f'{path}: {unknown_line(LAUNCH_KEY + " option", unknown, LAUNCH_OPTIONS)}')
+    problem = section_problem(doc, names)
+    if problem is not None:
+        raise ScenarioError(f'{path}: {problem}')
     return Scenario(path.stem, path, nodes, opts)
+
+
+def section_problem(doc: Any, names: list[str]) -> str | None:
+    """Why a params document has a section for no node of ``names`` (nor the recorder), or None."""
+    valid = {f'/{n}' for n in [*names, RECORDER]}
+    unknown = {section.lstrip('/') for section, _ in file_sections(doc)
+               if '*' not in section and section != f'/{LAUNCH_KEY}' and section not in valid}
+    if not unknown:
+        return None
+    return unknown_line('node section' + ('s' if len(unknown) > 1 else ''), unknown, [*names, RECORDER],
+                        known="the scenario's nodes")
+
+
+def params_file_sections(path: Path, scenario: Scenario) -> str | None:
+    """``section_problem`` of an extra params file for ``scenario`` (launcher ``--params``), or None."""
+    try:
+        doc = yaml.safe_load(Path(path).read_text())
+    except (OSError, yaml.YAMLError):
+        return None  # the nodes refuse an unreadable file themselves (base/cli.params_file_problem)
+    problem = section_problem(doc, [n.name for n in scenario.nodes])
+    return None if problem is None else f'--params {path}: {problem}'

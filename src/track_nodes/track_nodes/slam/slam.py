@@ -44,7 +44,8 @@ once per reason every ``warn_throttle`` seconds, on /diagnostics; and counted in
 - an observation (one point of a scan) that ``streams.scan_observations`` finds unusable (non-finite,
   range ≤ 0 or beyond the world bound of ``validate.InputPolicy``, diameter beyond it, bearing outside
   ``hybrid.bearing_limits`` ± ``bearing_tolerance``) is dropped, the rest of the scan used. A scan
-  without ``range``/``bearing`` fields is dropped whole;
+  without ``range``/``bearing`` fields, or with observations none of which is usable, is refused whole
+  before its stamp reaches the merger (an empty scan, with no observation, is a valid one);
 - an input with a non-finite value, |speed| beyond the policy's speed bound or |steering| ≥ π/2 is dropped;
 - a message whose stamp is malformed, more than ``stamp_horizon`` ahead of the node clock (once it
   reads non-zero, ``validate.clock_now``), earlier than the previous one on its topic (time went
@@ -124,6 +125,7 @@ class SlamNode(TrackNode):
         self.policy = InputPolicy(horizon=p.stamp_horizon)
         self.refusals.throttle = p.warn_throttle
         self.merger = StreamMerger(p.pause_wall, p.flush_idle, p.drain_budget, time.monotonic())
+        self._heard: dict[str, float | None] = {INPUT: None, SCAN: None}  # last message per stream, even refused
         self._map_ns: int | None = None  # stamp of the last map published
         self._map_dirty = self._pf_published = False  # a scan since that map; the last cloud was not empty
         self._n_events = 0
@@ -157,12 +159,12 @@ class SlamNode(TrackNode):
 
     def _after_message(self) -> None:
         self._take_pending()
-        self.merger.end_callback(self._step, time.monotonic)
+        self.merger.end_callback(self._step, time.monotonic, self._heard)
 
     def _on_idle(self) -> None:
         now = time.monotonic()
         took = self._take_pending() > 0
-        if self.merger.on_idle(now, took, self._step, time.monotonic) and self._map_dirty:
+        if self.merger.on_idle(now, took, self._step, time.monotonic, self._heard) and self._map_dirty:
             self._publish_map(self.processed_ns / 1e9)
 
     def _take_pending(self) -> int:
@@ -184,6 +186,7 @@ class SlamNode(TrackNode):
         return taken
 
     def _add_input(self, msg: TwistStamped) -> None:
+        self._heard[INPUT] = time.monotonic()  # refused or not, the stream is not silent (streams: pause rule)
         _, speed, steer = twist_to_inputs(msg)
         reason = speed_steer_problem(speed, steer, self.policy)
         if reason:
@@ -193,6 +196,7 @@ class SlamNode(TrackNode):
         self._offer(INPUT, msg.header.stamp, (speed, steer))
 
     def _add_scan(self, msg: PointCloud2) -> None:
+        self._heard[SCAN] = time.monotonic()
         try:
             scan = SlamScan.from_msg(msg)
         except RecordError as exc:
@@ -202,11 +206,16 @@ class SlamNode(TrackNode):
         limits = self.slam.params.bearing_limits
         z, ok = scan_observations(scan.range, scan.bearing, scan.diameter, limits, self.p.bearing_tolerance,
                                   self.p.add_radius, self.policy.world_bound)
+        example = f'e.g. range {scan.range[~ok][0]:.4g}, bearing {scan.bearing[~ok][0]:.4g}' if not ok.all() else ''
+        if ok.size and not ok.any():  # garbage, not an empty scan: refused before its stamp reaches the merger
+            self.n_bad_scans += 1
+            self.refuse(SLAM_SCAN, f'scan: no usable observation of {ok.size} (streams.scan_observations), {example}')
+            return
         if self._offer(SCAN, msg.header.stamp, z) and not np.all(ok):
             bad = int(np.sum(~ok))
             self.n_dropped_obs += bad
             self.refuse(SLAM_SCAN, f'observations dropped: {bad} of {ok.size} at t = {scan.t:.3f} s (streams.'
-                        f'scan_observations), e.g. range {scan.range[~ok][0]:.4g}, bearing {scan.bearing[~ok][0]:.4g}')
+                        f'scan_observations), {example}')
 
     def _offer(self, stream: str, stamp, payload) -> bool:
         """Into the merger; False (refused, warned) when the stamp is malformed, backwards or too late."""

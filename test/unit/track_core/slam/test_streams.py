@@ -99,7 +99,7 @@ def test_identical_to_the_old_node_path_on_saved_cases(k):
 
 def test_a_broken_merger_fails_the_saved_cases(monkeypatch):
     """The replay can fail: without the pause rule the outputs differ on some cases."""
-    monkeypatch.setattr(StreamMerger, 'watermark', lambda self, now: (
+    monkeypatch.setattr(StreamMerger, 'watermark', lambda self, now, heard=None: (
         None if None in self.last_ns.values() else min(self.last_ns.values())))
     assert sum(replay(c)[0] != c['out'] for c in CASES) > 10
 
@@ -221,3 +221,17 @@ def test_observations_beyond_the_bound_are_unusable():
     assert ok.tolist() == [True, False, False, True]  # without add_radius the diameter is not read
     _, ok = scan_observations(r, b, d, (0.0, math.pi), 1e-6, True)  # no bound: as before
     assert ok.tolist() == [True, True, True, True]
+
+
+def test_a_stream_whose_messages_are_refused_is_not_paused():
+    """``heard``: a stream that delivers only refused messages is not silent, so the other stream is not
+    released past it (its next valid event would otherwise be refused as late)."""
+    m, out = StreamMerger(0.2, 10.0, 1.0, 0.0), []
+    m.offer(SCAN, 10, 's10', 0.0)
+    for k in range(1, 6):  # inputs go on; the scan stream delivers only refused messages
+        m.offer(INPUT, 10 + 10 * k, f'u{10 + 10 * k}', 0.1 * k)
+    heard = {INPUT: 0.5, SCAN: 0.5}
+    assert m.watermark(0.5, heard) == 10 and m.watermark(0.5) is not None and m.watermark(0.5) > 10
+    m.end_callback(_collect(out), _never(0.5), heard)
+    assert m.processed_ns == 10
+    assert m.offer(SCAN, 25, 's25', 0.6) is None  # the next valid scan is still in time
