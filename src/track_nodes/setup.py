@@ -39,6 +39,7 @@ setup(
         ],
         'track.experiments': [
             'fuzz = track_nodes.fuzz.experiment:fuzz_experiment',
+            'soak = track_nodes.soak.experiment:soak_experiment',
         ],
         'track.benchmarks': [
             'recorder = track_nodes.bag.bench:recorder_benchmark',
