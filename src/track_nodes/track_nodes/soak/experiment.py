@@ -16,14 +16,14 @@ import dataclasses
 import time
 from datetime import datetime
 
-from track_core.cli import Outcome, RunConfig, format_table
+from track_core.cli import Outcome, RunConfig, format_table, set_keys
 from track_nodes.soak import parts
 from track_nodes.soak.procs import busy_loops
 
 PARTS = ('concurrent', 'loop', 'bringup')
 
 
-def _number(cfg: RunConfig, key: str, full: float, quick: float, lo: float, kind=int):
+def _option_number(cfg: RunConfig, key: str, full: float, quick: float, lo: float, kind=int):
     text = cfg.options.get(key)
     if text is None:
         return kind(quick if cfg.quick else full)
@@ -36,12 +36,17 @@ def _number(cfg: RunConfig, key: str, full: float, quick: float, lo: float, kind
     return value
 
 
+@set_keys(busy='CPU-bound processes beside the soak (0)', loops='times the bag is played (5; --quick: 3)',
+          sensors='nodes of the bring-up field (100; --quick: 24)',
+          run='wall s a concurrent or field run lasts before SIGTERM (20; --quick: 6)',
+          timeout='wall s for any process to come up (300)', parts='comma list of concurrent, loop, bringup (all)',
+          domain='ROS_DOMAIN_ID of the loop and bring-up processes (the environment\'s)')
 def soak_experiment(cfg: RunConfig) -> Outcome:
-    busy = _number(cfg, 'busy', 0, 0, 0)
-    loops = _number(cfg, 'loops', 5, 3, 1)
-    sensors = _number(cfg, 'sensors', 100, 24, 2)
-    run_s = _number(cfg, 'run', 20.0, 6.0, 0.0, float)
-    timeout = _number(cfg, 'timeout', 300.0, 300.0, 1.0, float)
+    busy = _option_number(cfg, 'busy', 0, 0, 0)
+    loops = _option_number(cfg, 'loops', 5, 3, 1)
+    sensors = _option_number(cfg, 'sensors', 100, 24, 2)
+    run_s = _option_number(cfg, 'run', 20.0, 6.0, 0.0, float)
+    timeout = _option_number(cfg, 'timeout', 300.0, 300.0, 1.0, float)
     chosen = [p.strip() for p in cfg.options.get('parts', ','.join(PARTS)).split(',') if p.strip()]
     if unknown := [p for p in chosen if p not in PARTS]:
         raise ValueError(f'--set parts: unknown {", ".join(unknown)}; choose from {", ".join(PARTS)}')
