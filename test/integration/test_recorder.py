@@ -233,8 +233,9 @@ def publish_acked(ros, pub, msgs) -> list[bytes]:
     return sent
 
 
-@pytest.mark.parametrize('sig', [signal.SIGTERM, signal.SIGINT], ids=['SIGTERM', 'SIGINT'])
+@pytest.mark.parametrize('sig', [signal.SIGTERM, signal.SIGINT, signal.SIGHUP], ids=['SIGTERM', 'SIGINT', 'SIGHUP'])
 def test_signal_closes_a_complete_bag(ros, tmp_path, prefix, sig):
+    """SIGTERM (timeout, systemd, docker stop) and SIGHUP stop the recorder exactly like SIGINT."""
     node = ros.add(rclpy.create_node('sig_pub', context=ros.context))
     pub = node.create_publisher(Odometry, '/sig/odom', RELIABLE)
     proc = start_recorder(ros, tmp_path, prefix, 'sig')
