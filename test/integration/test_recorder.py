@@ -3,6 +3,8 @@ overwrite, signals, SIGKILL recovery."""
 
 from __future__ import annotations
 
+import contextlib
+import re
 import signal
 import subprocess
 from pathlib import Path
@@ -61,6 +63,23 @@ def read_bag(bag: Path) -> tuple[dict[str, list[bytes]], dict]:
 def odoms(raws: list[bytes]) -> list[Odometry]:
     """Decoded: CDR alignment padding is not guaranteed to be zero, so equal messages may differ in bytes."""
     return [deserialize_message(r, Odometry) for r in raws]
+
+
+def decoded_three_ways(bag: Path, topic: str) -> list[str]:
+    """The ``child_frame_id`` of every Odometry on ``topic``, by rosbags, rclpy and mcap+mcap_ros2 (which agree)."""
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    got, _ = read_bag(bag)
+    ts = get_typestore(Stores.ROS2_JAZZY)
+    by_rosbags = [ts.deserialize_cdr(r, 'nav_msgs/msg/Odometry').child_frame_id for r in got.get(topic, [])]
+    by_rclpy = [m.child_frame_id for m in odoms(got.get(topic, []))]
+    (mcap_file,) = bag.glob('*.mcap')
+    with mcap_file.open('rb') as f:
+        by_mcap = [m.child_frame_id for _, ch, _, m in
+                   make_reader(f, decoder_factories=[DecoderFactory()]).iter_decoded_messages() if ch.topic == topic]
+    assert by_rosbags == by_rclpy == by_mcap
+    return by_rosbags
 
 
 def make_recorder(ros, bag: Path, **params) -> RecorderNode:
@@ -250,6 +269,7 @@ def test_signal_closes_a_complete_bag(ros, tmp_path, prefix, sig):
     assert (bag / 'metadata.yaml').is_file(), err
     got, _ = read_bag(bag)
     assert odoms(got['/sig/odom']) == odoms(sent)  # decoded: CDR padding bytes are not guaranteed zero
+    assert decoded_three_ways(bag, '/sig/odom') == [f'msg{i}' for i in range(N)]
     assert f'recorded {N} messages' in err and '/sig/odom' in err
 
 
@@ -293,6 +313,72 @@ def test_bag_recover_bad_path_is_one_line(ros, tmp_path, prefix):
     assert proc.returncode == 2
     assert len(proc.stderr.strip().splitlines()) == 1 and str(tmp_path / 'nope') in proc.stderr
     assert 'Traceback' not in proc.stderr
+
+
+# --- a full disk: one line, the bag closed with what was written, exit 2 ------------------------------------
+
+@contextlib.contextmanager
+def small_disk(where: Path, size: str):
+    """A tmpfs of ``size`` mounted at ``where`` (root only: CI and this machine run the tests as root)."""
+    where.mkdir()
+    res = subprocess.run(['mount', '-t', 'tmpfs', '-o', f'size={size}', 'tmpfs', str(where)], capture_output=True,
+                         text=True)
+    if res.returncode != 0:
+        pytest.skip(f'cannot mount a small tmpfs to fill: {res.stderr.strip() or res.returncode}')
+    try:
+        yield where
+    finally:
+        subprocess.run(['umount', '-l', str(where)], capture_output=True)
+
+
+def big_odom(i: int) -> Odometry:
+    m = odom(i)
+    m.header.frame_id = 'map' + ' ' * 4000  # about 4.7 kB each: a 2 MiB disk fills within 500 messages
+    return m
+
+
+def test_a_full_disk_closes_the_bag_with_what_was_written_and_exits_2(ros, tmp_path, prefix):
+    node = ros.add(rclpy.create_node('fill_pub', context=ros.context))
+    pub = node.create_publisher(Odometry, '/full/odom', QoSProfile(depth=1000))
+    with small_disk(tmp_path / 'disk', '2m') as disk:
+        proc = subprocess.Popen([prefix / 'lib/track_nodes/recorder', str(disk / 'full'), '-t', '/full/odom',
+                                 '--flush-period', '0.1', '--clock', 'wall'], env=ros.env, stdout=subprocess.PIPE,
+                                stderr=subprocess.PIPE, text=True)
+        try:
+            assert ros.spin_until(lambda: pub.get_subscription_count() > 0, 60.0), 'recorder never subscribed'
+            sent = 0
+            while proc.poll() is None and sent < 5000:  # 23 MB: far more than the disk holds
+                pub.publish(big_odom(sent))
+                sent += 1
+                ros.spin_for(0.002)
+            _, err = proc.communicate(timeout=60)
+        finally:
+            proc.kill()
+        assert proc.returncode == 2, err
+        assert 'Traceback' not in err, err
+        errors = [line for line in err.splitlines() if line.startswith('[ERROR]')]
+        assert len(errors) == 1, err
+        assert 'No space left on device' in errors[0] and 'the bag is closed with the' in errors[0], errors[0]
+        bag = disk / 'full'
+        assert (bag / 'metadata.yaml').is_file()
+        assert not (bag / '.disk-reserve').exists()
+        ids = decoded_three_ways(bag, '/full/odom')
+        assert ids == [f'msg{i}' for i in range(len(ids))] and len(ids) > 0  # a prefix of what was sent, in order
+        with Reader(bag) as r:
+            assert r.message_count == len(ids) and r.ros_distro == 'jazzy'
+        taken = int(re.search(r'recording stopped after (\d+) messages', errors[0]).group(1))
+        assert f'closed with the {len(ids)} written' in errors[0]
+        assert f'{taken - len(ids)} taken after it are not in the bag' in errors[0]
+        assert len(ids) <= taken <= sent
+
+
+def test_no_room_for_a_bag_at_start_is_one_line_and_exit_2(ros, tmp_path, prefix):
+    with small_disk(tmp_path / 'disk', '64k') as disk:
+        proc = subprocess.run([prefix / 'lib/track_nodes/recorder', str(disk / 'none'), '-t', '/x'], env=ros.env,
+                              capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and 'No space left on device' in lines[0] and 'none' in lines[0], proc.stderr
 
 
 # --- bursts: nothing lost without a count (issue 13) --------------------------------------------------
