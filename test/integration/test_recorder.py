@@ -192,6 +192,68 @@ def test_use_sim_time_discovers_before_clock_and_stamps_with_sim_time(ros, tmp_p
     assert got == [(sim_ns, raw) for raw in sent]
 
 
+def test_by_default_a_recorder_beside_a_sim_time_run_follows_its_clock(ros, tmp_path):
+    """No use_sim_time given: the bag spans the run's sim time (10 s here), not the wall time it took."""
+    from rosgraph_msgs.msg import Clock
+
+    bag = tmp_path / 'bags' / 'follows'
+    rec = make_recorder(ros, bag, topics=['/run/odom'])
+    node = ros.add(rclpy.create_node('run_pub', context=ros.context))
+    pub = node.create_publisher(Odometry, '/run/odom', RELIABLE)
+    clock_pub = node.create_publisher(Clock, '/clock', RELIABLE)
+    t0 = 1_000 * 10**9
+
+    def took(ns: int) -> bool:  # the recorder has taken this /clock value (without a clock choice: no wait)
+        stamps = getattr(rec, '_stamps', None)
+        return stamps is None or stamps.latest == ns
+
+    assert ros.spin_until(lambda: '/run/odom' in rec.subscriptions_by_topic and clock_pub.get_subscription_count(),
+                          30.0)
+    sent = []
+    for i in range(11):  # one message per sim second, as fast as the wall clock allows
+        clock_pub.publish(Clock(clock=rclpy.time.Time(nanoseconds=t0 + i * 10**9).to_msg()))
+        assert ros.spin_until(lambda i=i: took(t0 + i * 10**9), 10.0)
+        sent += publish_all(ros, pub, [odom(i)])
+    assert ros.spin_until(lambda: rec.message_counts() == {'/run/odom': 11}, 10.0)
+    close_node(ros, rec)
+    with Reader(bag) as reader:
+        stamps = [t for _, t, _ in reader.messages()]
+        assert reader.duration == 10 * 10**9 + 1  # rosbag2's duration: last - first + 1 ns
+    assert stamps == [t0 + i * 10**9 for i in range(11)]
+    assert decoded_three_ways(bag, '/run/odom') == [f'msg{i}' for i in range(11)]
+
+
+def test_by_default_a_recorder_without_clock_messages_stamps_wall_time(ros, tmp_path):
+    """A /clock publisher that sends nothing (a wall-time launcher run) does not make it sim time."""
+    import time
+
+    from rosgraph_msgs.msg import Clock
+
+    bag = tmp_path / 'bags' / 'wall'
+    rec = make_recorder(ros, bag, topics=['/w/odom'], clock_wait=0.2)
+    node = ros.add(rclpy.create_node('wall_pub', context=ros.context))
+    pub = node.create_publisher(Odometry, '/w/odom', RELIABLE)
+    node.create_publisher(Clock, '/clock', RELIABLE)
+    before = time.time_ns()
+    publish_all(ros, pub, [odom(i) for i in range(5)])
+    decided = lambda: getattr(getattr(rec, '_stamps', None), 'mode', 'wall') == 'wall'  # noqa: E731
+    assert ros.spin_until(lambda: decided() and rec.message_counts() == {'/w/odom': 5}, 10.0)
+    close_node(ros, rec)
+    after = time.time_ns()
+    with Reader(bag) as reader:
+        stamps = [t for _, t, _ in reader.messages()]
+    assert len(stamps) == 5 and all(before <= t <= after for t in stamps), (before, stamps, after)
+
+
+def test_clock_option_and_its_contradiction(ros, tmp_path):
+    assert [(p.name, p.value) for p in parse_cli(['track-record', 'b', '--clock', 'sim'])] == [
+        ('bag', 'b'), ('clock', 'sim')]
+    with pytest.raises(ValueError, match='clock=wall contradicts use_sim_time'):
+        make_recorder(ros, tmp_path / 'bags' / 'no', clock='wall', use_sim_time=True)
+    with pytest.raises(ValueError, match="clock='bogus'"):
+        make_recorder(ros, tmp_path / 'bags' / 'no2', clock='bogus')
+
+
 @pytest.mark.parametrize('tf', [True, False])
 def test_tf_topics_are_recorded_with_a_regex_unless_excluded(ros, tmp_path, tf):
     node = ros.add(rclpy.create_node('tf_pub', context=ros.context))
