@@ -404,7 +404,7 @@ def test_a_full_disk_closes_the_bag_with_what_was_written_and_exits_2(ros, tmp_p
     pub = node.create_publisher(Odometry, '/full/odom', QoSProfile(depth=1000))
     with small_disk(tmp_path / 'disk', '2m') as disk:
         proc = subprocess.Popen([prefix / 'lib/track_nodes/recorder', str(disk / 'full'), '-t', '/full/odom',
-                                 '--flush-period', '0.1', '--clock', 'wall'], env=ros.env, stdout=subprocess.PIPE,
+                                 '--flush-period', '0.1'], env=ros.env, stdout=subprocess.PIPE,
                                 stderr=subprocess.PIPE, text=True)
         try:
             assert ros.spin_until(lambda: pub.get_subscription_count() > 0, 60.0), 'recorder never subscribed'

@@ -28,9 +28,13 @@ Usage::
   once), so a truncated bag never half-plays. A bad path, a directory that is not a bag, a bag
   without metadata.yaml (killed recorder: recover it with ``track-bag-recover``), a truncated
   or corrupt .mcap, an invalid ``--rate`` (≤ 0, NaN) or an unknown ``--topics`` entry → one line
-  on stderr naming the file and the problem, exit code 2.
+  on stderr naming the file and the problem, exit code 2. So are a ``metadata.yaml`` whose topics
+  or types differ from the .mcap's, and nothing to play (an empty bag, ``--start-offset`` past the
+  last message); wrong counts in ``metadata.yaml`` are a warning, and the .mcap's counts are
+  announced and played (``bag.playcheck``).
 - Exits with code 0 when the bag has been played (reliable messages acknowledged, up to 2 s),
-  unless ``--loop``.
+  unless ``--loop``. SIGINT, SIGTERM and SIGHUP stop it alike (``base.signals``); a playback cut
+  short ends with ``played K of N messages``.
 """
 
 from __future__ import annotations
