@@ -410,9 +410,10 @@ def test_a_full_disk_closes_the_bag_with_what_was_written_and_exits_2(ros, tmp_p
             assert ros.spin_until(lambda: pub.get_subscription_count() > 0, 60.0), 'recorder never subscribed'
             sent = 0
             while proc.poll() is None and sent < 5000:  # 23 MB: far more than the disk holds
-                pub.publish(big_odom(sent))
-                sent += 1
-                ros.spin_for(0.002)
+                for _ in range(20):
+                    pub.publish(big_odom(sent))
+                    sent += 1
+                ros.spin_for(0.01)
             _, err = proc.communicate(timeout=60)
         finally:
             proc.kill()
