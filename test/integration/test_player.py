@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 import shutil
+import signal
 import subprocess
 from pathlib import Path
 
@@ -224,6 +225,26 @@ def _rate0(tmp: Path, bag: Path) -> tuple[Path, Path, list[str]]:
     return bag, bag, ['--rate', '0']
 
 
+def _edited_metadata(name: str, old: str, new: str):
+    """A copy of the bag whose metadata.yaml has ``old`` replaced by ``new`` (every occurrence)."""
+    def make(tmp: Path, bag: Path) -> tuple[Path, Path, list[str]]:
+        shutil.copytree(bag, tmp / name)
+        meta = tmp / name / 'metadata.yaml'
+        text = meta.read_text()
+        assert old in text
+        meta.write_text(text.replace(old, new))
+        return tmp / name, tmp / name, []
+    return make
+
+
+def _past_the_end(tmp: Path, bag: Path) -> tuple[Path, Path, list[str]]:
+    return bag, bag, ['--start-offset', '5']
+
+
+def _past_the_topic(tmp: Path, bag: Path) -> tuple[Path, Path, list[str]]:
+    return bag, bag, ['--start-offset', '0.5', '--topics', '/p/static']  # /p/static has one message at 0 s
+
+
 @pytest.mark.parametrize(('make', 'problem'), [
     (_missing, 'no such bag'),
     (_not_a_bag, 'not a rosbag2 bag'),
@@ -235,8 +256,13 @@ def _rate0(tmp: Path, bag: Path) -> tuple[Path, Path, list[str]]:
     (_cut_to(40), 'truncated'),
     (_garbage, 'truncated'),
     (_rate0, 'rate'),
+    (_edited_metadata('renamed', 'name: /p/pose', 'name: /p/posed'), 'disagree'),
+    (_edited_metadata('retyped', 'type: geometry_msgs/msg/PoseWithCovarianceStamped',
+                      'type: geometry_msgs/msg/PoseStamped'), 'disagree'),
+    (_past_the_end, 'past the last message'),
+    (_past_the_topic, 'past the last message'),
 ], ids=['missing', 'not-a-bag', 'no-metadata', 'truncated', 'cut-0', 'cut-8', 'cut-9', 'cut-40', 'garbage',
-        'rate-0'])
+        'rate-0', 'metadata-topic', 'metadata-type', 'offset-past-end', 'offset-past-topic'])
 def test_bad_input_is_one_line_and_exit_2(ros, bag, prefix, tmp_path, make, problem):
     given, named, extra = make(tmp_path, bag[0])
     sink = Sink(ros)
@@ -249,3 +275,41 @@ def test_bad_input_is_one_line_and_exit_2(ros, bag, prefix, tmp_path, make, prob
     assert 'Traceback' not in proc.stderr
     ros.spin_for(0.1)
     assert sink.counts() == dict.fromkeys(TOPICS, 0) and sink.clock == []  # nothing was published
+
+
+def test_a_wrong_message_count_in_metadata_is_a_warning_and_the_real_count_is_played(ros, bag, prefix, tmp_path):
+    given, _, _ = _edited_metadata('miscounted', 'message_count: 20', 'message_count: 99999')(tmp_path, bag[0])
+    sink = Sink(ros, {'/p/odom': Odometry})
+    proc = subprocess.Popen([prefix / 'lib/track_nodes/player', str(given), '--rate', '10', '--topics', '/p/odom',
+                             '--wait', '60'], env=ros.env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert ros.spin_until(lambda: proc.poll() is not None, 120.0)
+        _, err = proc.communicate(timeout=10)
+    finally:
+        proc.kill()
+    assert proc.returncode == 0, err
+    warnings = [line for line in err.splitlines() if 'metadata.yaml says' in line]
+    assert len(warnings) == 1 and '/p/odom: 99999 → 20' in warnings[0], err
+    assert 'playing 20 messages' in err and 'played 20 messages' in err, err
+    assert '99999' not in err.replace(warnings[0], ''), err  # announced nowhere else
+    ros.spin_until(lambda: sink.counts()['/p/odom'] == 20, 5.0)
+    assert sink.counts()['/p/odom'] == 20
+
+
+@pytest.mark.parametrize('sig', [signal.SIGTERM, signal.SIGHUP], ids=['SIGTERM', 'SIGHUP'])
+def test_a_stop_signal_stops_playback_like_sigint_and_says_how_much_was_played(ros, bag, prefix, sig):
+    path, _ = bag
+    sink = Sink(ros, {'/p/odom': Odometry})
+    proc = subprocess.Popen([prefix / 'lib/track_nodes/player', str(path), '--rate', '0.02', '--topics', '/p/odom',
+                             '--wait', '60'], env=ros.env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:  # 20 messages over 47.5 s of wall time: stopped after the first
+        assert ros.spin_until(lambda: sink.counts()['/p/odom'] >= 1 or proc.poll() is not None, 120.0)
+        assert proc.poll() is None, proc.communicate()[1]
+        proc.send_signal(sig)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    assert proc.returncode == 0, err
+    played = [line for line in err.splitlines() if 'played' in line]
+    assert len(played) == 1 and 'of 20 messages' in played[0] and 'stopped before the end' in played[0], err
+    assert 'Traceback' not in err

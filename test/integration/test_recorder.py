@@ -3,6 +3,8 @@ overwrite, signals, SIGKILL recovery."""
 
 from __future__ import annotations
 
+import contextlib
+import re
 import signal
 import subprocess
 from pathlib import Path
@@ -61,6 +63,23 @@ def read_bag(bag: Path) -> tuple[dict[str, list[bytes]], dict]:
 def odoms(raws: list[bytes]) -> list[Odometry]:
     """Decoded: CDR alignment padding is not guaranteed to be zero, so equal messages may differ in bytes."""
     return [deserialize_message(r, Odometry) for r in raws]
+
+
+def decoded_three_ways(bag: Path, topic: str) -> list[str]:
+    """The ``child_frame_id`` of every Odometry on ``topic``, by rosbags, rclpy and mcap+mcap_ros2 (which agree)."""
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    got, _ = read_bag(bag)
+    ts = get_typestore(Stores.ROS2_JAZZY)
+    by_rosbags = [ts.deserialize_cdr(r, 'nav_msgs/msg/Odometry').child_frame_id for r in got.get(topic, [])]
+    by_rclpy = [m.child_frame_id for m in odoms(got.get(topic, []))]
+    (mcap_file,) = bag.glob('*.mcap')
+    with mcap_file.open('rb') as f:
+        by_mcap = [m.child_frame_id for _, ch, _, m in
+                   make_reader(f, decoder_factories=[DecoderFactory()]).iter_decoded_messages() if ch.topic == topic]
+    assert by_rosbags == by_rclpy == by_mcap
+    return by_rosbags
 
 
 def make_recorder(ros, bag: Path, **params) -> RecorderNode:
@@ -173,6 +192,68 @@ def test_use_sim_time_discovers_before_clock_and_stamps_with_sim_time(ros, tmp_p
     assert got == [(sim_ns, raw) for raw in sent]
 
 
+def test_by_default_a_recorder_beside_a_sim_time_run_follows_its_clock(ros, tmp_path):
+    """No use_sim_time given: the bag spans the run's sim time (10 s here), not the wall time it took."""
+    from rosgraph_msgs.msg import Clock
+
+    bag = tmp_path / 'bags' / 'follows'
+    rec = make_recorder(ros, bag, topics=['/run/odom'])
+    node = ros.add(rclpy.create_node('run_pub', context=ros.context))
+    pub = node.create_publisher(Odometry, '/run/odom', RELIABLE)
+    clock_pub = node.create_publisher(Clock, '/clock', RELIABLE)
+    t0 = 1_000 * 10**9
+
+    def took(ns: int) -> bool:  # the recorder has taken this /clock value (without a clock choice: no wait)
+        stamps = getattr(rec, '_stamps', None)
+        return stamps is None or stamps.latest == ns
+
+    assert ros.spin_until(lambda: '/run/odom' in rec.subscriptions_by_topic and clock_pub.get_subscription_count(),
+                          30.0)
+    sent = []
+    for i in range(11):  # one message per sim second, as fast as the wall clock allows
+        clock_pub.publish(Clock(clock=rclpy.time.Time(nanoseconds=t0 + i * 10**9).to_msg()))
+        assert ros.spin_until(lambda i=i: took(t0 + i * 10**9), 10.0)
+        sent += publish_all(ros, pub, [odom(i)])
+    assert ros.spin_until(lambda: rec.message_counts() == {'/run/odom': 11}, 10.0)
+    close_node(ros, rec)
+    with Reader(bag) as reader:
+        stamps = [t for _, t, _ in reader.messages()]
+        assert reader.duration == 10 * 10**9 + 1  # rosbag2's duration: last - first + 1 ns
+    assert stamps == [t0 + i * 10**9 for i in range(11)]
+    assert decoded_three_ways(bag, '/run/odom') == [f'msg{i}' for i in range(11)]
+
+
+def test_by_default_a_recorder_without_clock_messages_stamps_wall_time(ros, tmp_path):
+    """A /clock publisher that sends nothing (a wall-time launcher run) does not make it sim time."""
+    import time
+
+    from rosgraph_msgs.msg import Clock
+
+    bag = tmp_path / 'bags' / 'wall'
+    rec = make_recorder(ros, bag, topics=['/w/odom'], clock_wait=0.2)
+    node = ros.add(rclpy.create_node('wall_pub', context=ros.context))
+    pub = node.create_publisher(Odometry, '/w/odom', RELIABLE)
+    node.create_publisher(Clock, '/clock', RELIABLE)
+    before = time.time_ns()
+    publish_all(ros, pub, [odom(i) for i in range(5)])
+    decided = lambda: getattr(getattr(rec, '_stamps', None), 'mode', 'wall') == 'wall'  # noqa: E731
+    assert ros.spin_until(lambda: decided() and rec.message_counts() == {'/w/odom': 5}, 10.0)
+    close_node(ros, rec)
+    after = time.time_ns()
+    with Reader(bag) as reader:
+        stamps = [t for _, t, _ in reader.messages()]
+    assert len(stamps) == 5 and all(before <= t <= after for t in stamps), (before, stamps, after)
+
+
+def test_clock_option_and_its_contradiction(ros, tmp_path):
+    assert [(p.name, p.value) for p in parse_cli(['track-record', 'b', '--clock', 'sim'])] == [
+        ('bag', 'b'), ('clock', 'sim')]
+    with pytest.raises(ValueError, match='clock=wall contradicts use_sim_time'):
+        make_recorder(ros, tmp_path / 'bags' / 'no', clock='wall', use_sim_time=True)
+    with pytest.raises(ValueError, match="clock='bogus'"):
+        make_recorder(ros, tmp_path / 'bags' / 'no2', clock='bogus')
+
+
 @pytest.mark.parametrize('tf', [True, False])
 def test_tf_topics_are_recorded_with_a_regex_unless_excluded(ros, tmp_path, tf):
     node = ros.add(rclpy.create_node('tf_pub', context=ros.context))
@@ -233,8 +314,9 @@ def publish_acked(ros, pub, msgs) -> list[bytes]:
     return sent
 
 
-@pytest.mark.parametrize('sig', [signal.SIGTERM, signal.SIGINT], ids=['SIGTERM', 'SIGINT'])
+@pytest.mark.parametrize('sig', [signal.SIGTERM, signal.SIGINT, signal.SIGHUP], ids=['SIGTERM', 'SIGINT', 'SIGHUP'])
 def test_signal_closes_a_complete_bag(ros, tmp_path, prefix, sig):
+    """SIGTERM (timeout, systemd, docker stop) and SIGHUP stop the recorder exactly like SIGINT."""
     node = ros.add(rclpy.create_node('sig_pub', context=ros.context))
     pub = node.create_publisher(Odometry, '/sig/odom', RELIABLE)
     proc = start_recorder(ros, tmp_path, prefix, 'sig')
@@ -249,6 +331,7 @@ def test_signal_closes_a_complete_bag(ros, tmp_path, prefix, sig):
     assert (bag / 'metadata.yaml').is_file(), err
     got, _ = read_bag(bag)
     assert odoms(got['/sig/odom']) == odoms(sent)  # decoded: CDR padding bytes are not guaranteed zero
+    assert decoded_three_ways(bag, '/sig/odom') == [f'msg{i}' for i in range(N)]
     assert f'recorded {N} messages' in err and '/sig/odom' in err
 
 
@@ -292,6 +375,73 @@ def test_bag_recover_bad_path_is_one_line(ros, tmp_path, prefix):
     assert proc.returncode == 2
     assert len(proc.stderr.strip().splitlines()) == 1 and str(tmp_path / 'nope') in proc.stderr
     assert 'Traceback' not in proc.stderr
+
+
+# --- a full disk: one line, the bag closed with what was written, exit 2 ------------------------------------
+
+@contextlib.contextmanager
+def small_disk(where: Path, size: str):
+    """A tmpfs of ``size`` mounted at ``where`` (root only: CI and this machine run the tests as root)."""
+    where.mkdir()
+    res = subprocess.run(['mount', '-t', 'tmpfs', '-o', f'size={size}', 'tmpfs', str(where)], capture_output=True,
+                         text=True)
+    if res.returncode != 0:
+        pytest.skip(f'cannot mount a small tmpfs to fill: {res.stderr.strip() or res.returncode}')
+    try:
+        yield where
+    finally:
+        subprocess.run(['umount', '-l', str(where)], capture_output=True)
+
+
+def big_odom(i: int) -> Odometry:
+    m = odom(i)
+    m.header.frame_id = 'map' + ' ' * 4000  # about 4.7 kB each: a 2 MiB disk fills within 500 messages
+    return m
+
+
+def test_a_full_disk_closes_the_bag_with_what_was_written_and_exits_2(ros, tmp_path, prefix):
+    node = ros.add(rclpy.create_node('fill_pub', context=ros.context))
+    pub = node.create_publisher(Odometry, '/full/odom', QoSProfile(depth=1000))
+    with small_disk(tmp_path / 'disk', '2m') as disk:
+        proc = subprocess.Popen([prefix / 'lib/track_nodes/recorder', str(disk / 'full'), '-t', '/full/odom',
+                                 '--flush-period', '0.1'], env=ros.env, stdout=subprocess.PIPE,
+                                stderr=subprocess.PIPE, text=True)
+        try:
+            assert ros.spin_until(lambda: pub.get_subscription_count() > 0, 60.0), 'recorder never subscribed'
+            sent = 0
+            while proc.poll() is None and sent < 5000:  # 23 MB: far more than the disk holds
+                for _ in range(20):
+                    pub.publish(big_odom(sent))
+                    sent += 1
+                ros.spin_for(0.01)
+            _, err = proc.communicate(timeout=60)
+        finally:
+            proc.kill()
+        assert proc.returncode == 2, err
+        assert 'Traceback' not in err, err
+        errors = [line for line in err.splitlines() if line.startswith('[ERROR]')]
+        assert len(errors) == 1, err
+        assert 'No space left on device' in errors[0] and 'the bag is closed with the' in errors[0], errors[0]
+        bag = disk / 'full'
+        assert (bag / 'metadata.yaml').is_file()
+        assert not (bag / '.disk-reserve').exists()
+        ids = decoded_three_ways(bag, '/full/odom')
+        assert ids == [f'msg{i}' for i in range(len(ids))] and len(ids) > 0  # a prefix of what was sent, in order
+        with Reader(bag) as r:
+            assert r.message_count == len(ids) and r.ros_distro == 'jazzy'
+        taken = int(re.search(r'recording stopped after (\d+) messages', errors[0]).group(1))
+        assert f'closed with the {len(ids)} written' in errors[0]
+        assert f'{taken - len(ids)} taken after it are not in the bag' in errors[0]
+        assert len(ids) <= taken <= sent
+
+
+def test_no_room_for_a_bag_at_start_is_one_line_and_exit_2(ros, tmp_path, prefix):
+    with small_disk(tmp_path / 'disk', '64k') as disk:
+        proc = subprocess.run([prefix / 'lib/track_nodes/recorder', str(disk / 'none'), '-t', '/x'], env=ros.env,
+                              capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and 'No space left on device' in lines[0] and 'none' in lines[0], proc.stderr
 
 
 # --- bursts: nothing lost without a count (issue 13) --------------------------------------------------

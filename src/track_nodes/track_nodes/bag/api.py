@@ -120,15 +120,26 @@ def one_line(exc: BaseException) -> str:
 
 def validate_messages(reader, path: Path, connections=()) -> dict[str, int]:
     """Iterate every message once (decompressing and checking every chunk); → count per topic."""
+    return count_messages(reader, path, connections=connections)[0]
 
+
+def count_messages(reader, path: Path, since: int = 0, connections=()) -> tuple[dict[str, int], ...]:
+    """Read every message once (see ``validate_messages``); → per topic: count, count at or after ``since``
+    (ns), last log time."""
     counts: dict[str, int] = {}
+    after: dict[str, int] = {}
+    last: dict[str, int] = {}
     try:
-        for conn, _, _ in reader.messages(connections=connections):
-            counts[conn.topic] = counts.get(conn.topic, 0) + 1
+        for conn, t, _ in reader.messages(connections=connections):
+            topic = conn.topic
+            counts[topic] = counts.get(topic, 0) + 1
+            if t >= since:
+                after[topic] = after.get(topic, 0) + 1
+            last[topic] = max(t, last.get(topic, t))
     except Exception as exc:  # as in open_bag_checked: garbage bytes raise anything
         raise BagError(f'{_problem_file(path)}: corrupt or truncated bag: {one_line(exc)}; '
                        f'try {RECOVER_HINT} {path}') from None
-    return counts
+    return counts, after, last
 
 
 # -- SIGKILL safety of rosbags' MCAP writer -------------------------------------------------

@@ -53,3 +53,11 @@ class LossCounter:
 
     def total(self) -> int:
         return sum(self.lost.values())
+
+
+def summary_line(counts: dict[str, int], path, lost: dict[str, int]) -> str:
+    """The recorder's final line: messages per topic, the bag, and the losses (``lost 0`` when none)."""
+    per_topic = ', '.join(f'{t}: {n}' for t, n in sorted(counts.items())) or 'no topics'
+    total = sum(lost.values())
+    loss = f'; LOST {total} ({", ".join(f"{t}: {n}" for t, n in sorted(lost.items()) if n)})' if total else '; lost 0'
+    return f'recorded {sum(counts.values())} messages ({per_topic}) to {path}{loss}'

@@ -28,9 +28,13 @@ Usage::
   once), so a truncated bag never half-plays. A bad path, a directory that is not a bag, a bag
   without metadata.yaml (killed recorder: recover it with ``track-bag-recover``), a truncated
   or corrupt .mcap, an invalid ``--rate`` (≤ 0, NaN) or an unknown ``--topics`` entry → one line
-  on stderr naming the file and the problem, exit code 2.
+  on stderr naming the file and the problem, exit code 2. So are a ``metadata.yaml`` whose topics
+  or types differ from the .mcap's, and nothing to play (an empty bag, ``--start-offset`` past the
+  last message); wrong counts in ``metadata.yaml`` are a warning, and the .mcap's counts are
+  announced and played (``bag.playcheck``).
 - Exits with code 0 when the bag has been played (reliable messages acknowledged, up to 2 s),
-  unless ``--loop``.
+  unless ``--loop``. SIGINT, SIGTERM and SIGHUP stop it alike (``base.signals``); a playback cut
+  short ends with ``played K of N messages``.
 """
 
 from __future__ import annotations
@@ -48,7 +52,8 @@ from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 
-from track_nodes.bag.api import BagError, msg_class, open_bag_checked, qos_is_transient_local, validate_messages
+from track_nodes.bag.api import BagError, msg_class, open_bag_checked, qos_is_transient_local
+from track_nodes.bag.playcheck import plan_playback
 from track_nodes.base import Param, ParameterError, TrackNode, declare_params, run_node
 from track_nodes.base.cli import OneLineParser, cli_overrides
 
@@ -151,12 +156,14 @@ class PlayerNode(TrackNode):
             qos = [q for c in conns for q in c.ext.offered_qos_profiles]
             self.topic_info[topic] = (msgtype, qos_is_transient_local(qos))
         self.connections = [c for t in topics for c in by_topic[t]]
-        counts = validate_messages(reader, path)  # every message of every topic, once
         self.start_ns = reader.start_time + round(self.p.start_offset * 1e9)
-        self.to_play = sum(counts.get(t, 0) for t in topics)
+        plan = plan_playback(reader, path, topics, self.start_ns, self.p.start_offset)  # reads every message once
+        for line in plan.warnings:
+            self.get_logger().warning(line)
+        self.to_play = plan.to_play
         self.get_logger().info(
-            f'{path}: {reader.message_count} messages, {reader.duration * 1e-9:.3f} s; playing '
-            f'{len(topics)} topics at rate {self.p.rate:g}' + (' in a loop' if self.p.loop else ''))
+            f'{path}: {sum(plan.counts.values())} messages, {reader.duration * 1e-9:.3f} s; playing {self.to_play} '
+            f'messages on {len(topics)} topics at rate {self.p.rate:g}' + (' in a loop' if self.p.loop else ''))
 
     # -- playback -------------------------------------------------------------------------
     def _wait_for_subscribers(self) -> None:
@@ -190,7 +197,7 @@ class PlayerNode(TrackNode):
                 if self._stop.is_set():
                     break
                 pub.wait_for_all_acked(Duration(seconds=ACK_TIMEOUT))
-            self._log(f'played {self.published} messages from {self.path}')
+            self._log(self._played())
         except Exception as exc:  # a failing playback thread must not hang the node
             if not self._stop.is_set():
                 self.exit_code = 1
@@ -215,6 +222,12 @@ class PlayerNode(TrackNode):
             self._publish_clock(t)
             self.publishers_by_topic[conn.topic].publish(data)
             self.published += 1
+
+    def _played(self) -> str:
+        """The final line: a playback cut short says how much of it was played."""
+        if self.p.loop or self.published == self.to_play:
+            return f'played {self.published} messages from {self.path}'
+        return f'played {self.published} of {self.to_play} messages from {self.path} (stopped before the end)'
 
     def _exit_if_done(self) -> None:
         if self.done.is_set():

@@ -2,7 +2,7 @@
 
 Usage::
 
-    track-record NAME [-t TOPIC ...] [-e REGEX] [--no-tf] [--flush-period S] [--ros-args ...]
+    track-record NAME [-t TOPIC ...] [-e REGEX] [--no-tf] [--clock auto|sim|wall] [--flush-period S] [--ros-args ...]
     .venv/lib/track_nodes/recorder --ros-args -p bag:=NAME -p regex:=REGEX -p topics:="['/a', '/b']"
 
 - NAME → ``bags/NAME/`` relative to the cwd, or a path if it contains '/'. An existing bag is
@@ -25,48 +25,43 @@ Usage::
   the middleware's message-lost events where several publishers share a topic), warned about
   while recording (one line per ``warn_throttle`` seconds with the count) and printed in the
   final line.
-- Timestamps: the middleware's receive time (message info ``received_timestamp``, system clock),
-  so a backlog keeps each message's arrival time; under ``use_sim_time`` the node's clock when
-  the batch is taken (a message taken before the first /clock is written at the first reading).
+- Timestamps (``clock``, ``bag.clockmode``): ``auto`` (default) follows /clock when it is published
+  (sim time: the latest /clock value), else the middleware's receive time of each message (system
+  clock; a backlog keeps each arrival time); it holds what it takes until it knows, at most
+  ``clock_wait`` s after the first message. ``sim`` (or ``use_sim_time:=true``): the node's clock
+  when the batch is taken; ``wall``: the receive time always.
 - Durability: every ``flush_period`` seconds the pending MCAP chunk is written and the file
   flushed, so after a SIGKILL the .mcap holds every message up to the last flush; recover it
-  with ``track-bag-recover``. SIGINT/SIGTERM (and destroying the node) close the bag cleanly.
+  with ``track-bag-recover``. SIGINT, SIGTERM and SIGHUP (``base.signals``) and destroying the
+  node close the bag cleanly. A full disk (any write error, ``bag.durable``): one error line,
+  the bag closed with what was written up to the last flush (what came after is counted), exit 2.
 - Throughput: a callback also takes the messages queued behind its own (``bag.take``, ≤ ``TAKE_LIMIT``)
-  under one lock: 81k msgs/s in ``track-bench recorder``, 13× a bare raw subscription on the same
-  executor; ``bag.take`` has the figures and the executors tried.
+  under one lock: 81k msgs/s in ``track-bench recorder`` (figures there).
 """
 
 from __future__ import annotations
 
-import re
 import sys
 import threading
-import time
 from collections.abc import Sequence
 from datetime import datetime
 
 from rclpy.clock import Clock, ClockType
 from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.parameter import Parameter
+from rclpy.qos import QoSProfile, ReliabilityPolicy
 
-from track_msgs_py.topics import TF, TF_STATIC
-from track_nodes.bag.api import (
-    bag_path,
-    check_mcap_writer_internals,
-    flush_mcap_writer,
-    msg_class,
-    qos_to_rosbags,
-    recording_qos,
-    set_ros_distro,
-)
-from track_nodes.bag.loss import LossCounter
-from track_nodes.bag.take import BeforeClock, can_take, take_pending
+from track_nodes.bag.api import bag_path, msg_class, qos_to_rosbags, recording_qos
+from track_nodes.bag.clockmode import MODES, ClockChoice
+from track_nodes.bag.durable import open_bag
+from track_nodes.bag.loss import LossCounter, summary_line
+from track_nodes.bag.selection import TopicFilter
+from track_nodes.bag.take import can_take, take_pending
 from track_nodes.base import Param, TrackNode, run_node
 from track_nodes.base.cli import OneLineParser, cli_overrides
 
-EXCLUDED_BY_DEFAULT = ('/rosout', '/parameter_events')
-TF_TOPICS = (TF, TF_STATIC)  # recorded whatever the filter, unless tf is false
 TAKE_LIMIT = 1000  # messages taken per callback beyond the one the executor delivered
+CLOCK_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)  # matches any /clock publisher
 
 PARAMS = (
     Param('bag', '', "bag name (→ bags/<name>/) or a path containing '/'; empty: rosbag2_<timestamp>"),
@@ -76,11 +71,9 @@ PARAMS = (
     Param('discovery_period', 0.1, 'interval between graph polls for new topics [s]', 0.01, 60.0),
     Param('flush_period', 1.0, 'interval between flushes of the pending data to the file [s]', 0.01, 3600.0),
     Param('warn_throttle', 5.0, 'at most one warning about lost messages per this many seconds [s]', 0.0, 3600.0),
+    Param('clock', 'auto', "stamps: 'auto' (sim time if /clock is published, else wall time), 'sim' or 'wall'"),
+    Param('clock_wait', 2.0, "clock 'auto': wall time if no /clock this long after the first message [s]", 0.0, 60.0),
 )
-
-
-def _normalise(topic: str) -> str:
-    return topic if topic.startswith('/') else '/' + topic
 
 
 class RecorderNode(TrackNode):
@@ -88,42 +81,26 @@ class RecorderNode(TrackNode):
     PARAMS = PARAMS
 
     def setup(self) -> None:
-        self._writer = None
-        self._closed = False
+        self._writer = self._bag = None
+        self._closed = self._said = False
         self._lock = threading.Lock()
-        self._before_clock = BeforeClock()
-        self._clock = self.get_clock()
-        self._batching = True  # until a subscription lacks take_message (bag.take.can_take)
         p = self.p
-        self.explicit = {_normalise(t) for t in p.topics if t}
-        try:
-            self.regex = re.compile(p.regex) if p.regex else None
-        except re.error as exc:
-            raise ValueError(f'parameter regex={p.regex!r} is not a valid regular expression: {exc}') from None
-        if self.regex is None and not self.explicit:
-            self.regex = re.compile('')  # everything
+        self._stamps = ClockChoice(p.clock, self.get_parameter('use_sim_time').value, p.clock_wait)
+        if self._stamps.mode == 'node':
+            self.set_parameters([Parameter('use_sim_time', value=True)])  # clock sim
+        self._batching = True  # until a subscription lacks take_message (bag.take.can_take)
+        self.dropped = 0  # taken after a write failed (bag.durable)
+        self.filter = TopicFilter(p.topics, p.regex, p.tf)  # bag.selection
         name = p.bag or f'rosbag2_{datetime.now():%Y_%m_%d-%H_%M_%S}'
         self.path = bag_path(name)
         if self.path.exists():
             raise ValueError(f'{self.path}: bag exists already, not overwriting (choose another name)')
 
-        from rosbags.rosbag2 import StoragePlugin, Writer, WriterError
         from rosbags.typesys import Stores, get_typestore
 
         self.typestore = get_typestore(Stores.ROS2_JAZZY)
-        try:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
-            writer = Writer(self.path, version=9, storage_plugin=StoragePlugin.MCAP)
-            writer.open()
-        except WriterError as exc:
-            raise ValueError(f'{self.path}: cannot create bag: {exc}') from None
-        self._writer = writer
-        try:
-            check_mcap_writer_internals(writer)
-        except RuntimeError:
-            self._abort()
-            raise
-        flush_mcap_writer(writer)  # the MCAP header reaches the file at once
+        self._bag = open_bag(self.path)  # bag.durable: the MCAP header reaches the file at once
+        self._writer = self._bag.writer
         self.connections: dict[str, object] = {}
         self.counts: dict[str, int] = {}
         self.subscriptions_by_topic: dict[str, object] = {}
@@ -133,33 +110,23 @@ class RecorderNode(TrackNode):
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.discovery_timer = self.create_timer(p.discovery_period, self.discover, clock=steady)
         self.flush_timer = self.create_timer(p.flush_period, self.flush, clock=steady)
-        what = []
-        if self.explicit:
-            what.append('topics ' + ', '.join(sorted(self.explicit)))
-        if self.regex is not None:
-            what.append(f'topics matching {self.regex.pattern!r}' if self.regex.pattern else 'all topics')
-        what.append('/tf and /tf_static' if p.tf else 'not /tf or /tf_static')
-        self.get_logger().info(f'recording {" and ".join(what)} to {self.path}')
+        if self._stamps.mode == 'auto':  # is /clock published? (bag.clockmode)
+            from rosgraph_msgs.msg import Clock as ClockMsg
+
+            self.create_subscription(ClockMsg, '/clock', self._on_clock, CLOCK_QOS, as_given=True)
+        self.get_logger().info(f'recording {self.filter.describe()} to {self.path}')
 
     # -- discovery ------------------------------------------------------------------------
-    def wanted(self, topic: str) -> bool:
-        if topic in self.explicit:
-            return True
-        if topic in TF_TOPICS:
-            return self.p.tf
-        if topic in EXCLUDED_BY_DEFAULT or self.regex is None:
-            return False
-        return self.regex.search(topic) is not None
-
     def discover(self) -> None:
         if self._closed:
             return
+        self._decide()
         for topic, types in self.get_topic_names_and_types():
             if topic in self.subscriptions_by_topic:
                 with self._lock:
                     self.losses.publishers(topic, self.count_publishers(topic))
                 continue
-            if topic in self.skipped or not self.wanted(topic):
+            if topic in self.skipped or not self.filter.wanted(topic):
                 continue
             infos = self.get_publishers_info_by_topic(topic)
             if not infos:
@@ -202,24 +169,36 @@ class RecorderNode(TrackNode):
         sub = self.subscriptions_by_topic.get(topic)
         if sub is not None and self._batching:
             batch += take_pending(sub, TAKE_LIMIT)  # the messages queued behind this one (bag.take)
-        sim = self._clock.ros_time_is_active  # sim time: one clock reading for the batch
-        now = self._clock.now().nanoseconds if sim else 0
         lost = 0
         with self._lock:
             if self._closed:
+                self.dropped += len(batch) if self._bag.failed else 0
                 return
-            conn, write, received = self.connections[topic], self._writer.write, self.losses.received
-            if sim and now == 0:  # before the first /clock: written at its first reading (bag.take.BeforeClock)
-                self._before_clock.hold(conn, [raw for raw, _ in batch])
-            else:
-                self._before_clock.release(write, now)
-                for raw, inf in batch:
-                    write(conn, now if sim else inf.get('received_timestamp') or time.time_ns(), raw)
+            conn, received = self.connections[topic], self.losses.received
+            try:
+                self._stamps.write_batch(self._bag.write, conn, batch, self.get_clock())
+            except OSError as exc:
+                self.counts[topic] += len(batch)
+                return self._fail(exc)
             for _, inf in batch:
                 lost += received(topic, inf.get('publication_sequence_number'))
             self.counts[topic] += len(batch)
         if lost:
             self._warn_lost(topic)
+
+    def _on_clock(self, msg) -> None:
+        self._stamps.on_clock(msg.clock.sec * 1_000_000_000 + msg.clock.nanosec)
+        if self._stamps.mode != 'sim':
+            self._decide()
+
+    def _decide(self) -> None:
+        with self._lock:
+            try:
+                line = None if self._closed else self._stamps.decide(self._bag.write)
+            except OSError as exc:
+                return self._fail(exc)
+        if line is not None:
+            self.get_logger().warning(line) if line.startswith('/clock') else self.get_logger().info(line)
 
     def _on_lost(self, topic: str, count_change: int) -> None:
         with self._lock:
@@ -235,40 +214,46 @@ class RecorderNode(TrackNode):
     def flush(self) -> None:
         """Write the pending chunk and flush the file (SIGKILL safety, see bag_io)."""
         with self._lock:
-            if not self._closed and self._writer is not None:
-                flush_mcap_writer(self._writer)
+            if not self._closed and self._bag is not None:
+                try:
+                    self._bag.flush()
+                except OSError as exc:
+                    self._fail(exc)
+
+    def _fail(self, exc: OSError) -> None:
+        """A write failed (disk full): the bag is closed at its last flush (bag.durable); exit 2. Holds the lock."""
+        self._closed = True
+        self._bag.fail(exc)
+        self.exit_code = 2
+        self.context.try_shutdown()  # run_nodes (or the launcher) stops; close() says what happened
 
     def message_counts(self) -> dict[str, int]:
         with self._lock:
             return dict(self.counts)
 
     def summary(self) -> str:
-        counts = self.message_counts()
-        per_topic = ', '.join(f'{t}: {n}' for t, n in sorted(counts.items())) or 'no topics'
-        lost = self.losses.total()
-        loss = f'; LOST {lost} ({", ".join(f"{t}: {n}" for t, n in sorted(self.losses.lost.items()) if n)})' \
-            if lost else '; lost 0'
-        return f'recorded {sum(counts.values())} messages ({per_topic}) to {self.path}{loss}'
+        return summary_line(self.message_counts(), self.path, self.losses.lost)
 
     def close(self) -> None:
-        """Close the bag (writes the MCAP summary and metadata.yaml); idempotent."""
+        """Close the bag (the MCAP summary and metadata.yaml) and say what it holds; idempotent."""
         with self._lock:
-            closed, self._closed = self._closed, True
-            if closed or self._writer is None:
+            if self._bag is None or self._said:
                 return
-            self._before_clock.release(self._writer.write, 0)  # the clock never started: log time 0
-            self._writer.close()
-            set_ros_distro(self.path)
-        line = self.summary()
+            self._said = self._closed = True
+            if self._bag.failed is None:
+                try:
+                    self._stamps.close(self._bag.write)
+                    self._bag.close()
+                except OSError as exc:
+                    self._bag.fail(exc)
+                    self.exit_code = 2
+        failed = self._bag.failed is not None
+        line = self._bag.failure_line(sum(self.counts.values()) + self.dropped, self.losses.total()) if failed \
+            else self.summary()
         if self.context.ok():
-            self.get_logger().info(line)
+            (self.get_logger().error if failed else self.get_logger().info)(line)
         else:  # after shutdown the logger can no longer reach /rosout and complains
-            print(f'[INFO] [{self.get_name()}]: {line}', file=sys.stderr)
-
-    def _abort(self) -> None:
-        self._closed = True
-        if self._writer is not None:
-            self._writer.abort()
+            print(f'[{"ERROR" if failed else "INFO"}] [{self.get_name()}]: {line}', file=sys.stderr)
 
     def destroy_node(self) -> None:
         self.close()
@@ -285,8 +270,11 @@ def parse_cli(argv: Sequence[str]) -> list[Parameter]:
                     help='do not record /tf and /tf_static (recorded by default, whatever the filter)')
     ap.add_argument('--flush-period', type=float, default=None, metavar='S',
                     help='flush pending messages to the file every S seconds (default 1)')
+    ap.add_argument('--clock', choices=MODES, default=None,
+                    help='time stamps: sim time when /clock is published, else wall time (auto, the default: '
+                         'decided within 2 s of the first message), sim (use_sim_time) or wall')
     overrides = cli_overrides(ap, argv, {'name': 'bag', 'topics': 'topics', 'regex': 'regex',
-                                         'flush_period': 'flush_period', 'no_tf': 'tf'})
+                                         'flush_period': 'flush_period', 'no_tf': 'tf', 'clock': 'clock'})
     return [Parameter('tf', value=False) if o.name == 'tf' else o for o in overrides]  # --no-tf: tf false
 
 

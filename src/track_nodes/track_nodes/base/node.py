@@ -5,8 +5,8 @@ A node subclass names itself (``DEFAULT_NAME``), lists its parameters (``PARAMS`
 
 - the standard constructor (``node_name``, ``context``, ``parameter_overrides``, ``cli_args``,
   as the launcher and the tests call it), then ``declare_params(PARAMS)`` into ``self.p``;
-- ``main(argv)``: ``rclpy.init`` → build the node → spin until SIGINT/SIGTERM or shutdown →
-  destroy (which closes files) → exit code. A bad parameter or bad input at start
+- ``main(argv)``: ``rclpy.init`` → build the node → spin until SIGINT, SIGTERM or SIGHUP (alike:
+  ``base.signals``) or shutdown → destroy (which closes files) → exit code. A bad parameter or bad input at start
   (``ValueError``, ``OSError``) prints one line on stderr and exits 2, without a traceback.
 
 Refused input goes through ``refuse(topic, reason)``: counted per reason, logged at most once
@@ -59,6 +59,7 @@ from track_nodes.base.cli import params_file_problem
 from track_nodes.base.names import CheckedNames, remember_args
 from track_nodes.base.params import Param, ParameterError, declare_params
 from track_nodes.base.refusals import RefusalCounter
+from track_nodes.base.signals import STOP_SIGNALS, spin, stop_on
 from track_nodes.base.teardown import TEARDOWN, dds_alarm
 
 EXIT_BAD_INPUT = 2
@@ -238,6 +239,7 @@ def run_nodes(makers: Sequence[tuple[str, Callable[[], Node]]], argv: Sequence[s
     # every thread's Python stack goes to stderr (a C-level handler: it fires with the main thread in C too).
     with contextlib.suppress(AttributeError, ValueError, RuntimeError):
         faulthandler.register(signal.SIGUSR1, all_threads=True)
+    stop_on(*STOP_SIGNALS)  # SIGTERM and SIGHUP stop the nodes as SIGINT does (base/signals.py)
     problem = params_file_problem(args)
     if problem is None:
         try:
@@ -265,7 +267,7 @@ def run_nodes(makers: Sequence[tuple[str, Callable[[], Node]]], argv: Sequence[s
         for node in nodes:
             executor.add_node(node)
         with contextlib.suppress(KeyboardInterrupt, ExternalShutdownException):
-            executor.spin()
+            spin(executor)  # wakes up for stop signals (base/signals.py)
     except (Exception, KeyboardInterrupt):
         if rclpy.ok():
             raise

@@ -1,0 +1,53 @@
+"""Stop signals: SIGTERM and SIGHUP end a process exactly as SIGINT (Ctrl-C) does.
+
+``timeout``, systemd, ``docker stop`` and CI cancellation send SIGTERM; closing a terminal sends
+SIGHUP. Their default action kills the process at once, so a recorder would leave an .mcap without
+summary and no ``metadata.yaml``. ``stop_on(signal.SIGTERM, signal.SIGHUP)`` gives each of them a
+handler that raises SIGINT in the process: whatever handles SIGINT then runs, unchanged (in a node
+process, rclpy's handler shuts the context down and the nodes are destroyed in order, the recorder
+closing its bag; in a process without rclpy's handlers, Python's ``KeyboardInterrupt``).
+
+Python runs a signal handler in the main thread between two bytecodes, so a main thread blocked
+in C (an executor waiting with no timeout) would not see it; ``spin(executor)`` spins with a short
+timeout (``POLL`` wall seconds) for that reason. A loop of one's own must wake up as often.
+
+A signal that is ignored when ``stop_on`` is called (``nohup`` ignores SIGHUP) stays ignored. If
+SIGINT itself is ignored (a non-interactive shell's ``&`` does that), ``stop_on`` restores Python's
+default SIGINT handler: a process that stops on SIGTERM stops on SIGINT too.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import signal
+from typing import Any
+
+POLL = 0.25  # [wall s] the longest a stop signal waits for an idle executor
+STOP_SIGNALS = (signal.SIGTERM, signal.SIGHUP)
+
+
+def _as_sigint(signum: int, frame: Any) -> None:
+    signal.raise_signal(signal.SIGINT)
+
+
+def stop_on(*signals: int) -> list[int]:
+    """Make each of ``signals`` behave like SIGINT from now on; returns those taken over.
+
+    Call it from the main thread (elsewhere it does nothing). Idempotent.
+    """
+    taken = []
+    with contextlib.suppress(ValueError):  # not the main thread
+        if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+            signal.signal(signal.SIGINT, signal.default_int_handler)
+        for sig in signals:
+            if signal.getsignal(sig) is signal.SIG_IGN:
+                continue  # asked to be ignored (nohup)
+            signal.signal(sig, _as_sigint)
+            taken.append(sig)
+    return taken
+
+
+def spin(executor) -> None:
+    """``executor.spin()``, waking every ``POLL`` s so that a stop signal's Python handler runs."""
+    while executor.context.ok():
+        executor.spin_once(timeout_sec=POLL)
