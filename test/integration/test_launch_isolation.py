@@ -41,8 +41,6 @@ def test_two_concurrent_runs_record_what_each_records_alone(tmp_path, env_factor
     second = launcher(repo, tmp_path, env, '--record', 'second', *DEMO_ARGS)
     outs = [p.communicate(timeout=180) for p in (first, second)]
     assert first.returncode == 0 and second.returncode == 0, [e for _, e in outs]
-    domains = [line for o, _ in outs for line in o.splitlines() if line.startswith('ROS_DOMAIN_ID=')]
-    assert len(domains) == 2 and domains[0] != domains[1] and 'export ROS_DOMAIN_ID=' in domains[0], domains
     expected = payloads(tmp_path / 'bags/alone')
     assert {t: len(v) for t, v in expected.items()} == dict.fromkeys(('/demo/truth', '/demo/reports', '/demo/track'),
                                                                       40)
@@ -50,7 +48,9 @@ def test_two_concurrent_runs_record_what_each_records_alone(tmp_path, env_factor
         got = payloads(tmp_path / 'bags' / name)
         assert got.keys() == expected.keys(), name
         for topic in expected:
-            assert got[topic] == expected[topic], (name, topic)
+            assert got[topic] == expected[topic], (name, topic, len(got[topic]))
+    domains = [line for o, _ in outs for line in o.splitlines() if line.startswith('ROS_DOMAIN_ID=')]
+    assert len(domains) == 2 and domains[0] != domains[1] and 'export ROS_DOMAIN_ID=' in domains[0], domains
 
 
 def test_a_foreign_clock_publisher_stops_the_run_with_one_line(tmp_path, ros, repo):
