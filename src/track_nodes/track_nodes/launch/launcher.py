@@ -185,6 +185,8 @@ class Launch:
         except KeyboardInterrupt:
             pass
         finally:
+            if self.dog is not None:
+                self.dog.watching = False  # the clock has stopped: the drain and the grace have their own bounds
             with contextlib.suppress(KeyboardInterrupt):
                 if children:
                     self._drain(launcher, executor)
@@ -326,9 +328,7 @@ class Launch:
         wall_step = step / self.rate if self.sim else CLOCK_TICK
         t0, k = time.monotonic(), 0
         epoch_ns = self._epoch_ns() if self.sim else 0
-        if self.sim:
-            self.dog = Watchdog(len(self.sc.nodes) + 1, self.watchdog_s)
-            self.dog.start()
+        self.dog = Watchdog(len(self.sc.nodes) + 1, self.watchdog_s).start() if self.sim else None
         names = [s.name for s in self.sc.nodes] + ['recorder'] * (self.bag is not None) + [launcher.get_name()]
         foreign = ForeignCheck(launcher, names, None if children else [launcher, *self.nodes], self.sim)
         while self.context.ok():
@@ -345,6 +345,7 @@ class Launch:
                 continue
             node_time = k * step if duration is None else min(k * step, duration)
             launcher.publish_clock(epoch_ns + round(node_time * 1e9))
+            self.dog.stepped(node_time)  # sim: the watchdog runs
             if lockstep:
                 self._run_until_idle(executor)
             # Never faster than R x real time: wait for the wall time of the next step.
@@ -352,8 +353,6 @@ class Launch:
             if duration is not None and node_time >= duration:
                 return
             k += 1
-            if self.dog is not None:
-                self.dog.stepped(node_time)
 
 
 def main(argv: list[str] | None = None) -> int:

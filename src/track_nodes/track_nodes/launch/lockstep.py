@@ -47,6 +47,7 @@ class Watchdog:
         self.running: tuple[str, float] | None = None  # the callback running now, since (monotonic)
         self.ran: Counter[str] = Counter()  # callbacks run in this step
         self.stalled: str | None = None
+        self.watching = True  # False once the run's clock has stopped
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._watch, name='launch-watchdog', daemon=True)
         self._main = threading.main_thread().ident
@@ -82,8 +83,9 @@ class Watchdog:
             return f'{head}: the graph never became idle; callbacks run in this step: {busiest}'
         return f'{head}: no callback ran in this step'
 
-    def start(self) -> None:
+    def start(self) -> Watchdog:
         self._thread.start()
+        return self
 
     def stop(self) -> None:
         self._stop.set()
@@ -91,7 +93,7 @@ class Watchdog:
     def _watch(self) -> None:
         while not self._stop.wait(0.2):
             waited = time.monotonic() - self.last_step
-            if waited > self.deadline():
+            if self.watching and waited > self.deadline():
                 self.stalled = self.describe(waited)
                 print(f'track_nodes.launch: stopped: {self.stalled}', file=sys.stderr, flush=True)
                 signal.pthread_kill(self._main, signal.SIGINT)  # the usual clean stop (bag closed)
