@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import re
 import time
+from collections import Counter
 
 from rclpy.context import Context
 from rclpy.node import Node
@@ -52,6 +53,24 @@ class LauncherNode(Node):
         """How many of the graph's /clock subscriptions our publisher has not matched yet."""
         known = [i for i in self.get_subscriptions_info_by_topic(CLOCK) if i.node_name != self.get_name()]
         return max(0, len(known) - self.clock_pub.get_subscription_count())
+
+    def foreign(self, names: list[str], own: dict[str, int] | None, sim: bool) -> str | None:
+        """What in this domain is not the run's (one line), or None (see ``isolation``).
+
+        ``names``: the run's node names; ``own``: how many publishers the run's own nodes have per
+        topic (in one process), or None where the launcher cannot count them (``--processes``).
+        """
+        if sim and (n := self.count_publishers(CLOCK)) > 1:
+            others = sorted({f'{i.node_namespace.rstrip("/")}/{i.node_name}'
+                             for i in self.get_publishers_info_by_topic(CLOCK)})
+            return f'{n - 1} other /clock publisher(s) in this ROS domain (nodes: {", ".join(others)})'
+        seen = Counter(name for name, ns in self.get_node_names_and_namespaces() if ns == '/')
+        if twice := [n for n in names if seen[n] > 1]:
+            return f'{len(twice)} node name(s) of this run twice in this ROS domain (e.g. {twice[0]})'
+        for topic, n_own in sorted((own or {}).items()):
+            if topic not in IGNORED_TOPICS and (n := self.count_publishers(topic)) > n_own:
+                return f'{n - n_own} publisher(s) on {topic} that are not this run\'s'
+        return None
 
     def nodes_missing(self, names: list[str]) -> list[str]:
         present = set(self.get_node_names())

@@ -1,5 +1,5 @@
 """Launcher: ``python -m track_nodes.launch SCENARIO [--record [NAME]] [--duration S] [--processes]
-[--hosts N] [--params FILE] [--rate R] [--epoch E]``.
+[--hosts N] [--params FILE] [--rate R] [--epoch E] [--network] [--watchdog S]``.
 
 Reads ``config/SCENARIO.yaml`` (see ``track_nodes.launch.scenario``) and runs its nodes, either all in
 this process on one MultiThreadedExecutor (default) or one process per node (``--processes``),
@@ -27,7 +27,13 @@ subscription has matched its publisher (under sim time) and, when recording, unt
 has subscribed to every recordable topic, then lets discovery settle: nothing
 published at t = 0 is lost. The clock stops exactly at ``--duration``, the launcher waits a
 short grace period for messages in flight, then stops every node (the recorder closes its
-bag). Ctrl-C stops everything the same way.
+bag). Ctrl-C, SIGTERM and SIGHUP stop everything the same way.
+
+Isolation (``isolation``): a run discovers on localhost only (``--network`` opens it), takes a
+ROS domain of its own when ROS_DOMAIN_ID is unset (printed), and stops with one line when a
+foreign /clock or a foreign publisher on its topics shows up: two runs never mix. A watchdog
+(``lockstep``) stops a run whose clock has not advanced for a deadline derived from the graph
+(``--watchdog S`` sets it), naming the callback the step waits for; exit code 1.
 """
 
 from __future__ import annotations
@@ -45,24 +51,21 @@ from pathlib import Path
 
 import rclpy
 from rclpy.context import Context
-from rclpy.executors import (
-    ExternalShutdownException,
-    MultiThreadedExecutor,
-    ShutdownException,
-    TimeoutException,
-)
+from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from track_nodes.base import EXIT_BAD_INPUT, remember_args, shared_names_problem
+from track_nodes.launch.cli import parse_args
 from track_nodes.launch.graph import LauncherNode
 from track_nodes.launch.hosts import Hosts, unavailable
+from track_nodes.launch.isolation import ForeignCheck, Isolation
+from track_nodes.launch.lockstep import Watchdog, run_ready
 from track_nodes.launch.processes import failed_children, spawn_nodes, stop_processes
 from track_nodes.launch.scenario import Scenario, ScenarioError, load_scenario, params_file_sections
 
 CLOCK_TICK = 0.01  # wall seconds per /clock step at the nominal rate ...
 MAX_CLOCK_STEP = 0.05  # ... but never more than this many node seconds per step (bounded bursts)
-IDLE_POLL = 0.001  # wall seconds without a ready callback that count as idle (lock-step)
 SETTLE = 1.0  # wall seconds for discovery to settle before the clock starts ...
 SETTLE_PROCESSES = 3.0  # ... with one process per node (seen: a reader matched after 1 s lost step 0)
 GRACE = 1.0  # wall seconds for messages in flight after the clock stops
@@ -70,6 +73,7 @@ QUIET = 2.0  # --processes: the graph is drained once no watched topic delivered
 DRAIN_MAX = 120.0  # ... waiting at most this long after the clock stopped
 WATCH_EVERY = 50  # clock steps between looks for new topics to watch (--processes)
 READY_TIMEOUT = 90.0  # a deadline, not a wait: 25 processes importing scipy on a loaded 2-core machine
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 MAX_DOMAIN_ID = 232  # Fast DDS's default port mapping (7400 + 250 d + ...) leaves the UDP range above it
 
 
@@ -78,21 +82,7 @@ class LaunchError(RuntimeError):
 
 
 def _parse(argv: list[str] | None) -> argparse.Namespace:
-    ap = argparse.ArgumentParser(prog='python -m track_nodes.launch', description=__doc__.split('\n\n')[1])
-    ap.add_argument('scenario', help='scenario name (config/<name>.yaml) or a path to a .yaml file')
-    ap.add_argument('--record', nargs='?', const='', default=None, metavar='NAME',
-                    help='record to bags/NAME/ (default NAME: <scenario>-<timestamp>)')
-    ap.add_argument('--duration', type=float, default=None, help='run length in node time [s]')
-    ap.add_argument('--processes', action='store_true', help='one process per node')
-    ap.add_argument('--hosts', type=int, default=0, metavar='N',
-                    help='with --processes: spread the nodes over N simulated hosts (network namespaces, root)')
-    ap.add_argument('--params', type=Path, default=None, metavar='FILE', help='extra params file on top')
-    ap.add_argument('--rate', type=float, default=None,
-                    help='drive /clock at R x real time; 0 = wall time (default: the scenario)')
-    ap.add_argument('--epoch', default='now', metavar='E',
-                    help="node time at which /clock starts: 'now' (default), whole seconds since 1970, "
-                         'or an ISO date (UTC)')
-    return ap.parse_args(argv)
+    return parse_args(argv, __doc__.split('\n\n')[1])
 
 
 def parse_epoch(text: str) -> int | None:
@@ -140,6 +130,12 @@ class Launch:
                 raise LaunchError(f'{self.bag}: bag exists already, not overwriting (choose another --record NAME)')
             self.bag.parent.mkdir(parents=True, exist_ok=True)
         self.record_regex = str(opts.get('record_regex', '.*'))
+        self.network, self.watchdog_s = args.network, args.watchdog
+        if self.watchdog_s is not None and not self.watchdog_s > 0:
+            raise LaunchError(f'--watchdog must be > 0 s, got {self.watchdog_s}')
+        self.dog: Watchdog | None = None
+        self.lockstep = False
+        self.nodes: list[Node] = []
 
     # -- the two ways of running the nodes ------------------------------------------------
     def run(self, processes: bool, n_hosts: int = 0) -> int:
@@ -147,6 +143,16 @@ class Launch:
         if domain and not (domain.isdigit() and int(domain) <= MAX_DOMAIN_ID):
             # Fast DDS exit(1)s inside the first node's creation: no message of ours, namespaces left behind
             raise LaunchError(f'ROS_DOMAIN_ID={domain}: Fast DDS needs 0..{MAX_DOMAIN_ID} (its UDP ports)')
+        self._watch_sigint()
+        try:
+            isolation = Isolation(self.network).acquire()
+        except RuntimeError as exc:
+            raise LaunchError(str(exc)) from None
+        print(isolation.describe(), flush=True)
+        with isolation:
+            return self._run_on_hosts(processes, n_hosts)
+
+    def _run_on_hosts(self, processes: bool, n_hosts: int) -> int:
         if not n_hosts:
             return self._run(processes, None)
         if not processes or n_hosts < 1:
@@ -161,7 +167,7 @@ class Launch:
 
     def _run(self, processes: bool, hosts: Hosts | None) -> int:
         self.context = context = Context()
-        self._watch_sigint()
+        self.lockstep = self.sim and not processes
         ros_args = ['--ros-args', *[a for f in self.params_files for a in ('--params-file', f)]]
         rclpy.init(args=ros_args if not processes else None, context=context)
         remember_args(context, ros_args if not processes else None)  # node parameter names (base/names.py)
@@ -174,7 +180,7 @@ class Launch:
                 children = spawn_nodes(self.sc.nodes, self.params_files, self.sim, self.bag, self.record_regex,
                                        hosts)
             else:
-                nodes = self._create_all(context)
+                nodes = self.nodes = self._create_all(context)
                 for node in nodes:
                     executor.add_node(node)
             self._wait_ready(launcher, executor, children)
@@ -182,6 +188,8 @@ class Launch:
         except KeyboardInterrupt:
             pass
         finally:
+            if self.dog is not None:
+                self.dog.watching = False  # the clock has stopped: the drain and the grace have their own bounds
             with contextlib.suppress(KeyboardInterrupt):
                 if children:
                     self._drain(launcher, executor)
@@ -197,6 +205,8 @@ class Launch:
                 node.destroy_node()  # the recorder closes its bag here
             launcher.destroy_node()
             context.try_shutdown()
+            if self.dog is not None:
+                self.dog.stop()
         return EXIT_BAD_INPUT if failed_children(children) else 0
 
     def _drain(self, launcher: LauncherNode, executor: MultiThreadedExecutor) -> None:
@@ -215,7 +225,11 @@ class Launch:
             self._pump(executor, time.monotonic() + 0.1)
 
     def _pump(self, executor: MultiThreadedExecutor, deadline: float) -> None:
-        """Hand ready callbacks to the executor's threads until ``deadline`` (monotonic s)."""
+        """Hand ready callbacks to the executor's threads until ``deadline`` (monotonic s); in
+        lock-step run them inline instead (see ``lockstep``: no callback may outlive its step)."""
+        if self.lockstep:
+            run_ready(executor, self.context, deadline, self._interrupted, self.dog)
+            return
         while self.context.ok():
             left = deadline - time.monotonic()
             if left <= 0:
@@ -224,36 +238,25 @@ class Launch:
 
     def _run_until_idle(self, executor: MultiThreadedExecutor) -> None:
         """Lock-step: run ready callbacks inline, in order, until none is ready twice in a row."""
-        idle = 0
-        while idle < 2 and self.context.ok():
-            try:
-                handler, _, _ = executor.wait_for_ready_callbacks(timeout_sec=IDLE_POLL)
-            except TimeoutException:
-                idle += 1
-                continue
-            except (ShutdownException, ExternalShutdownException):
-                return
-            idle = 0
-            handler()
-            if handler.exception() is not None:
-                if self._interrupted():  # Ctrl-C inside a callback (e.g. during a take): a clean stop
-                    raise KeyboardInterrupt from handler.exception()
-                raise handler.exception()
+        run_ready(executor, self.context, None, self._interrupted, self.dog)
 
     def _watch_sigint(self) -> None:
-        """Note every signal in a socket (``signal.set_wakeup_fd``): a Ctrl-C that lands inside a
-        callback can surface as another error (rclpy's take: "Unable to convert call argument"),
-        and the launcher must still stop cleanly then."""
+        """SIGTERM and SIGHUP stop the run exactly like SIGINT (a KeyboardInterrupt: nodes stopped,
+        bag closed, summary). Every signal is noted in a socket (``signal.set_wakeup_fd``): a Ctrl-C
+        that lands inside a callback can surface as another error (rclpy's take: "Unable to convert
+        call argument"), and the launcher must still stop cleanly then."""
         self._sig_r, self._sig_w = socket.socketpair()
         for sock in (self._sig_r, self._sig_w):
             sock.setblocking(False)
         with contextlib.suppress(ValueError):  # not the main thread: no watch
             signal.set_wakeup_fd(self._sig_w.fileno(), warn_on_full_buffer=False)
+            for sig in STOP_SIGNALS[1:]:
+                signal.signal(sig, signal.default_int_handler)
         self._sigint = False
 
     def _interrupted(self) -> bool:
         with contextlib.suppress(BlockingIOError, AttributeError, OSError):
-            self._sigint = self._sigint or signal.SIGINT in self._sig_r.recv(64)
+            self._sigint = self._sigint or any(s in self._sig_r.recv(64) for s in STOP_SIGNALS)
         return getattr(self, '_sigint', False)
 
     def _overrides(self) -> list[Parameter]:
@@ -332,9 +335,14 @@ class Launch:
         wall_step = step / self.rate if self.sim else CLOCK_TICK
         t0, k = time.monotonic(), 0
         epoch_ns = self._epoch_ns() if self.sim else 0
+        self.dog = Watchdog(len(self.sc.nodes) + 1, self.watchdog_s).start() if self.sim else None
+        names = [s.name for s in self.sc.nodes] + ['recorder'] * (self.bag is not None) + [launcher.get_name()]
+        foreign = ForeignCheck(launcher, names, None if children else [launcher, *self.nodes], self.sim)
         while self.context.ok():
             if any(c.poll() is not None for c in children):
                 return
+            if (found := foreign.look()) is not None:
+                raise LaunchError(found)
             if children and k % WATCH_EVERY == 0:
                 launcher.watch(self.record_regex)  # topics whose traffic tells when the processes are done
             if not self.sim:
@@ -344,6 +352,7 @@ class Launch:
                 continue
             node_time = k * step if duration is None else min(k * step, duration)
             launcher.publish_clock(epoch_ns + round(node_time * 1e9))
+            self.dog.stepped(node_time)  # sim: the watchdog runs
             if lockstep:
                 self._run_until_idle(executor)
             # Never faster than R x real time: wait for the wall time of the next step.
@@ -369,6 +378,8 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         code = 0
+    if launch.dog is not None and launch.dog.stalled:
+        code = 1  # its one line is printed already
     if launch.bag is not None and (launch.bag / 'metadata.yaml').exists():
         from track_nodes.report.summary import print_summary
 
