@@ -8,7 +8,7 @@ Usage::
 - NAME → ``bags/NAME/`` relative to the cwd, or a path if it contains '/'. An existing bag is
   never overwritten (one error line, exit 2). Without a name: ``bags/rosbag2_<timestamp>/``.
 - What is recorded: the listed ``topics``, plus every topic matching ``regex`` (``re.search``).
-  With neither, every topic. ``/rosout`` and ``/parameter_events`` are only recorded when listed
+  With neither, every topic. ``/rosout``, ``/parameter_events`` and ``/track/ready`` are only recorded when listed
   in ``topics``. The transform tree, ``/tf`` and ``/tf_static``, is recorded too whatever the
   filter (a bag whose frames cannot be placed is of little use in RViz or Foxglove), unless
   ``tf`` is false (``--no-tf``); a topic listed in ``topics`` is recorded even then. ``/tf_static``
@@ -49,7 +49,7 @@ from rclpy.clock import Clock, ClockType
 from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.parameter import Parameter
 
-from track_msgs_py.topics import TF, TF_STATIC
+from track_msgs_py.topics import READY, TF, TF_STATIC
 from track_nodes.bag.api import (
     bag_path,
     check_mcap_writer_internals,
@@ -64,7 +64,7 @@ from track_nodes.bag.take import BeforeClock, can_take, take_pending
 from track_nodes.base import Param, TrackNode, run_node
 from track_nodes.base.cli import OneLineParser, cli_overrides
 
-EXCLUDED_BY_DEFAULT = ('/rosout', '/parameter_events')
+EXCLUDED_BY_DEFAULT = ('/rosout', '/parameter_events', READY)  # READY: the nodes' start-up announcements
 TF_TOPICS = (TF, TF_STATIC)  # recorded whatever the filter, unless tf is false
 TAKE_LIMIT = 1000  # messages taken per callback beyond the one the executor delivered
 
