@@ -113,3 +113,29 @@ def test_ctrl_c_while_many_nodes_are_built_in_one_process_is_a_clean_stop(ros, t
     said = [ln for ln in err.splitlines() if 'Ctrl-C while building node' in ln]
     assert len(said) == 1 and 'of 49: stopping' in said[0], err[-3000:]
     assert '/clock from' not in out, out  # stopped before the clock started
+
+
+def test_a_deadline_that_runs_out_names_what_is_missing_and_how_it_was_derived(ros, repo, monkeypatch):
+    from rclpy.executors import MultiThreadedExecutor
+
+    from track_nodes.launch import graph, launcher
+    from track_nodes.launch.scenario import NodeSpec, Scenario
+
+    monkeypatch.setattr(graph, 'READY_TIMEOUT', 0.5)
+    monkeypatch.setattr(graph, 'READY_PER_NODE', 0.25)
+    sc = Scenario('ghosts', repo / 'config/demo.yaml', [NodeSpec('demo_target', 'loud'),
+                                                        NodeSpec('demo_target', 'ghost')], {})
+    launch = launcher.Launch(sc, launcher._parse(['ghosts', '--rate', '0']))
+    launch.context = ros.context
+    node = ros.add(LauncherNode(ros.context))
+    ros.add(_Quiet(node_name='loud', context=ros.context))
+    executor = MultiThreadedExecutor(context=ros.context)
+    executor.add_node(node)
+    try:
+        with pytest.raises(launcher.LaunchError) as exc:
+            launch._wait_ready(node, executor, [])
+    finally:
+        executor.remove_node(node)
+        executor.shutdown()
+    assert str(exc.value) == ('not ready after 1 s (the deadline for 2: 0.5 s + 0.25 s per node in one process): '
+                              'waiting for the announcement of ghost on /track/ready (1 of 2 nodes)')

@@ -147,7 +147,7 @@ class Twins:
             return
         if me.newer(other):
             after = time.monotonic() - self.started
-            when = '' if after <= TWIN_LISTEN else f' (heard {after:.1f} s after the start: stopping)'
+            when = '' if after <= TWIN_LISTEN else f' (heard {after:.1f} s after it began to listen: stopping)'
             line = (f'{self.program}: {me.name} already runs ({other.where()}, started '
                     f'{(me.start_ns - other.start_ns) * 1e-9:.3f} s before this one): refusing to start a '
                     f'second node of that name{when}; set {ALLOW_TWINS}=1 to allow it')
