@@ -98,8 +98,8 @@ def _hostile_reports(t: float) -> list:
 
 # --- demo_tracker ---------------------------------------------------------------------------------------
 
-def _demo(ros, **params):
-    node = ros.add(DemoTrackerNode(context=ros.context,
+def _demo(ros, name=None, **params):
+    node = ros.add(DemoTrackerNode(node_name=name, context=ros.context,
                                    parameter_overrides=[Parameter(k, value=v) for k, v in params.items()]))
     out = []
     node.pub.publish = out.append
@@ -143,7 +143,7 @@ def test_demo_horizon_is_a_parameter_and_skipped_while_the_sim_clock_reads_zero(
     node._on_report(_report(t0 + 30.0))  # 30 s ahead, horizon 1 s
     assert not out and node.rejected == 1
     # use_sim_time and no /clock yet: the clock reads 0 and must not refuse every real stamp
-    sim, sim_out = _demo(ros, use_sim_time=True)
+    sim, sim_out = _demo(ros, 'demo_tracker_sim', use_sim_time=True)  # one node per name in a process
     assert sim.get_clock().now().nanoseconds == 0
     sim._on_report(_report(1e9))
     sim._on_report(_report(1e9 + 0.1))

@@ -50,6 +50,7 @@ CLOCK = '/clock'
 TF = '/tf'
 TF_STATIC = '/tf_static'
 DIAGNOSTICS = '/diagnostics'  # the standard ROS health topic: every node's counts of refused input
+READY = '/track/ready'  # every node's announcement once it is up (records.ready), one transient-local sample each
 
 # Track-to-track fusion (geofeasibility paper). Input track topics are parameters of the node.
 FUSION_SCORES = '/fusion/scores'
@@ -57,7 +58,7 @@ FUSION_ASSOCIATIONS = '/fusion/associations'
 FUSION_FUSED = '/fusion/fused'
 FUSION_MARKERS = '/fusion/markers'
 
-GLOBAL_TOPICS = frozenset({CLOCK, DIAGNOSTICS, '/tf', '/tf_static', '/rosout', '/parameter_events'})
+GLOBAL_TOPICS = frozenset({CLOCK, DIAGNOSTICS, READY, '/tf', '/tf_static', '/rosout', '/parameter_events'})
 
 
 def relative(topic: str) -> str:
@@ -94,6 +95,9 @@ TOPICS: dict[str, TopicSpec] = {
                          'publisher carrying all of them (TrackNode.add_static_transforms)'),
     DIAGNOSTICS: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'estimate',
                            'per node: refused input counted per "<topic> <reason field>" (track_nodes.base.node)'),
+    READY: TopicSpec('diagnostic_msgs/msg/DiagnosticStatus', 'static',
+                     'one status per node once it is up, named after the node: pid, host, start, executable '
+                     '(track_msgs_py.records.ready; track_nodes.base.ready)'),
     DEMO_TRUTH: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
                           'true CV state of the demo target (zero x/y covariance, yaw 1e6); child_frame_id = track id'),
     DEMO_REPORTS: TopicSpec('geometry_msgs/msg/PoseWithCovarianceStamped', 'sensor',

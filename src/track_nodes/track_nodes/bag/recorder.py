@@ -8,7 +8,7 @@ Usage::
 - NAME → ``bags/NAME/`` relative to the cwd, or a path if it contains '/'. An existing bag is
   never overwritten (one error line, exit 2). Without a name: ``bags/rosbag2_<timestamp>/``.
 - What is recorded: the listed ``topics``, plus every topic matching ``regex`` (``re.search``).
-  With neither, every topic. ``/rosout`` and ``/parameter_events`` are only recorded when listed
+  With neither, every topic. ``/rosout``, ``/parameter_events`` and ``/track/ready`` are only recorded when listed
   in ``topics``. The transform tree, ``/tf`` and ``/tf_static``, is recorded too whatever the
   filter (a bag whose frames cannot be placed is of little use in RViz or Foxglove), unless
   ``tf`` is false (``--no-tf``); a topic listed in ``topics`` is recorded even then. ``/tf_static``

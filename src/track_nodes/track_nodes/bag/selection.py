@@ -5,9 +5,9 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 
-from track_msgs_py.topics import TF, TF_STATIC
+from track_msgs_py.topics import READY, TF, TF_STATIC
 
-EXCLUDED_BY_DEFAULT = ('/rosout', '/parameter_events')
+EXCLUDED_BY_DEFAULT = ('/rosout', '/parameter_events', READY)  # READY: the nodes' start-up announcements
 TF_TOPICS = (TF, TF_STATIC)  # recorded whatever the filter, unless tf is false
 
 

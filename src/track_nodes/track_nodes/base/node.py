@@ -38,6 +38,7 @@ import contextlib
 import faulthandler
 import signal
 import sys
+import time
 from collections.abc import Callable, Sequence
 from types import SimpleNamespace
 from typing import Any, ClassVar
@@ -55,6 +56,7 @@ from track_msgs_py.convert import diagnostic_array, diagnostic_status
 from track_msgs_py.records import DIAG_OK, DIAG_WARN
 from track_msgs_py.tf import TF, TF_QOS, TF_STATIC, TF_STATIC_QOS, tf_message
 from track_msgs_py.topics import DIAGNOSTICS, relative
+from track_nodes.base import ready
 from track_nodes.base.cli import params_file_problem
 from track_nodes.base.names import CheckedNames, remember_args
 from track_nodes.base.params import Param, ParameterError, declare_params
@@ -77,6 +79,7 @@ class TrackNode(Node, metaclass=CheckedNames):
 
     def __init__(self, *, node_name: str | None = None, context=None, parameter_overrides=None, cli_args=None,
                  **node_kwargs: Any) -> None:
+        start_ns = time.time_ns()  # who came first of two nodes of one name (base/ready.py)
         super().__init__(node_name or self.DEFAULT_NAME, context=context, parameter_overrides=parameter_overrides,
                          cli_args=cli_args, **node_kwargs)
         self._specs: dict[str, Param] = {}  # every Param declared through declare_params (base/params.py)
@@ -91,6 +94,7 @@ class TrackNode(Node, metaclass=CheckedNames):
         self.setup()
         self.add_on_set_parameters_callback(self._check_params)
         self.add_post_set_parameters_callback(self._apply_params)
+        ready.claim(self, start_ns)  # one node per name; the announcement on /track/ready (base/ready.py)
 
     def setup(self) -> None:
         """The node's core object and endpoints (parameters are in ``self.p``); raise ValueError to refuse."""
@@ -213,6 +217,7 @@ class TrackNode(Node, metaclass=CheckedNames):
 
     def destroy_node(self) -> None:
         """Delete the DDS entities (subclasses close their files first, then call this)."""
+        ready.release(self)
         with dds_alarm():
             super().destroy_node()
 
@@ -254,6 +259,8 @@ def run_nodes(makers: Sequence[tuple[str, Callable[[], Node]]], argv: Sequence[s
         return EXIT_BAD_INPUT
     nodes: list[Node] = []
     TEARDOWN.alarm = True  # a node process: a DDS deletion that hangs ends it (base/teardown.py)
+    ready.HOLD.held = True  # the nodes announce themselves once no older twin was heard (base/ready.py)
+    twins = None
     try:
         for name, make in makers:
             try:
@@ -263,8 +270,9 @@ def run_nodes(makers: Sequence[tuple[str, Callable[[], Node]]], argv: Sequence[s
                     raise  # Ctrl-C while starting, handled below
                 print(f'{name}: {exc}', file=sys.stderr)
                 return EXIT_BAD_INPUT
+        twins = ready.settle(nodes, program, EXIT_BAD_INPUT)  # no older twin heard: announced (base/ready.py)
         executor = rclpy.get_global_executor() if len(nodes) == 1 else SingleThreadedExecutor()
-        for node in nodes:
+        for node in [*nodes, twins.node]:
             executor.add_node(node)
         with contextlib.suppress(KeyboardInterrupt, ExternalShutdownException):
             spin(executor)  # wakes up for stop signals (base/signals.py)
@@ -274,7 +282,7 @@ def run_nodes(makers: Sequence[tuple[str, Callable[[], Node]]], argv: Sequence[s
         # Ctrl-C while the nodes were being built or inside a callback: rclpy's signal handler shut
         # the context down under them (rcl then raises "context is invalid"); that is a clean stop.
     finally:
-        for node in nodes:
+        for node in [*nodes, *([twins.node] if twins else [])]:
             node.destroy_node()  # the last node of the context takes the DDS participant with it (rmw_fastrtps)
         with dds_alarm():
             rclpy.try_shutdown()

@@ -1,21 +1,38 @@
-"""The launcher's own node: publishes /clock and watches the graph (who is up, what is recorded, what still flows)."""
+"""The launcher's own node: publishes /clock and watches the graph (who is up, what is recorded, what still flows).
+
+Who is up comes from the nodes' own announcements on ``/track/ready`` (``track_nodes.base.ready``):
+transient-local, so every node alive is heard however late the launcher looks, and at any scale,
+where the graph's node names (one Fast DDS ``ros_discovery_info`` sample per participant) missed
+some of 65 processes over 5 hosts for minutes.
+"""
 
 from __future__ import annotations
 
+import os
 import re
+import socket
 import time
 from collections import Counter
 
+from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy.context import Context
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 
 from track_msgs_py.convert import ns_to_stamp
 from track_msgs_py.qos import CLOCK_QOS
-from track_msgs_py.topics import CLOCK, TF, TF_STATIC
+from track_msgs_py.records import RecordError
+from track_msgs_py.records.ready import NodeReady
+from track_msgs_py.topics import CLOCK, READY, TF, TF_STATIC
 from track_nodes.bag.api import msg_class, recording_qos
+from track_nodes.base.ready import WATCH_QOS
 
-IGNORED_TOPICS = ('/rosout', '/parameter_events', CLOCK)
+IGNORED_TOPICS = ('/rosout', '/parameter_events', CLOCK, READY)
+# The ready deadline (a deadline, not a wait), from the node count: READY_TIMEOUT plus, per node, ...
+READY_TIMEOUT = 60.0  # [wall s]
+READY_PER_NODE = 1.0  # ... in one process (built already: discovery and matching of its endpoints) ...
+READY_PER_PROCESS = 4.0  # ... or per process (each imports numpy, scipy and rclpy: seconds of CPU on 2 cores)
+LISTED = 8  # names given in the line of a deadline that ran out
 
 
 class LauncherNode(Node):
@@ -26,6 +43,16 @@ class LauncherNode(Node):
         self.clock_pub = self.create_publisher(Clock, CLOCK, CLOCK_QOS)
         self.watched: dict[str, object] = {}
         self.last_message = time.monotonic()
+        self.announced: dict[str, dict[tuple, NodeReady]] = {}  # fully qualified name -> its announcements
+        self.create_subscription(DiagnosticStatus, READY, self._announced, WATCH_QOS)
+
+    def _announced(self, status: DiagnosticStatus) -> None:
+        try:
+            rec = NodeReady.from_msg(status)
+        except RecordError as exc:
+            self.get_logger().warning(f'{READY}: announcement ignored: {exc}')
+            return
+        self.announced.setdefault(rec.name, {})[rec.order] = rec
 
     def watch(self, regex: str) -> None:
         """Subscribe (raw, no decoding) to every published topic matching ``regex``, to see when work ends."""
@@ -73,8 +100,19 @@ class LauncherNode(Node):
         return None
 
     def nodes_missing(self, names: list[str]) -> list[str]:
-        present = set(self.get_node_names())
-        return [n for n in names if n not in present]
+        """The ``names`` (relative to the root namespace, or fully qualified) with no announcement yet."""
+        return [n for n in names if _qualified(n) not in self.announced]
+
+    def foreign_twins(self, names: list[str]) -> list[str]:
+        """Per name of ``names`` that this process's node holds and a node of another process announced
+        first (``NodeReady.newer``): what runs there."""
+        here = (socket.gethostname(), os.getpid())
+        lines = []
+        for n in names:
+            recs = sorted(self.announced.get(_qualified(n), {}).values(), key=lambda r: r.order)
+            if any((r.host, r.pid) == here for r in recs) and (recs[0].host, recs[0].pid) != here:
+                lines.append(f'{recs[0].name} already runs ({recs[0].where()})')
+        return lines
 
     def topics_unrecorded(self, regex: str, recorder: str) -> list[str]:
         pattern = re.compile(regex)
@@ -87,3 +125,19 @@ class LauncherNode(Node):
             if recorder not in subs:
                 missing.append(topic)
         return missing
+
+
+def _qualified(name: str) -> str:
+    return name if name.startswith('/') else f'/{name}'
+
+
+def ready_deadline(n_nodes: int, processes: bool) -> tuple[float, str]:
+    """The ready deadline [wall s] for ``n_nodes`` nodes, and how it was derived (for the line that says it ran out)."""
+    per, where = (READY_PER_PROCESS, 'process') if processes else (READY_PER_NODE, 'node in one process')
+    return READY_TIMEOUT + per * n_nodes, f'the deadline for {n_nodes}: {READY_TIMEOUT:g} s + {per:g} s per {where}'
+
+
+def listing(items: list[str]) -> str:
+    """The first ``LISTED`` of ``items``, joined, with how many more there are."""
+    more = len(items) - LISTED
+    return ', '.join(items[:LISTED]) + (f' and {more} more' if more > 0 else '')

@@ -55,9 +55,11 @@ from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
+from track_msgs_py.topics import READY
 from track_nodes.base import EXIT_BAD_INPUT, remember_args, shared_names_problem
+from track_nodes.base.ready import ALLOW_TWINS, twins_allowed
 from track_nodes.launch.cli import parse_args
-from track_nodes.launch.graph import LauncherNode
+from track_nodes.launch.graph import LauncherNode, listing, ready_deadline
 from track_nodes.launch.hosts import Hosts, unavailable
 from track_nodes.launch.isolation import ForeignCheck, Isolation
 from track_nodes.launch.lockstep import Watchdog, run_ready
@@ -72,7 +74,6 @@ GRACE = 1.0  # wall seconds for messages in flight after the clock stops
 QUIET = 2.0  # --processes: the graph is drained once no watched topic delivered for this long [wall s] ...
 DRAIN_MAX = 120.0  # ... waiting at most this long after the clock stopped
 WATCH_EVERY = 50  # clock steps between looks for new topics to watch (--processes)
-READY_TIMEOUT = 90.0  # a deadline, not a wait: 25 processes importing scipy on a loaded 2-core machine
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 MAX_DOMAIN_ID = 232  # Fast DDS's default port mapping (7400 + 250 d + ...) leaves the UDP range above it
 
@@ -263,46 +264,66 @@ class Launch:
         return [Parameter('use_sim_time', value=self.sim)]
 
     def _create_all(self, context: Context) -> list[Node]:
-        nodes = []
-        for spec in self.sc.nodes:
-            cls = spec.node_class()
-            try:
-                nodes.append(cls(node_name=spec.name, context=context, parameter_overrides=self._overrides()))
-            except ValueError as exc:
-                for node in nodes:
-                    node.destroy_node()
-                raise LaunchError(f'{spec.name}: {exc}') from None
-        if self.bag is not None:
-            from track_nodes.bag.recorder import RecorderNode
+        """Build every node of the scenario (then the recorder) in this process; each announces itself.
 
-            nodes.append(RecorderNode(context=context, parameter_overrides=[
-                *self._overrides(), Parameter('bag', value=str(self.bag)),
-                Parameter('regex', value=self.record_regex)]))
-        if (problem := shared_names_problem(nodes, self.params_files)) is not None:  # base/names.py
-            for node in nodes:
+        Ctrl-C while building (KeyboardInterrupt between two of rclpy's C calls: node creation never
+        holds off signals for more than a few ms) says so in one line, destroys the nodes built so far
+        (seconds for a hundred: each deletion in rmw_fastrtps costs in proportion to what is left),
+        then stops.
+        """
+        nodes = []
+        total = len(self.sc.nodes) + (self.bag is not None)
+        try:
+            for spec in self.sc.nodes:
+                cls = spec.node_class()
+                try:
+                    nodes.append(cls(node_name=spec.name, context=context, parameter_overrides=self._overrides()))
+                except ValueError as exc:
+                    raise LaunchError(f'{spec.name}: {exc}') from None
+            if self.bag is not None:
+                from track_nodes.bag.recorder import RecorderNode
+
+                nodes.append(RecorderNode(context=context, parameter_overrides=[
+                    *self._overrides(), Parameter('bag', value=str(self.bag)),
+                    Parameter('regex', value=self.record_regex)]))
+            if (problem := shared_names_problem(nodes, self.params_files)) is not None:  # base/names.py
+                raise LaunchError(problem)
+        except (LaunchError, KeyboardInterrupt) as exc:
+            if isinstance(exc, KeyboardInterrupt):
+                print(f'track_nodes.launch: Ctrl-C while building node {len(nodes) + 1} of {total}: stopping '
+                      f'(destroying the {len(nodes)} built)', file=sys.stderr, flush=True)
+            for node in reversed(nodes):
                 node.destroy_node()
-            raise LaunchError(problem)
+            raise
         return nodes
 
     # -- start, clock, stop ---------------------------------------------------------------
     def _wait_ready(self, launcher: LauncherNode, executor: MultiThreadedExecutor,
                     children: list[subprocess.Popen]) -> None:
+        """Until every node has announced itself (``base/ready.py``), the recorder subscribed to every
+        recordable topic and every /clock subscription matched; a deadline from the node count."""
         names = [s.name for s in self.sc.nodes] + (['recorder'] if self.bag is not None else [])
-        deadline = time.monotonic() + READY_TIMEOUT
+        timeout, why = ready_deadline(len(names), bool(children))
+        deadline = time.monotonic() + timeout
         while True:
             for child in children:
                 if child.poll() is not None:
                     raise LaunchError(f'{child.label} exited with code {child.returncode} at start')
+            if not children and not twins_allowed() and (twins := launcher.foreign_twins(names)):
+                raise LaunchError(f'{listing(twins)}: refusing to run a second node of that name '
+                                  f'(set {ALLOW_TWINS}=1 to allow it)')
             missing = launcher.nodes_missing(names)
-            if not missing and self.bag is not None:
-                missing = [f'recorder subscription to {t}' for t in
-                           launcher.topics_unrecorded(self.record_regex, 'recorder')]
-            if not missing and self.sim and (unmatched := launcher.clock_unmatched()):
+            if missing:
+                missing = [f'the announcement of {listing(missing)} on {READY} ({len(missing)} of {len(names)} '
+                           'nodes)']
+            elif self.bag is not None and (unrecorded := launcher.topics_unrecorded(self.record_regex, 'recorder')):
+                missing = [f'the recorder to subscribe to {listing(unrecorded)} ({len(unrecorded)} topics)']
+            elif self.sim and (unmatched := launcher.clock_unmatched()):
                 missing = [f'{unmatched} /clock subscription(s) to match']
             if not missing:
                 break
             if time.monotonic() > deadline or not self.context.ok():
-                raise LaunchError(f'not ready after {READY_TIMEOUT:.0f} s: waiting for {", ".join(missing)}')
+                raise LaunchError(f'not ready after {timeout:.0f} s ({why}): waiting for {missing[0]}')
             self._pump(executor, time.monotonic() + 0.05)
         if not (children and self.sim):
             self._pump(executor, time.monotonic() + (SETTLE_PROCESSES if children else SETTLE))
