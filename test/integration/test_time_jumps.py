@@ -21,11 +21,21 @@ from nav_msgs.msg import Odometry
 from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
 
-from track_msgs_py.convert import position_to_pose_cov, sec_to_stamp
+from track_msgs_py.convert import (
+    cv_state_to_odometry,
+    inputs_to_twist,
+    position_to_pose_cov,
+    scan_to_pointcloud2,
+    sec_to_stamp,
+)
 from track_msgs_py.records import diagnostic_values
 from track_msgs_py.topics import DEMO_REPORTS, DEMO_TRACK, DIAGNOSTICS, FRAME_MAP
 from track_nodes.bag.player import PlayerNode
 from track_nodes.demo.demo_tracker import DemoTrackerNode
+from track_nodes.fusion.fusion import FusionNode
+from track_nodes.rfid.rfid_guidance import RfidGuidanceNode
+from track_nodes.slam.slam import SlamNode
+from track_nodes.sonar.sonar_observer import SonarObserverNode
 
 pytestmark = pytest.mark.integration
 
@@ -178,3 +188,57 @@ def test_track_play_loop_keeps_the_demo_tracker_producing_through_three_loops(ro
     assert ros.spin_until(lambda: len(loops) >= 4 and len(loops[3]) >= 20, 120.0), [len(x) for x in loops]
     assert all(len(x) >= 20 for x in loops[:4]), [len(x) for x in loops]
     assert all(_valid(m) for x in loops for m in x)
+
+
+# --- every estimator that keeps time state: one line and a fresh start after /clock goes back -------------
+
+def _feed_fusion(node, t: float) -> None:
+    node._on_pose(node.resolve_topic_name('/radar/t0'), _report(t))
+
+
+def _feed_slam(node, t: float) -> None:
+    trees = np.array([[10.0, 1.0], [12.0, 2.0], [15.0, 1.5]])
+    node._on_scan(scan_to_pointcloud2(t, trees, np.full(len(trees), 0.3)))
+    node._on_input(inputs_to_twist(t + 0.05, 1.0, 0.0))
+
+
+def _feed_sonar(node, t: float) -> None:
+    node._on_truth(cv_state_to_odometry(t, np.array([0.0, 1.0, 0.0, 1.0]), np.zeros((4, 4)), FRAME_MAP))
+
+
+def _make(ros, repo, name: str):
+    sim = [Parameter('use_sim_time', value=True)]
+    if name == 'fusion':
+        return FusionNode(context=ros.context,
+                          parameter_overrides=[*sim, Parameter('pose_topics', value=['/radar/t0'])])
+    if name == 'slam':
+        return SlamNode(context=ros.context, parameter_overrides=sim)
+    if name == 'sonar_observer':
+        return SonarObserverNode(node_name=name, context=ros.context, parameter_overrides=sim,
+                                 cli_args=['--ros-args', '--params-file', str(repo / 'config/sonar.yaml')])
+    return RfidGuidanceNode(context=ros.context, parameter_overrides=sim)
+
+
+FEED = {'fusion': _feed_fusion, 'slam': _feed_slam, 'sonar_observer': _feed_sonar, 'rfid_guidance': None}
+
+
+@pytest.mark.parametrize('name', list(FEED))
+def test_every_estimator_starts_again_after_the_clock_goes_back(ros, repo, name):
+    node = ros.add(_make(ros, repo, name))
+    lines = Lines(node)
+    clock = ros.add(rclpy.create_node('clock_source', context=ros.context))
+    pub = clock.create_publisher(Clock, '/clock', 10)
+    assert ros.spin_until(lambda: pub.get_subscription_count() > 0, 30.0)
+    feed = FEED[name]
+    _set_clock(ros, pub, node, 100.0)
+    if feed is not None:
+        feed(node, 100.0)
+    refused = node.refusals.total()
+    _set_clock(ros, pub, node, 10.0)
+    jumps = [w for w in lines.warnings if 'clock jumped back' in w]
+    assert len(jumps) == 1 and 'reset' in jumps[0], lines.warnings
+    if feed is not None:  # the new run is taken, not refused as "time went backwards"
+        feed(node, 10.0)
+        assert node.refusals.total() == refused, node.refusals.counts
+    else:
+        assert node.loop.cmd is None
