@@ -13,7 +13,10 @@ names of what it reset (``TrackNode``'s default resets nothing, and then nothing
 the watcher logs one line, e.g. ``clock jumped back 9.9 s (10.0 s -> 0.1 s): reset tracker, stamp
 watermarks``. The first ``/clock`` after start (0 -> bag time) is not a jump: nothing is kept yet.
 The callback runs inside the executor's ``/clock`` callback, so it never races a message callback
-of a single-threaded executor.
+of a single-threaded executor. A message of the old run can still be queued when the reset happens
+(``/clock`` and the data are different topics); stamped near the end of that run, it lies ahead of
+the new clock, and the node's look-ahead tolerance (``InputPolicy.lead``) refuses it, so it cannot
+seed the new run with an old time.
 """
 
 from __future__ import annotations

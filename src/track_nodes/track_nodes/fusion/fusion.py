@@ -137,7 +137,7 @@ PARAMS = (
     Param('warn_period', 5.0, 'at most one bad-input warning per topic per this many seconds', 0.0, 1e6, live=True),
     Param('stamp_horizon', InputPolicy.horizon, 'refuse reports stamped more than this ahead of the node clock [s]',
           1e-3, 1e9, live=True),
-    Param('stamp_lead', 10.0, 'look-ahead tolerance: refuse reports stamped more than this ahead of the node '
+    Param('stamp_lead', 2.0, 'look-ahead tolerance: refuse reports stamped more than this ahead of the node '
           'clock (a few report periods) [s]', 1e-3, 1e9, live=True),
 )
 

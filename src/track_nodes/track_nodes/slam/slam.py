@@ -46,7 +46,7 @@ once per reason every ``warn_throttle`` seconds, on /diagnostics; and counted in
   ``hybrid.bearing_limits`` ± ``bearing_tolerance``) is dropped, the rest of the scan used. A scan
   without ``range``/``bearing`` fields is dropped whole;
 - an input with a non-finite value, |speed| beyond the policy's speed bound or |steering| ≥ π/2 is dropped;
-- a message whose stamp is malformed, more than ``stamp_horizon`` ahead of the node clock (once it
+- a message whose stamp is malformed, more than ``stamp_horizon`` (or ``stamp_lead``) ahead of the node clock (once it
   reads non-zero, ``validate.clock_now``), earlier than the previous one on its topic (time went
   backwards), or earlier than data already processed (arrived more than the buffer allows), is
   refused before it reaches the filter, so the state is untouched. A zero stamp is accepted: data
@@ -125,7 +125,7 @@ class SlamNode(TrackNode):
         problem = frame_pair_problem(p.frame_id, p.child_frame_id) or frame_pair_problem(p.child_frame_id, FRAME_BASE)
         if problem:
             raise ValueError(f'parameters frame_id={p.frame_id!r}, child_frame_id={p.child_frame_id!r}: {problem}')
-        self.policy = InputPolicy(horizon=p.stamp_horizon)
+        self.policy = InputPolicy(horizon=p.stamp_horizon, lead=p.stamp_lead)
         self.refusals.throttle = p.warn_throttle
         self.merger = StreamMerger(p.pause_wall, p.flush_idle, p.drain_budget, time.monotonic())
         self._map_ns: int | None = None  # stamp of the last map published

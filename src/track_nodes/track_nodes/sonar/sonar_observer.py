@@ -37,7 +37,9 @@ convention: the two nodes start in any order, any time apart (the truth is trans
 observer started late still gets the step the target waits on). A truth off the grid, already
 received, too far ahead or stamped beyond the horizon of the node's clock is refused. A jump of
 the clock (``track_nodes.base.timejump``: a bag replayed in a loop, a simulator reset) starts a
-new run: the tracker at its prior with its Generators seeded again, and the step grid forgotten.
+new run: the tracker at its prior with its Generators seeded again, and the step grid forgotten; a
+truth of the old run still queued then lies ahead of the clock by more than ``stamp_lead`` and is
+refused, so it cannot fix the new grid.
 The measurements are simulated here from the truth, so there is no report another publisher could
 inject and no innovation gate.
 
@@ -93,7 +95,7 @@ from track_msgs_py.topics import (
     SONAR_PING,
     SONAR_TRUTH,
 )
-from track_msgs_py.validate import clock_now, odometry_bounds_problem, odometry_problem, stamp_problem
+from track_msgs_py.validate import InputPolicy, clock_now, odometry_bounds_problem, odometry_problem, stamp_problem
 from track_nodes.base import Param, ParameterError, TrackNode
 
 PARAMS = (
@@ -123,6 +125,8 @@ PARAMS = (
     Param('max_time', 0.0, 'stop after step k with k·T > max_time (trajectory time) [s]; 0 = never', 0.0, 1e9),
     Param('track_id', 'sonar_track', 'child_frame_id of the estimate'),
     Param('observer_id', 'sonar_observer', 'child_frame_id of the observer odometry'),
+    Param('stamp_lead', 3.0, 'look-ahead tolerance: refuse truths stamped more than this ahead of the node clock '
+          '(a few periods; also a late truth of a run before a clock jump) [s]', 1e-3, 1e9, live=True),
 )
 
 
@@ -207,7 +211,8 @@ class SonarObserverNode(TrackNode):
     def _on_truth(self, msg: Odometry) -> None:
         key = stamp_to_ns(msg.header.stamp)
         reason = (odometry_problem(msg, KNOWN_FRAMES) or odometry_bounds_problem(msg, pose_covariance=False)
-                  or stamp_problem(key * 1e-9, clock_now(self.get_clock().now().nanoseconds))
+                  or stamp_problem(key * 1e-9, clock_now(self.get_clock().now().nanoseconds),
+                                   InputPolicy(lead=self.p.stamp_lead))
                   or self.gate.problem(key))
         if reason:
             self.rejected += 1
