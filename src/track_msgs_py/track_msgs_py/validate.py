@@ -23,6 +23,16 @@ neither poison an estimate nor lock a stream:
   [``variance_floor``, ``variance_ceiling``] m² (zero, denormal and huge ones are refused);
 - stamps: not zero where one is required, and not more than ``horizon`` s ahead of the
   receiving node's clock (``stamp_problem``). A refused stamp never moves a watermark.
+- look-ahead: a node that keeps a stamp watermark sets ``lead``, its own tolerance (a few report
+  periods), and a stamp more than ``lead`` s ahead of its clock is refused too. Refused, not held
+  until due: one source with a fast clock would otherwise move the watermark up to ``horizon`` s
+  ahead, and every honest report after it would be "before the previous stamp" for that long (the
+  track blanked). Holding it would need a queue per source and a timer, and would still fuse a
+  report from a clock nobody can trust; refusing costs that source its early reports, with a
+  reason on /diagnostics, and nothing else.
+
+Watermarks (``StampMonotonic``) and the node clock go back together after a clock jump
+(``track_nodes.base.timejump``): ``reset`` forgets them.
 """
 
 from __future__ import annotations
@@ -46,10 +56,12 @@ class InputPolicy:
     speed_bound: float = 1e4  # |velocity| [m/s]
     variance_floor: float = 1e-12  # smallest eigenvalue of a position covariance [m²]
     variance_ceiling: float = 1e14  # largest eigenvalue of a position covariance [m²]
+    lead: float | None = None  # look-ahead tolerance: refuse stamps more than this ahead of the clock [s]
 
     def __post_init__(self) -> None:
         if not (self.horizon > 0 and self.world_bound > 0 and self.speed_bound > 0
-                and 0 < self.variance_floor < self.variance_ceiling):
+                and 0 < self.variance_floor < self.variance_ceiling
+                and (self.lead is None or self.lead > 0)):
             raise ValueError(f'invalid input policy {self}')
 
 
@@ -86,7 +98,7 @@ def variance_problem(field: str, C: np.ndarray, policy: InputPolicy = DEFAULT_PO
 
 def stamp_problem(t: float, now: float | None, policy: InputPolicy = DEFAULT_POLICY, *,
                   required: bool = True, field: str = 'header.stamp') -> str | None:
-    """Reason when stamp ``t`` [s] is zero (if ``required``), non-finite, or beyond the horizon of ``now``.
+    """Reason when stamp ``t`` [s] is zero (if ``required``), non-finite, or beyond the horizon (or lead) of ``now``.
 
     ``now`` is the receiving node's clock [s]; ``None`` skips the horizon test (a node without a clock).
     """
@@ -96,6 +108,9 @@ def stamp_problem(t: float, now: float | None, policy: InputPolicy = DEFAULT_POL
         return f'{field}: zero stamp (a time is required)'
     if now is not None and t > now + policy.horizon:
         return f'{field}: {t:.9g} s is {t - now:.3g} s ahead of the clock ({now:.9g} s; horizon {policy.horizon:g} s)'
+    if now is not None and policy.lead is not None and t > now + policy.lead:
+        return (f'{field}: {t:.9g} s is {t - now:.3g} s ahead of the clock ({now:.9g} s; look-ahead tolerance '
+                f'{policy.lead:g} s: a source with a fast clock?)')
     return None
 
 

@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from track_core.filters import check_covariance, cv_process_noise, cv_transition, kf_predict, kf_update
+from track_core.filters.gating import GateDecision, InnovationGate
 
 H_POS = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0]])
 
@@ -15,7 +18,8 @@ class CVKalmanTracker:
     Works on one track (z of shape (2,)) or on M tracks updated together (z of shape (M, 2)),
     which is how the Monte-Carlo experiment runs. ``update`` rejects out-of-order reports
     (t earlier than the last one) by raising ``ValueError``; the node turns that into a logged
-    reason and keeps running.
+    reason and keeps running. ``update_gated`` puts an ``InnovationGate`` in front of the update;
+    ``reset`` forgets the track (after a clock jump, or when the gate says it was lost).
     """
 
     def __init__(self, q_s: float = 0.05, sigma_v0: float = 5.0) -> None:
@@ -32,6 +36,34 @@ class CVKalmanTracker:
     @property
     def initialised(self) -> bool:
         return self.x is not None
+
+    def reset(self) -> None:
+        """Forget the track: the next report initialises a new one."""
+        self.t = self.x = self.P = None
+
+    def innovation(self, t: float, z: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Innovation ν = z − H x⁻ of a report at ``t`` and its covariance S = H P⁻ Hᵀ + R (one track)."""
+        x_pred, P_pred = self.predict(t)
+        return np.asarray(z, dtype=float) - H_POS @ x_pred, H_POS @ P_pred @ H_POS.T + np.asarray(R, dtype=float)
+
+    def update_gated(self, t: float, z: np.ndarray, R: np.ndarray,
+                     gate: InnovationGate) -> tuple[GateDecision, np.ndarray | None, np.ndarray | None]:
+        """``update`` when the gate accepts the report (one track); (decision, x, P), x and P None if refused.
+
+        The first report of a track is not gated (there is no prediction); a lost track (the gate's
+        ``reinitialise``) starts again from the report.
+        """
+        if self.x is None:
+            decision = GateDecision(True, math.nan, gate.threshold)
+        else:
+            nu, S = self.innovation(t, z, R)
+            decision = gate.check(nu, S, t - self.t)
+            if not decision.accepted:
+                return decision, None, None
+            if decision.reinitialise:
+                self.reset()
+        x, P = self.update(t, z, R)
+        return decision, x, P
 
     def predict(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """Mean and covariance predicted to time ``t`` without changing the filter."""

@@ -134,6 +134,16 @@ class PairAssociator:
         self._names: list[str] = []
         self.schedule = StampSchedule(stamp_rate) if stamp_rate is not None else None
 
+    def reset(self) -> None:
+        """Forget every track, pair window and scheduled instant (the clock jumped: their times are over)."""
+        self.table = TrackTable(self.table.stale_after, self.table.max_prediction, self.table.q_s)
+        self.source.clear()
+        self.windows = PairWindows(self.combine, self.window)
+        self._slot.clear()
+        self._names.clear()
+        if self.schedule is not None:
+            self.schedule = StampSchedule(self.schedule.rate, self.schedule.max_skip)
+
     def update(self, source: str, track_id: str, report: TrackReport) -> None:
         """Make ``report`` the latest of ``track_id`` (a track of ``source``)."""
         self.source[track_id] = source

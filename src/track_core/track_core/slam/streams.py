@@ -72,6 +72,10 @@ class StreamMerger:
         self.last_activity = now  # end of the last message callback that offered an accepted event
         self._seq_marked = 0  # _seq at that mark: a callback of refused messages only is no activity
 
+    def reset(self, now: float) -> None:
+        """Forget every buffered event, stamp and count: the clock jumped, a new run starts at ``now``."""
+        self.__init__(self.pause_wall, self.flush_idle, self.drain_budget, now)
+
     def __len__(self) -> int:
         """Events buffered, not yet released."""
         return len(self._heap)

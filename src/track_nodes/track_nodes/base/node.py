@@ -63,6 +63,7 @@ from track_nodes.base.params import Param, ParameterError, declare_params
 from track_nodes.base.refusals import RefusalCounter
 from track_nodes.base.signals import STOP_SIGNALS, spin, stop_on
 from track_nodes.base.teardown import TEARDOWN, dds_alarm
+from track_nodes.base.timejump import watch_time_jumps
 
 EXIT_BAD_INPUT = 2
 
@@ -92,12 +93,17 @@ class TrackNode(Node, metaclass=CheckedNames):
         self._tf_pub = self._tf_static_pub = None  # made at the first transform (most nodes never broadcast)
         self._static_transforms: dict[str, Any] = {}  # child frame -> TransformStamped
         self.setup()
+        self.time_jumps = watch_time_jumps(self)  # a clock jump calls reset_time_state (base/timejump.py)
         self.add_on_set_parameters_callback(self._check_params)
         self.add_post_set_parameters_callback(self._apply_params)
         ready.claim(self, start_ns)  # one node per name; the announcement on /track/ready (base/ready.py)
 
     def setup(self) -> None:
         """The node's core object and endpoints (parameters are in ``self.p``); raise ValueError to refuse."""
+
+    def reset_time_state(self) -> tuple[str, ...]:
+        """Forget what is kept in time order (watermarks, filters, windows) after a clock jump; name it."""
+        return ()
 
     # -- topics: relative names (topics.relative) --------------------------------------------------
     def create_publisher(self, msg_type, topic: str, qos_profile, *, as_given: bool = False, **kwargs):
@@ -218,6 +224,8 @@ class TrackNode(Node, metaclass=CheckedNames):
     def destroy_node(self) -> None:
         """Delete the DDS entities (subclasses close their files first, then call this)."""
         ready.release(self)
+        if getattr(self, 'time_jumps', None) is not None:
+            self.time_jumps.close()
         with dds_alarm():
             super().destroy_node()
 

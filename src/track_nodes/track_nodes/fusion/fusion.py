@@ -13,7 +13,8 @@ not report a ship twice).
 Every incoming message is validated (finite, symmetric PSD covariance, known frame,
 non-decreasing stamp per track) and held to the input policy (``track_msgs_py.validate.
 InputPolicy``: positions and velocities within the bounds, x/y variances within the floor and
-ceiling, no zero stamp, none more than ``stamp_horizon`` ahead of the node clock once it runs);
+ceiling, no zero stamp, none more than ``stamp_horizon`` ahead of the node clock once it runs, nor more
+than ``stamp_lead``, the look-ahead tolerance, so one fast clock cannot blank its track);
 a bad one is refused (``refuse``: counted per reason, one log line per reason every
 ``warn_period`` seconds, /diagnostics) without touching any state or watermark. A pair whose
 score still fails is skipped and reported (``Instant.skipped``); every other pair is scored.
@@ -136,6 +137,8 @@ PARAMS = (
     Param('warn_period', 5.0, 'at most one bad-input warning per topic per this many seconds', 0.0, 1e6, live=True),
     Param('stamp_horizon', InputPolicy.horizon, 'refuse reports stamped more than this ahead of the node clock [s]',
           1e-3, 1e9, live=True),
+    Param('stamp_lead', 2.0, 'look-ahead tolerance: refuse reports stamped more than this ahead of the node '
+          'clock (a few report periods) [s]', 1e-3, 1e9, live=True),
 )
 
 
@@ -158,7 +161,7 @@ class FusionNode(TrackNode):
                                    stamp_rate=p.rate if p.schedule == 'stamps' else None)
         self.markers = FusionMarkers(lifetime=2.0 / p.rate)
         self.stamps = StampMonotonic()
-        self.policy = InputPolicy(horizon=p.stamp_horizon)
+        self.policy = InputPolicy(horizon=p.stamp_horizon, lead=p.stamp_lead)
         self.refusals.throttle = p.warn_period
         self.dropped: dict[str, int] = {}
         # The track topics are the user's names, as given: relative ones resolve in the node's namespace.
@@ -186,10 +189,15 @@ class FusionNode(TrackNode):
         core.threshold = float(p.threshold)
         core.table.stale_after, core.table.max_prediction = float(p.stale_after), float(p.max_prediction)
         self.refusals.throttle = float(p.warn_period)
-        self.policy = InputPolicy(horizon=p.stamp_horizon)
+        self.policy = InputPolicy(horizon=p.stamp_horizon, lead=p.stamp_lead)
         if 'rate' in changed and self.timer is not None:
             self.timer.timer_period_ns = round(1e9 / p.rate)
             self.markers.lifetime = 2.0 / p.rate
+
+    def reset_time_state(self) -> tuple[str, ...]:
+        self.core.reset()
+        self.stamps.reset()
+        return ('tracks', 'pair windows', 'stamp schedule', 'stamp watermarks')
 
     @property
     def next_k(self) -> int | None:

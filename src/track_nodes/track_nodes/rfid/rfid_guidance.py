@@ -49,6 +49,9 @@ filter draws from the second of ``SeedSequence(seed).spawn(2)`` (the reader take
 the node pair with the same ``seed`` reproduces ``run_search(world, pf, default_rng(seed),
 max_steps)`` exactly.
 
+A jump of the clock (``track_nodes.base.timejump``) starts a new search (``reset_time_state``): the
+resend timer counts node time and the reader numbers its answers from seq 1 again after a restart.
+
 Parameters are checked at start: ``n_particles`` < 1 or any value out of range stops the node
 with one line.
 """
@@ -123,19 +126,10 @@ class RfidGuidanceNode(TrackNode):
 
     def setup(self) -> None:
         p = self.p
-        params = pf_params(p)
-        _, pf_ss = np.random.SeedSequence(p.seed).spawn(2)
         try:
-            phase = PhaseModel.with_wrap(p.wrap, carrier_hz=p.carrier_hz, s_theta=math.radians(p.s_theta_deg),
-                                         convention=p.convention)
-            self.guide = RfidGuidance(params, phase, np.random.default_rng(pf_ss), log_warnings=False,
-                                      max_repeats=p.max_repeats)
+            self._start_run()
         except ValueError as exc:
             raise ParameterError(f'invalid guidance parameters: {exc}') from None
-        self.loop = CommandLoop(p.resend_after, p.max_steps)  # pending command, re-sends (track_core.rfid.loop)
-        self.cmd_msg: DiagnosticArray | None = None
-        self.found = False
-        self.turns = 0                           # usable TURN results
         self.warnings: list[str] = []            # the bad-input warnings, in order
         self.pub_cmd = self.create_publisher(DiagnosticArray, RFID_COMMAND, ESTIMATE_QOS)
         self.pub_particles = self.create_publisher(PoseArray, RFID_PARTICLES, SENSOR_QOS)
@@ -144,6 +138,24 @@ class RfidGuidanceNode(TrackNode):
         self.advertise_transforms()
         self.sub_step = self.create_subscription(DiagnosticArray, RFID_STEP, self._on_step, ESTIMATE_QOS)
         self.timer = self.create_timer(p.period, self._tick)
+
+    def _start_run(self) -> None:
+        """A new search: the filter seeded again, no command pending (the first is sent at the next tick)."""
+        p = self.p
+        _, pf_ss = np.random.SeedSequence(p.seed).spawn(2)
+        phase = PhaseModel.with_wrap(p.wrap, carrier_hz=p.carrier_hz, s_theta=math.radians(p.s_theta_deg),
+                                     convention=p.convention)
+        self.guide = RfidGuidance(pf_params(p), phase, np.random.default_rng(pf_ss), log_warnings=False,
+                                  max_repeats=p.max_repeats)
+        self.loop = CommandLoop(p.resend_after, p.max_steps)  # pending command, re-sends (track_core.rfid.loop)
+        self.cmd_msg: DiagnosticArray | None = None
+        self.found = False
+        self.turns = 0                           # usable TURN results
+
+    def reset_time_state(self) -> tuple[str, ...]:
+        """A clock jump (a replayed run starting again, a simulator reset): a new search from seq 1."""
+        self._start_run()
+        return ('particle filter (seeded again)', 'command loop (resend timer, seq)')
 
     def apply_params(self, changed: set[str]) -> None:
         self.timer.timer_period_ns = round(self.p.period * 1e9)

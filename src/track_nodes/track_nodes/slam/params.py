@@ -59,6 +59,8 @@ def node_params(pose0: list[float]) -> tuple[Param, ...]:
               0.0, 3600.0),
         Param('stamp_horizon', InputPolicy.horizon, 'refuse messages stamped more than this ahead of the node clock '
               '[s]', 1e-3, 1e9),
+        Param('stamp_lead', 1.0, 'look-ahead tolerance: refuse messages stamped more than this ahead of the node '
+              'clock (a few input periods; also late messages of a run before a clock jump) [s]', 1e-3, 1e9),
         Param('frame_id', FRAME_MAP, 'frame of the pose, map and particles'),
         Param('child_frame_id', FRAME_LASER, 'child_frame_id of the pose (the SLAM state is the laser pose)'),
     )

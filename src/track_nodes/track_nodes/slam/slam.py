@@ -47,11 +47,14 @@ once per reason every ``warn_throttle`` seconds, on /diagnostics; and counted in
   without ``range``/``bearing`` fields, or with observations none of which is usable, is refused whole
   before its stamp reaches the merger (an empty scan, with no observation, is a valid one);
 - an input with a non-finite value, |speed| beyond the policy's speed bound or |steering| ≥ π/2 is dropped;
-- a message whose stamp is malformed, more than ``stamp_horizon`` ahead of the node clock (once it
+- a message whose stamp is malformed, more than ``stamp_horizon`` (or ``stamp_lead``) ahead of the node clock (once it
   reads non-zero, ``validate.clock_now``), earlier than the previous one on its topic (time went
   backwards), or earlier than data already processed (arrived more than the buffer allows), is
   refused before it reaches the filter, so the state is untouched. A zero stamp is accepted: data
   time starts at 0 here (slam_sim's first input is stamped 0.0).
+
+A clock jump (``track_nodes.base.timejump``: a bag replayed in a loop) starts a new run: the filter
+at ``pose0`` seeded again, the stream merger and the map schedule forgotten (``reset_time_state``).
 
 Parameters (``slam/params.py``): the node's own, then every field of the core's ``SlamParams``,
 ``PFParams`` and ``HybridParams`` as ``cekf.*``, ``pf.*`` and ``hybrid.*``, with the defaults of
@@ -117,12 +120,13 @@ class SlamNode(TrackNode):
         self.p = p = declare_params(self, node_params(profile.pose0))
         cores = {attr: declare_dataclass(self, prefix, getattr(profile, attr)) for prefix, _, attr in CORE_GROUPS}
         pose0, var0 = vector('pose0', p.pose0, 3), vector('pose0_var', p.pose0_var, 3, positive=True)
-        self.slam = HybridSlam(pose0, np.diag(var0), np.random.default_rng(p.seed), cores['slam'], cores['pf'],
-                               cores['hybrid'], compressed=p.compressed)
+        self._new_slam = lambda: HybridSlam(pose0, np.diag(var0), np.random.default_rng(p.seed), cores['slam'],
+                                            cores['pf'], cores['hybrid'], compressed=p.compressed)
+        self.slam = self._new_slam()
         problem = frame_pair_problem(p.frame_id, p.child_frame_id) or frame_pair_problem(p.child_frame_id, FRAME_BASE)
         if problem:
             raise ValueError(f'parameters frame_id={p.frame_id!r}, child_frame_id={p.child_frame_id!r}: {problem}')
-        self.policy = InputPolicy(horizon=p.stamp_horizon)
+        self.policy = InputPolicy(horizon=p.stamp_horizon, lead=p.stamp_lead)
         self.refusals.throttle = p.warn_throttle
         self.merger = StreamMerger(p.pause_wall, p.flush_idle, p.drain_budget, time.monotonic())
         self._heard: dict[str, float | None] = {INPUT: None, SCAN: None}  # last message per stream, even refused
@@ -144,6 +148,13 @@ class SlamNode(TrackNode):
         self.add_static_transforms(planar_transform(0.0, p.child_frame_id, FRAME_BASE, -vehicle.a, -vehicle.b, 0.0))
         self.advertise_transforms()
         self.create_timer(min(0.1, p.flush_idle / 2), self._on_idle, clock=Clock(clock_type=ClockType.STEADY_TIME))
+
+    def reset_time_state(self) -> tuple[str, ...]:
+        """A new run (a clock jump): the filter at pose0 (seeded again), the stream merger, the map clock."""
+        self.slam = self._new_slam()
+        self.merger.reset(time.monotonic())
+        self._map_ns, self._map_dirty, self._pf_published, self._n_events = None, False, False, 0
+        return ('filter (at pose0, seeded again)', 'stream merger', 'map schedule')
 
     @property
     def processed_ns(self) -> int | None:  # stamp of the last event the filter took

@@ -35,7 +35,13 @@ sequence. Replaying a recorded ``/sonar/target/truth`` into a fresh observer wit
 parameters therefore reproduces every estimate bit for bit. No clock origin is shared by
 convention: the two nodes start in any order, any time apart (the truth is transient-local, so an
 observer started late still gets the step the target waits on). A truth off the grid, already
-received, too far ahead or stamped beyond the horizon of the node's clock is refused.
+received, too far ahead or stamped beyond the horizon of the node's clock is refused. A jump of
+the clock (``track_nodes.base.timejump``: a bag replayed in a loop, a simulator reset) starts a
+new run: the tracker at its prior with its Generators seeded again, and the step grid forgotten; a
+truth of the old run still queued then lies ahead of the clock by more than ``stamp_lead`` and is
+refused, so it cannot fix the new grid.
+The measurements are simulated here from the truth, so there is no report another publisher could
+inject and no innovation gate.
 
 Parameters are checked at start; δ < 0, N < 1 or a P_D that is not symmetric PSD (4 values: a
 diagonal; 16: a row-major 4×4 matrix) stop the node with one line.
@@ -89,7 +95,7 @@ from track_msgs_py.topics import (
     SONAR_PING,
     SONAR_TRUTH,
 )
-from track_msgs_py.validate import clock_now, odometry_bounds_problem, odometry_problem, stamp_problem
+from track_msgs_py.validate import InputPolicy, clock_now, odometry_bounds_problem, odometry_problem, stamp_problem
 from track_nodes.base import Param, ParameterError, TrackNode
 
 PARAMS = (
@@ -119,6 +125,8 @@ PARAMS = (
     Param('max_time', 0.0, 'stop after step k with k·T > max_time (trajectory time) [s]; 0 = never', 0.0, 1e9),
     Param('track_id', 'sonar_track', 'child_frame_id of the estimate'),
     Param('observer_id', 'sonar_observer', 'child_frame_id of the observer odometry'),
+    Param('stamp_lead', 3.0, 'look-ahead tolerance: refuse truths stamped more than this ahead of the node clock '
+          '(a few periods; also a late truth of a run before a clock jump) [s]', 1e-3, 1e9, live=True),
 )
 
 
@@ -161,16 +169,10 @@ class SonarObserverNode(TrackNode):
         self.trajectory = ObserverTrajectory(start=(float(start[0]), float(start[1])), speed=p.speed,
                                              heading0_deg=p.heading0_deg,
                                              legs=tuple((float(d), float(r)) for d, r in legs.reshape(-1, 2)))
-        prior_cov = Scenario(params=self.sonar, prior_pos_std=p.prior_pos_std, prior_vel_std=p.prior_vel_std).prior_cov
-        noise_ss, filter_ss = np.random.SeedSequence(p.seed).spawn(2)
-        self.noise_rng = np.random.default_rng(noise_ss)
-        self.tracker = make_tracker(p.tracker, self.sonar, np.random.default_rng(filter_ss), P_D=P_D,
-                                    delta=p.delta, metric=p.metric, regularize=p.regularize)
-        self.tracker.initialize(m0, prior_cov)
-        self.gate = TruthGate(round(p.period * 1e9))  # step k = the truth of grid point k (track_core.sonar.lockstep)
+        self._prior = (P_D, m0, Scenario(params=self.sonar, prior_pos_std=p.prior_pos_std,
+                                         prior_vel_std=p.prior_vel_std).prior_cov)
+        self._start_run()
         self.rejected = 0
-        self.pings = 0
-        self.k = 0  # steps taken
         self._waiting_logged = False
         self.pub_ping = self.create_publisher(PointStamped, SONAR_PING, ESTIMATE_QOS)
         self.pub_est = self.create_publisher(Odometry, SONAR_ESTIMATE, ESTIMATE_QOS)
@@ -183,6 +185,23 @@ class SonarObserverNode(TrackNode):
         self.last_truth = self.steady_now()
         self.wait_timer = self.create_timer(WAIT_WARN, self._check_waiting, clock=self._steady)
 
+    def _start_run(self) -> None:
+        """A fresh run: seeded Generators, the tracker at its prior, the truth gate at step 1."""
+        p, (P_D, m0, prior_cov) = self.p, self._prior
+        noise_ss, filter_ss = np.random.SeedSequence(p.seed).spawn(2)
+        self.noise_rng = np.random.default_rng(noise_ss)
+        self.tracker = make_tracker(p.tracker, self.sonar, np.random.default_rng(filter_ss), P_D=P_D,
+                                    delta=p.delta, metric=p.metric, regularize=p.regularize)
+        self.tracker.initialize(m0, prior_cov)
+        self.gate = TruthGate(round(p.period * 1e9))  # step k = the truth of grid point k (track_core.sonar.lockstep)
+        self.pings = 0
+        self.k = 0  # steps taken
+
+    def reset_time_state(self) -> tuple[str, ...]:
+        """A new run from step 1 (as a fresh node: a replayed run reproduces its estimates again)."""
+        self._start_run()
+        return ('tracker (at its prior, seeded again)', 'truth gate (step grid)')
+
     def apply_params(self, changed: set[str]) -> None:
         scheduler = getattr(self.tracker, 'scheduler', None)
         if 'delta' in changed and isinstance(scheduler, CovarianceScheduler):  # eq. 7 from the next step on
@@ -192,7 +211,8 @@ class SonarObserverNode(TrackNode):
     def _on_truth(self, msg: Odometry) -> None:
         key = stamp_to_ns(msg.header.stamp)
         reason = (odometry_problem(msg, KNOWN_FRAMES) or odometry_bounds_problem(msg, pose_covariance=False)
-                  or stamp_problem(key * 1e-9, clock_now(self.get_clock().now().nanoseconds))
+                  or stamp_problem(key * 1e-9, clock_now(self.get_clock().now().nanoseconds),
+                                   InputPolicy(lead=self.p.stamp_lead))
                   or self.gate.problem(key))
         if reason:
             self.rejected += 1
