@@ -97,13 +97,12 @@ def test_sigterm_and_sighup_stop_like_sigint(tmp_path, ros, repo, sig):
 
 STUCK = '''
 import sys, time
-from rclpy.node import Node
+from track_nodes.base import TrackNode
 from track_nodes.launch import launcher, scenario
 
-class Stuck(Node):
-    """Test only: a node-time timer whose callback blocks from node time 1 s on."""
-    def __init__(self, node_name, context, parameter_overrides, **_):
-        super().__init__(node_name, context=context, parameter_overrides=parameter_overrides)
+class Stuck(TrackNode):
+    """Test only: a node-time timer whose callback blocks from node time 1 s on (a TrackNode: it announces)."""
+    def setup(self):
         self.t0 = None
         self.create_timer(0.5, self.tick)
 

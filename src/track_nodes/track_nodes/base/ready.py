@@ -114,8 +114,9 @@ class Twins:
         self.refused: list[str] = []
         self.warned: set[tuple] = set()
         context = nodes[0].context if nodes else None
+        # Not the command line's remaps: '-r __node:=NAME' would give the watch the name of the node it guards.
         self.node = Node(f'_track_ready_{os.getpid()}', context=context, start_parameter_services=False,
-                         parameter_overrides=[], enable_rosout=False)
+                         parameter_overrides=[], enable_rosout=False, use_global_arguments=False)
         self.node.create_subscription(DiagnosticStatus, READY, self._heard, WATCH_QOS)
         self.started = time.monotonic()
 
