@@ -208,7 +208,8 @@ class Launch:
             context.try_shutdown()
             if self.dog is not None:
                 self.dog.stop()
-        return EXIT_BAD_INPUT if failed_children(children) else 0
+        own = max((getattr(node, 'exit_code', 0) for node in nodes), default=0)  # e.g. the recorder's full disk
+        return EXIT_BAD_INPUT if failed_children(children) else own
 
     def _drain(self, launcher: LauncherNode, executor: MultiThreadedExecutor) -> None:
         """--processes: after the clock stopped, wait until the other processes' work is done.

@@ -21,8 +21,7 @@ and publishes
   are placed too) and ``/tf_static`` (laser → base_link, the ACFR geometry
   of ``models.VehicleParams``: the laser a ahead and b left of the rear-axle centre). The tree is
   map → laser → base_link, not slam_toolbox's map → odom → base_link: the filter's state is the
-  laser pose, and no node here keeps an odometry frame (the Victoria Park bag has raw encoder and
-  steering inputs only), so there is no odom → base_link for a map → odom correction to hang on.
+  laser pose, and no node here keeps an odometry frame (raw encoder and steering inputs only).
   Scans (``laser``) and inputs (``base_link``) are placed through it, in a replay too;
 - ``/slam/map`` (visualization_msgs/MarkerArray, transient-local, ``markers.slam.map_markers``):
   landmark means and 2σ ellipses, at most every ``map_period`` seconds of data time
@@ -32,10 +31,9 @@ and publishes
 Time order: inputs and scans reach the filter in stamp order through ``track_core.slam.streams.
 StreamMerger`` (watermark, ``pause_wall``, ``flush_idle``, ``drain_budget``; its docstring says why), so
 the result is the offline one of ``experiments.run_victoria`` (the integration test checks it on real
-data). The executor does not serve the two subscriptions fairly under a backlog (a 5x replay of
-Victoria Park had scans 300 s of data ahead of their inputs), so every callback first takes all
-messages waiting in BOTH subscriptions (``_take_pending``): a stream the merger sees silent has nothing
-queued. Deep reliable queues (``queue_depth``) and the buffer hold a backlog (nothing lost or
+data). The executor does not serve the two subscriptions fairly under a backlog, so every callback
+first takes all messages waiting in BOTH subscriptions (``_take_pending``): a stream the merger sees
+silent has nothing queued. Deep reliable queues (``queue_depth``) and the buffer hold a backlog (nothing lost or
 reordered; the output lags) and a 0.1 s steady timer keeps draining, so shutdown stays prompt.
 
 Bad input (never raises in a callback; each goes to ``refuse``: counted per reason, logged at most
