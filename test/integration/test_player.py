@@ -122,6 +122,28 @@ def test_replays_every_message_in_order_with_identical_payloads(ros, bag):
                    '/p/static': DurabilityPolicy.TRANSIENT_LOCAL}
 
 
+def test_waits_for_a_subscribed_track_node_to_announce_itself(ros, bag):
+    """A subscriber that publishes on /track/ready but has not announced yet (a TrackNode listening for
+    an older twin, not spinning) gets nothing until its announcement; then the bag from its start."""
+    from diagnostic_msgs.msg import DiagnosticStatus
+
+    from track_msgs_py.records.ready import NodeReady
+    from track_msgs_py.topics import READY
+    from track_nodes.base.ready import READY_QOS
+
+    path, content = bag
+    sink = Sink(ros)
+    ready_pub = sink.node.create_publisher(DiagnosticStatus, READY, READY_QOS)
+    player = play(ros, path, rate=4.0)
+    assert ros.spin_until(lambda: player.announced.unready_subscribers(list(TOPICS)) == ['/sink'], 20.0)
+    ros.spin_for(1.0)  # longer than the subscriptions' settling: the player still holds back
+    assert sink.counts() == {t: 0 for t in TOPICS}
+    ready_pub.publish(NodeReady('/sink', 1, 'host', 1, 'test').to_msg())
+    run_to_end(ros, player, sink, {t: len(v) for t, v in content.items()})
+    for topic, msgs in content.items():
+        assert sink.got[topic] == [raw for _, raw in msgs], topic
+
+
 def test_rate_scales_wall_time_but_clock_keeps_bag_time(ros, bag):
     path, content = bag
     times = [t for msgs in content.values() for t, _ in msgs]

@@ -23,7 +23,9 @@ Usage::
   every topic to be played has at least one matched subscription, then 0.5 s for the match to
   settle on the subscriber's side too (the publisher sees the match first; a volatile reader that
   has not yet matched the writer would miss the first message). Topics still without a
-  subscriber after that are played anyway.
+  subscriber after that are played anyway. A subscriber that announces itself on ``/track/ready``
+  (a ``TrackNode``: it subscribes before it spins) is waited for until it has announced, up to
+  ``READY_WAIT`` s more: what was sent before would reach it late, behind the clock.
 - The whole bag is validated before anything is published (opened and every message read
   once), so a truncated bag never half-plays. A bad path, a directory that is not a bag, a bag
   without metadata.yaml (killed recorder: recover it with ``track-bag-recover``), a truncated
@@ -56,10 +58,12 @@ from track_nodes.bag.api import BagError, msg_class, open_bag_checked, qos_is_tr
 from track_nodes.bag.playcheck import plan_playback
 from track_nodes.base import Param, ParameterError, TrackNode, declare_params, run_node
 from track_nodes.base.cli import OneLineParser, cli_overrides
+from track_nodes.base.ready import Announced
 
 CLOCK_TOPIC = '/clock'
 DEPTH = 100
 SETTLE = 0.5  # wall seconds after all subscriptions matched (the subscribers' side matches later)
+READY_WAIT = 30.0  # [wall s] for a subscribed TrackNode to announce itself (base/ready.py: it listens first)
 ACK_TIMEOUT = 2.0
 
 BAG_PARAM = Param('bag', '', "bag directory or .mcap file (a name without '/' → bags/<name>/)")
@@ -118,6 +122,7 @@ class PlayerNode(TrackNode):
             raise
         self.published = 0
         self.clock_pub = self.create_publisher(Clock, CLOCK_TOPIC, QoSProfile(depth=10))
+        self.announced = Announced(self)
         self.publishers_by_topic = {}
         for topic, (msgtype, transient) in self.topic_info.items():
             qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=DEPTH, reliability=ReliabilityPolicy.RELIABLE,
@@ -169,11 +174,14 @@ class PlayerNode(TrackNode):
     def _wait_for_subscribers(self) -> None:
         deadline = time.monotonic() + self.p.wait_subscribers
         pubs = list(self.publishers_by_topic.values())
-        while time.monotonic() < deadline and not self._stop.is_set():
-            if all(pub.get_subscription_count() > 0 for pub in pubs):
-                self._stop.wait(SETTLE)
+        while not all(pub.get_subscription_count() > 0 for pub in pubs):
+            if time.monotonic() >= deadline or self._stop.wait(0.02):
                 return
-            self._stop.wait(0.02)
+        deadline = time.monotonic() + READY_WAIT
+        while self.announced.unready_subscribers(list(self.publishers_by_topic)):
+            if time.monotonic() >= deadline or self._stop.wait(0.05):
+                break
+        self._stop.wait(SETTLE)
 
     def _log(self, line: str, error: bool = False) -> None:
         if self.context.ok():
@@ -199,7 +207,7 @@ class PlayerNode(TrackNode):
                 pub.wait_for_all_acked(Duration(seconds=ACK_TIMEOUT))
             self._log(self._played())
         except Exception as exc:  # a failing playback thread must not hang the node
-            if not self._stop.is_set():
+            if not self._stop.is_set() and self.context.ok():  # not a stop signal's shutdown
                 self.exit_code = 1
                 self._log(f'playback of {self.path} failed: {type(exc).__name__}: {exc}', error=True)
         finally:

@@ -184,3 +184,32 @@ def settle(nodes: Sequence[Node], program: str, exit_code: int) -> Twins:
         if '_ready' in node.__dict__:
             announce(node)
     return twins
+
+
+def _full_name(info) -> str:
+    return f'{info.node_namespace.rstrip("/")}/{info.node_name}'
+
+
+class Announced:
+    """The nodes announced on ``/track/ready``, as ``node`` hears them: a player asks who is not up yet.
+
+    A node that subscribes before it spins (a ``TrackNode`` listening for an older twin) would
+    queue what a player sends meanwhile and take it late; the player waits for its announcement.
+    """
+
+    def __init__(self, node: Node) -> None:
+        self.node = node
+        self.names: set[str] = set()
+        node.create_subscription(DiagnosticStatus, READY, self._heard, WATCH_QOS)
+
+    def _heard(self, status: DiagnosticStatus) -> None:
+        try:
+            self.names.add(NodeReady.from_msg(status).name)
+        except RecordError:
+            pass  # not an announcement: no node to wait for
+
+    def unready_subscribers(self, topics: Sequence[str]) -> list[str]:
+        """Subscribers of ``topics`` that announce themselves (they publish on /track/ready) and have not yet."""
+        announcing = {_full_name(i) for i in self.node.get_publishers_info_by_topic(READY)}
+        subscribers = {_full_name(i) for t in topics for i in self.node.get_subscriptions_info_by_topic(t)}
+        return sorted((subscribers & announcing) - self.names)
