@@ -186,6 +186,9 @@ def settle(nodes: Sequence[Node], program: str, exit_code: int) -> Twins:
     return twins
 
 
+UNKNOWN_NODE = '_NODE_NAME_UNKNOWN_'  # rmw's name of a node whose discovery info has not arrived
+
+
 def _full_name(info) -> str:
     return f'{info.node_namespace.rstrip("/")}/{info.node_name}'
 
@@ -212,4 +215,7 @@ class Announced:
         """Subscribers of ``topics`` that announce themselves (they publish on /track/ready) and have not yet."""
         announcing = {_full_name(i) for i in self.node.get_publishers_info_by_topic(READY)}
         subscribers = {_full_name(i) for t in topics for i in self.node.get_subscriptions_info_by_topic(t)}
-        return sorted((subscribers & announcing) - self.names)
+        # A subscription is matched before its node's name is known (one ros_discovery_info sample per
+        # participant, late on a loaded machine): an unnamed one may be a TrackNode, so it is waited for.
+        unnamed = {n for n in subscribers if UNKNOWN_NODE in n}
+        return sorted((subscribers & announcing | unnamed) - self.names)
