@@ -27,6 +27,7 @@ One node per name (``TRACK_ALLOW_TWINS=1`` in the environment turns both checks 
 
 from __future__ import annotations
 
+import contextlib
 import os
 import socket
 import sys
@@ -206,10 +207,8 @@ class Announced:
         node.create_subscription(DiagnosticStatus, READY, self._heard, WATCH_QOS)
 
     def _heard(self, status: DiagnosticStatus) -> None:
-        try:
+        with contextlib.suppress(RecordError):  # not an announcement: no node to wait for
             self.names.add(NodeReady.from_msg(status).name)
-        except RecordError:
-            pass  # not an announcement: no node to wait for
 
     def unready_subscribers(self, topics: Sequence[str]) -> list[str]:
         """Subscribers of ``topics`` that announce themselves (they publish on /track/ready) and have not yet."""
