@@ -50,7 +50,7 @@ Deliberate deviations and losses:
   the map-frame velocity: ``twist.twist.linear.x`` is the east velocity, not a forward speed.
 - Odometry has no slot for position–velocity cross-covariances: they are dropped on the way
   out, and ``odometry_to_cv_state`` returns ``P`` with zero cross blocks.
-- Covariances of a planar track (issue 19). The 6×6 entries fall in three classes, zero
+- Covariances of a planar track. The 6×6 entries fall in three classes, zero
   off-diagonals outside the estimated block:
 
   * estimated: the x/y block (and yaw for the SLAM pose): the filter's numbers. Fusion and every
@@ -75,8 +75,8 @@ Deliberate deviations and losses:
   validates for variance). Validation checks only the x/y blocks. ``UNUSED_VARIANCE`` is the
   former name of ``NOT_ESTIMATED_VARIANCE``.
 - PointCloud2 columns are float32: values lose precision beyond ~7 significant digits.
-- Every cloud we publish carries float32 ``x``, ``y``, ``z`` first, at offsets 0, 4, 8 (issue 19:
-  RViz needs them to draw a cloud, Foxglove refuses one with fewer than two of them). A table
+- Every cloud we publish carries float32 ``x``, ``y``, ``z`` first, at offsets 0, 4, 8 (RViz
+  needs them to draw a cloud, Foxglove refuses one with fewer than two of them). A table
   without positions of its own gets them from its record (``records.slam.SlamScan``: the
   detection in the laser frame; ``records.rfid.RfidPhase``: where the reader was;
   ``records.idsq.IdsqBelief``: the cell centre). ``cloud_columns`` drops them again for a reader
@@ -84,7 +84,7 @@ Deliberate deviations and losses:
 - The IDSQ layout carries its positions twice: float32 ``x``, ``y`` for the viewers and float64
   ``x_f64``, ``y_f64`` that every sensor node reads: it checks its ``position`` parameter against
   them and builds its neighbour lists from them, so all must read the same exact positions. A
-  layout without ``x_f64``/``y_f64`` (the layout before issue 19: float64 ``id``, ``x``, ``y``,
+  layout without ``x_f64``/``y_f64`` (the older layout: float64 ``id``, ``x``, ``y``,
   ``type``) still reads.
   ``pointcloud2_to_layout`` imports ``track_core.idsq`` only when called (it loads scipy.stats,
   about 1 s, which the other users of this module need not pay).
@@ -118,7 +118,7 @@ if TYPE_CHECKING:
 PLANAR_VARIANCE = 0.0
 #: Variance written for a quantity this estimator does not estimate (yaw of a CV track, the IDSQ velocity).
 NOT_ESTIMATED_VARIANCE = 1e6
-#: Former name of ``NOT_ESTIMATED_VARIANCE`` (before issue 19 it was written on z/roll/pitch too).
+#: Former name of ``NOT_ESTIMATED_VARIANCE`` (earlier versions wrote it on z/roll/pitch too).
 UNUSED_VARIANCE = NOT_ESTIMATED_VARIANCE
 
 _NS_PER_S = 1_000_000_000
@@ -545,7 +545,7 @@ def pointcloud2_to_layout(msg: PointCloud2, comm_range: float) -> SensorLayout:
     from track_core.idsq.network import SensorLayout  # here, not at the top: track_core.idsq loads scipy.stats
 
     cols = pointcloud2_to_table(msg)
-    if 'x_f64' not in cols and 'y_f64' not in cols and 'x' in cols and 'y' in cols:  # the layout before issue 19
+    if 'x_f64' not in cols and 'y_f64' not in cols and 'x' in cols and 'y' in cols:  # the older layout
         cols['x_f64'], cols['y_f64'] = cols['x'], cols['y']
     missing = [f for f in LAYOUT_FIELDS if f not in cols]
     if missing:

@@ -1,4 +1,4 @@
-"""What RViz and Foxglove need of the messages we publish (issue 19): checks that return a reason.
+"""What RViz and Foxglove need of the messages we publish: checks that return a reason.
 
 Not input validation (``track_msgs_py.validate`` judges what a node receives): these check that
 our own output follows the display conventions of ``track_msgs_py.convert`` and the topics table,

@@ -39,7 +39,7 @@ CLOCK_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
                        reliability=ReliabilityPolicy.BEST_EFFORT, durability=DurabilityPolicy.VOLATILE)
 # IDSQ handoffs and acks: reliable, and transient-local so a handoff published just before the
 # receiver matched is still delivered (depth 4: a leader can hand off again before the ack).
-# Across an unplugged host (issue 15) KEEP_LAST 4 is kept by measurement (tools/unplug_host.py,
+# Across an unplugged host KEEP_LAST 4 is kept by measurement (tools/unplug_host.py,
 # README "Scenarios and time"): after a partition heals, what must arrive is the late ack of a
 # handoff that timed out, and the revoke it draws (the chain rule, track_core.idsq.ledger); a
 # late handoff that is lost instead is harmless (its sender re-selected). Each writer of these

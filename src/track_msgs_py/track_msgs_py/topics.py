@@ -2,12 +2,12 @@
 
 One table (``TOPICS``) instead of string literals scattered over nodes: the recorder, the
 player and the QoS lookup (``qos.qos_for_topic``) all read it, so a topic added here is
-recorded and replayed with the right type and QoS without touching them. Later issues
-extend ``TOPICS`` (one entry per topic) and ``KNOWN_FRAMES``.
+recorded and replayed with the right type and QoS without touching them. A new topic
+is one more entry of ``TOPICS`` (and its frames of ``KNOWN_FRAMES``).
 
 Names here are as they resolve in the root namespace (what a bag of an un-namespaced run holds).
 Nodes use them through ``relative``: without the leading slash, so ``-r __ns:=/robot1`` puts a
-node's topics under ``/robot1`` and remapping rules apply (issue 19, item 5). The ROS-wide topics
+node's topics under ``/robot1`` and remapping rules apply. The ROS-wide topics
 (``GLOBAL_TOPICS``: /clock, /tf, /tf_static, /diagnostics, ...) stay absolute, as in ROS itself.
 
 QoS kinds (profiles in ``track_msgs_py.qos``): ``'sensor'`` best-effort depth 5,
@@ -15,14 +15,14 @@ QoS kinds (profiles in ``track_msgs_py.qos``): ``'sensor'`` best-effort depth 5,
 ``'clock'`` for ``/clock`` (compatible with rclpy's own /clock subscription), ``'tf'`` and
 ``'tf_static'`` for the transform tree (``track_msgs_py.tf``: tf2_ros's profiles).
 
-Covariances (issue 19; ``COV_PLANAR`` in the entries below, details in ``track_msgs_py.convert``).
+Covariances (``COV_PLANAR`` in the entries below, details in ``track_msgs_py.convert``).
 Every ``Odometry`` and ``PoseWithCovarianceStamped`` we publish is planar: the x/y block is the
 estimate (truth: 0) and is all a fusion consumer should read (``convert.xy_block``); z, roll and
 pitch (twist: vz, ωx, ωy) are exactly 0, so RViz 2 and Foxglove draw the flat 2σ ellipse; an
 entry the estimator does not estimate (yaw of a CV track, a velocity nobody estimates) is 1e6,
 recognised by ``convert.not_estimated`` (variance ≥ ``NOT_ESTIMATED_VARIANCE``).
 
-Point clouds (issue 19; ``CLOUD_XYZ``). Every ``PointCloud2`` we publish starts with float32
+Point clouds (``CLOUD_XYZ``). Every ``PointCloud2`` we publish starts with float32
 ``x``, ``y``, ``z`` at offsets 0, 4, 8 (what RViz and Foxglove need to draw it: the
 sensor_msgs point_cloud2 convention); the table's own fields follow. Each layout has one home,
 its typed record: ``records.slam.SlamScan``, ``records.rfid.RfidPhase``, ``records.idsq.IdsqBelief``
@@ -119,7 +119,7 @@ TOPICS: dict[str, TopicSpec] = {
                               '2σ ellipses of the live tracks and pair links coloured by score'),
 }
 
-# Sonar observer vs smart target (smart-target sensor-scheduling paper, issue 3).
+# Sonar observer vs smart target (smart-target sensor-scheduling paper).
 SONAR_TRUTH = '/sonar/target/truth'
 SONAR_TARGET_STATUS = '/sonar/target/status'
 SONAR_OBSERVER = '/sonar/observer/odom'
@@ -154,7 +154,7 @@ TOPICS.update({
                              '2σ position ellipse of the sonar estimate (ns "sonar_estimate", id 0)'),
 })
 
-# Handheld UHF RFID reader guidance (Raptopoulos, Yioultsis & Dimitriou; issue 5). A command/response
+# Handheld UHF RFID reader guidance (Raptopoulos, Yioultsis & Dimitriou). A command/response
 # loop: rfid_guidance publishes a command, rfid_reader (the simulated user + reader) performs it and
 # answers with one step result carrying the command's seq. Both are diagnostic_msgs/DiagnosticArray with
 # one status whose values are strings (floats written with repr, so they round-trip; 'nan' is NaN).
@@ -214,7 +214,7 @@ TOPICS.update({
                           'node>/found", values seq, moves, turns, updates'),
 })
 
-# Leader-based IDSQ acoustic/DOA sensor network (issue 6). Besides the fixed topics below, every
+# Leader-based IDSQ acoustic/DOA sensor network. Besides the fixed topics below, every
 # sensor k has two topics of its own (not in TOPICS, one pair per sensor; names from the helpers):
 #   /idsq/sensor_<k>/handoff  std_msgs/msg/UInt8MultiArray, QoS static (transient-local, depth 4):
 #                             data = track_core.idsq.encode_handoff bytes (header + sparse belief)
@@ -263,7 +263,7 @@ TOPICS.update({
                            'step, leader, previous, next, handoff_bytes, belief_size, spread_m2, candidates, mi_bits'),
 })
 
-# Hybrid CEKF/PF SLAM (hybrid-cekf-pf-slam paper, issue 7). Inputs, scans and GPS come from the
+# Hybrid CEKF/PF SLAM (hybrid-cekf-pf-slam paper). Inputs, scans and GPS come from the
 # Victoria Park bag (``track-dataset victoria-park``) or from ``slam_sim``; the rest from ``slam``.
 #
 # Vehicle inputs travel as geometry_msgs/TwistStamped (no Ackermann type in common_interfaces):
@@ -329,7 +329,7 @@ TOPICS.update({
                               'orientation; at most max_particles_published); an empty array on leaving PF'),
 })
 
-# Recognised maritime picture on real AIS ships (issue 8, part 2). Each ``ais_source`` node is one
+# Recognised maritime picture on real AIS ships. Each ``ais_source`` node is one
 # simulated surveillance source with a topic prefix (``/ais/radar``, ``/ais/patrol``):
 #   <prefix>/reports  geometry_msgs/PoseWithCovarianceStamped, one message per ship report, all the
 #                     source's ships on one topic; the local track id travels in header.frame_id as

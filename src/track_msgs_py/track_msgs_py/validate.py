@@ -15,7 +15,7 @@ What is checked (the fields ``convert`` reads, see its table):
   whatever another producer wrote, and are not read;
 - stamps do not go backwards per key (``StampMonotonic``); equal stamps are accepted.
 
-``InputPolicy`` (issue 13) adds what finite-ness alone lets through, so one hostile message can
+``InputPolicy`` adds what finite-ness alone lets through, so one hostile message can
 neither poison an estimate nor lock a stream:
 
 - magnitudes: positions and ranges within ``world_bound`` m, speeds within ``speed_bound`` m/s;

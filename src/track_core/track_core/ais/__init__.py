@@ -1,4 +1,4 @@
-"""A recognised maritime picture on real ships: AIS reports as truth (issue 8, part 2; any coast: issue 16).
+"""A recognised maritime picture on real ships: AIS reports as truth (any coast).
 
 - :mod:`.reader` — :func:`read_ais`: any AIS CSV through a :class:`ColumnMap` (presets, COG/SOG
   from positions when absent) with row validation (bad rows skipped, counted, and loud past 2 %;

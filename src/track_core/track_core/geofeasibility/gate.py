@@ -5,7 +5,7 @@ exact score (eq. 49, the normalized overlap area; closed form in :mod:`.overlap`
 ellipses S1, S2 is area(S1 ∩ S2) / min(area(S1), area(S2)): exactly 0 when the ellipses have no
 common interior (externally tangent ones included: :mod:`.overlap` removes the double root of a
 tangency and returns 0.0, tested). Most pairs of a real picture are far apart, so only the pairs
-that can overlap are scored (issue 15, part 2):
+that can overlap are scored:
 
 1. **Radius gate.** Each 2σ ellipse lies in the disc of its semi-major axis r = 2√λ_max
    around its centre (:func:`.ellipse.gaussian_to_ellipse`). A ``scipy.spatial.cKDTree`` on the

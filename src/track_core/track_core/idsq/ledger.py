@@ -33,7 +33,7 @@ Protocol (Table 1 of Liu, Reich, Zhao 2002, one leader at a time):
   stops. A neighbour that timed out is tried last afterwards, until it acknowledges again.
   Outstanding handoffs are kept per step: a sensor may lead again before the ack of its
   previous handoff arrives (a leader ring under load).
-- One chain (issue 15, beyond the paper): the *sender decides* who leads next. A handoff that
+- One chain (beyond the paper): the *sender decides* who leads next. A handoff that
   times out can still be delivered later (a partition that heals: reliable DDS re-sends it, and a
   transient-local writer replays its history to a reader that matches again), or the receiver
   took it in time and its ack was held up; either way the receiver leads a second, parallel chain

@@ -20,7 +20,7 @@ Conventions and interpretations:
   the measured ray were cut like far ones (a cell 60° off kept exp(−½(60/38)²) = 0.28 of its
   prior weight; now exp(−½(60/84)²) = 0.78 at σ(1.5 m) = 84°) and, with the wedge's area growing
   with r, the posterior of a DOA leader 1.5 m from the target went 17 m out along its bearing
-  (issue 17, maritime seed 3, t = 28 s). Now the near disk keeps its prior shape and the ray
+  (maritime seed 3, t = 28 s). Now the near disk keeps its prior shape and the ray
   adds to it; the sensor's MI falls as well (the bearings of near cells are predicted to say
   little). Table 4 (diffusion, 20 runs, seed 0) changes by ≤ 0.3 m: see the README.
 - Eq. 6 is the density of z given the range r (a ~ U[a_lo, a_hi], w ~ N(0, σ²)). Φ is the

@@ -1,4 +1,4 @@
-"""The motion state a velocity-aware belief carries (``SparseBelief.motion``; issue 17, beyond the paper).
+"""The motion state a velocity-aware belief carries (``SparseBelief.motion``; beyond the paper).
 
 Plain data, so the grid (which holds it) and the predictions (which update it, ``prediction.py``)
 both import it without importing each other.

@@ -34,7 +34,7 @@ handoff (version 3) carries the whole joint: 6 + 8 bytes per stored (hypothesis,
 The switching is a manoeuvre *rate*: ``bank_switch`` (0.1) is the probability per ``bank_switch_dt``
 (0.5 s, the §5.1 step it was set for), so a step of Δt switches with q = 1 − (1 − 0.1)^(Δt/0.5 s)
 (``TrackerParams.switch_per_step``): 0.1 in Table 4 (unchanged), 0.19 at the maritime Δt = 1 s.
-Until issue 17's diagnosis it was 0.1 per step whatever Δt, i.e. half the rate at 1 s, and that is
+Earlier versions used 0.1 per step whatever Δt, i.e. half the rate at 1 s, and that is
 what made the maritime network overconfident: the bank then collapses onto one lattice velocity
 (seed 2, t = 9-14 s: 83 % on (0, +10) m/s while the target sailed (1.7, 8.8) m/s), runs ahead of the
 target with a 3-6 m spread and a 10-13 m error. Measured on the maritime seeds 1-5 (offline replay

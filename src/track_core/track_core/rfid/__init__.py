@@ -9,7 +9,7 @@
 - ``world``: ``SimReader``: simulated world, user and reader (the ``rfid_reader`` node's core).
 - ``search``: one search, start to end; ``experiments``/``bench``: ``rfid-table1`` and ``track-bench rfid``.
 - ``batch``: the batch least-squares tag fit (the baseline of the filter's tag estimate).
-- ``reader_experiments``: ``rfid-reader``, a commercial reader's phase stream in simulation (issue 14).
+- ``reader_experiments``: ``rfid-reader``, a commercial reader's phase stream in simulation.
 """
 
 from track_core.rfid.batch import BatchFit, fit_tag, path_from_moves, tag_in_user_frame

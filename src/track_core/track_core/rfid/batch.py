@@ -1,4 +1,4 @@
-"""Batch least-squares baseline: the tag position from all the MOVEs and their dφ at once (issue 14).
+"""Batch least-squares baseline: the tag position from all the MOVEs and their dφ at once.
 
 The particle filter (``pf``) folds the MOVEs in one at a time. This baseline uses the same
 information in one go: the path the guidance believes in (commanded step lengths along the

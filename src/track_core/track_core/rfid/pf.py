@@ -53,7 +53,7 @@ start of this step (the tag was read there, so it is in the beam), and this step
 At N = 10 this takes success from 94.5 % to 100 % and steps from 77 to 45 (200 runs, seed 0). It
 leaves N ≥ 100 practically untouched.
 
-Real readers (issue 14; additions, off by default):
+Real readers (additions, off by default):
 
 - ``update(..., dphi_std=σ)``: the reader's own std of this step's dφ (online noise, ``signal``)
   replaces s_θ in eq. 11, so m₀ = √(½(4π/λ)² s_r² + σ²) follows the reader instead of the paper's

@@ -14,7 +14,7 @@ Conventions (used by every module of this package):
 - s_θ is the hardware phase noise of one read (rad), "the variability of measured data at a fixed
   set-up" (Section VI).
 
-Reader conventions (issue 14; the defaults are the paper's):
+Reader conventions (the defaults are the paper's):
 
 - ``convention``: 'paper' is eq. 3, the phase *falls* with distance (sign s = −1). 'llrp' is what
   LLRP/Impinj-class readers report: the phase *rises* with distance, φ = +(4π/λ)·d + φ₀ (s = +1;

@@ -1,5 +1,5 @@
 """``track-experiment rfid-reader``: the reader signal processing and the filter on a commercial reader's
-phase stream, in simulation (issue 14).
+phase stream, in simulation.
 
 Three parts, all seeded from ``--seed`` (one ``SeedSequence`` spawned per part and per trial):
 
@@ -11,7 +11,7 @@ Three parts, all seeded from ``--seed`` (one ``SeedSequence`` spawned per part a
    ``CHANNELS`` with a dwell; per-read noise) are switched on one or a few at a time. Every MOVE's
    stream is processed four ways: *ours* (``UnwrapConfig.real_reader(reader)``: re-lock, online noise, learning
    its noise over the trial's MOVEs), *join* (the same with ``step_bridge='join'``), *old* (the
-   processing as it was before issue 14: fixed noise, no re-lock, the carriers ignored; given the
+   processing without the real-reader additions: fixed noise, no re-lock, the carriers ignored; given the
    right sign, so that only the unwrapping differs) and *naive* (``signal.naive_dphi``: ``np.unwrap``
    of all reads, last minus first; it always gives a number). Reported: the share of MOVEs kept and
    the median, 95th percentile and RMS of |dφ − dφ_true| over the MOVEs each method kept (dφ_true is

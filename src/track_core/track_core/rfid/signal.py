@@ -42,7 +42,7 @@ Signal lost: no reads at all (tag in the antenna's back lobe or out of range), f
 after the step started, or the last one that long before it ended, when those times are given).
 An outlier fraction above ``max_outlier_fraction`` is also invalid.
 
-Real readers (issue 14). Every addition below is off by default, or identical to the rules above
+Real readers. Every addition below is off by default, or identical to the rules above
 for the paper's reader (one carrier, ``noise='fixed'``, ``relock_reads`` 0, ``sign`` −1): there the
 output is bit for bit what the rules above give, so Table I and the recordings do not move.
 ``UnwrapConfig.real_reader(phase)`` switches on what a commercial reader needs (re-lock, online

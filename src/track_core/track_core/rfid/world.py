@@ -33,7 +33,7 @@ MOVE: the facing direction gets an error n_a ~ N(0, s_aÂ²). The step is eqs. 1â€
 ``'eq20'`` is eq. 20's (s_step + r) along the heading. The user walks at ``walk_speed``. A step
 that would enter an obstacle stops 5 cm before it.
 
-Real readers (issue 14; every option is off by default, and then not one extra random draw is
+Real readers (every option is off by default, and then not one extra random draw is
 made, so the paper's runs are unchanged bit for bit):
 
 - ``phase.convention`` 'llrp': the phase rises with distance (``phase.PhaseModel``).

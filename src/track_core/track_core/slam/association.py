@@ -15,7 +15,7 @@ Vectorised over (observation × landmark) pairs; no Python loop over landmarks.
 - New landmark: an observation whose smallest distance exceeds ``new_gate`` (default χ²₂ at
   99.99 %: 18.42) and whose range is below ``init_max_range``; observations between the gates
   are discarded (neither trusted nor mapped).
-- Ambiguity (issue 7): an observation with more than one candidate inside the gate.
+- Ambiguity: an observation with more than one candidate inside the gate.
 - Failure detector (§3.1, "monitoring the estimated error in vehicle and local map states"):
   the paper gives no formula; our documented rule compares the state-driven part of the
   innovation covariance of every landmark predicted in view, ``Sⱼ − R`` turned into metres by

@@ -2,7 +2,7 @@
 
 State ``X = [x, y, φ, m₁ₓ, m₁ᵧ, …]`` (vehicle at the laser, point landmarks in creation order).
 
-Compressed EKF (issue 7 §2). The state is partitioned into the active part A (vehicle +
+Compressed EKF (the paper's §2). The state is partitioned into the active part A (vehicle +
 landmarks within ``local_radius`` of the vehicle when the phase starts) and the passive part B.
 In the local phase only X_A, P_AA are predicted/updated while, from φ = I, ψ = 0, θ = 0,
 
@@ -269,7 +269,7 @@ class CekfSlam:
         self.center = self.xa[:2].copy()
 
     def global_update(self) -> None:
-        """CEKF global update (issue 7 §2) followed by a repartition; a no-op copy when B = ∅."""
+        """CEKF global update (the paper's §2) followed by a repartition; a no-op copy when B = ∅."""
         self._flush()
         n_old, n_new = self.x.size, self._n_total
         if self.track and self._dirty:

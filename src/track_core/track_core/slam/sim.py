@@ -1,4 +1,4 @@
-"""Seeded loop-closure world of Fig. 1 (issue 7 §6).
+"""Seeded loop-closure world of Fig. 1 (the paper's §6).
 
 A rectangular loop (``width`` × ``height`` m) driven anticlockwise (east, north, west, south)
 from a start area densely populated with landmarks on a jittered 8 m grid (the paper's A and B, 8 m

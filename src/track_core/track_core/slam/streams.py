@@ -19,7 +19,7 @@ message (``heard``; the merger itself is left untouched by a refused message). O
 broken scans pauses the scan stream, the inputs are processed past the next valid scans, each of
 those is refused as late, and the stream never counts as heard again. When neither stream bounds the watermark (both
 paused, or one never heard from and not paused) ``watermark`` is ``None`` and a drain releases
-everything buffered; this is the behaviour of the node before issue 12, kept (the saved cases
+everything buffered; this is the node's original behaviour, kept (the saved cases
 check it).
 
 Flush on idle. Everything buffered is released when no event has been offered for ``flush_idle``

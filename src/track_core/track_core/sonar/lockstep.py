@@ -10,7 +10,7 @@ comparison:
   accepts is its step 1 and fixes its step grid (that stamp + j·T); step j is taken when the truth
   of grid point j has arrived, strictly in order, and carries that truth's own stamp. No clock
   origin is shared by convention, so the two nodes can be started in any order, any time apart
-  (issue 19, item 4: with wall-time origins of their own they could wait for each other forever).
+  (with wall-time origins of their own they could wait for each other forever).
 - ``TargetGate`` (the smart target): step k is taken when its time has come and, with
   ``sync_observer``, the observer's Odometry stamped t_{k-1} has arrived (the observer publishes
   its ping before its Odometry, so the ping of t_{k-1} is known by then). Without it, step k takes

@@ -8,7 +8,7 @@ All N particles are processed at once: (N, 4) means, (N, 4, 4) covariances, (N, 
 
 Proposal covariance (a choice the paper leaves open). Algorithm 3 runs the RB-UKF "to x_kⁱ",
 i.e. from the particle itself; the covariance attached to the particle is not stated.
-- ``proposal='rb'`` (default since issue 18): every particle is a Gaussian N(mⁱ, Pⁱ) that carries
+- ``proposal='rb'`` (default): every particle is a Gaussian N(mⁱ, Pⁱ) that carries
   its own UKF covariance (the unscented particle filter's per-particle P, van der Merwe et al.
   2000, Rao-Blackwellised as in Briers et al. 2003, the paper's ref. 11). Algorithm 2 updates each
   one; the weight is its predictive likelihood wⁱ ∝ wⁱ_prev N(νⁱ; 0, Sⁱ) (x integrated out instead
@@ -21,13 +21,13 @@ i.e. from the particle itself; the covariance attached to the particle is not st
 - ``proposal='transition'``: the particle is a point, P_kⁱ = 0, so the linear prediction gives
   N(F x_kⁱ, Q) and the UKF update approximates the locally optimal proposal
   p(x_{k+1} | x_kⁱ, z_{k+1}). The weights p(z|x)p(x|x_prev)/q(x) stay nearly uniform. (Default
-  before issue 18.)
+  of earlier versions.)
 - ``proposal='propagated'``: each particle carries its UKF posterior covariance P_{k+1}ⁱ to the
   next step, but the particle itself is the sample and the weight uses p(x|x_prev) = N(F x_prev, Q):
   the proposal is much wider than that transition (position var. ≈ q_s T³/3), so the weights
   degenerate (ESS of a few particles); kept for comparison.
 
-Why the point-particle filter degenerated and was overconfident (issue 18, measured on Table 2's
+Why the point-particle filter degenerated and was overconfident (measured on Table 2's
 scenario, M = 20–50): with P_kⁱ = 0 the cloud's covariance is the only uncertainty the filter
 has, and at N = 200 it is a Monte-Carlo estimate that misses the error of the particle mean; the
 velocity is learnt only through selection, so the particles' histories coalesce. ANEES 5.1–9.3

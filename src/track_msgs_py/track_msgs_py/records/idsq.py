@@ -56,7 +56,7 @@ class IdsqLeaderEvent(StatusRecord):
     """One ``/idsq/leader`` event of sensor ``leader``: ``step`` (it led ``step``; the estimate's fields),
     ``reselect`` (the handoff of ``step`` goes to ``next`` after ``failed`` timed out or refused,
     ``reason``), ``self`` (no neighbour took it, ``tried``; ``leader`` leads step + 1 itself) or ``void``
-    (its lead of ``step``, from ``previous``'s handoff, was revoked: a parallel chain ended, issue 15).
+    (its lead of ``step``, from ``previous``'s handoff, was revoked: a parallel chain ended).
     ``previous`` is -1 for no previous leader; ``handoff_bytes`` is 0 when nothing is sent."""
 
     KIND = 'idsq leader event'

@@ -1,4 +1,4 @@
-"""Typed records of the RFID search links (issue 5): command, step result, user truth, found event.
+"""Typed records of the RFID search links: command, step result, user truth, found event.
 
 - ``RfidCommand``: ``/rfid/command``, guidance → reader (one ``protocol.Command``);
 - ``RfidStep``: ``/rfid/step``, reader → guidance (one ``protocol.StepResult`` + ``duration``);
@@ -80,7 +80,7 @@ class RfidStep(StatusRecord):
     """One step result (the fields of ``StepResult``) and the simulated ``duration`` of the action [s].
 
     A value the core marks unknown with NaN (dφ and turn of an unusable step, the reader's dφ std
-    with fixed noise) is an absent key on the wire, so no output carries a NaN (issue 13); reading
+    with fixed noise) is an absent key on the wire, so no output carries a NaN; reading
     it back gives NaN again.
     """
 
@@ -96,8 +96,8 @@ class RfidStep(StatusRecord):
     reason: str
     found: bool
     duration: float
-    dphi_std: float | None = None  # the reader's own dφ std (issue 14); absent: unknown
-    relocks: int = 0  # re-locks after lasting phase steps in this MOVE (issue 14)
+    dphi_std: float | None = None  # the reader's own dφ std; absent: unknown
+    relocks: int = 0  # re-locks after lasting phase steps in this MOVE
 
     @classmethod
     def from_result(cls, res: StepResult, duration: float) -> RfidStep:

@@ -113,7 +113,7 @@ class SlamScan:
     @classmethod
     def from_msg(cls, msg: PointCloud2) -> Self:
         """Needs 1-D fields ``range`` and ``bearing``; a missing ``diameter`` reads as 0, missing x, y, z (a scan
-        recorded before issue 19) are fine. Else ``RecordError``."""
+        recorded by earlier versions) are fine. Else ``RecordError``."""
         table = cloud_columns(read_cloud('slam scan', msg, ('range', 'bearing')))
         r = table.pop('range')
         b = table.pop('bearing')

@@ -1,4 +1,4 @@
-"""``track-bag-check BAG...``: does every message of a recording draw in RViz and Foxglove (issue 19)?
+"""``track-bag-check BAG...``: does every message of a recording draw in RViz and Foxglove?
 
 Reads every message whose type can break a display convention (``sensor_msgs/PointCloud2``,
 ``nav_msgs/Odometry``, ``geometry_msgs/PoseWithCovariance[Stamped]``,

@@ -10,7 +10,7 @@
 - Names: an override addressed to a node that names no parameter it declares (a typo) is refused
   once the node is built, with the closest declared names (``base/names.py``).
 
-Run time (issue 19, item 6): a ``Param`` with ``live=True`` (rates, thresholds, gates) may be
+Run time: a ``Param`` with ``live=True`` (rates, thresholds, gates) may be
 changed with ``ros2 param set``; the node base checks the new value like a start value and the
 node applies it (``TrackNode.apply_params``). Every other parameter is declared read-only, so
 ``ros2 param set`` refuses it with a reason instead of answering "successful" and ignoring it.

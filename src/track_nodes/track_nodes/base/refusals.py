@@ -1,6 +1,6 @@
 """Refused input, counted per reason; a new reason logged at once, the rest in one line per period.
 
-Hostile input gets a reason and changes nothing (issue 13): each refusal is counted under
+Hostile input gets a reason and changes nothing: each refusal is counted under
 (topic, kind), where the kind is the reason's field (the text before its first ':', e.g.
 ``pose.covariance``). The first refusal of a kind is logged at once with its whole reason, so an
 operator sees every new problem when it starts. Later ones are only counted; at most once per

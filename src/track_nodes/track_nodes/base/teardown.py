@@ -4,7 +4,7 @@ Fast DDS 2.14.5 (the only RMW on the package registries) can hang while it delet
 many participants stop at once: ``destroy_participant`` spinning in ``DomainParticipant::set_listener``
 while a peer-removal discovery callback waits for a lock, or ``destroy_publisher``/``_subscription``
 /``_service`` blocking idle (cf. eProsima/Fast-DDS#6513 and #6502; seen at the stop of 25 processes
-over 3 simulated hosts, issue 15). The hang is in C with the GIL held, so no Python thread or
+over 3 simulated hosts). The hang is in C with the GIL held, so no Python thread or
 signal handler can act. A node process (``run_nodes``) therefore deletes its DDS entities under
 ``alarm(DDS_TEARDOWN_MAX)`` with SIGALRM's default action: if the deletion does not return, the
 kernel ends the process (status -SIGALRM), and the launcher names it (``launch.processes``).

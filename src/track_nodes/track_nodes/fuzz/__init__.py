@@ -1,4 +1,4 @@
-"""The project's own fuzzer (issue 13): malformed messages for every topic a node subscribes to.
+"""The project's own fuzzer: malformed messages for every topic a node subscribes to.
 
 - ``generate``: seeded bad messages of named classes, made from a valid template of each type;
 - ``table``: the node configurations to fuzz (scenario, nodes, target, topics that must stay alive);

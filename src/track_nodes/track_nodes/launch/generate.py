@@ -1,7 +1,7 @@
 """Scenario files written from the seeded sensor layouts, so their sensor entries match ``vehicle_sim``.
 
 - ``idsq_yaml``: ``config/idsq.yaml`` (vehicle_sim and one node per sensor);
-- ``maritime_yaml``: ``config/maritime.yaml`` (issue 8's main job).
+- ``maritime_yaml``: ``config/maritime.yaml``.
 
 The layout is the core's §5.1 generator (``track_core.idsq.simulation.scenario_of``), positions are
 written with ``repr`` so they parse back to the exact float64.
@@ -66,7 +66,7 @@ def maritime_yaml(*, seed: int = 1, n_sensors: int = 40, doa_fraction: float = 0
     The layout is ``vehicle_sim``'s (``scenario_of``, §5.1 generator, 150 × 250 m field), so the
     sensor entries agree with what vehicle_sim publishes. The sensors' belief grid reaches
     ``grid_height`` north (300 m): the smart target leaves the 250 m field at t ≈ 28 s, and a grid
-    ending at the field edge would pin the belief there (issue 17).
+    ending at the field edge would pin the belief there.
 
     ``comm_range`` (60 m, §5.1: 40 m): the layout's columns are W/4 = 37.5 m apart and every
     coordinate is jittered by N(0, 25 m²), so two sensors of one row in adjacent columns are within
@@ -74,7 +74,7 @@ def maritime_yaml(*, seed: int = 1, n_sensors: int = 40, doa_fraction: float = 0
     cross a missing link: on seed 5 the start leader sits west of such a gap and the network leads
     from sensors 39-88 m from the target for 11 s (RTAMS 16 m). 60 m is the 99.9 % quantile of that
     distance (59.9 m), so the neighbourhoods span the columns; the paper's 40 m stays the default of
-    the nodes, ``config/idsq.yaml`` and the §5.1 experiments (issue 17).
+    the nodes, ``config/idsq.yaml`` and the §5.1 experiments.
     """
     sc, layout, _ = scenario_of(seed, n_sensors, doa_fraction)
     names = [f'sensor_{k}' for k in range(layout.n)]
@@ -93,7 +93,7 @@ def maritime_yaml(*, seed: int = 1, n_sensors: int = 40, doa_fraction: float = 0
 
 
 _FIXED = '''\
-# Maritime scenario (issue 8): an evading smart target crosses a seabed field of acoustic + DOA
+# Maritime scenario: an evading smart target crosses a seabed field of acoustic + DOA
 # sensors; an observer AUV tracks it with SS-PF + covariance-control scheduling, the sensor network
 # tracks the loudest source in its field with IDSQ, a coastal radar tracks a decoy that nobody
 # pings; the fusion node scores every pair of tracks. See track_nodes/report/maritime.py.

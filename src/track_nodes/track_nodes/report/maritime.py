@@ -1,4 +1,4 @@
-"""The ``maritime`` scenario (issue 8, part 1): sonar, sensor network and fusion in one picture.
+"""The ``maritime`` scenario: sonar, sensor network and fusion in one picture.
 
 What runs (``config/maritime.yaml``, written by ``scenario_yaml`` below):
 
@@ -11,7 +11,7 @@ What runs (``config/maritime.yaml``, written by ``scenario_yaml`` below):
   ``acoustic_sensor``/``doa_sensor`` node per sensor, with ``truth_topics`` = the smart target's
   and the decoy's truth: each sensor senses the loudest (nearest) source, so the network tracks
   whatever is loudest in its field with IDSQ; track ``/idsq/estimate`` (child ``idsq_track``).
-  The sensors predict with the velocity-hypothesis bank (``prediction: bank``, issue 17,
+  The sensors predict with the velocity-hypothesis bank (``prediction: bank``,
   ``track_core.idsq.prediction``) on a grid reaching 300 m north, with a 60 m radio range (the
   §5.1 40 m leaves a third of the links between adjacent columns out, ``launch.generate``).
   The decoy sails well east of the field, so the loudest source in the field is the smart target.
@@ -30,7 +30,7 @@ target's last status); per pair the mean instant score and the verdict. The verd
 "associated" when the fusion associated it at ≥ half of its scored instants after *both* trackers
 converged, a tracker having converged from the first stamp its position error is below
 ``CONVERGED_M`` (an evaluation-only choice; the fusion node never sees the truth); the summary
-prints the true pair's fraction (issue 17's goal: ≥ 95 %) and whether a decoy pair was ever associated. It also writes
+prints the true pair's fraction (the goal: ≥ 95 %) and whether a decoy pair was ever associated. It also writes
 ``picture.png`` into the bag directory (``picture``).
 """
 
@@ -185,7 +185,7 @@ def maritime_metrics(bag: Path) -> list[str]:
 
 
 def true_pair_lines(v: dict) -> list[str]:
-    """Issue 17's figure: the sonar|network pair associated at ≥ 95 % of the instants after both converged,
+    """The goal: the sonar|network pair associated at ≥ 95 % of the instants after both converged,
     and the decoy's pairs never."""
     pair = tuple(sorted((SONAR_TRACK, NETWORK_TRACK)))
     if pair not in v or np.isnan(v[pair]['fraction']):

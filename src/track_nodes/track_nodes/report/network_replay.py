@@ -1,4 +1,4 @@
-"""Offline replay of the maritime IDSQ network on a recorded bag (issue 17's measuring tool).
+"""Offline replay of the maritime IDSQ network on a recorded bag.
 
 The network is lock-stepped and seeded: its track is a function of the sources' truths, the
 sensors' parameters and the layout only. ``replay`` runs ``leader_step`` from the §5.1 start rule

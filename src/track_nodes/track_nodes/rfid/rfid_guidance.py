@@ -1,4 +1,4 @@
-"""``rfid_guidance``: the particle-filter guidance of the handheld RFID reader (issue 5, Sections IV–VII).
+"""``rfid_guidance``: the particle-filter guidance of the handheld RFID reader (the RFID paper's Sections IV–VII).
 
 Wraps ``track_core.rfid.guidance.RfidGuidance``: it consumes the step results of ``rfid_reader``
 (``/rfid/step``) and publishes

@@ -1,4 +1,4 @@
-"""``rfid_reader``: the simulated user holding the handheld UHF RFID reader (issue 5, Section VI).
+"""``rfid_reader``: the simulated user holding the handheld UHF RFID reader (the RFID paper's Section VI).
 
 The reader side of the step-by-step protocol of ``track_core.rfid.protocol``: it performs each
 command that ``rfid_guidance`` publishes on ``/rfid/command`` with ``track_core.rfid.world.SimReader``
