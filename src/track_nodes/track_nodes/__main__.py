@@ -29,11 +29,11 @@ def _exit(code: int) -> None:
     told) and rclpy is shut down; CPython's finalization then only frees the modules (numpy, scipy,
     rclpy): about 0.4 s of CPU per process. At a ``--processes`` stop every node does it at once (25
     processes for idsq) on a shared machine: it took over 10 s of wall time, and the launcher killed
-    the last ones as hung. Any other program (bag tools) exits the normal way.
+    the last ones as hung. Any other program (bag tools) exits the normal way, and so does a Ctrl-C
+    while importing: nothing is imported here then (a half-imported module would raise again).
     """
-    from track_nodes.base.teardown import TEARDOWN
-
-    if not TEARDOWN.done:
+    teardown = sys.modules.get('track_nodes.base.teardown')
+    if not getattr(getattr(teardown, 'TEARDOWN', None), 'done', False):
         raise SystemExit(code)
     import atexit
     import os
