@@ -207,7 +207,9 @@ class PlayerNode(TrackNode):
                 pub.wait_for_all_acked(Duration(seconds=ACK_TIMEOUT))
             self._log(self._played())
         except Exception as exc:  # a failing playback thread must not hang the node
-            if not self._stop.is_set() and self.context.ok():  # not a stop signal's shutdown
+            if self._stop.is_set() or not self.context.ok():  # a stop signal shut the context down mid-publish
+                self._log(self._played())
+            else:
                 self.exit_code = 1
                 self._log(f'playback of {self.path} failed: {type(exc).__name__}: {exc}', error=True)
         finally:
