@@ -4,7 +4,7 @@
 VENV    := .venv
 PY      := $(VENV)/bin/python3
 PIP     := $(PY) -m pip -q --disable-pip-version-check
-PKGS    := src/track_core src/track_msgs_py src/track_nodes
+PKGS    := src/track_core src/track_msgs_py src/track_nodes src/track_experiments
 export AMENT_PREFIX_PATH := $(CURDIR)/$(VENV)
 
 .PHONY: install demo test lint clean
@@ -28,7 +28,8 @@ $(VENV)/.interfaces-stamp: $(VENV)/.deps-stamp requirements-interfaces.txt const
 # Stale build/ trees leak old modules into new wheels, so remove them first.
 install: $(VENV)/.deps-stamp $(VENV)/.interfaces-stamp
 	rm -rf $(addsuffix /build,$(PKGS)) $(addsuffix /*.egg-info,$(PKGS))
-	$(PIP) install --no-deps --no-build-isolation --force-reinstall $(PKGS)
+	# One package at a time, in layer order: uninstalling an older package never removes a script a newer one installed.
+	for pkg in $(PKGS); do $(PIP) install --no-deps --no-build-isolation --force-reinstall $$pkg || exit 1; done
 	rm -rf $(addsuffix /build,$(PKGS)) $(addsuffix /*.egg-info,$(PKGS))
 
 demo: install

@@ -177,7 +177,7 @@ def figures(raw: dict, rate: float, steps_led: int) -> dict:
 
 
 def plot(res: dict, png: Path) -> None:
-    from track_core.plotting import pyplot
+    from track_experiments.plotting import pyplot
 
     plt = pyplot()
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4))

@@ -37,13 +37,5 @@ setup(
             'track-bag-check = track_nodes.bag.check:main',
             'track-dataset = track_nodes.bag.dataset:main',
         ],
-        'track.experiments': [
-            'fuzz = track_nodes.fuzz.experiment:fuzz_experiment',
-            'soak = track_nodes.soak.experiment:soak_experiment',
-        ],
-        'track.benchmarks': [
-            'recorder = track_nodes.bag.bench:recorder_benchmark',
-            'fusion-node = track_nodes.fusion.bench:bench',
-        ],
     },
 )

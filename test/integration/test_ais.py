@@ -28,8 +28,8 @@ from track_msgs_py.convert import position_to_pose_cov, sec_to_stamp, stamp_to_s
 from track_msgs_py.qos import CLOCK_QOS, ESTIMATE_QOS, STATIC_QOS
 from track_msgs_py.records.fusion import AisTruthEntry, FusionPairScore
 from track_msgs_py.topics import CLOCK, FUSION_FUSED, FUSION_SCORES, ais_reports_topic, ais_truth_topic
+from track_nodes.fusion.ais_source import AisSourceNode
 from track_nodes.fusion.fusion import FusionNode
-from track_nodes.sim.ais_source import AisSourceNode
 
 pytestmark = pytest.mark.skipif(not default_path().is_file(), reason='shared AIS data not found')
 

@@ -13,7 +13,7 @@ from track_msgs_py.qos import ESTIMATE_QOS
 from track_msgs_py.records.fusion import FusionPairScore
 from track_msgs_py.topics import FUSION_SCORES
 from track_nodes.fusion.fusion import FusionNode
-from track_nodes.sim.report_source import ReportSourceNode
+from track_nodes.fusion.report_source import ReportSourceNode
 
 FAST = {'radar': {'period': 0.05}, 'patrol': {'period': 0.1},
         'fusion': {'rate': 20.0, 'stale_after': 0.4, 'window': 10}}
@@ -149,21 +149,3 @@ def test_publish_pairs_nonzero_leaves_out_only_the_pairs_that_score_zero(ros):
 
 def test_publish_pairs_all_keeps_every_scored_pair(ros):
     assert all(s == {NEAR, FAR} for s in _three_tracks(ros, 'all'))
-
-
-def test_fusion_node_bench_runs_the_node_on_every_track(tmp_path):
-    """``track-bench fusion-node`` (small): the node scored ticks holding every published track; no timing asserted."""
-    import json
-
-    import pytest
-
-    from track_core.ais import default_path
-    from track_core.cli import bench_main
-
-    if not default_path().is_file():
-        pytest.skip(f'shared AIS data not found: {default_path()}')
-    out = tmp_path / 'node.json'
-    assert bench_main(['fusion-node', '--quick', '--set', 'tracks=100', '--set', 'seconds=3', '--json', str(out)]) == 0
-    data = json.loads(out.read_text())
-    assert data['tracks'] == 100 and data['ticks'] >= 2 and data['live_tracks_max'] == 100
-    assert data['pairs_per_tick'] == 50 * 50 and data['cpu_share'] > 0 and data['reports_received_per_s'] > 0

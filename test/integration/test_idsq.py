@@ -437,7 +437,7 @@ def test_bad_sensor_parameters_stop_the_node_with_one_line(ros, cls_name, over, 
 
 def test_sensor_disagreeing_with_the_layout_stays_passive(ros):
     from track_nodes.idsq.sensor import AcousticSensorNode
-    from track_nodes.sim.vehicle_sim import VehicleSimNode
+    from track_nodes.idsq.vehicle_sim import VehicleSimNode
 
     vehicle = ros.add(VehicleSimNode(context=ros.context, parameter_overrides=[Parameter('seed', value=1),
                                                                               Parameter('n_sensors', value=8)]))

@@ -16,8 +16,8 @@ from rosgraph_msgs.msg import Clock
 from track_msgs_py.convert import sec_to_stamp, stamp_to_sec
 from track_msgs_py.qos import CLOCK_QOS, ESTIMATE_QOS
 from track_msgs_py.topics import CLOCK, DEMO_TRUTH
+from track_nodes.demo.demo_target import DemoTargetNode
 from track_nodes.fusion.fusion import FusionNode
-from track_nodes.sim.demo_target import DemoTargetNode
 from track_nodes.sonar.sonar_observer import SonarObserverNode
 
 pytestmark = pytest.mark.integration

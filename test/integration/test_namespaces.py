@@ -19,8 +19,8 @@ from rclpy.parameter import Parameter
 
 from track_msgs_py.qos import ESTIMATE_QOS
 from track_msgs_py.topics import DEMO_REPORTS, DEMO_TRACK, DEMO_TRUTH
+from track_nodes.demo.demo_target import DemoTargetNode
 from track_nodes.demo.demo_tracker import DemoTrackerNode
-from track_nodes.sim.demo_target import DemoTargetNode
 
 pytestmark = pytest.mark.integration
 

@@ -9,9 +9,9 @@ import pytest
 from rclpy.parameter import Parameter
 
 from track_nodes.base import ParameterError
-from track_nodes.sim.demo_target import DemoTargetNode
-from track_nodes.sim.slam_sim import SlamSimNode
+from track_nodes.demo.demo_target import DemoTargetNode
 from track_nodes.slam.slam import SlamNode
+from track_nodes.slam.slam_sim import SlamSimNode
 
 pytestmark = pytest.mark.integration
 

@@ -27,8 +27,8 @@ from track_msgs_py.convert import (
 from track_msgs_py.topics import FRAME_MAP, track_frame_id
 from track_nodes.demo.demo_tracker import DemoTrackerNode
 from track_nodes.fusion.fusion import FusionNode
-from track_nodes.sim.smart_target import SmartTargetNode
 from track_nodes.slam.slam import SlamNode
+from track_nodes.sonar.smart_target import SmartTargetNode
 from track_nodes.sonar.sonar_observer import SonarObserverNode
 
 FAR_FUTURE = 2147483647.0  # the sec = INT32_MAX

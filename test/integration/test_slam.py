@@ -35,7 +35,7 @@ from sensor_msgs.msg import PointCloud2
 from visualization_msgs.msg import MarkerArray
 
 from track_core.slam import HybridParams, HybridSlam, victoria
-from track_core.slam.experiments import VP_PF, VP_SLAM, loop_params
+from track_core.slam.profiles import VICTORIA_PARK, loop_sim_params
 from track_core.slam.sim import LoopWorld, simulate
 from track_msgs_py.convert import (
     inputs_to_twist,
@@ -54,8 +54,8 @@ from track_nodes.bag.check import check_bag
 from track_nodes.bag.frames import check_frames
 from track_nodes.bag.player import PlayerNode
 from track_nodes.base import ParameterError
-from track_nodes.sim.slam_sim import SlamSimNode
 from track_nodes.slam.slam import SlamNode
+from track_nodes.slam.slam_sim import SlamSimNode
 
 T_MAX = 40.0  # the stretch of the real run [s]
 DEEP = QoSProfile(depth=100_000, reliability=ReliabilityPolicy.RELIABLE)
@@ -108,7 +108,8 @@ def _offline_reference(t_max: float):
         r, b, dd = (np.asarray(c, dtype=np.float32).astype(float) for c in (z[:, 0], z[:, 1], d))
         scans.append(np.stack([r + 0.5 * dd, np.clip(b, 0.0, np.pi)], axis=1))
     vp.scans = scans
-    h = HybridSlam(np.zeros(3), np.diag([1e-6] * 3), np.random.default_rng(0), VP_SLAM, VP_PF, HybridParams())
+    h = HybridSlam(np.zeros(3), np.diag([1e-6] * 3), np.random.default_rng(0), VICTORIA_PARK.slam, VICTORIA_PARK.pf,
+                   HybridParams())
     t, poses = [], []
     for ev in victoria.events(vp):
         if ev[0] == 'input':
@@ -344,7 +345,8 @@ def _check_map_estimates(h: HybridSlam, checks: list) -> None:
 def test_map_estimate_equals_the_deepcopy_path_on_victoria_park():
     _data_or_skip()
     vp = victoria.load(t_max=80.0)  # passive landmarks (the compressed phase) from about 60 s
-    h = HybridSlam(np.zeros(3), np.diag([1e-6] * 3), np.random.default_rng(0), VP_SLAM, VP_PF, HybridParams())
+    h = HybridSlam(np.zeros(3), np.diag([1e-6] * 3), np.random.default_rng(0), VICTORIA_PARK.slam, VICTORIA_PARK.pf,
+                   HybridParams())
     checks, n = [], 0
     for ev in victoria.events(vp):
         if ev[0] == 'input':
@@ -360,7 +362,7 @@ def test_map_estimate_equals_the_deepcopy_path_on_victoria_park():
 
 def test_map_estimate_equals_the_deepcopy_path_in_the_loop_world():
     w = LoopWorld()
-    sp, pp = loop_params(w)
+    sp, pp = loop_sim_params(w)
     run = simulate(w, np.random.default_rng(1))
     h = HybridSlam(w.start(), np.diag([1e-6] * 3), np.random.default_rng(2), sp, pp,
                    HybridParams(trigger_on_ambiguity=True))

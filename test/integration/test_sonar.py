@@ -2,7 +2,7 @@
 
 - In-process, /clock driven by the test: the estimate converges near the truth, and the two nodes
   reproduce, bit for bit, the core-only closed loop with the same seeds (the nodes add no maths
-  and follow the ordering rule of ``track_core.sonar.experiments.run_closed_loop``).
+  and follow the ordering rule of ``track_experiments.sonar.experiments.run_closed_loop``).
 - Launcher: ``config/sonar.yaml`` recorded for 20 s; replaying the recorded truth with the player
   into a fresh ``sonar_observer`` with the same parameters reproduces every recorded estimate.
 - Started by hand, in either order and 3 s apart on wall time, the two processes lock-step
@@ -56,7 +56,7 @@ from track_msgs_py.topics import (
 from track_nodes.bag.check import check_bag
 from track_nodes.bag.frames import check_frames
 from track_nodes.base import ParameterError
-from track_nodes.sim.smart_target import SmartTargetNode
+from track_nodes.sonar.smart_target import SmartTargetNode
 from track_nodes.sonar.sonar_observer import SonarObserverNode
 
 STEPS = 40  # the paper's 40 s at T = 1 s

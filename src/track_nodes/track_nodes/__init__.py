@@ -5,8 +5,7 @@ Sub-packages by role; imports point down only (the layering test enforces it):
 | package | what |
 |---|---|
 | ``base/`` | ``TrackNode`` (constructor, parameters, ``main``), ``Param``, ``FixedRateSteps``, CLI parsing |
-| ``demo/`` ``sonar/`` ``idsq/`` ``rfid/`` ``slam/`` ``fusion/`` | estimator nodes, one sub-package per system |
-| ``sim/`` | simulators and sources: seeded truths and sensor reports |
+| ``demo/`` ``sonar/`` ``idsq/`` ``rfid/`` ``slam/`` ``fusion/`` | estimators, and the simulators feeding them |
 | ``bag/`` | recorder, player, recovery of killed recordings, dataset conversion (``api`` is what they share) |
 | ``launch/`` | the launcher (``python -m track_nodes.launch``), scenario files and their generators, ``ros2 launch`` |
 | ``report/`` | one-screen summaries and pictures of recorded bags, one module per scenario |

@@ -10,21 +10,20 @@ from __future__ import annotations
 import importlib
 
 NODES = {
-    # simulators and sources
-    'demo_target': 'track_nodes.sim.demo_target:DemoTargetNode',
-    'smart_target': 'track_nodes.sim.smart_target:SmartTargetNode',
-    'vehicle_sim': 'track_nodes.sim.vehicle_sim:VehicleSimNode',
-    'report_source': 'track_nodes.sim.report_source:ReportSourceNode',
-    'ais_source': 'track_nodes.sim.ais_source:AisSourceNode',
-    'slam_sim': 'track_nodes.sim.slam_sim:SlamSimNode',
-    # estimators, one sub-package per system
+    # one sub-package per system: the simulator or source beside the estimator it feeds
+    'demo_target': 'track_nodes.demo.demo_target:DemoTargetNode',
     'demo_tracker': 'track_nodes.demo.demo_tracker:DemoTrackerNode',
+    'smart_target': 'track_nodes.sonar.smart_target:SmartTargetNode',
     'sonar_observer': 'track_nodes.sonar.sonar_observer:SonarObserverNode',
+    'vehicle_sim': 'track_nodes.idsq.vehicle_sim:VehicleSimNode',
     'acoustic_sensor': 'track_nodes.idsq.sensor:AcousticSensorNode',
     'doa_sensor': 'track_nodes.idsq.sensor:DoaSensorNode',
     'rfid_reader': 'track_nodes.rfid.rfid_reader:RfidReaderNode',
     'rfid_guidance': 'track_nodes.rfid.rfid_guidance:RfidGuidanceNode',
+    'slam_sim': 'track_nodes.slam.slam_sim:SlamSimNode',
     'slam': 'track_nodes.slam.slam:SlamNode',
+    'report_source': 'track_nodes.fusion.report_source:ReportSourceNode',
+    'ais_source': 'track_nodes.fusion.ais_source:AisSourceNode',
     'fusion': 'track_nodes.fusion.fusion:FusionNode',
     # bag tools that are nodes
     'recorder': 'track_nodes.bag.recorder:RecorderNode',

@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 from ament_index_python.packages import get_package_prefix
 
-PKGS = ('track_core', 'track_msgs_py', 'track_nodes')
+PKGS = ('track_core', 'track_msgs_py', 'track_nodes', 'track_experiments')
 FAKE_PYTHON = '#!/bin/sh\necho "{who} $*"\n'
 
 

@@ -4,7 +4,8 @@
   share lives in track_core, track_msgs_py or a non-node module such as ``track_nodes.base``).
 - No import cycle exists anywhere in ``src/``, function-level imports included (they hide cycles
   from the interpreter but not from a reader).
-- track_msgs_py never imports track_nodes.
+- track_msgs_py never imports track_nodes; no library package imports track_experiments (the
+  experiments and benches sit above the nodes; node defaults come from core profiles).
 
 The import graph is read from the source with ``ast``: every ``import``/``from … import``
 statement at any depth, resolved to the modules that exist in the tree.
@@ -20,7 +21,7 @@ import pytest
 from track_nodes.registry import NODES
 
 SRC = Path(__file__).resolve().parents[3] / 'src'
-PACKAGES = ('track_core', 'track_msgs_py', 'track_nodes')
+PACKAGES = ('track_core', 'track_msgs_py', 'track_nodes', 'track_experiments')
 
 
 def module_files(src: Path = SRC) -> dict[str, Path]:
@@ -170,3 +171,9 @@ def test_a_node_to_node_import_is_found(tmp_path):
     })
     assert node_to_node_imports(g, {'track_nodes.x.one', 'track_nodes.x.two'}) == [
         'track_nodes.x.one -> track_nodes.x.two']
+
+
+def test_no_library_package_imports_the_experiments(graph):
+    bad = sorted(f'{a} -> {b}' for a, deps in graph.items() if not a.startswith('track_experiments')
+                 for b in deps if b.startswith('track_experiments'))
+    assert 'track_experiments.cli' in graph and not bad

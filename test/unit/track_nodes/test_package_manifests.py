@@ -14,7 +14,7 @@ import tomllib
 
 import pytest
 
-PKGS = ('track_core', 'track_msgs_py', 'track_nodes')
+PKGS = ('track_core', 'track_msgs_py', 'track_nodes', 'track_experiments')
 
 
 def package_ini(repo, pkg) -> dict:

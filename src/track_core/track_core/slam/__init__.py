@@ -8,8 +8,8 @@
 - ``hybrid``: ``HybridSlam``, the switching architecture, driven one input / one scan at a time.
 - ``streams``: ``StreamMerger``, the watermark merge of the input and scan streams into stamp order.
 - ``sim``: the Fig. 1 loop-closure world; ``victoria``: the real-data loader and GPS evaluation.
-- ``experiments``: ``slam-loop``, ``victoria-park`` and ``track-bench cekf``.
-- ``blas``: ``single_threaded_blas``, the context the experiments run the filter in.
+- ``profiles``: the named settings ``victoria_park`` and ``loop_sim`` (node profiles, experiments).
+- ``blas``: ``single_threaded_blas``, the context the filter runs in (node and experiments).
 
 Bad input (for a node): ``hybrid.valid_observations`` / ``filter_observations`` are the core's
 rule for unusable observation rows; ``HybridSlam.process_input``/``process_scan`` return ``False``

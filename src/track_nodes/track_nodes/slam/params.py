@@ -2,32 +2,12 @@
 
 from __future__ import annotations
 
-from types import SimpleNamespace
-
 from track_core.slam import HybridParams, PFParams, SlamParams
+from track_core.slam.profiles import PROFILES
 from track_msgs_py.topics import FRAME_LASER, FRAME_MAP
 from track_msgs_py.validate import InputPolicy
 from track_nodes.base import Param
 
-
-def _profile_victoria_park():
-    from track_core.slam import experiments
-
-    return SimpleNamespace(slam=experiments.VP_SLAM, pf=experiments.VP_PF, hybrid=HybridParams(),
-                           pose0=[0.0, 0.0, 0.0])
-
-
-def _profile_loop_sim():
-    from track_core.slam import experiments
-    from track_core.slam.sim import LoopWorld
-
-    w = LoopWorld()
-    sp, pp = experiments.loop_params(w)
-    return SimpleNamespace(slam=sp, pf=pp, hybrid=HybridParams(trigger_on_ambiguity=True),
-                           pose0=[float(v) for v in w.start()])
-
-
-PROFILES = {'victoria_park': _profile_victoria_park, 'loop_sim': _profile_loop_sim}
 #: (parameter prefix, core dataclass, profile attribute) of the core's configuration groups
 CORE_GROUPS = (('cekf', SlamParams, 'slam'), ('pf', PFParams, 'pf'), ('hybrid', HybridParams, 'hybrid'))
 

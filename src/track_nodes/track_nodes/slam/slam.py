@@ -56,8 +56,8 @@ at ``pose0`` seeded again, the stream merger and the map schedule forgotten (``r
 
 Parameters (``slam/params.py``): the node's own, then every field of the core's ``SlamParams``,
 ``PFParams`` and ``HybridParams`` as ``cekf.*``, ``pf.*`` and ``hybrid.*``, with the defaults of
-``profile``: ``victoria_park`` (``experiments.VP_SLAM``/``VP_PF``) or ``loop_sim`` (``experiments.
-loop_params`` of the default ``LoopWorld``, ambiguity trigger on, as ``slam-loop``). Invalid values
+``profile``: ``victoria_park`` or ``loop_sim`` (``track_core.slam.profiles``; the latter is the
+default ``LoopWorld`` with the ambiguity trigger on, as ``slam-loop``). Invalid values
 stop the node with one line.
 """
 
@@ -115,7 +115,7 @@ class SlamNode(TrackNode):
 
     def setup(self) -> None:
         profile = PROFILES[declare_params(self, [PROFILE_PARAM]).profile]()
-        self.p = p = declare_params(self, node_params(profile.pose0))
+        self.p = p = declare_params(self, node_params(list(profile.pose0)))
         cores = {attr: declare_dataclass(self, prefix, getattr(profile, attr)) for prefix, _, attr in CORE_GROUPS}
         pose0, var0 = vector('pose0', p.pose0, 3), vector('pose0_var', p.pose0_var, 3, positive=True)
         self._new_slam = lambda: HybridSlam(pose0, np.diag(var0), np.random.default_rng(p.seed), cores['slam'],

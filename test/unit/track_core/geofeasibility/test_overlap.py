@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from track_core.geofeasibility import containment, ellipse_to_gaussian, score
-from track_core.geofeasibility.experiments import circle_overlap, random_pairs
+from track_core.geofeasibility.reference import circle_overlap, random_pairs
 
 
 def _circles(r1, r2, d, theta):

@@ -5,7 +5,7 @@ import pytest
 from scipy.stats import norm
 
 from track_core.geofeasibility import ellipse_to_gaussian, score
-from track_core.geofeasibility.experiments import random_pairs
+from track_core.geofeasibility.reference import random_pairs
 from track_core.geofeasibility.scores import glr_pair, mc_overlap, mc_pair
 from track_core.geofeasibility.validate import check_pairs
 
@@ -89,7 +89,7 @@ def test_glr_thresholded_forces_only_the_geometric_extremes():
 
 def test_mc_shared_samples_equal_the_per_pair_estimate_on_the_same_draw():
     """With one shared draw, pair k's estimate equals mc_pair run on that very draw."""
-    from track_core.geofeasibility.experiments import random_pairs
+    from track_core.geofeasibility.reference import random_pairs
     from track_core.geofeasibility.scores import mc_pair
 
     mu1, R1, mu2, R2 = random_pairs(50, np.random.default_rng(8))
@@ -101,7 +101,7 @@ def test_mc_shared_samples_equal_the_per_pair_estimate_on_the_same_draw():
 
 
 def test_mc_shared_samples_are_unbiased_against_exact():
-    from track_core.geofeasibility.experiments import random_pairs
+    from track_core.geofeasibility.reference import random_pairs
 
     mu1, R1, mu2, R2 = random_pairs(200, np.random.default_rng(10))
     exact = score(mu1, R1, mu2, R2, 'exact')

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from track_core.slam.blas import single_threaded_blas
-from track_core.slam.experiments import loop_params, run_loop_once
 from track_core.slam.hybrid import HybridParams, HybridSlam
+from track_core.slam.profiles import loop_sim_params
 from track_core.slam.sim import LoopWorld, simulate
 
 
@@ -22,21 +22,6 @@ def test_bad_input_and_backwards_time(caplog):
         assert h.process_scan(10.0, z)
     assert h.n_dropped == 3 and h.cekf.n_landmarks == 1
     assert any('invalid' in r.message for r in caplog.records)
-
-
-def test_loop_world_hybrid_recovers_where_ekf_fails():
-    w = LoopWorld()
-    loop_params(w)
-    wins = 0
-    for seed in (0, 2):
-        run = simulate(w, np.random.default_rng(seed))
-        e = run_loop_once(w, run, False, np.random.default_rng(10))
-        h = run_loop_once(w, run, True, np.random.default_rng(11))
-        assert h['pf_scans'] and h['final_err'] < 3.0
-        wins += e['final_err'] > 3.0
-        assert any(ev.kind == 'to_pf' for ev in h['events'])
-    assert wins >= 1
-    assert HybridParams().enabled
 
 
 def _state(h):
@@ -78,21 +63,10 @@ def test_valid_observations_is_a_core_function():
     assert valid_observations(np.zeros((0, 2))).shape == (0,)
 
 
-def test_detector_holds_scans_too_poor_to_start_the_pf():
-    w = LoopWorld()
-    run = simulate(w, np.random.default_rng(0))
-    r = run_loop_once(w, run, True, np.random.default_rng(11))
-    to_pf = [e for e in r['events'] if e.kind == 'to_pf']
-    assert to_pf
-    # the PF was started from a scan with at least min_init_obs observations
-    ts = {round(t, 6): z for t, z, _ in run.scans}
-    assert all(ts[round(e.t, 6)].shape[0] >= HybridParams().min_init_obs for e in to_pf)
-
-
 def _loop_run_checking_last_particles(sim_seed: int, filter_seed: int):
     """The slam-loop feed (``experiments.run_loop_once``) with ``last_particles`` checked after every scan."""
     w = LoopWorld()
-    sp, pp = loop_params(w)
+    sp, pp = loop_sim_params(w)
     run = simulate(w, np.random.default_rng(sim_seed))
     h = HybridSlam(w.start(), np.diag([1e-6] * 3), np.random.default_rng(filter_seed), sp, pp,
                    HybridParams(trigger_on_ambiguity=True))

@@ -1,0 +1,1 @@
+"""``track-bench recorder``: the recorder against ``ros2 bag record``."""

@@ -1,1 +1,0 @@
-"""Simulators and sources: seeded truths and sensor reports for every scenario."""

@@ -1,0 +1,43 @@
+
+import numpy as np
+import pytest
+
+from track_core.slam import HybridParams, victoria
+from track_core.slam.profiles import loop_sim_params
+from track_core.slam.sim import LoopWorld, simulate
+from track_experiments.cli import RunConfig
+from track_experiments.slam.experiments import run_loop_once, victoria_park
+
+
+@pytest.mark.skipif(not victoria.data_dir().is_dir(), reason='Victoria Park data not available')
+def test_victoria_park_quick(tmp_path):
+    out = victoria_park(RunConfig(quick=True, out=tmp_path, show_progress=False))
+    assert set(out.data) == {'gps_rmse_m', 'landmarks', 'pf_switches', 'runtime_s', 'duration_s'}
+    assert out.data['gps_rmse_m'] < 5.0 and out.data['landmarks'] > 20
+    assert all(f.exists() for f in out.figures)
+
+
+def test_loop_world_hybrid_recovers_where_ekf_fails():
+    w = LoopWorld()
+    loop_sim_params(w)
+    wins = 0
+    for seed in (0, 2):
+        run = simulate(w, np.random.default_rng(seed))
+        e = run_loop_once(w, run, False, np.random.default_rng(10))
+        h = run_loop_once(w, run, True, np.random.default_rng(11))
+        assert h['pf_scans'] and h['final_err'] < 3.0
+        wins += e['final_err'] > 3.0
+        assert any(ev.kind == 'to_pf' for ev in h['events'])
+    assert wins >= 1
+    assert HybridParams().enabled
+
+
+def test_detector_holds_scans_too_poor_to_start_the_pf():
+    w = LoopWorld()
+    run = simulate(w, np.random.default_rng(0))
+    r = run_loop_once(w, run, True, np.random.default_rng(11))
+    to_pf = [e for e in r['events'] if e.kind == 'to_pf']
+    assert to_pf
+    # the PF was started from a scan with at least min_init_obs observations
+    ts = {round(t, 6): z for t, z, _ in run.scans}
+    assert all(ts[round(e.t, 6)].shape[0] >= HybridParams().min_init_obs for e in to_pf)

@@ -1,0 +1,18 @@
+import json
+
+from track_experiments.cli import RunConfig
+from track_experiments.sonar.bench import sonar_benchmark
+
+KEYS = {'n200_ms', 'n2000_ms', 'transition_n200_ms', 'ukf_ms', 'stonesoup_ukf_ms', 'filterpy_loop_n200_ms',
+        'stonesoup_n200_ms', 'speedup_vs_filterpy', 'speedup_vs_stonesoup'}
+
+
+def test_bench_json_keys(tmp_path):
+    out = sonar_benchmark(RunConfig(quick=True, out=tmp_path, show_progress=False))
+    assert set(out.data) == KEYS
+    assert out.data['n200_ms'] > 0 and out.data['n2000_ms'] > 0 and out.data['ukf_ms'] > 0
+    for peer, speedup in (('filterpy_loop_n200_ms', 'speedup_vs_filterpy'),
+                          ('stonesoup_n200_ms', 'speedup_vs_stonesoup')):
+        # a peer that is not installed is null, and so is its speed-up
+        assert (out.data[peer] is None) == (out.data[speedup] is None)
+    json.dumps(out.data)
