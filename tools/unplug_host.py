@@ -42,8 +42,9 @@ from watched_launch import WatchedLaunch
 def analyse(bag: Path, gap_steps: tuple[int, int], host_of: dict[int, int], host: int, end_steps: int) -> dict:
     """The figures of the module docstring from the recorded bag."""
     from track_core.idsq.ledger import step_of_stamp
-    from track_msgs_py.convert import odometry_to_cv_state, stamp_to_sec
+    from track_msgs_py.odometry import odometry_to_cv_state
     from track_msgs_py.records.idsq import IdsqLeaderEvent
+    from track_msgs_py.stamps import stamp_to_sec
     from track_msgs_py.topics import IDSQ_ESTIMATE, IDSQ_LAYOUT, IDSQ_LEADER, IDSQ_TRUTH
     from track_nodes.report.read import read_topics
 

@@ -24,9 +24,10 @@ from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
 
 from track_core.ais import PairTable, default_path, evaluate
-from track_msgs_py.convert import position_to_pose_cov, sec_to_stamp, stamp_to_sec
+from track_msgs_py.odometry import position_to_pose_cov
 from track_msgs_py.qos import CLOCK_QOS, ESTIMATE_QOS, STATIC_QOS
 from track_msgs_py.records.fusion import AisTruthEntry, FusionPairScore
+from track_msgs_py.stamps import sec_to_stamp, stamp_to_sec
 from track_msgs_py.topics import CLOCK, FUSION_FUSED, FUSION_SCORES, ais_reports_topic, ais_truth_topic
 from track_nodes.fusion.ais_source import AisSourceNode
 from track_nodes.fusion.fusion import FusionNode

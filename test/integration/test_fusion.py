@@ -8,7 +8,7 @@ from geometry_msgs.msg import PoseWithCovarianceStamped
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from track_msgs_py.convert import position_to_pose_cov
+from track_msgs_py.odometry import position_to_pose_cov
 from track_msgs_py.qos import ESTIMATE_QOS
 from track_msgs_py.records.fusion import FusionPairScore
 from track_msgs_py.topics import FUSION_SCORES

@@ -50,12 +50,14 @@ from track_core.idsq import (
 )
 from track_core.idsq.ledger import measurement_normal, start_leader_of, step_of_stamp
 from track_core.idsq.simulation import scenario_of
-from track_msgs_py.convert import handoff_to_uint8_array as handoff_msg
-from track_msgs_py.convert import layout_to_pointcloud2 as layout_to_cloud
-from track_msgs_py.convert import odometry_to_cv_state, sec_to_stamp, stamp_to_sec, xy_block
-from track_msgs_py.convert import pointcloud2_to_layout as cloud_to_layout
+from track_msgs_py.covariance import xy_block
+from track_msgs_py.odometry import odometry_to_cv_state
 from track_msgs_py.qos import CLOCK_QOS, ESTIMATE_QOS, HANDOFF_QOS
 from track_msgs_py.records.idsq import IdsqAck, IdsqLeaderEvent
+from track_msgs_py.records.idsq import handoff_to_uint8_array as handoff_msg
+from track_msgs_py.records.idsq import layout_to_pointcloud2 as layout_to_cloud
+from track_msgs_py.records.idsq import pointcloud2_to_layout as cloud_to_layout
+from track_msgs_py.stamps import sec_to_stamp, stamp_to_sec
 from track_msgs_py.topics import (
     CLOCK,
     IDSQ_BELIEF,

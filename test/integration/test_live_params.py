@@ -13,8 +13,8 @@ from rclpy.parameter import Parameter
 from rclpy.parameter_client import AsyncParameterClient
 from rosgraph_msgs.msg import Clock
 
-from track_msgs_py.convert import sec_to_stamp, stamp_to_sec
 from track_msgs_py.qos import CLOCK_QOS, ESTIMATE_QOS
+from track_msgs_py.stamps import sec_to_stamp, stamp_to_sec
 from track_msgs_py.topics import CLOCK, DEMO_TRUTH
 from track_nodes.demo.demo_target import DemoTargetNode
 from track_nodes.fusion.fusion import FusionNode

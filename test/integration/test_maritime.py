@@ -170,7 +170,8 @@ def test_fusion_holds_a_track_whose_velocity_is_not_estimated(ros):
     import numpy as np
     from nav_msgs.msg import Odometry
 
-    from track_msgs_py.convert import NOT_ESTIMATED_VARIANCE, cv_state_to_odometry
+    from track_msgs_py.covariance import NOT_ESTIMATED_VARIANCE
+    from track_msgs_py.odometry import cv_state_to_odometry
 
     fusion = ros.add(FusionNode(node_name='fusion', context=ros.context, parameter_overrides=[
         Parameter('odometry_topics', value=['/a/track', '/b/track']), Parameter('schedule', value='stamps'),

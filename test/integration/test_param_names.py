@@ -67,7 +67,7 @@ def test_params_file_sections_of_this_node_are_checked_and_the_others_left_alone
 
 
 def test_parameters_declared_in_setup_from_a_dataclass_are_known(ros, tmp_path):
-    """slam and slam_sim declare ``<prefix>.<field>`` in setup (declare_dataclass): those are valid."""
+    """slam and slam_sim declare a core dataclass as ``<prefix>.<field>`` parameters (``group``): those are valid."""
     node = _build(ros, SlamSimNode, cli_args=_params(tmp_path, 'slam_sim:\n  ros__parameters:\n    world.dt: 0.1\n'))
     assert node.world.dt == 0.1
     _drop(ros, node)
@@ -76,11 +76,11 @@ def test_parameters_declared_in_setup_from_a_dataclass_are_known(ros, tmp_path):
 
 
 def _slam_params():
+    from track_core.slam.profiles import VICTORIA_PARK
     from track_nodes.base.params import dataclass_params
-    from track_nodes.slam.params import CORE_GROUPS, PROFILES
 
-    profile = PROFILES['victoria_park']()
-    return [p for prefix, _, attr in CORE_GROUPS for p in dataclass_params(prefix, getattr(profile, attr))]
+    groups = {'cekf': VICTORIA_PARK.slam, 'pf': VICTORIA_PARK.pf, 'hybrid': VICTORIA_PARK.hybrid}
+    return [p for prefix, default in groups.items() for p in dataclass_params(prefix, default)]
 
 
 def test_the_core_parameters_of_slam_are_accepted_by_name(ros):

@@ -34,9 +34,11 @@ from track_core.rfid.pf import PFParams
 from track_core.rfid.phase import PhaseModel
 from track_core.rfid.search import run_search
 from track_core.rfid.world import WorldParams
-from track_msgs_py.convert import diagnostic_array, pointcloud2_to_table, sec_to_stamp
+from track_msgs_py.clouds import pointcloud2_to_table
+from track_msgs_py.diagnostics import diagnostic_array
 from track_msgs_py.qos import CLOCK_QOS, ESTIMATE_QOS, SENSOR_QOS
 from track_msgs_py.records.rfid import RfidCommand, RfidStep
+from track_msgs_py.stamps import sec_to_stamp
 from track_msgs_py.tf import TF, TF_STATIC
 from track_msgs_py.topics import (
     CLOCK,

@@ -16,14 +16,9 @@ import numpy as np
 import pytest
 from rclpy.parameter import Parameter
 
-from track_msgs_py.convert import (
-    cv_state_to_odometry,
-    inputs_to_twist,
-    odometry_to_pose,
-    position_to_pose_cov,
-    scan_to_pointcloud2,
-    sec_to_stamp,
-)
+from track_msgs_py.clouds import scan_to_pointcloud2
+from track_msgs_py.odometry import cv_state_to_odometry, inputs_to_twist, odometry_to_pose, position_to_pose_cov
+from track_msgs_py.stamps import sec_to_stamp
 from track_msgs_py.topics import FRAME_MAP, track_frame_id
 from track_nodes.demo.demo_tracker import DemoTrackerNode
 from track_nodes.fusion.fusion import FusionNode

@@ -37,17 +37,11 @@ from visualization_msgs.msg import MarkerArray
 from track_core.slam import HybridParams, HybridSlam, victoria
 from track_core.slam.profiles import VICTORIA_PARK, loop_sim_params
 from track_core.slam.sim import LoopWorld, simulate
-from track_msgs_py.convert import (
-    inputs_to_twist,
-    odometry_to_pose,
-    pose_array_to_positions,
-    scan_to_pointcloud2,
-    stamp_to_ns,
-    stamp_to_sec,
-    table_to_pointcloud2,
-)
+from track_msgs_py.clouds import scan_to_pointcloud2, table_to_pointcloud2
+from track_msgs_py.odometry import inputs_to_twist, odometry_to_pose, pose_array_to_positions
 from track_msgs_py.qos import ESTIMATE_QOS, STATIC_QOS
 from track_msgs_py.records.slam import SlamMode
+from track_msgs_py.stamps import stamp_to_ns, stamp_to_sec
 from track_msgs_py.topics import SLAM_EVENTS, SLAM_GPS, SLAM_INPUTS, SLAM_MAP, SLAM_MODE, SLAM_POSE, SLAM_SCAN
 from track_nodes.bag.api import msg_class
 from track_nodes.bag.check import check_bag

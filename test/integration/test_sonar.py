@@ -40,9 +40,10 @@ from track_core.sonar import (
     make_tracker,
     simulate_measurement,
 )
-from track_msgs_py.convert import odometry_to_cv_state, sec_to_stamp, stamp_to_ns
+from track_msgs_py.odometry import odometry_to_cv_state
 from track_msgs_py.qos import CLOCK_QOS, ESTIMATE_QOS, TRUTH_QOS
 from track_msgs_py.records.sonar import SonarMode
+from track_msgs_py.stamps import sec_to_stamp, stamp_to_ns
 from track_msgs_py.topics import (
     CLOCK,
     SONAR_ESTIMATE,

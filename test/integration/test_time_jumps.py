@@ -21,14 +21,10 @@ from nav_msgs.msg import Odometry
 from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
 
-from track_msgs_py.convert import (
-    cv_state_to_odometry,
-    inputs_to_twist,
-    position_to_pose_cov,
-    scan_to_pointcloud2,
-    sec_to_stamp,
-)
+from track_msgs_py.clouds import scan_to_pointcloud2
+from track_msgs_py.odometry import cv_state_to_odometry, inputs_to_twist, position_to_pose_cov
 from track_msgs_py.records import diagnostic_values
+from track_msgs_py.stamps import sec_to_stamp
 from track_msgs_py.topics import DEMO_REPORTS, DEMO_TRACK, DIAGNOSTICS, FRAME_MAP
 from track_nodes.bag.player import PlayerNode
 from track_nodes.demo.demo_tracker import DemoTrackerNode

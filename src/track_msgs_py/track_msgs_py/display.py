@@ -1,8 +1,9 @@
 """What RViz and Foxglove need of the messages we publish: checks that return a reason.
 
 Not input validation (``track_msgs_py.validate`` judges what a node receives): these check that
-our own output follows the display conventions of ``track_msgs_py.convert`` and the topics table,
-so a viewer draws it as meant. ``track_nodes.bag.check`` runs them over every message of a bag.
+our own output follows the display conventions of ``track_msgs_py.clouds``,
+``track_msgs_py.covariance`` and the topics table, so a viewer draws it as meant.
+``track_nodes.bag.check`` runs them over every message of a bag.
 
 - a ``sensor_msgs/PointCloud2`` carries float32 ``x``, ``y``, ``z`` (count 1) at offsets 0, 4, 8
   (Foxglove refuses a cloud with fewer than two of them, RViz's PointCloud2 display needs all
@@ -18,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 from sensor_msgs.msg import PointField
 
-from track_msgs_py.convert import XYZ
+from track_msgs_py.clouds import XYZ
 
 _XYZ_OFFSETS = (0, 4, 8)
 

@@ -26,7 +26,7 @@ from collections.abc import Sequence
 from geometry_msgs.msg import TransformStamped
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from track_msgs_py.convert import sec_to_stamp
+from track_msgs_py.stamps import sec_to_stamp
 from track_msgs_py.topics import SLAM_POSE, SLAM_TRUTH, SONAR_OBSERVER, TF, TF_STATIC
 
 __all__ = ['BODY_FRAME_TOPICS', 'TF', 'TF_MSGTYPE', 'TF_QOS', 'TF_STATIC', 'TF_STATIC_QOS', 'frame_id_problem',

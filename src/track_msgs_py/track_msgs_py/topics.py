@@ -15,18 +15,19 @@ QoS kinds (profiles in ``track_msgs_py.qos``): ``'sensor'`` best-effort depth 5,
 ``'clock'`` for ``/clock`` (compatible with rclpy's own /clock subscription), ``'tf'`` and
 ``'tf_static'`` for the transform tree (``track_msgs_py.tf``: tf2_ros's profiles).
 
-Covariances (``COV_PLANAR`` in the entries below, details in ``track_msgs_py.convert``).
-Every ``Odometry`` and ``PoseWithCovarianceStamped`` we publish is planar: the x/y block is the
-estimate (truth: 0) and is all a fusion consumer should read (``convert.xy_block``); z, roll and
-pitch (twist: vz, ωx, ωy) are exactly 0, so RViz 2 and Foxglove draw the flat 2σ ellipse; an
-entry the estimator does not estimate (yaw of a CV track, a velocity nobody estimates) is 1e6,
-recognised by ``convert.not_estimated`` (variance ≥ ``NOT_ESTIMATED_VARIANCE``).
+Covariances (``COV_PLANAR`` in the entries below; ``track_msgs_py.covariance``). Every
+``Odometry`` and ``PoseWithCovarianceStamped`` we publish is planar. The x/y block is the estimate
+(0 on truth topics) and the only part a consumer needs: read it with ``covariance.xy_block``. z,
+roll and pitch (for a twist: vz, ωx, ωy) are exactly 0, so RViz 2 and Foxglove draw a flat 2σ
+ellipse. An entry the estimator does not estimate (the yaw of a CV track, a velocity nobody
+estimates) is 1e6 (``NOT_ESTIMATED_VARIANCE``); test for it with ``covariance.not_estimated``.
+How tracks, reports and poses fill these messages: ``track_msgs_py.odometry``.
 
-Point clouds (``CLOUD_XYZ``). Every ``PointCloud2`` we publish starts with float32
-``x``, ``y``, ``z`` at offsets 0, 4, 8 (what RViz and Foxglove need to draw it: the
-sensor_msgs point_cloud2 convention); the table's own fields follow. Each layout has one home,
-its typed record: ``records.slam.SlamScan``, ``records.rfid.RfidPhase``, ``records.idsq.IdsqBelief``
-and ``convert.layout_to_pointcloud2`` (``/idsq/layout``).
+Point clouds (``CLOUD_XYZ``; ``track_msgs_py.clouds``). Every ``PointCloud2`` we publish starts
+with float32 ``x``, ``y``, ``z`` at offsets 0, 4, 8, which RViz and Foxglove need to draw it (the
+sensor_msgs point_cloud2 convention); the table's own fields follow. Each cloud's fields are
+defined by its typed record: ``records.slam.SlamScan``, ``records.rfid.RfidPhase``,
+``records.idsq.IdsqBelief``, and ``records.idsq.layout_to_pointcloud2`` for ``/idsq/layout``.
 
 ``track_msgs_py.display`` checks both conventions on a message; ``track-bag-check BAG`` on a recording.
 """

@@ -5,13 +5,13 @@ run first and return one line naming the field (``"pose.covariance: covariance i
 semi-definite (smallest eigenvalue -3)"``), or ``None`` when the message is usable. The node
 logs the reason, counts the drop and goes on.
 
-What is checked (the fields ``convert`` reads, see its table):
+What is checked (the fields ``track_msgs_py.odometry`` reads, see its table):
 
 - ``header.frame_id`` is in the caller's set of known frames; ``header.stamp.nanosec`` < 1e9;
 - every number read is finite (positions, orientation, velocities, all 36 covariance entries);
 - the x/y covariance blocks are symmetric and positive semi-definite, by
   ``track_core.filters.gaussian.covariance_problem``. Only those blocks: the other diagonal
-  entries carry the planar 0 or ``NOT_ESTIMATED_VARIANCE`` (``track_msgs_py.convert``), or
+  entries carry the planar 0 or ``NOT_ESTIMATED_VARIANCE`` (``track_msgs_py.covariance``), or
   whatever another producer wrote, and are not read;
 - stamps do not go backwards per key (``StampMonotonic``); equal stamps are accepted.
 
@@ -44,7 +44,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from track_core.filters.gaussian import covariance_problem
-from track_msgs_py.convert import stamp_to_sec, xy_block
+from track_msgs_py.covariance import xy_block
+from track_msgs_py.stamps import stamp_to_sec
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,8 @@ import pytest
 from rclpy.parameter import Parameter
 
 from track_experiments.fuzz.generate import Fuzzer
-from track_msgs_py.convert import inputs_to_twist, scan_to_pointcloud2, table_to_pointcloud2
+from track_msgs_py.clouds import scan_to_pointcloud2, table_to_pointcloud2
+from track_msgs_py.odometry import inputs_to_twist
 from track_nodes.slam.slam import SlamNode
 
 pytestmark = pytest.mark.integration

@@ -12,14 +12,9 @@ from geometry_msgs.msg import PoseWithCovarianceStamped
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import PointCloud2, PointField
 
-from track_msgs_py.convert import (
-    cv_state_to_odometry,
-    pose_to_odometry,
-    position_to_pose_cov,
-    scan_to_pointcloud2,
-    table_to_pointcloud2,
-)
+from track_msgs_py.clouds import scan_to_pointcloud2, table_to_pointcloud2
 from track_msgs_py.display import cloud_xyz_problem, display_problems, planar_covariance_problem
+from track_msgs_py.odometry import cv_state_to_odometry, pose_to_odometry, position_to_pose_cov
 
 X = np.array([1.0, 0.5, -2.0, 0.25])
 P = np.diag([4.0, 1.0, 9.0, 0.5])
@@ -65,8 +60,7 @@ def test_every_old_cloud_layout_fails_the_cloud_check(name):
 def test_new_clouds_pass_and_a_wrong_type_or_offset_fails():
     from track_core.idsq import SensorLayout
     from track_core.rfid.signal import PhaseStream
-    from track_msgs_py.convert import layout_to_pointcloud2
-    from track_msgs_py.records.idsq import IdsqBelief
+    from track_msgs_py.records.idsq import IdsqBelief, layout_to_pointcloud2
     from track_msgs_py.records.rfid import RfidPhase
 
     stream = PhaseStream(ONES, ONES, ONES, xy=np.zeros((3, 2)))

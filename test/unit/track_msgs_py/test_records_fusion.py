@@ -6,7 +6,7 @@ import re
 
 import pytest
 
-from track_msgs_py.convert import DIAG_OK, diagnostic_status
+from track_msgs_py.diagnostics import DIAG_OK, diagnostic_status
 from track_msgs_py.records import RecordError, diagnostic_values
 from track_msgs_py.records.fusion import AisTruthEntry, FusionPairScore, pair_name, split_pair_name
 

@@ -130,7 +130,7 @@ def test_phase_cloud_has_the_reads_positions_first_and_round_trips():
 def test_phase_cloud_without_a_field_is_refused_in_one_line():
     import numpy as np
 
-    from track_msgs_py.convert import table_to_pointcloud2
+    from track_msgs_py.clouds import table_to_pointcloud2
     from track_msgs_py.records.rfid import RfidPhase
 
     old = table_to_pointcloud2(1.0, 'rfid_reader', {k: np.ones(2) for k in ('t', 'phase', 'rssi', 'carrier_mhz')})

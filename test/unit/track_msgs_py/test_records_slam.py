@@ -6,15 +6,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from track_msgs_py.convert import (
-    diagnostic_array,
-    diagnostic_status,
-    pointcloud2_to_table,
-    stamp_to_sec,
-    table_to_pointcloud2,
-)
+from track_msgs_py.clouds import pointcloud2_to_table, table_to_pointcloud2
+from track_msgs_py.diagnostics import diagnostic_array, diagnostic_status
 from track_msgs_py.records import DIAG_OK, DIAG_WARN, RecordError, diagnostic_values
 from track_msgs_py.records.slam import SlamEvent, SlamMode, SlamScan
+from track_msgs_py.stamps import stamp_to_sec
 
 MODE = SlamMode('PF', 120, 960, 23, 2, 4, 7, 1, 0, 3)
 

@@ -5,8 +5,8 @@ import math
 import pytest
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, ReliabilityPolicy
 
-from track_msgs_py.convert import stamp_to_sec
 from track_msgs_py.qos import qos_for_topic
+from track_msgs_py.stamps import stamp_to_sec
 from track_msgs_py.tf import (
     TF,
     TF_QOS,

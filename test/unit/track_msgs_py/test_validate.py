@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from rclpy.serialization import deserialize_message, serialize_message
 
-from track_msgs_py.convert import cv_state_to_odometry, position_to_pose_cov
+from track_msgs_py.odometry import cv_state_to_odometry, position_to_pose_cov
 from track_msgs_py.topics import KNOWN_FRAMES
 from track_msgs_py.validate import StampMonotonic, odometry_problem, pose_cov_problem
 
@@ -47,7 +47,8 @@ def test_unused_diagonal_entries_still_validate():
 
 def test_our_estimates_pass_the_input_policy():
     """Issue 19: every covariance our converters write passes the policy of the nodes that read it."""
-    from track_msgs_py.convert import NOT_ESTIMATED_VARIANCE, pose_to_odometry
+    from track_msgs_py.covariance import NOT_ESTIMATED_VARIANCE
+    from track_msgs_py.odometry import pose_to_odometry
     from track_msgs_py.validate import odometry_bounds_problem, pose_cov_bounds_problem, variance_problem
 
     idsq = cv_state_to_odometry(1.0, X, np.diag([4.0, NOT_ESTIMATED_VARIANCE, 9.0, NOT_ESTIMATED_VARIANCE]), 'map')

@@ -8,7 +8,8 @@ from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 from std_msgs.msg import String
 
-from track_msgs_py.convert import cv_state_to_odometry, scan_to_pointcloud2, table_to_pointcloud2
+from track_msgs_py.clouds import scan_to_pointcloud2, table_to_pointcloud2
+from track_msgs_py.odometry import cv_state_to_odometry
 from track_nodes.bag.check import check_bag, main
 
 

@@ -11,17 +11,11 @@ import pytest
 from rclpy.serialization import deserialize_message
 from rosbags.rosbag2 import Reader
 
-from track_msgs_py.convert import (
-    ellipse_points,
-    inputs_to_twist,
-    odometry_to_pose,
-    pointcloud2_to_table,
-    pose_to_odometry,
-    stamp_to_ns,
-    stamp_to_sec,
-    twist_to_inputs,
-)
+from track_msgs_py.clouds import pointcloud2_to_table
+from track_msgs_py.markers.ellipses import ellipse_points
 from track_msgs_py.markers.slam import map_markers
+from track_msgs_py.odometry import inputs_to_twist, odometry_to_pose, pose_to_odometry, twist_to_inputs
+from track_msgs_py.stamps import stamp_to_ns, stamp_to_sec
 from track_msgs_py.topics import FRAME_GPS, FRAME_MAP, SLAM_GPS, SLAM_INPUTS, SLAM_SCAN, TF_STATIC, TOPICS
 from track_nodes.bag import dataset
 from track_nodes.bag.api import msg_class, qos_is_transient_local
@@ -168,7 +162,7 @@ def test_inputs_twist_round_trip():
     assert twist_to_inputs(inputs_to_twist(0.973, 2.5, -0.31)) == (0.973, 2.5, -0.31)
 
 
-def test_batched_ellipses_equal_convert_ellipse_points():
+def test_batched_ellipses_equal_checked_ellipse_points():
     from track_core.filters import ellipse_points as ellipses
 
     rng = np.random.default_rng(3)

@@ -69,7 +69,7 @@ import numpy as np
 from track_core.ais.sources import SourceReports
 from track_core.geofeasibility.ellipse import gaussian_to_ellipse
 from track_core.geofeasibility.scores import score
-from track_core.geofeasibility.track import MEANS
+from track_core.geofeasibility.track import MEANS, THRESHOLD
 
 GATED_METHODS = ('exact', 'glr_thresholded', 'mc')
 
@@ -146,7 +146,7 @@ class PairTable:
             g[idx] = score(a.mu[ia], a.R[ia], b.mu[ib], b.R[ib], method, n_samples=n_samples, rng=rng)
         return np.clip(g, 0.0, 1.0), int(idx.size)
 
-    def decide(self, g: np.ndarray, *, window: int = 1, mean: str = 'geometric', threshold: float = 0.5,
+    def decide(self, g: np.ndarray, *, window: int = 1, mean: str = 'geometric', threshold: float = THRESHOLD,
                one_to_one: bool = False, prior_weight: float = 0.0, prior_rate: float = 0.8) -> PairDecisions:
         """Windowed track scores and same-ship decisions per track pair (see the module docstring)."""
         _check_rule(window, mean)
@@ -298,7 +298,7 @@ class StreamingDecisions:
         sn[pk] += table.counts
         return np.where(run_z > 0, 0.0, np.clip(v, 0.0, 1.0))
 
-    def decide(self, window: int | None = 1, mean: str = 'geometric', threshold: float = 0.5, *,
+    def decide(self, window: int | None = 1, mean: str = 'geometric', threshold: float = THRESHOLD, *,
                one_to_one: bool = False, prior_weight: float = 0.0, prior_rate: float = 0.8) -> PairDecisions:
         key = (window, mean)
         if (key, threshold) not in self.k:

@@ -39,6 +39,7 @@ from track_core.fusion.schedule import StampSchedule
 from track_core.fusion.tracks import TrackReport, TrackTable
 from track_core.geofeasibility import PairWindows, ScoreWindow, check_pairs, gated_score, score
 from track_core.geofeasibility.gate import GATED_METHODS
+from track_core.geofeasibility.track import THRESHOLD
 
 METHODS = ('exact', 'glr', 'glr_thresholded', 'mc')
 _STRIDE = np.int64(1) << 31   # pair key = slot(a) · 2³¹ + slot(b)
@@ -114,7 +115,7 @@ class Instant:
 
 
 class PairAssociator:
-    def __init__(self, method: str = 'exact', threshold: float = 0.5, combine: str = 'geometric',
+    def __init__(self, method: str = 'exact', threshold: float = THRESHOLD, combine: str = 'geometric',
                  window: int = 10, *, n_samples: int = 500, same_source_pairs: bool = False,
                  stale_after: float = 2.0, max_prediction: float = 10.0, q_s: float = 0.0, seed: int = 0,
                  stamp_rate: float | None = None, gate: bool = True) -> None:

@@ -24,6 +24,8 @@ import numpy as np
 from track_core.geofeasibility.scores import score
 
 MEANS = ('harmonic', 'geometric')
+#: a pair whose combined score reaches this is taken as one ship (the default of every decision rule)
+THRESHOLD = 0.5
 
 
 def combine_scores(scores, mean: str = 'harmonic') -> float:

@@ -33,29 +33,21 @@ handoff (version 3) carries the whole joint: 6 + 8 bytes per stored (hypothesis,
 
 The switching is a manoeuvre *rate*: ``bank_switch`` (0.1) is the probability per ``bank_switch_dt``
 (0.5 s, the §5.1 step it was set for), so a step of Δt switches with q = 1 − (1 − 0.1)^(Δt/0.5 s)
-(``TrackerParams.switch_per_step``): 0.1 in Table 4 (unchanged), 0.19 at the maritime Δt = 1 s.
-Earlier versions used 0.1 per step whatever Δt, i.e. half the rate at 1 s, and that is
-what made the maritime network overconfident: the bank then collapses onto one lattice velocity
-(seed 2, t = 9-14 s: 83 % on (0, +10) m/s while the target sailed (1.7, 8.8) m/s), runs ahead of the
-target with a 3-6 m spread and a 10-13 m error. Measured on the maritime seeds 1-5 (offline replay
-of the recorded truths, bit-identical to the launcher): belief NEES > 6 at 6 / 6 / 0 / 0 / 0 % of the
-steps with 0.1 per step, 0 % on every seed at 0.19 (0.05 per step: 9 / 9 / 12 / 0 / 0 %); the true
-pair then holds on seed 2 at 84 % instead of 74 %, for 1.1-1.7x the bytes per handoff.
+(``TrackerParams.switch_per_step``): 0.1 in Table 4, 0.19 at the maritime Δt = 1 s. A fixed
+probability per step would halve the rate at Δt = 1 s, and the bank then collapses onto one lattice
+velocity and runs ahead of a manoeuvring target, overconfident.
 
-Choice (measured; no parameter fitted to a result, the values are set by the arguments above):
+Which prediction (the figures are in ``docs/results/idsq.md`` and ``docs/results/maritime.md``;
+no parameter was fitted to a result):
 
-- §5.1 simulation (Table 4, 20 runs, seed 0, K = 24 / 40 / 64): see ``idsq-table4`` and the
-  top-level README; both velocity-aware predictions remove most of the lag.
-- Maritime scenario (seeds 1-5, and 6-10 as a held-out check; top-level README), with the 60 m
-  radio range (``track_nodes.launch.generate``) and the switching rate above: the bank keeps the
-  true sonar|network pair associated at ≥ 95 % of the instants after convergence on 9 of the 10
-  seeds (seed 3: 90.3 %), the drift on 8 (seed 2: 83.9 %, seed 7: 93.5 %), at similar RTAMS
-  (bank 6.0-10.3 m, drift 5.9-10.7 m); the bank costs 3-8× the drift's bytes per handoff. The
-  maritime scenario uses the bank (the issue's goal is the association); ``drift`` stays
-  selectable for a network where the bytes matter more.
+- §5.1 simulation (``idsq-table4``): both velocity-aware predictions remove most of the lag of the
+  paper's diffusion.
+- Maritime scenario: the bank keeps the true sonar|network pair associated more often than the
+  drift, at similar error, for several times the drift's bytes per handoff; the maritime scenario
+  uses the bank (the association is its goal), and ``drift`` stays selectable for a network
+  where the bytes matter more.
 - ``drift_speed`` (m/s) bounds |v − v̂| over one step; default v_max (the paper's disk, only its
-  centre moves). 7.5 m/s was better on the straight §5.1 track (5 runs) but not on the
-  maritime seeds 1-2 (evading target), so the default was not changed.
+  centre moves).
 """
 
 from __future__ import annotations

@@ -2,10 +2,9 @@
 
 Why: every matrix product of the CEKF scan update is small (n_A ≈ 300 × 2k ≈ 12), yet large
 enough for OpenBLAS to split it across threads. On a machine whose cores are busy with other
-processes the worker threads spin-wait for each other, and one 300 × 12 solve took 26 ms
-instead of 0.1 ms: the Victoria Park run went from ~10 s to ~95 s per 300 s of data. With one
-BLAS thread the whole run is compute-bound and predictable. (Measured on a 2-core machine at
-load ≈ 9; on an idle machine the difference is small.)
+processes the worker threads spin-wait for each other, and a small solve becomes two orders of
+magnitude slower. With one BLAS thread the whole run is compute-bound and predictable; on an
+idle machine the difference is small.
 
 How: the process-wide thread count of every OpenBLAS library already loaded (numpy's and
 scipy's wheels each bundle one; their ``set_num_threads`` symbols carry ``scipy_`` prefixes

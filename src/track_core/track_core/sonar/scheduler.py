@@ -54,6 +54,8 @@ METRICS = ('spectral', 'excess')
 BLOCKS = ('full', 'position')
 COV_KINDS = ('posterior', 'predicted')
 P_D_UNITS = ('variance', 'std')
+#: δ of eq. 7, Table 1 (the default of every scheduler, tracker and of the sonar_observer node)
+DELTA = 5.0
 DEFAULT_P_D = np.diag([5.0, 0.25, 5.0, 0.25])
 POS = [0, 2]
 
@@ -126,7 +128,7 @@ class CovarianceScheduler:
     ``next_mode`` is the mode to use at the coming step (ACTIVE before the first step).
     """
 
-    def __init__(self, P_D: np.ndarray | None = None, delta: float = 5.0,
+    def __init__(self, P_D: np.ndarray | None = None, delta: float = DELTA,
                  first: SensorMode | str = SensorMode.ACTIVE, metric: str = 'spectral', *,
                  block: str = 'full', cov_kind: str = 'posterior', params: SonarParams | None = None) -> None:
         if metric not in METRICS:

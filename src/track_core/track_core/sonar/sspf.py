@@ -20,29 +20,19 @@ i.e. from the particle itself; the covariance attached to the particle is not st
   the whole prior, i.e. exactly the UKF peer (``ukf.UKFTracker``; tested).
 - ``proposal='transition'``: the particle is a point, P_kⁱ = 0, so the linear prediction gives
   N(F x_kⁱ, Q) and the UKF update approximates the locally optimal proposal
-  p(x_{k+1} | x_kⁱ, z_{k+1}). The weights p(z|x)p(x|x_prev)/q(x) stay nearly uniform. (Default
-  of earlier versions.)
+  p(x_{k+1} | x_kⁱ, z_{k+1}). The weights p(z|x)p(x|x_prev)/q(x) stay nearly uniform.
 - ``proposal='propagated'``: each particle carries its UKF posterior covariance P_{k+1}ⁱ to the
   next step, but the particle itself is the sample and the weight uses p(x|x_prev) = N(F x_prev, Q):
   the proposal is much wider than that transition (position var. ≈ q_s T³/3), so the weights
   degenerate (ESS of a few particles); kept for comparison.
 
-Why the point-particle filter degenerated and was overconfident (measured on Table 2's
-scenario, M = 20–50): with P_kⁱ = 0 the cloud's covariance is the only uncertainty the filter
-has, and at N = 200 it is a Monte-Carlo estimate that misses the error of the particle mean; the
-velocity is learnt only through selection, so the particles' histories coalesce. ANEES 5.1–9.3
-(band [2.86, 5.33] at M = 20), about half the steps inside, and on seed 11 run 16 (δ = 50) the
-filter drifts 69 m while the cloud shrinks to one particle (smallest eigenvalue 8e-32 m²). The cause is
-the point representation itself, not the weight formula (checked against brute-force densities)
-nor the regularisation, so the fix is at the representation: with 'rb' the within-particle
-covariances Pⁱ carry the uncertainty analytically. Measured (M = 20, seed 0): AcPF ANEES 3.77,
-SS-PF δ = 50 3.66, PaPF 4.05, all steps or nearly all inside; the same run's point-particle figures
-are 5.06, 9.26, 5.28. Variants of 'rb' tried (M = 30, seed 3): b = 0.1, 0.25, 0.5, resampling at every
-step or at ESS < N/2, with and without the Liu–West move: all within ±0.13 m of each other and of the
-UKF at equal pings (standard errors 0.01–0.14 m), so the defaults are kept. Tempering and adaptive
-roughening were not tried: with 'rb' no degeneracy is left for them to fix (no repair needed, ANEES
-in band), and the predictive likelihood's S already contains each particle's own P, so a sharp
-active fix after passive steps is tempered by construction.
+Why 'rb' is the default: with point particles (P_kⁱ = 0) the cloud's covariance is the only
+uncertainty the filter has; at N = 200 it misses the error of the particle mean and the particles'
+histories coalesce, so the filter is overconfident (ANEES above its χ² band) and can shrink to one
+particle. The cause is the point representation, not the weight formula, so 'rb' carries the
+uncertainty analytically in the within-particle covariances Pⁱ; its split b, the resampling rule and
+the Liu–West move change the error by no more than their standard errors. The measured ANEES and
+errors are in ``docs/results/sonar.md``.
 
 Collapse. 'rb' cannot collapse: each Pⁱ is a UKF posterior of a prediction ≥ Q, so Cov ≥ min Pⁱ > 0
 whatever the weights (smallest eigenvalue ≥ 0.1 m² in the tests). For the point-particle proposals
@@ -92,7 +82,7 @@ from track_core.filters import (
 )
 from track_core.filters.unscented import UnscentedWeights
 from track_core.sonar.models import SensorMode, SonarParams, measure, residual
-from track_core.sonar.scheduler import CovarianceScheduler, FixedScheduler
+from track_core.sonar.scheduler import DELTA, CovarianceScheduler, FixedScheduler
 from track_core.sonar.smart_target import SmartTargetParams, evasive_transition
 
 log = logging.getLogger(__name__)
@@ -429,7 +419,7 @@ def make_tracker(
     rng: np.random.Generator | None = None,
     *,
     P_D: np.ndarray | None = None,
-    delta: float = 5.0,
+    delta: float = DELTA,
     metric: str = 'spectral',
     proposal: str = 'rb',
     resample_threshold: float = 1.0,

@@ -27,7 +27,7 @@ from track_core.filters import (
     wrap_angle,
 )
 from track_core.sonar.models import SensorMode, SonarParams, measure, residual
-from track_core.sonar.scheduler import CovarianceScheduler, FixedScheduler
+from track_core.sonar.scheduler import DELTA, CovarianceScheduler, FixedScheduler
 from track_core.sonar.sspf import TRACKERS, SonarEstimate
 
 
@@ -154,7 +154,7 @@ class StoneSoupUKF:
 FILTERS = ('pf', 'ukf', 'stonesoup-ukf')
 
 
-def make_ukf(kind: str, params: SonarParams | None = None, *, peer: str = 'ukf', P_D=None, delta: float = 5.0,
+def make_ukf(kind: str, params: SonarParams | None = None, *, peer: str = 'ukf', P_D=None, delta: float = DELTA,
              metric: str = 'spectral', block: str = 'full', cov_kind: str = 'posterior'):
     """'ss-pf'/'papf'/'acpf' scheduling on a UKF: ``peer='ukf'`` (ours) or 'stonesoup-ukf'."""
     p = params or SonarParams()

@@ -107,6 +107,7 @@ from track_core.ais.sources import (
     simulate_source,
 )
 from track_core.geofeasibility.scores import METHODS
+from track_core.geofeasibility.track import THRESHOLD
 from track_experiments.cli import Outcome, RunConfig, format_table, set_keys, unknown_keys_problem
 from track_experiments.plotting import pyplot
 
@@ -133,7 +134,7 @@ class Settings:
 
     window: int = 1
     mean: str = 'geometric'
-    threshold: float = 0.5
+    threshold: float = THRESHOLD
     n_samples: int = 500
     tol: float = 1e-3
     gate: bool = True

@@ -50,7 +50,7 @@ def _publisher(domain: int, mu: np.ndarray, R: np.ndarray, seconds: float, seed:
     from rclpy.context import Context
     from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-    from track_msgs_py.convert import position_to_pose_cov
+    from track_msgs_py.odometry import position_to_pose_cov
     from track_msgs_py.topics import FRAME_MAP, track_frame_id
 
     context = Context()

@@ -13,7 +13,8 @@ from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
 from track_core.fusion import Instant
-from track_msgs_py.convert import covariance_ellipse_markers, sec_to_stamp
+from track_msgs_py.markers.ellipses import covariance_ellipse_markers
+from track_msgs_py.stamps import sec_to_stamp
 from track_msgs_py.topics import FRAME_MAP
 
 TRACKS_NS, LINKS_NS = 'fusion_tracks', 'fusion_links'

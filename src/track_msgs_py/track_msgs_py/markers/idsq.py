@@ -9,7 +9,8 @@ from geometry_msgs.msg import Point
 from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
-from track_msgs_py.convert import covariance_ellipse_marker, sec_to_stamp
+from track_msgs_py.markers.ellipses import covariance_ellipse_marker
+from track_msgs_py.stamps import sec_to_stamp
 from track_msgs_py.topics import FRAME_MAP
 
 if TYPE_CHECKING:

@@ -8,7 +8,7 @@ from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
 from track_core.filters import ellipse_points
-from track_msgs_py.convert import sec_to_stamp
+from track_msgs_py.stamps import sec_to_stamp
 from track_msgs_py.topics import FRAME_MAP
 
 
@@ -16,7 +16,7 @@ def map_markers(t: float, lm: np.ndarray, covs: np.ndarray, frame_id: str = FRAM
                 n_points: int = 24) -> MarkerArray:
     """The /slam/map message: DELETEALL, the means as one SPHERE_LIST (ns ``slam_landmarks``, id 0) and one
     LINE_STRIP 2σ ellipse per landmark (ns ``slam_ellipses``, id = landmark index), like
-    ``convert.covariance_ellipse_marker`` but built for the whole map at once (batched ellipses, no
+    ``ellipses.covariance_ellipse_marker`` but built for the whole map at once (batched ellipses, no
     per-landmark covariance check: the filter's covariances are symmetric positive definite)."""
     header = Header(stamp=sec_to_stamp(t), frame_id=frame_id)
     markers = [Marker(header=header, action=Marker.DELETEALL)]

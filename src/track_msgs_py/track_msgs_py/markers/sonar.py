@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from visualization_msgs.msg import MarkerArray
 
-from track_msgs_py.convert import covariance_ellipse_marker
+from track_msgs_py.markers.ellipses import covariance_ellipse_marker
 from track_msgs_py.topics import FRAME_MAP
 
 _POS = [0, 2]  # x, y of the CV state [x, vx, y, vy]

@@ -26,7 +26,7 @@ value, so a node can refuse the message with that one line.
 
 A layout carried in ``sensor_msgs/PointCloud2`` fields is a record too (a frozen dataclass of
 arrays with ``to_msg``/``from_msg``: ``slam.SlamScan``, ``rfid.RfidPhase``, ``idsq.IdsqBelief``).
-Every one we publish starts with float32 x, y, z (``convert.points_to_pointcloud2``);
+Every one we publish starts with float32 x, y, z (``clouds.points_to_pointcloud2``);
 ``read_cloud`` reads one back with the same one-line ``RecordError``.
 """
 
@@ -42,9 +42,10 @@ from typing import Any, ClassVar, Self
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 
-from track_msgs_py.convert import pointcloud2_to_table
-
-DIAG_OK, DIAG_WARN, DIAG_ERROR, DIAG_STALE = 0, 1, 2, 3
+from track_msgs_py.clouds import pointcloud2_to_table
+from track_msgs_py.diagnostics import DIAG_ERROR as DIAG_ERROR  # the levels, re-exported for the records
+from track_msgs_py.diagnostics import DIAG_OK, DIAG_STALE
+from track_msgs_py.diagnostics import DIAG_WARN as DIAG_WARN
 
 
 class RecordError(ValueError):
@@ -52,7 +53,7 @@ class RecordError(ValueError):
 
 
 def read_cloud(kind: str, msg, required: tuple[str, ...]) -> dict[str, np.ndarray]:
-    """The columns of a ``PointCloud2`` (``convert.pointcloud2_to_table``), x, y, z included; ``RecordError``
+    """The columns of a ``PointCloud2`` (``clouds.pointcloud2_to_table``), x, y, z included; ``RecordError``
     naming ``kind`` when the cloud does not decode or a ``required`` field is missing or has count > 1."""
     try:
         table = pointcloud2_to_table(msg)

@@ -27,8 +27,9 @@ from sensor_msgs.msg import PointCloud2
 
 from track_core.rfid.protocol import Command, CommandKind, StepResult
 from track_core.rfid.signal import PhaseStream
-from track_msgs_py.convert import points_to_pointcloud2, stamp_to_sec
+from track_msgs_py.clouds import points_to_pointcloud2
 from track_msgs_py.records import RecordError, StatusRecord, read_cloud
+from track_msgs_py.stamps import stamp_to_sec
 from track_msgs_py.topics import FRAME_MAP
 
 KINDS = tuple(k.value for k in CommandKind)

@@ -6,10 +6,10 @@
   OK for PF → CEKF, WARN otherwise; message e.g. ``CEKF -> PF``) with the pose after the scan of
   the switch;
 - ``SlamScan``: one laser scan as a ``PointCloud2`` table: float32 ``x``, ``y``, ``z`` (the detection
-  in the laser frame, x ahead and y left: ``convert.scan_points``, z = 0; for the viewers, never
+  in the laser frame, x ahead and y left: ``clouds.scan_points``, z = 0; for the viewers, never
   read back), then float32 ``range``, ``bearing``, ``diameter`` and any extra column such as
-  slam_sim's ``landmark``; built by ``convert.scan_to_pointcloud2`` and read by
-  ``convert.pointcloud2_to_table``.
+  slam_sim's ``landmark``; built by ``clouds.scan_to_pointcloud2`` and read by
+  ``clouds.pointcloud2_to_table``.
 
 The ``slam`` node writes them, ``slam_sim`` writes scans, and the summary and the tests read them.
 """
@@ -24,8 +24,10 @@ import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from sensor_msgs.msg import PointCloud2
 
-from track_msgs_py.convert import cloud_columns, diagnostic_array, scan_to_pointcloud2, stamp_to_sec
+from track_msgs_py.clouds import cloud_columns, scan_to_pointcloud2
+from track_msgs_py.diagnostics import diagnostic_array
 from track_msgs_py.records import DIAG_OK, DIAG_WARN, RecordError, StatusRecord, read_cloud
+from track_msgs_py.stamps import stamp_to_sec
 from track_msgs_py.topics import FRAME_LASER
 
 #: ``SlamEvent.event`` → the status message.

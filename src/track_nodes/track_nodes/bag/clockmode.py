@@ -22,6 +22,7 @@ import time
 from typing import Any
 
 from track_nodes.bag.take import BeforeClock
+from track_nodes.base.params import ParameterError
 
 MODES = ('auto', 'sim', 'wall')
 
@@ -35,9 +36,9 @@ class ClockChoice:
 
     def __init__(self, mode: str, use_sim_time: bool, wait: float) -> None:
         if mode not in MODES:
-            raise ValueError(f'parameter clock={mode!r}: expected one of {", ".join(MODES)}')
+            raise ParameterError(f'parameter clock={mode!r}: expected one of {", ".join(MODES)}')
         if mode == 'wall' and use_sim_time:
-            raise ValueError('parameter clock=wall contradicts use_sim_time=true: choose one')
+            raise ParameterError('parameter clock=wall contradicts use_sim_time=true: choose one')
         self.mode = 'node' if use_sim_time or mode == 'sim' else mode
         self.wait = wait
         self.latest = 0  # the last /clock value received [ns] (auto and sim)

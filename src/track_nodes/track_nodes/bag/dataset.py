@@ -75,7 +75,9 @@ def victoria_messages(vp):
     from geometry_msgs.msg import PointStamped
     from std_msgs.msg import Header
 
-    from track_msgs_py.convert import inputs_to_twist, scan_to_pointcloud2, sec_to_stamp
+    from track_msgs_py.clouds import scan_to_pointcloud2
+    from track_msgs_py.odometry import inputs_to_twist
+    from track_msgs_py.stamps import sec_to_stamp
     from track_msgs_py.tf import planar_transform, tf_message
     from track_msgs_py.topics import FRAME_GPS, FRAME_MAP, SLAM_GPS, SLAM_INPUTS, SLAM_SCAN, TF_STATIC
 
@@ -107,8 +109,8 @@ def write_bag(out: Path, messages, topics: dict[str, str]) -> dict[str, int]:
     from rosbags.rosbag2 import StoragePlugin, Writer
     from rosbags.typesys import Stores, get_typestore
 
-    from track_msgs_py.convert import stamp_to_ns
     from track_msgs_py.qos import qos_for_topic
+    from track_msgs_py.stamps import stamp_to_ns
     from track_nodes.bag.api import qos_to_rosbags
 
     ts = get_typestore(Stores.ROS2_JAZZY)

@@ -45,6 +45,7 @@ import sys
 import threading
 import time
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 from rclpy.clock import Clock as RosClock
@@ -56,7 +57,7 @@ from rosgraph_msgs.msg import Clock
 
 from track_nodes.bag.api import BagError, msg_class, open_bag_checked, qos_is_transient_local
 from track_nodes.bag.playcheck import plan_playback
-from track_nodes.base import Param, ParameterError, TrackNode, declare_params, run_node
+from track_nodes.base import ParameterError, TrackNode, param, run_node
 from track_nodes.base.cli import OneLineParser, cli_overrides
 from track_nodes.base.ready import Announced
 
@@ -66,15 +67,22 @@ SETTLE = 0.5  # wall seconds after all subscriptions matched (the subscribers' s
 READY_WAIT = 30.0  # [wall s] for a subscribed TrackNode to announce itself (base/ready.py: it listens first)
 ACK_TIMEOUT = 2.0
 
-BAG_PARAM = Param('bag', '', "bag directory or .mcap file (a name without '/' → bags/<name>/)")
-PARAMS = (
-    Param('rate', 1.0, 'playback speed factor (2 = twice as fast)', 1e-6, 1e6),
-    Param('loop', False, 'start again at the end, forever'),
-    Param('topics', [''], 'topics to play (empty: all)'),
-    Param('start_offset', 0.0, 'skip this much bag time from the first message [s]', 0.0, 1e9),
-    Param('wait_subscribers', 2.0, 'wait up to this long for a subscription on every topic [s]', 0.0, 3600.0),
-    Param('clock_period', 0.01, 'wall interval between /clock messages between bag messages [s]', 1e-3, 10.0),
-)
+
+@dataclass
+class PlayerParams:
+    """Parameters of ``player``; a bad one is reported with the bag it was given for."""
+
+    bag: str = param('', "bag directory or .mcap file (a name without '/' → bags/<name>/)")
+    rate: float = param(1.0, 'playback speed factor (2 = twice as fast)', 1e-6, 1e6)
+    loop: bool = param(False, 'start again at the end, forever')
+    topics: list[str] = param([''], 'topics to play (empty: all)')
+    start_offset: float = param(0.0, 'skip this much bag time from the first message [s]', 0.0, 1e9)
+    wait_subscribers: float = param(2.0, 'wait up to this long for a subscription on every topic [s]', 0.0, 3600.0)
+    clock_period: float = param(0.01, 'wall interval between /clock messages between bag messages [s]', 1e-3, 10.0)
+
+    @staticmethod
+    def error_context(values) -> str | None:
+        return str(resolve_bag(values['bag'])) if values.get('bag') else None
 
 
 def resolve_bag(text: str) -> Path:
@@ -97,6 +105,7 @@ def _stamp(ns: int):
 
 class PlayerNode(TrackNode):
     DEFAULT_NAME = 'player'
+    Params = PlayerParams
 
     def __init__(self, exit_when_done: bool = False, **kw) -> None:
         super().__init__(**kw)
@@ -105,15 +114,9 @@ class PlayerNode(TrackNode):
         self.done = threading.Event()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
-        bag_text = declare_params(self, [BAG_PARAM]).bag
-        if not bag_text:
-            raise ValueError('no bag given: track-play BAG (or -p bag:=BAG)')
-        self.path = resolve_bag(bag_text)
-        try:
-            p = declare_params(self, PARAMS)
-        except ParameterError as exc:
-            raise ParameterError(f'{self.path}: {exc}') from None
-        self.p = p
+        if not self.p.bag:
+            raise ParameterError('no bag given: track-play BAG (or -p bag:=BAG)')
+        self.path = resolve_bag(self.p.bag)
         self.reader = open_bag_checked(self.path)
         try:
             self._setup()

@@ -44,6 +44,7 @@ from __future__ import annotations
 import sys
 import threading
 from collections.abc import Sequence
+from dataclasses import dataclass
 from datetime import datetime
 
 from rclpy.clock import Clock, ClockType
@@ -57,28 +58,31 @@ from track_nodes.bag.durable import open_bag
 from track_nodes.bag.loss import LossCounter, summary_line
 from track_nodes.bag.selection import TopicFilter
 from track_nodes.bag.take import can_take, take_pending
-from track_nodes.base import Param, TrackNode, run_node
+from track_nodes.base import TrackNode, param, run_node
 from track_nodes.base.cli import OneLineParser, cli_overrides
 
 TAKE_LIMIT = 1000  # messages taken per callback beyond the one the executor delivered
 CLOCK_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)  # matches any /clock publisher
 
-PARAMS = (
-    Param('bag', '', "bag name (→ bags/<name>/) or a path containing '/'; empty: rosbag2_<timestamp>"),
-    Param('topics', [''], 'topics to record (empty: only those matching regex, or all)'),
-    Param('regex', '', 'record every topic matching this regular expression (re.search)'),
-    Param('tf', True, 'also record /tf and /tf_static when topics or regex select other topics'),
-    Param('discovery_period', 0.1, 'interval between graph polls for new topics [s]', 0.01, 60.0),
-    Param('flush_period', 1.0, 'interval between flushes of the pending data to the file [s]', 0.01, 3600.0),
-    Param('warn_throttle', 5.0, 'at most one warning about lost messages per this many seconds [s]', 0.0, 3600.0),
-    Param('clock', 'auto', "stamps: 'auto' (sim time if /clock is published, else wall time), 'sim' or 'wall'"),
-    Param('clock_wait', 2.0, "clock 'auto': wall time if no /clock this long after the first message [s]", 0.0, 60.0),
-)
+@dataclass
+class RecorderParams:
+    """Parameters of ``recorder``."""
+
+    bag: str = param('', "bag name (→ bags/<name>/) or a path containing '/'; empty: rosbag2_<timestamp>")
+    topics: list[str] = param([''], 'topics to record (empty: only those matching regex, or all)')
+    regex: str = param('', 'record every topic matching this regular expression (re.search)')
+    tf: bool = param(True, 'also record /tf and /tf_static when topics or regex select other topics')
+    discovery_period: float = param(0.1, 'interval between graph polls for new topics [s]', 0.01, 60.0)
+    flush_period: float = param(1.0, 'interval between flushes of the pending data to the file [s]', 0.01, 3600.0)
+    warn_throttle: float = param(5.0, 'at most one warning about lost messages per this many seconds [s]', 0.0, 3600.0)
+    clock: str = param('auto', "stamps: 'auto' (sim time if /clock is published, else wall time), 'sim' or 'wall'")
+    clock_wait: float = param(2.0, "clock 'auto': wall time if no /clock this long after the first message [s]",
+                              0.0, 60.0)
 
 
 class RecorderNode(TrackNode):
     DEFAULT_NAME = 'recorder'
-    PARAMS = PARAMS
+    Params = RecorderParams
 
     def setup(self) -> None:
         self._writer = self._bag = None

@@ -6,6 +6,7 @@ import re
 from collections.abc import Sequence
 
 from track_msgs_py.topics import READY, TF, TF_STATIC
+from track_nodes.base.params import ParameterError
 
 EXCLUDED_BY_DEFAULT = ('/rosout', '/parameter_events', READY)  # READY: the nodes' start-up announcements
 TF_TOPICS = (TF, TF_STATIC)  # recorded whatever the filter, unless tf is false
@@ -19,7 +20,7 @@ class TopicFilter:
         try:
             self.regex = re.compile(regex) if regex else None
         except re.error as exc:
-            raise ValueError(f'parameter regex={regex!r} is not a valid regular expression: {exc}') from None
+            raise ParameterError(f'parameter regex={regex!r} is not a valid regular expression: {exc}') from None
         if self.regex is None and not self.explicit:
             self.regex = re.compile('')  # everything
         self.tf = tf

@@ -1,16 +1,14 @@
 """Taking every message a subscription holds in one callback: the recorder's batching.
 
 rclpy's executors deliver one message per callback, and each delivery costs a pass of the
-executor (wait set, ready list, task): on the SingleThreadedExecutor ~170 µs here (a bare raw
-subscription took 5.8k msgs/s in ``track-bench recorder``), 25× the rosbags ``Writer``'s ~7 µs
-per message (148k/s). So when the executor calls the recorder with one message, the recorder
-takes the ones queued behind it itself, up to a limit (so the flush and discovery timers and the
-other topics still get their turn), through the subscription's own ``take_message`` (what the
-executors call; raw bytes and message info). Measured (bursts of 5000 716-B Odometry): 81k/s, 13×
-the bare subscription, 0.54 of the Writer alone. Kept the SingleThreadedExecutor: the
-EventsExecutor (bare: 184k/s) fails on message-info callbacks, which loss counting needs;
-MultiThreaded: 2.2k/s bare, 19-30k/s batched. A writer thread fed by a queue gave 76-83k/s against
-85-125k/s inline (the GIL: hand-offs, no parallel work).
+executor (wait set, ready list, task), many times what the rosbags ``Writer`` spends on a message.
+So when the executor calls the recorder with one message, the recorder takes the ones queued
+behind it itself, up to a limit (so the flush and discovery timers and the other topics still get
+their turn), through the subscription's own ``take_message`` (what the executors call; raw bytes
+and message info). It stays on the SingleThreadedExecutor: the EventsExecutor fails on
+message-info callbacks, which loss counting needs, and neither the MultiThreadedExecutor nor a
+writer thread beats taking inline under the GIL. The rates are in ``docs/results/recorder.md``
+(``track-bench recorder``).
 """
 
 from __future__ import annotations

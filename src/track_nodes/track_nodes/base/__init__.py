@@ -2,9 +2,8 @@
 
 from track_nodes.base.names import remember_args, shared_names_problem
 from track_nodes.base.node import EXIT_BAD_INPUT, TrackNode, run_node
-from track_nodes.base.params import Param, ParameterError, declare_dataclass, declare_params, vector
+from track_nodes.base.params import NoParams, ParameterError, group, param, vector
 from track_nodes.base.steps import FixedRateSteps
 
-__all__ = ['EXIT_BAD_INPUT', 'FixedRateSteps', 'Param', 'ParameterError', 'TrackNode', 'declare_dataclass',
-           'declare_params', 'remember_args', 'run_node', 'shared_names_problem',
-           'vector']
+__all__ = ['EXIT_BAD_INPUT', 'FixedRateSteps', 'NoParams', 'ParameterError', 'TrackNode', 'group', 'param',
+           'remember_args', 'run_node', 'shared_names_problem', 'vector']

@@ -2,8 +2,8 @@
 
 rclpy keeps every override that reaches a node (``-p``, ``--params-file``, ``parameter_overrides``) and
 silently ignores the ones the node never declares. ``CheckedNames``, the metaclass of ``TrackNode``,
-looks once the node is fully built (``setup`` and any declaration after it, such as the ``<prefix>.*``
-of ``declare_dataclass``), and an override that was addressed to THIS node but names no declared
+looks once the node is fully built (its ``Params``, ``setup`` and any declaration after it, such as
+the ``<prefix>.*`` of a ``group``), and an override that was addressed to THIS node but names no declared
 parameter is refused with one line and the closest declared names (``difflib``).
 
 Addressed to this node means: a ``parameter_overrides`` entry, a ``-p name:=value`` (or

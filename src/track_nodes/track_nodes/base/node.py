@@ -1,10 +1,12 @@
 """``TrackNode``, the base of every node, and ``run_node``, the ``main`` of every executable.
 
-A node subclass names itself (``DEFAULT_NAME``), lists its parameters (``PARAMS``) and, in
+A node subclass names itself (``DEFAULT_NAME``), names its parameter dataclass (``Params``,
+``base/params.py``) and, in
 ``setup()``, creates its core object and its endpoints; the base does the rest:
 
 - the standard constructor (``node_name``, ``context``, ``parameter_overrides``, ``cli_args``,
-  as the launcher and the tests call it), then ``declare_params(PARAMS)`` into ``self.p``;
+  as the launcher and the tests call it), then every field of ``Params`` declared, the checked values
+  in ``self.p`` (an instance of ``Params``);
 - ``main(argv)``: ``rclpy.init`` → build the node → spin until SIGINT, SIGTERM or SIGHUP (alike:
   ``base.signals``) or shutdown → destroy (which closes files) → exit code. A bad parameter or bad input at start
   (``ValueError``, ``OSError``) prints one line on stderr and exits 2, without a traceback.
@@ -35,12 +37,12 @@ recorder's subscriptions before it starts the clock) sees /tf before the first t
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import faulthandler
 import signal
 import sys
 import time
 from collections.abc import Callable, Sequence
-from types import SimpleNamespace
 from typing import Any, ClassVar
 
 import rclpy
@@ -52,14 +54,14 @@ from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from track_msgs_py.convert import diagnostic_array, diagnostic_status
+from track_msgs_py.diagnostics import diagnostic_array, diagnostic_status
 from track_msgs_py.records import DIAG_OK, DIAG_WARN
 from track_msgs_py.tf import TF, TF_QOS, TF_STATIC, TF_STATIC_QOS, tf_message
 from track_msgs_py.topics import DIAGNOSTICS, relative
 from track_nodes.base import ready
 from track_nodes.base.cli import params_file_problem
 from track_nodes.base.names import CheckedNames, remember_args
-from track_nodes.base.params import Param, ParameterError, declare_params
+from track_nodes.base.params import NoParams, Param, ParameterError, declare
 from track_nodes.base.refusals import RefusalCounter
 from track_nodes.base.signals import STOP_SIGNALS, spin, stop_on
 from track_nodes.base.teardown import TEARDOWN, dds_alarm
@@ -74,7 +76,7 @@ class TrackNode(Node, metaclass=CheckedNames):
     undeclared parameter addressed to it is refused once it is built (``base/names.py``)."""
 
     DEFAULT_NAME: ClassVar[str] = 'track_node'
-    PARAMS: ClassVar[tuple[Param, ...]] = ()
+    Params: ClassVar[type] = NoParams  # the node's parameter dataclass (base/params.py)
     WARN_THROTTLE: ClassVar[float] = 5.0  # seconds between two summary lines of refusals (base/refusals.py)
     DIAGNOSTICS_PERIOD: ClassVar[float] = 1.0
 
@@ -85,7 +87,7 @@ class TrackNode(Node, metaclass=CheckedNames):
                          cli_args=cli_args, **node_kwargs)
         self._specs: dict[str, Param] = {}  # every Param declared through declare_params (base/params.py)
         self._declaring: set[str] = set()
-        self.p = declare_params(self, self.PARAMS)
+        self.p = declare(self, self.Params)
         self.refusals = RefusalCounter(self.WARN_THROTTLE)
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._diagnostics = None  # publisher and timer made at the first refusal (most nodes never need them)
@@ -138,7 +140,7 @@ class TrackNode(Node, metaclass=CheckedNames):
         return self.resolve_topic_name(relative(topic))
 
     # -- parameters at run time (base/params.py) -------------------------------------------------
-    def validate_params(self, p: SimpleNamespace) -> None:
+    def validate_params(self, p: Any) -> None:
         """Cross-checks of a candidate parameter set ``p`` (all values, changes applied); raise ParameterError."""
 
     def apply_params(self, changed: set[str]) -> None:
@@ -155,7 +157,7 @@ class TrackNode(Node, metaclass=CheckedNames):
                     raise ParameterError(f'parameter {name} is read-only: set it at start')
                 spec.check(value)
             if changes:
-                self.validate_params(SimpleNamespace(**{**vars(self.p), **changes}))
+                self.validate_params(dataclasses.replace(self.p, **changes))
         except (ParameterError, ValueError) as exc:
             self.get_logger().warning(f'parameter change refused: {exc}')
             return SetParametersResult(successful=False, reason=str(exc))

@@ -1,19 +1,27 @@
-"""Declared, range-checked node parameters.
+"""Node parameters: one typed dataclass per node, declared by the node base.
 
-- ``Param`` + ``declare_params``: every parameter gets a description and, for numbers, a
-  range in its ParameterDescriptor (so ``ros2 param describe`` shows it). A value outside
-  the range, of the wrong type or not among ``choices`` raises ``ParameterError`` with one
-  line naming the parameter, the value and what is allowed.
-- ``declare_dataclass``: a core configuration dataclass as ``<prefix>.<field>`` parameters,
-  one per number, bool or number-tuple field, with the core's own checks on the result.
+A node names its parameter dataclass (``TrackNode.Params``); the base declares every field as a
+ROS parameter and puts the checked values, as an instance of that dataclass, in ``self.p``:
+
+- ``param(default, description, lo, hi, choices=, live=)``: one field. Its metadata give the
+  ParameterDescriptor (``ros2 param describe`` shows the description, the range and whether it is
+  live); a value outside the range, of the wrong type or not among ``choices`` raises
+  ``ParameterError`` with one line naming the parameter, the value and what is allowed.
+  ``default_from(values)`` computes the default from the fields declared before it (the slam
+  node's ``profile``).
+- ``group(core_dataclass)``: a core configuration dataclass as ``<field>.<name>`` parameters, one per
+  number, bool or number-tuple field, with the core's defaults and the core's own checks; the field
+  holds the core dataclass. Defaults live once, in the core.
 - ``vector``: a list parameter as a finite numpy vector of a fixed length, or one line.
 - Names: an override addressed to a node that names no parameter it declares (a typo) is refused
   once the node is built, with the closest declared names (``base/names.py``).
 
-Run time: a ``Param`` with ``live=True`` (rates, thresholds, gates) may be
-changed with ``ros2 param set``; the node base checks the new value like a start value and the
-node applies it (``TrackNode.apply_params``). Every other parameter is declared read-only, so
-``ros2 param set`` refuses it with a reason instead of answering "successful" and ignoring it.
+Run time: a field with ``live=True`` (rates, thresholds, gates) may be changed with ``ros2 param
+set``; the node base checks the new value like a start value and the node applies it
+(``TrackNode.apply_params``). Every other parameter is declared read-only, so ``ros2 param set``
+refuses it with a reason instead of answering "successful" and ignoring it.
+
+``ParameterError`` is the one error of a bad parameter, at start or at run time.
 """
 
 from __future__ import annotations
@@ -21,7 +29,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import sys
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from types import SimpleNamespace
 from typing import Any
@@ -47,6 +55,7 @@ class Param:
     hi: float | None = None
     choices: tuple[str, ...] | None = None
     live: bool = False  # may change at run time (validated, then applied by the node); else read-only
+    default_from: Callable[[Mapping[str, Any]], Any] | None = None  # default from the fields before it
 
     def allowed(self) -> str:
         if self.choices is not None:
@@ -154,3 +163,63 @@ def replace_dataclass(prefix: str, default: Any, values: dict) -> Any:
 def declare_dataclass(node: Node, prefix: str, default: Any) -> Any:
     """Declare ``default``'s fields as ``<prefix>.*`` parameters and return the dataclass they give."""
     return replace_dataclass(prefix, default, vars(declare_params(node, dataclass_params(prefix, default))))
+
+
+_PARAM = 'track_nodes.param'
+_GROUP = 'track_nodes.group'
+
+
+def param(default: Any, description: str, lo: float | None = None, hi: float | None = None, *,
+          choices: tuple[str, ...] | None = None, live: bool = False,
+          default_from: Callable[[Mapping[str, Any]], Any] | None = None) -> Any:
+    """A field of a node's parameter dataclass (see the module docstring); a list default is copied."""
+    spec = Param('', default, description, lo, hi, choices, live, default_from)
+    if isinstance(default, list):
+        return dataclasses.field(default_factory=lambda: list(default), metadata={_PARAM: spec})
+    return dataclasses.field(default=default, metadata={_PARAM: spec})
+
+
+def group(default: Callable[[], Any], *, default_from: Callable[[Mapping[str, Any]], Any] | None = None) -> Any:
+    """A field holding a core configuration dataclass, declared as ``<field>.<name>`` parameters.
+
+    ``default`` makes the core's default instance (e.g. the dataclass itself); ``default_from(values)``
+    makes it from the fields declared before this one instead."""
+    return dataclasses.field(default_factory=default, metadata={_GROUP: default_from or (lambda _: default())})
+
+
+@dataclass
+class NoParams:
+    """The parameters of a node that has none of its own."""
+
+
+def param_specs(cls: type) -> list[Param]:
+    """The ``Param`` of every ``param`` field of the parameter dataclass ``cls`` (groups left out)."""
+    return [dataclasses.replace(f.metadata[_PARAM], name=f.name) for f in dataclasses.fields(cls)
+            if _PARAM in f.metadata]
+
+
+def declare(node: Node, cls: type) -> Any:
+    """Declare the fields of the parameter dataclass ``cls`` on ``node``, in field order; return the instance.
+
+    A ``cls.error_context(values)`` (optional) names what a bad value belongs to, from the fields
+    declared before it (the player: its bag); it prefixes the error line."""
+    values: dict[str, Any] = {}
+    for f in dataclasses.fields(cls):
+        try:
+            values[f.name] = _declare_field(node, cls, f, values)
+        except ParameterError as exc:
+            where = cls.error_context(values) if hasattr(cls, 'error_context') else None
+            raise ParameterError(f'{where}: {exc}' if where else str(exc)) from None
+    return cls(**values)
+
+
+def _declare_field(node: Node, cls: type, f: dataclasses.Field, values: Mapping[str, Any]) -> Any:
+    if _GROUP in f.metadata:
+        return declare_dataclass(node, f.name, f.metadata[_GROUP](values))
+    if _PARAM not in f.metadata:
+        raise TypeError(f'{cls.__name__}.{f.name}: declare it with param() or group()')
+    spec = dataclasses.replace(f.metadata[_PARAM], name=f.name)
+    if spec.default_from is not None:
+        spec = dataclasses.replace(spec, default=spec.default_from(values))
+    value = getattr(declare_params(node, [spec]), f.name)
+    return list(value) if isinstance(value, list) else value  # never the default's own list

@@ -9,30 +9,35 @@ late timer step by step, so a seed and a ``/clock`` reproduce every payload.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from geometry_msgs.msg import PoseWithCovarianceStamped
 from nav_msgs.msg import Odometry
 
 from track_core.demo import CVTarget
-from track_msgs_py.convert import cv_state_to_odometry, position_to_pose_cov
+from track_msgs_py.odometry import cv_state_to_odometry, position_to_pose_cov
 from track_msgs_py.qos import ESTIMATE_QOS, SENSOR_QOS
 from track_msgs_py.topics import DEMO_REPORTS, DEMO_TRUTH, FRAME_MAP
-from track_nodes.base import FixedRateSteps, Param, TrackNode, vector
+from track_nodes.base import FixedRateSteps, TrackNode, param, vector
 
-PARAMS = (
-    Param('seed', 0, 'seed of the numpy Generator driving truth and report noise', 0, 2**31 - 1),
-    Param('period', 0.1, 'sample interval T of truth and reports [s]', 1e-3, 60.0, live=True),
-    Param('q_s', 0.05, 'process-noise intensity of the CV truth [m²/s³]', 0.0, 100.0),
-    Param('sigma_r', 2.0, 'standard deviation of each position-report axis [m]', 1e-3, 1e4),
-    Param('x0', [0.0, 5.0, 0.0, 2.0], 'initial state [x, vx, y, vy] in map [m, m/s]'),
-    Param('max_time', 0.0, 'stop publishing after this node time since origin [s]; 0 = never', 0.0, 1e9),
-    Param('track_id', 'demo_target', 'child_frame_id of the truth odometry'),
-)
+
+@dataclass
+class DemoTargetParams:
+    """Parameters of ``demo_target``."""
+
+    seed: int = param(0, 'seed of the numpy Generator driving truth and report noise', 0, 2**31 - 1)
+    period: float = param(0.1, 'sample interval T of truth and reports [s]', 1e-3, 60.0, live=True)
+    q_s: float = param(0.05, 'process-noise intensity of the CV truth [m²/s³]', 0.0, 100.0)
+    sigma_r: float = param(2.0, 'standard deviation of each position-report axis [m]', 1e-3, 1e4)
+    x0: list[float] = param([0.0, 5.0, 0.0, 2.0], 'initial state [x, vx, y, vy] in map [m, m/s]')
+    max_time: float = param(0.0, 'stop publishing after this node time since origin [s]; 0 = never', 0.0, 1e9)
+    track_id: str = param('demo_target', 'child_frame_id of the truth odometry')
 
 
 class DemoTargetNode(TrackNode):
     DEFAULT_NAME = 'demo_target'
-    PARAMS = PARAMS
+    Params = DemoTargetParams
 
     def setup(self) -> None:
         p = self.p

@@ -26,12 +26,14 @@ replayed in a loop, a simulator reset) resets the tracker, the gate and the stam
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from geometry_msgs.msg import PoseWithCovarianceStamped
 from nav_msgs.msg import Odometry
 
 from track_core.demo import CVKalmanTracker
 from track_core.filters.gating import InnovationGate
-from track_msgs_py.convert import cv_state_to_odometry, pose_cov_to_position
+from track_msgs_py.odometry import cv_state_to_odometry, pose_cov_to_position
 from track_msgs_py.qos import ESTIMATE_QOS, SENSOR_SUB_QOS
 from track_msgs_py.topics import DEMO_REPORTS, DEMO_TRACK, KNOWN_FRAMES
 from track_msgs_py.validate import (
@@ -42,26 +44,29 @@ from track_msgs_py.validate import (
     pose_cov_problem,
     stamp_problem,
 )
-from track_nodes.base import Param, TrackNode
+from track_nodes.base import TrackNode, param
 
-PARAMS = (
-    Param('q_s', 0.05, 'process-noise intensity of the CV model [m²/s³]', 0.0, 100.0),
-    Param('sigma_v0', 5.0, 'prior standard deviation of each velocity axis at initialisation [m/s]', 1e-3, 1e3),
-    Param('track_id', 'demo_track', 'child_frame_id of the published track'),
-    Param('stamp_horizon', InputPolicy.horizon, 'refuse reports stamped more than this ahead of the node clock [s]',
-          1e-3, 1e9, live=True),
-    Param('stamp_lead', 1.0, 'look-ahead tolerance: refuse reports stamped more than this ahead of the node clock '
-          '(a few report periods) [s]', 1e-3, 1e9, live=True),
-    Param('gate_probability', 0.9999, 'innovation gate: χ² probability of the Mahalanobis gate (2 dof)',
-          0.5, 1.0 - 1e-12, live=True),
-    Param('gate_max_misses', 10, 'consecutive gate refusals after which the track is re-initialised', 1, 1_000_000),
-    Param('gate_max_gap', 30.0, 'a report after a longer gap is not gated: the track starts again [s]', 1e-3, 1e9),
-)
+
+@dataclass
+class DemoTrackerParams:
+    """Parameters of ``demo_tracker``."""
+
+    q_s: float = param(0.05, 'process-noise intensity of the CV model [m²/s³]', 0.0, 100.0)
+    sigma_v0: float = param(5.0, 'prior standard deviation of each velocity axis at initialisation [m/s]', 1e-3, 1e3)
+    track_id: str = param('demo_track', 'child_frame_id of the published track')
+    stamp_horizon: float = param(InputPolicy.horizon, 'refuse reports stamped more than this ahead of the node clock '
+                                 '[s]', 1e-3, 1e9, live=True)
+    stamp_lead: float = param(1.0, 'look-ahead tolerance: refuse reports stamped more than this ahead of the node '
+                              'clock (a few report periods) [s]', 1e-3, 1e9, live=True)
+    gate_probability: float = param(0.9999, 'innovation gate: χ² probability of the Mahalanobis gate (2 dof)',
+                                    0.5, 1.0 - 1e-12, live=True)
+    gate_max_misses: int = param(10, 'consecutive gate refusals after which the track is re-initialised', 1, 1_000_000)
+    gate_max_gap: float = param(30.0, 'a report after a longer gap is not gated: the track starts again [s]', 1e-3, 1e9)
 
 
 class DemoTrackerNode(TrackNode):
     DEFAULT_NAME = 'demo_tracker'
-    PARAMS = PARAMS
+    Params = DemoTrackerParams
 
     def setup(self) -> None:
         self.tracker = CVKalmanTracker(q_s=self.p.q_s, sigma_v0=self.p.sigma_v0)

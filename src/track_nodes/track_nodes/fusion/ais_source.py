@@ -37,6 +37,8 @@ be scored against fresh ones).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseWithCovarianceStamped
@@ -44,64 +46,69 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 
 from track_core.ais import LocalTangentPlane, ShipTruth, SourceModel, read_ais, simulate_source
 from track_core.ais.sources import ORIENTATIONS
-from track_msgs_py.convert import diagnostic_array, position_to_pose_cov
+from track_msgs_py.diagnostics import diagnostic_array
+from track_msgs_py.odometry import position_to_pose_cov
 from track_msgs_py.qos import STATIC_QOS
 from track_msgs_py.records.fusion import AisTruthEntry
 from track_msgs_py.topics import FRAME_MAP, ais_reports_topic, ais_truth_topic, track_frame_id
-from track_nodes.base import FixedRateSteps, Param, TrackNode
+from track_nodes.base import FixedRateSteps, ParameterError, TrackNode, param
 
 # All ships of one instant are published in one burst: keep them all until delivered.
 REPORTS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE,
                          durability=DurabilityPolicy.VOLATILE)
 
-PARAMS = (
-    Param('file', '', 'AIS CSV file (empty: the Solent file in the shared data folder)'),
-    Param('columns', '', 'column mapping: a preset or "time=...;mmsi=...;lat=...;lon=..." (empty: detect; '
-          'see track_core.ais.reader)'),
-    Param('start', 0.0, 'data time replayed at node time 0 [s after the first AIS report]', 0.0, 1e7),
-    Param('duration', 600.0, 'length of the replayed data window [s]', 1.0, 1e7),
-    Param('origin', [0.0], 'projection origin [lat, lon] in degrees; [0.0]: the data centroid (median)'),
-    Param('max_gap', 0.0, 'a ship is unknown inside a gap between its AIS reports longer than this [s]; '
-          '0: derived per ship from its report interval', 0.0, 1e6),
-    Param('period', 5.0, 'report interval [s]', 1e-3, 3600.0),
-    Param('offset', 0.0, 'stamp of the first report [s]; reports at offset + k·period', 0.0, 3600.0),
-    Param('tick', 0.5, 'publishing timer period [s]: a report goes out at the first tick at or after its stamp',
-          1e-3, 60.0),
-    Param('sigma_major', 15.0, '1σ error along the major axis of the report ellipse [m]', 1e-3, 1e6),
-    Param('sigma_minor', 8.0, '1σ error along the minor axis [m]', 1e-3, 1e6),
-    Param('orientation', 'radial', 'major-axis bearing: fixed | radial (across the line of sight from site) | '
-          'random (per report)', choices=ORIENTATIONS),
-    Param('bearing_deg', 0.0, 'major-axis bearing for orientation fixed, clockwise from north [deg]', -360.0, 360.0),
-    Param('site', [0.0], 'sensor position [lat, lon] in degrees (radial orientation, max_range); [0.0]: on the '
-          'convex hull of the traffic at site_bearing_deg from its mean position'),
-    Param('site_bearing_deg', 280.0, 'bearing of the hull site from the traffic\'s mean position [deg from north]',
-          -360.0, 360.0),
-    Param('max_range', 0.0, 'ships further than this from the site are not seen [m]; 0: no limit', 0.0, 1e7),
-    Param('dropout', 0.02, 'probability that a report is missing', 0.0, 0.99),
-    Param('seed', 1, 'seed of this source\'s noise, dropouts and local ids', 0, 2**31 - 1),
-    Param('id_prefix', 'r', 'local track ids are <id_prefix><3 digits>'),
-    Param('prefix', '/ais/radar', 'topic prefix: reports on <prefix>/reports, truth on <prefix>/truth'),
-    Param('publish_truth', True, 'publish the local track → MMSI table on <prefix>/truth (evaluation only)'),
-)
+
+@dataclass
+class AisSourceParams:
+    """Parameters of ``ais_source``."""
+
+    file: str = param('', 'AIS CSV file (empty: the Solent file in the shared data folder)')
+    columns: str = param('', 'column mapping: a preset or "time=...;mmsi=...;lat=...;lon=..." (empty: detect; '
+        'see track_core.ais.reader)')
+    start: float = param(0.0, 'data time replayed at node time 0 [s after the first AIS report]', 0.0, 1e7)
+    duration: float = param(600.0, 'length of the replayed data window [s]', 1.0, 1e7)
+    origin: list[float] = param([0.0], 'projection origin [lat, lon] in degrees; [0.0]: the data centroid (median)')
+    max_gap: float = param(0.0, 'a ship is unknown inside a gap between its AIS reports longer than this [s]; '
+        '0: derived per ship from its report interval', 0.0, 1e6)
+    period: float = param(5.0, 'report interval [s]', 1e-3, 3600.0)
+    offset: float = param(0.0, 'stamp of the first report [s]; reports at offset + k·period', 0.0, 3600.0)
+    tick: float = param(0.5, 'publishing timer period [s]: a report goes out at the first tick at or after its stamp',
+                        1e-3, 60.0)
+    sigma_major: float = param(15.0, '1σ error along the major axis of the report ellipse [m]', 1e-3, 1e6)
+    sigma_minor: float = param(8.0, '1σ error along the minor axis [m]', 1e-3, 1e6)
+    orientation: str = param('radial', 'major-axis bearing: fixed | radial (across the line of sight from site) | '
+        'random (per report)', choices=ORIENTATIONS)
+    bearing_deg: float = param(0.0, 'major-axis bearing for orientation fixed, clockwise from north [deg]',
+                               -360.0, 360.0)
+    site: list[float] = param([0.0], 'sensor position [lat, lon] in degrees (radial orientation, max_range); [0.0]: '
+                              'on the convex hull of the traffic at site_bearing_deg from its mean position')
+    site_bearing_deg: float = param(280.0, "bearing of the hull site from the traffic's mean position [deg from north]",
+                                    -360.0, 360.0)
+    max_range: float = param(0.0, 'ships further than this from the site are not seen [m]; 0: no limit', 0.0, 1e7)
+    dropout: float = param(0.02, 'probability that a report is missing', 0.0, 0.99)
+    seed: int = param(1, 'seed of this source\'s noise, dropouts and local ids', 0, 2**31 - 1)
+    id_prefix: str = param('r', 'local track ids are <id_prefix><3 digits>')
+    prefix: str = param('/ais/radar', 'topic prefix: reports on <prefix>/reports, truth on <prefix>/truth')
+    publish_truth: bool = param(True, 'publish the local track → MMSI table on <prefix>/truth (evaluation only)')
 
 
 def _latlon(name: str, value) -> tuple[float, float]:
     v = [float(x) for x in value]
     if len(v) != 2 or not (-90.0 <= v[0] <= 90.0 and -180.0 <= v[1] <= 180.0):
-        raise ValueError(f'parameter {name}={list(value)} is invalid: allowed [lat, lon] in degrees')
+        raise ParameterError(f'parameter {name}={list(value)} is invalid: allowed [lat, lon] in degrees')
     return v[0], v[1]
 
 
 class AisSourceNode(TrackNode):
     DEFAULT_NAME = 'ais_source'
-    PARAMS = PARAMS
+    Params = AisSourceParams
 
     def setup(self) -> None:
         p = self.p
         if p.sigma_minor > p.sigma_major:
-            raise ValueError(f'parameter sigma_minor={p.sigma_minor} exceeds sigma_major={p.sigma_major}')
+            raise ParameterError(f'parameter sigma_minor={p.sigma_minor} exceeds sigma_major={p.sigma_major}')
         if not p.id_prefix or '#' in p.id_prefix or '/' in p.id_prefix:
-            raise ValueError(f'parameter id_prefix={p.id_prefix!r} is invalid: allowed a non-empty name without '
+            raise ParameterError(f'parameter id_prefix={p.id_prefix!r} is invalid: allowed a non-empty name without '
                              '"#" or "/"')
         data = read_ais(p.file or None, columns=p.columns or None)
         if data.n_skipped:
@@ -113,7 +120,7 @@ class AisSourceNode(TrackNode):
         origin = data.centroid() if list(p.origin) == [0.0] else _latlon('origin', p.origin)
         truth = ShipTruth(data, LocalTangentPlane(*origin), max_gap=p.max_gap or None)
         if p.start >= truth.t_end:
-            raise ValueError(f'parameter start={p.start} is after the end of the data ({truth.t_end:.0f} s)')
+            raise ParameterError(f'parameter start={p.start} is after the end of the data ({truth.t_end:.0f} s)')
         model = SourceModel(name=self.get_name(), id_prefix=p.id_prefix, period=p.period, offset=p.offset,
                             sigma_major=p.sigma_major, sigma_minor=p.sigma_minor, orientation=p.orientation,
                             bearing_deg=p.bearing_deg,

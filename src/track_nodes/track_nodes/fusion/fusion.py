@@ -19,7 +19,7 @@ a bad one is refused (``refuse``: counted per reason, one log line per reason ev
 ``warn_period`` seconds, /diagnostics) without touching any state or watermark. A pair whose
 score still fails is skipped and reported (``Instant.skipped``); every other pair is scored.
 
-Only the x/y blocks of the covariances are read (``track_msgs_py.convert``: z/roll/pitch are 0 by
+Only the x/y blocks of the covariances are read (``track_msgs_py.covariance``: z/roll/pitch are 0 by
 the planar convention, yaw is not estimated). Velocities with ``not_estimated`` variance (≥
 ``NOT_ESTIMATED_VARIANCE``, e.g. the IDSQ network's estimate) are ignored: such a track is held like
 a position report instead of being predicted with a 1e6 m²/s² velocity variance.
@@ -64,6 +64,8 @@ messages, runs the timer, and publishes.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseWithCovarianceStamped
@@ -72,17 +74,14 @@ from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from visualization_msgs.msg import MarkerArray
 
 from track_core.fusion import Instant, PairAssociator, TrackReport
-from track_msgs_py.convert import (
-    cv_state_to_odometry,
-    diagnostic_array,
-    not_estimated,
-    odometry_to_cv_state,
-    pose_cov_to_position,
-    stamp_to_sec,
-)
+from track_core.geofeasibility.track import THRESHOLD
+from track_msgs_py.covariance import not_estimated
+from track_msgs_py.diagnostics import diagnostic_array
 from track_msgs_py.markers.fusion import FusionMarkers
+from track_msgs_py.odometry import cv_state_to_odometry, odometry_to_cv_state, pose_cov_to_position
 from track_msgs_py.qos import ESTIMATE_QOS
 from track_msgs_py.records.fusion import FusionPairScore
+from track_msgs_py.stamps import stamp_to_sec
 from track_msgs_py.topics import (
     FRAME_MAP,
     FUSION_ASSOCIATIONS,
@@ -104,7 +103,7 @@ from track_msgs_py.validate import (
     pose_cov_problem,
     stamp_problem,
 )
-from track_nodes.base import Param, ParameterError, TrackNode
+from track_nodes.base import ParameterError, TrackNode, param
 
 # Best effort accepts both reliable and best-effort publishers; depth covers a few rate periods.
 TRACK_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=50, reliability=ReliabilityPolicy.BEST_EFFORT)
@@ -113,39 +112,45 @@ TRACKS_QOS_DEPTH = 1000
 TRACKS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=TRACKS_QOS_DEPTH,
                         reliability=ReliabilityPolicy.BEST_EFFORT)
 
-PARAMS = (
-    Param('odometry_topics', [''], 'nav_msgs/Odometry track topics (track id = topic/child_frame_id)'),
-    Param('pose_topics', [''], 'PoseWithCovarianceStamped track topics (one track per topic)'),
-    Param('pose_track_topics', [''], 'PoseWithCovarianceStamped topics of many tracks of one source '
-          '(header.frame_id = "<frame>#<local id>", track id = topic/<local id>)'),
-    Param('rate', 2.0, 'scoring rate [Hz]', 0.01, 100.0, live=True),
-    Param('method', 'exact', 'geofeasibility score', choices=('exact', 'glr', 'glr_thresholded', 'mc')),
-    Param('n_samples', 500, 'Monte-Carlo samples per pair (method mc)', 10, 1_000_000),
-    Param('threshold', 0.5, 'associate a pair when its combined score is at least this', 0.0, 1.0, live=True),
-    Param('combine', 'geometric', 'track-level combination of instant scores', choices=('geometric', 'harmonic')),
-    Param('window', 10, 'instant scores kept per pair for the combination', 1, 100_000),
-    Param('stale_after', 2.0, 'a position report older than this drops out [s]', 1e-3, 1e6, live=True),
-    Param('max_prediction', 10.0, 'an Odometry track predicted further than this drops out [s]', 1e-3, 1e6, live=True),
-    Param('q_s', 0.1, 'CV process-noise intensity used when predicting tracks [m²/s³]', 0.0, 1e6),
-    Param('seed', 0, 'seed of the Generator used by the mc method', 0, 2**31 - 1),
-    Param('same_source_pairs', False, 'also score pairs from one source (Odometry: same topic; pose: same '
-          'namespace)'),
-    Param('schedule', 'timer', 'timer: score at node-clock ticks; stamps: at the data instants k/rate, '
-          'deterministic (module docstring)', choices=('timer', 'stamps')),
-    Param('publish_pairs', 'all', 'all: a status and a link per scored pair; nonzero: only the pairs with a '
-          'positive score or combined score, or associated (module docstring)', choices=('all', 'nonzero')),
-    Param('warn_period', 5.0, 'at most one bad-input warning per topic per this many seconds', 0.0, 1e6, live=True),
-    Param('stamp_horizon', InputPolicy.horizon, 'refuse reports stamped more than this ahead of the node clock [s]',
-          1e-3, 1e9, live=True),
-    Param('stamp_lead', 2.0, 'look-ahead tolerance: refuse reports stamped more than this ahead of the node '
-          'clock (a few report periods) [s]', 1e-3, 1e9, live=True),
-)
+
+@dataclass
+class FusionParams:
+    """Parameters of ``fusion``."""
+
+    odometry_topics: list[str] = param([''], 'nav_msgs/Odometry track topics (track id = topic/child_frame_id)')
+    pose_topics: list[str] = param([''], 'PoseWithCovarianceStamped track topics (one track per topic)')
+    pose_track_topics: list[str] = param([''], 'PoseWithCovarianceStamped topics of many tracks of one source '
+        '(header.frame_id = "<frame>#<local id>", track id = topic/<local id>)')
+    rate: float = param(2.0, 'scoring rate [Hz]', 0.01, 100.0, live=True)
+    method: str = param('exact', 'geofeasibility score', choices=('exact', 'glr', 'glr_thresholded', 'mc'))
+    n_samples: int = param(500, 'Monte-Carlo samples per pair (method mc)', 10, 1_000_000)
+    threshold: float = param(THRESHOLD, 'associate a pair when its combined score is at least this',
+                             0.0, 1.0, live=True)
+    combine: str = param('geometric', 'track-level combination of instant scores', choices=('geometric', 'harmonic'))
+    window: int = param(10, 'instant scores kept per pair for the combination', 1, 100_000)
+    stale_after: float = param(2.0, 'a position report older than this drops out [s]', 1e-3, 1e6, live=True)
+    max_prediction: float = param(10.0, 'an Odometry track predicted further than this drops out [s]',
+                                  1e-3, 1e6, live=True)
+    q_s: float = param(0.1, 'CV process-noise intensity used when predicting tracks [m²/s³]', 0.0, 1e6)
+    seed: int = param(0, 'seed of the Generator used by the mc method', 0, 2**31 - 1)
+    same_source_pairs: bool = param(False, 'also score pairs from one source (Odometry: same topic; pose: same '
+        'namespace)')
+    schedule: str = param('timer', 'timer: score at node-clock ticks; stamps: at the data instants k/rate, '
+        'deterministic (module docstring)', choices=('timer', 'stamps'))
+    publish_pairs: str = param('all', 'all: a status and a link per scored pair; nonzero: only the pairs with a '
+        'positive score or combined score, or associated (module docstring)', choices=('all', 'nonzero'))
+    warn_period: float = param(5.0, 'at most one bad-input warning per topic per this many seconds',
+                               0.0, 1e6, live=True)
+    stamp_horizon: float = param(InputPolicy.horizon, 'refuse reports stamped more than this ahead of the node clock '
+                                 '[s]', 1e-3, 1e9, live=True)
+    stamp_lead: float = param(2.0, 'look-ahead tolerance: refuse reports stamped more than this ahead of the node '
+        'clock (a few report periods) [s]', 1e-3, 1e9, live=True)
 
 
 
 class FusionNode(TrackNode):
     DEFAULT_NAME = 'fusion'
-    PARAMS = PARAMS
+    Params = FusionParams
 
     def setup(self) -> None:
         p = self.p
@@ -153,7 +158,7 @@ class FusionNode(TrackNode):
         pose = [t for t in p.pose_topics if t]
         multi = [t for t in p.pose_track_topics if t]
         if not odo and not pose and not multi:
-            raise ValueError('parameters odometry_topics, pose_topics and pose_track_topics are all empty: '
+            raise ParameterError('parameters odometry_topics, pose_topics and pose_track_topics are all empty: '
                              'nothing to fuse')
         self.core = PairAssociator(p.method, p.threshold, p.combine, p.window, n_samples=p.n_samples,
                                    same_source_pairs=p.same_source_pairs, stale_after=p.stale_after,

@@ -12,48 +12,53 @@ on ``<prefix>/truth`` (Odometry, child_frame_id ``t<i>``) for evaluation.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from geometry_msgs.msg import PoseWithCovarianceStamped
 from nav_msgs.msg import Odometry
 
 from track_core.demo import CVTarget
 from track_core.geofeasibility.ellipse import ellipse_to_gaussian
-from track_msgs_py.convert import cv_state_to_odometry, position_to_pose_cov
+from track_msgs_py.odometry import cv_state_to_odometry, position_to_pose_cov
 from track_msgs_py.qos import ESTIMATE_QOS
 from track_msgs_py.topics import FRAME_MAP
-from track_nodes.base import FixedRateSteps, Param, TrackNode
+from track_nodes.base import FixedRateSteps, ParameterError, TrackNode, param
 
-PARAMS = (
-    Param('targets', [0.0, 5.0, 0.0, 0.0], 'initial ship states, flat [x, vx, y, vy, ...] [m, m/s]'),
-    Param('truth_seed', 0, 'seed of the ships\' process noise (same value = same ships)', 0, 2**31 - 1),
-    Param('q_s', 0.01, 'process-noise intensity of the ships [m²/s³]', 0.0, 100.0),
-    Param('period', 1.0, 'report interval [s]', 1e-3, 3600.0, live=True),
-    Param('report_targets', [-1], 'indices of the ships this source reports; [-1] = all'),
-    Param('sigma_major', 20.0, '1σ error along the major axis of the report ellipse [m]', 1e-3, 1e6),
-    Param('sigma_minor', 10.0, '1σ error along the minor axis [m]', 1e-3, 1e6),
-    Param('bearing_deg', 0.0, 'bearing of the major axis, clockwise from north [deg]', -360.0, 360.0),
-    Param('dropout', 0.0, 'probability that a report is missing', 0.0, 0.99, live=True),
-    Param('noise_seed', 1, 'seed of this source\'s report noise and dropouts', 0, 2**31 - 1),
-    Param('prefix', '/source', 'topic prefix: reports on <prefix>/t<i>, truth on <prefix>/truth'),
-    Param('publish_truth', False, 'also publish the true ship states (evaluation only)'),
-)
+
+@dataclass
+class ReportSourceParams:
+    """Parameters of ``report_source``."""
+
+    targets: list[float] = param([0.0, 5.0, 0.0, 0.0], 'initial ship states, flat [x, vx, y, vy, ...] [m, m/s]')
+    truth_seed: int = param(0, 'seed of the ships\' process noise (same value = same ships)', 0, 2**31 - 1)
+    q_s: float = param(0.01, 'process-noise intensity of the ships [m²/s³]', 0.0, 100.0)
+    period: float = param(1.0, 'report interval [s]', 1e-3, 3600.0, live=True)
+    report_targets: list[int] = param([-1], 'indices of the ships this source reports; [-1] = all')
+    sigma_major: float = param(20.0, '1σ error along the major axis of the report ellipse [m]', 1e-3, 1e6)
+    sigma_minor: float = param(10.0, '1σ error along the minor axis [m]', 1e-3, 1e6)
+    bearing_deg: float = param(0.0, 'bearing of the major axis, clockwise from north [deg]', -360.0, 360.0)
+    dropout: float = param(0.0, 'probability that a report is missing', 0.0, 0.99, live=True)
+    noise_seed: int = param(1, 'seed of this source\'s report noise and dropouts', 0, 2**31 - 1)
+    prefix: str = param('/source', 'topic prefix: reports on <prefix>/t<i>, truth on <prefix>/truth')
+    publish_truth: bool = param(False, 'also publish the true ship states (evaluation only)')
 
 
 class ReportSourceNode(TrackNode):
     DEFAULT_NAME = 'report_source'
-    PARAMS = PARAMS
+    Params = ReportSourceParams
 
     def setup(self) -> None:
         p = self.p
         x0 = np.asarray(p.targets, dtype=float)
         if x0.size == 0 or x0.size % 4 or not np.all(np.isfinite(x0)):
-            raise ValueError(f'parameter targets has {x0.size} values: allowed a multiple of 4 finite numbers')
+            raise ParameterError(f'parameter targets has {x0.size} values: allowed a multiple of 4 finite numbers')
         if p.sigma_minor > p.sigma_major:
-            raise ValueError(f'parameter sigma_minor={p.sigma_minor} exceeds sigma_major={p.sigma_major}')
+            raise ParameterError(f'parameter sigma_minor={p.sigma_minor} exceeds sigma_major={p.sigma_major}')
         n = x0.size // 4
         idx = list(range(n)) if list(p.report_targets) == [-1] else list(p.report_targets)
         if any(not 0 <= i < n for i in idx):
-            raise ValueError(f'parameter report_targets={list(p.report_targets)} is invalid: '
+            raise ParameterError(f'parameter report_targets={list(p.report_targets)} is invalid: '
                              f'allowed indices 0..{n - 1}')
         self.idx = idx
         self.truth_rng = np.random.default_rng(p.truth_seed)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from types import SimpleNamespace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -12,44 +12,57 @@ from track_core.idsq.models import DEG
 from track_core.idsq.prediction import PREDICTIONS
 from track_core.idsq.tracker import SELECTIONS
 from track_msgs_py.topics import IDSQ_TRUTH
-from track_nodes.base import Param
+from track_nodes.base import param
 
 SENSOR_TYPES = ('acoustic', 'doa')
+_TP, _NOISE = TrackerParams(), SimNoise()
 
 
-def sensor_params(sensor_type: str) -> tuple[Param, ...]:
-    tp, noise = TrackerParams(), SimNoise()
-    return (
-        Param('id', 0, 'index of this sensor in the layout published by vehicle_sim', 0, 65535),
-        Param('position', [0.0, 0.0], 'sensor position [x, y] in map; must equal its layout entry [m]'),
-        Param('type', sensor_type, f'sensor type; this executable runs {sensor_type} sensors', choices=SENSOR_TYPES),
-        Param('seed', 0, 'measurement-noise seed (one draw per (seed, sensor id, step))', 0, 2**31 - 1),
-        Param('width', 150.0, 'field width (x) covered by the grid (§5.1: 150 m) [m]', 1.0, 1e5),
-        Param('height', 250.0, 'field height (y) covered by the grid (§5.1: 250 m) [m]', 1.0, 1e5),
-        Param('cell', 5.0, 'grid cell size (§5.1: 5 m) [m]', 0.1, 1e3),
-        Param('dt', tp.dt, 'tracker step Δt; the truth of step s is stamped (s + 1)·Δt (§5.1: 0.5 s) [s]', 1e-3, 60.0),
-        Param('v_max', tp.v_max, 'maximum vehicle speed of the diffusion disk (§5.1: 15 m/s) [m/s]', 1e-3, 1e3),
-        Param('a_lo', tp.a_lo, 'lower bound of the source amplitude prior of eq. 6 (§5.1: 0)', 0.0, 1e6),
-        Param('a_hi', tp.a_hi, 'upper bound of the source amplitude prior of eq. 6 (§5.1: 80)', 1e-6, 1e6),
-        Param('sigma_k', tp.sigma_a, 'amplitude noise σ_k of the tracker model, eq. 6 (§5.1: 0.1)', 1e-6, 1e3),
-        Param('r_near', tp.r_near, 'Fig. 6 DOA model: σ grows below this range (§5.1: 20 m) [m]', 0.0, 1e5),
-        Param('r_far', tp.r_far, 'Fig. 6 DOA model: σ grows beyond this range (§5.1: 100 m) [m]', 1e-3, 1e5),
-        Param('sigma_doa_deg', tp.sigma_doa / DEG, 'Fig. 6 DOA σ inside [r_near, r_far] [deg]', 1e-3, 180.0),
-        Param('amplitude', noise.amplitude, 'simulated source amplitude A (§5.1: 40)', 1e-6, 1e6),
-        Param('noise_sigma_a', noise.sigma_a, 'simulated amplitude noise std (§5.1: 0.05)', 0.0, 1e3),
-        Param('noise_sigma_doa_deg', noise.sigma_doa / DEG, 'simulated DOA noise std (§5.1: 3°) [deg]', 0.0, 180.0),
-        Param('comm_range', 40.0, 'radio range of the §5.1 neighbour rule (else the two nearest) [m]', 1e-3, 1e6),
-        Param('selection', 'mi', 'next-leader rule: mi (Table 1), nearest or random (baselines)', choices=SELECTIONS),
-        Param('prediction', 'diffusion', 'belief prediction: diffusion (§2.1), or drift / bank (velocity-aware, '
-              'track_core.idsq.prediction)', choices=PREDICTIONS),
-        Param('ack_timeout', 2.0, 'steady-clock wait for an ack before re-selecting [s]', 1e-3, 600.0),
-        Param('track_id', 'idsq_track', 'child_frame_id of the estimate'),
-        Param('truth_topics', [IDSQ_TRUTH], 'Odometry truth topics of the sources; each sensor senses the loudest '
-              '(nearest) source (track_core.idsq.ledger)'),
-    )
+@dataclass
+class SensorParams:
+    """Parameters of ``acoustic_sensor`` (``DoaSensorParams``: ``doa_sensor``); defaults of §5.1 and the core."""
+
+    id: int = param(0, 'index of this sensor in the layout published by vehicle_sim', 0, 65535)
+    position: list[float] = param([0.0, 0.0], 'sensor position [x, y] in map; must equal its layout entry [m]')
+    type: str = param('acoustic', 'sensor type; this executable runs acoustic sensors', choices=SENSOR_TYPES)
+    seed: int = param(0, 'measurement-noise seed (one draw per (seed, sensor id, step))', 0, 2**31 - 1)
+    width: float = param(150.0, 'field width (x) covered by the grid (§5.1: 150 m) [m]', 1.0, 1e5)
+    height: float = param(250.0, 'field height (y) covered by the grid (§5.1: 250 m) [m]', 1.0, 1e5)
+    cell: float = param(5.0, 'grid cell size (§5.1: 5 m) [m]', 0.1, 1e3)
+    dt: float = param(_TP.dt, 'tracker step Δt; the truth of step s is stamped (s + 1)·Δt (§5.1: 0.5 s) [s]',
+                      1e-3, 60.0)
+    v_max: float = param(_TP.v_max, 'maximum vehicle speed of the diffusion disk (§5.1: 15 m/s) [m/s]', 1e-3, 1e3)
+    a_lo: float = param(_TP.a_lo, 'lower bound of the source amplitude prior of eq. 6 (§5.1: 0)', 0.0, 1e6)
+    a_hi: float = param(_TP.a_hi, 'upper bound of the source amplitude prior of eq. 6 (§5.1: 80)', 1e-6, 1e6)
+    sigma_k: float = param(_TP.sigma_a, 'amplitude noise σ_k of the tracker model, eq. 6 (§5.1: 0.1)', 1e-6, 1e3)
+    r_near: float = param(_TP.r_near, 'Fig. 6 DOA model: σ grows below this range (§5.1: 20 m) [m]', 0.0, 1e5)
+    r_far: float = param(_TP.r_far, 'Fig. 6 DOA model: σ grows beyond this range (§5.1: 100 m) [m]', 1e-3, 1e5)
+    sigma_doa_deg: float = param(_TP.sigma_doa / DEG, 'Fig. 6 DOA σ inside [r_near, r_far] [deg]', 1e-3, 180.0)
+    amplitude: float = param(_NOISE.amplitude, 'simulated source amplitude A (§5.1: 40)', 1e-6, 1e6)
+    noise_sigma_a: float = param(_NOISE.sigma_a, 'simulated amplitude noise std (§5.1: 0.05)', 0.0, 1e3)
+    noise_sigma_doa_deg: float = param(_NOISE.sigma_doa / DEG, 'simulated DOA noise std (§5.1: 3°) [deg]', 0.0, 180.0)
+    comm_range: float = param(40.0, 'radio range of the §5.1 neighbour rule (else the two nearest) [m]', 1e-3, 1e6)
+    selection: str = param('mi', 'next-leader rule: mi (Table 1), nearest or random (baselines)', choices=SELECTIONS)
+    prediction: str = param('diffusion', 'belief prediction: diffusion (§2.1), or drift / bank (velocity-aware, '
+                            'track_core.idsq.prediction)', choices=PREDICTIONS)
+    ack_timeout: float = param(2.0, 'steady-clock wait for an ack before re-selecting [s]', 1e-3, 600.0)
+    track_id: str = param('idsq_track', 'child_frame_id of the estimate')
+    truth_topics: list[str] = param([IDSQ_TRUTH], 'Odometry truth topics of the sources; each sensor senses the '
+                                    'loudest (nearest) source (track_core.idsq.ledger)')
 
 
-def sensor_setup(p: SimpleNamespace, position: np.ndarray, truth_topics: tuple[str, ...]) -> SensorSetup:
+@dataclass
+class DoaSensorParams(SensorParams):
+    """Parameters of ``doa_sensor``."""
+
+    type: str = param('doa', 'sensor type; this executable runs doa sensors', choices=SENSOR_TYPES)
+
+
+#: sensor type -> its parameter dataclass
+SENSOR_PARAMS = {'acoustic': SensorParams, 'doa': DoaSensorParams}
+
+
+def sensor_setup(p: SensorParams, position: np.ndarray, truth_topics: tuple[str, ...]) -> SensorSetup:
     """The ledger's view of a sensor node's checked parameters ``p``."""
     tp = TrackerParams(v_max=p.v_max, dt=p.dt, a_lo=p.a_lo, a_hi=p.a_hi, sigma_a=p.sigma_k,
                        r_near=p.r_near, r_far=p.r_far, sigma_doa=p.sigma_doa_deg * DEG, prediction=p.prediction)

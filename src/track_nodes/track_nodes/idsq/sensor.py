@@ -8,7 +8,7 @@ and holds truths until the stamped copy of the same layout comes.
 The protocol (handoffs, acks, the start rule, re-selection, randomness) is
 ``track_core.idsq.ledger.HandoffLedger``; this node converts messages and carries out its effects:
 
-- in: the handoff on ``/idsq/sensor_<id>/handoff`` (``UInt8MultiArray``, ``convert.handoff_to_uint8_array``),
+- in: the handoff on ``/idsq/sensor_<id>/handoff`` (``UInt8MultiArray``, ``records.idsq.handoff_to_uint8_array``),
   the replies on ``/idsq/sensor_<id>/ack`` (``records.idsq.IdsqAck``), the truth of every
   ``truth_topics`` topic (Odometry, one ``child_frame_id`` per source; step s stamped (s + 1)·Δt);
 - out: the reply on the sender's ``/idsq/sensor_<j>/ack``; when leading a step, ``/idsq/estimate``
@@ -26,8 +26,8 @@ which every sensor needs for the start rule); any other truth topic reliable and
 Ack timeouts run on the steady clock: an ack depends on message latency, not on simulated time
 (with ``--processes`` the /clock runs regardless of CPU load). Many sensors in one process: rclpy
 rebuilds its wait set over every entity at each wait, and the default QoS-event handlers are most
-of them (26 nodes: 68 ms per wait with them, 6.5 ms without, on 2 cores), so endpoints are made
-without them; and every stamp is the time of its step, so the node drops the /clock subscription
+of them (a wait ten times slower with them), so endpoints are made without them; and every stamp
+is the time of its step, so the node drops the /clock subscription
 that ``use_sim_time`` made (each 0.05 s launcher tick would wake every sensor).
 Refused truths, handoffs and replies go through ``TrackNode.refuse`` (its /diagnostics publisher
 and timer are made at the first refusal only: a network never sent bad input keeps its wait set).
@@ -48,10 +48,21 @@ from visualization_msgs.msg import MarkerArray
 
 from track_core.idsq import ledger
 from track_core.idsq.ledger import loudest, start_leader_of  # noqa: F401  (imported from here by the maritime tests)
-from track_msgs_py import convert
+from track_msgs_py.covariance import NOT_ESTIMATED_VARIANCE
+from track_msgs_py.diagnostics import diagnostic_array
 from track_msgs_py.markers.idsq import sensor_markers
+from track_msgs_py.odometry import cv_state_to_odometry, odometry_to_cv_state
 from track_msgs_py.qos import ESTIMATE_QOS, HANDOFF_QOS, SENSOR_QOS, STATIC_QOS, TRUTH_QOS
-from track_msgs_py.records.idsq import IdsqAck, IdsqBelief, IdsqLeaderEvent, RecordError
+from track_msgs_py.records.idsq import (
+    IdsqAck,
+    IdsqBelief,
+    IdsqLeaderEvent,
+    RecordError,
+    handoff_to_uint8_array,
+    pointcloud2_to_layout,
+    uint8_array_to_handoff,
+)
+from track_msgs_py.stamps import stamp_to_sec
 from track_msgs_py.topics import (
     CLOCK,
     FRAME_MAP,
@@ -66,8 +77,8 @@ from track_msgs_py.topics import (
     idsq_handoff_topic,
 )
 from track_msgs_py.validate import odometry_problem
-from track_nodes.base import ParameterError, TrackNode, declare_params
-from track_nodes.idsq.params import sensor_params, sensor_setup
+from track_nodes.base import ParameterError, TrackNode
+from track_nodes.idsq.params import DoaSensorParams, SensorParams, sensor_setup
 
 SOURCE_TRUTH_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=256, reliability=ReliabilityPolicy.RELIABLE)
 
@@ -77,9 +88,10 @@ class IdsqSensorNode(TrackNode):
 
     DEFAULT_NAME = 'idsq_sensor'
     SENSOR_TYPE = 'acoustic'
+    Params = SensorParams
 
     def setup(self) -> None:
-        self.p = p = declare_params(self, sensor_params(self.SENSOR_TYPE))
+        p = self.p
         if p.type != self.SENSOR_TYPE:
             raise ParameterError(f'parameter type={p.type!r} is invalid for {self.DEFAULT_NAME}: allowed '
                                  f'{self.SENSOR_TYPE!r} (run {p.type}_sensor for a {p.type} sensor)')
@@ -141,7 +153,7 @@ class IdsqSensorNode(TrackNode):
         if self.origin is not None or self.disabled:
             return
         try:
-            layout = convert.pointcloud2_to_layout(msg, self.p.comm_range)
+            layout = pointcloud2_to_layout(msg, self.p.comm_range)
         except ValueError as exc:
             self.get_logger().error(f'{self.resolved(IDSQ_LAYOUT)}: unusable layout: {exc}')
             return
@@ -172,7 +184,7 @@ class IdsqSensorNode(TrackNode):
         started), and a stamped copy of the same layout follows."""
         if msg.header.stamp.sec == 0 and msg.header.stamp.nanosec == 0:
             return
-        self.origin = convert.stamp_to_sec(msg.header.stamp)
+        self.origin = stamp_to_sec(msg.header.stamp)
         while self.early:  # the truths that came first, in their order
             self._on_truth(*self.early.popleft())
 
@@ -181,20 +193,20 @@ class IdsqSensorNode(TrackNode):
             if not self.disabled:
                 self.early.append((msg, topic))
             return
-        t = convert.stamp_to_sec(msg.header.stamp)
+        t = stamp_to_sec(msg.header.stamp)
         step = ledger.step_of_stamp(t, self.p.dt, self.origin)
         reason = odometry_problem(msg, KNOWN_FRAMES) or self.core.truth_problem(step, t - self.origin, self.p.dt)
         if reason is not None:
             self.refuse(topic, reason)
             return
-        _, x, _ = convert.odometry_to_cv_state(msg)
+        _, x, _ = odometry_to_cv_state(msg)
         self._do(self.core.on_truth(step, topic, msg.child_frame_id, x[[0, 2]]))
 
     def _on_handoff(self, msg: UInt8MultiArray, info) -> None:
         """(With the message info: the ledger refuses a handoff that arrived after the ack timeout.)"""
         src, rcv = info.get('source_timestamp', 0), info.get('received_timestamp', 0)
         age = (rcv - src) * 1e-9 if src > 0 and rcv > 0 else None
-        self._do(self.core.on_handoff(convert.uint8_array_to_handoff(msg), age))
+        self._do(self.core.on_handoff(uint8_array_to_handoff(msg), age))
 
     def _on_ack(self, msg: DiagnosticArray) -> None:
         for st in msg.status:
@@ -223,7 +235,7 @@ class IdsqSensorNode(TrackNode):
             elif isinstance(fx, ledger.Reply):
                 t = ledger.stamp_of_step(fx.step, self.p.dt, self.origin or 0.0)  # a malformed header: any u32 step
                 status = IdsqAck.reply(fx.step, fx.sender, self.id, fx.refusal)
-                self._ack_pub(fx.sender).publish(convert.diagnostic_array(t if t < 2**31 - 1 else 0.0, [status]))
+                self._ack_pub(fx.sender).publish(diagnostic_array(t if t < 2**31 - 1 else 0.0, [status]))
             elif isinstance(fx, ledger.Led):
                 self._publish_led(fx)
             elif isinstance(fx, ledger.Reselect):
@@ -232,7 +244,7 @@ class IdsqSensorNode(TrackNode):
             elif isinstance(fx, ledger.SelfLead):
                 self._event(IdsqLeaderEvent('self', fx.step, self.id, self.id, tried=fx.tried))
             elif isinstance(fx, ledger.Send):
-                self._handoff_pub(fx.receiver).publish(convert.handoff_to_uint8_array(fx.payload))
+                self._handoff_pub(fx.receiver).publish(handoff_to_uint8_array(fx.payload))
                 self._disarm(fx.step, fx.receiver)
                 self.ack_timers[(fx.step, fx.receiver)] = self.create_timer(
                     self.p.ack_timeout, lambda s=fx.step, k=fx.receiver: self._on_ack_timeout(s, k),
@@ -241,7 +253,7 @@ class IdsqSensorNode(TrackNode):
                 self._disarm(fx.step, fx.receiver)
             elif isinstance(fx, ledger.Revoke):  # the chain rule (track_core.idsq.ledger)
                 self.get_logger().warning(fx.text)
-                self._handoff_pub(fx.receiver).publish(convert.handoff_to_uint8_array(fx.payload))
+                self._handoff_pub(fx.receiver).publish(handoff_to_uint8_array(fx.payload))
             elif isinstance(fx, ledger.Void):
                 self._event(IdsqLeaderEvent('void', fx.step, self.id, self.id,
                                             previous=-1 if fx.parent is None else fx.parent))
@@ -255,9 +267,9 @@ class IdsqSensorNode(TrackNode):
     def _publish_led(self, fx: ledger.Led) -> None:
         """The outputs of a led step: estimate, belief cloud, markers, the ``step`` event."""
         t, res, est = ledger.stamp_of_step(fx.step, self.p.dt, self.origin or 0.0), fx.result, fx.result.estimate
-        P = np.diag([0.0, convert.NOT_ESTIMATED_VARIANCE, 0.0, convert.NOT_ESTIMATED_VARIANCE])  # velocity
+        P = np.diag([0.0, NOT_ESTIMATED_VARIANCE, 0.0, NOT_ESTIMATED_VARIANCE])  # velocity
         P[np.ix_([0, 2], [0, 2])] = est.cov
-        self.pub_est.publish(convert.cv_state_to_odometry(t, np.array([est.mean[0], 0.0, est.mean[1], 0.0]), P,
+        self.pub_est.publish(cv_state_to_odometry(t, np.array([est.mean[0], 0.0, est.mean[1], 0.0]), P,
                                                   FRAME_MAP, self.p.track_id))
         xy = res.belief.centers()
         self.pub_belief.publish(IdsqBelief(t, xy, res.belief.mass).to_msg())
@@ -270,7 +282,7 @@ class IdsqSensorNode(TrackNode):
 
     def _event(self, ev: IdsqLeaderEvent) -> None:
         t = ledger.stamp_of_step(ev.step, self.p.dt, self.origin or 0.0)
-        self.pub_leader.publish(convert.diagnostic_array(t, [ev.to_status()]))
+        self.pub_leader.publish(diagnostic_array(t, [ev.to_status()]))
 
 
 class AcousticSensorNode(IdsqSensorNode):
@@ -285,3 +297,4 @@ class DoaSensorNode(IdsqSensorNode):
 
     DEFAULT_NAME = 'doa_sensor'
     SENSOR_TYPE = 'doa'
+    Params = DoaSensorParams

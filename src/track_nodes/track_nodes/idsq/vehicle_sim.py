@@ -6,7 +6,7 @@
   sensors) and publishes it once on ``/idsq/layout`` (transient-local, so sensors started later
   still get it): ``sensor_msgs/PointCloud2``, one point per sensor, float32 ``x``, ``y``, ``z`` for
   the viewers, then FLOAT64 ``id``, ``x_f64``, ``y_f64``, ``type`` (0 acoustic, 1 DOA;
-  ``track_msgs_py.convert.layout_to_pointcloud2``). The same
+  ``track_msgs_py.records.idsq.layout_to_pointcloud2``). The same
   seed gives the layout of the core experiments' run with that seed.
 - Every Δt of node time (``FixedRateSteps``) it publishes the vehicle truth of tracker step s on
   ``/idsq/vehicle/truth`` (``nav_msgs/Odometry``, zero covariance, velocity (0, speed),
@@ -28,37 +28,43 @@ layout: ``track_nodes.launch.generate.idsq_yaml`` writes a launcher scenario wit
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import PointCloud2
 
 from track_core.idsq.simulation import Scenario, scenario_of
-from track_msgs_py.convert import cv_state_to_odometry, layout_to_pointcloud2
+from track_msgs_py.odometry import cv_state_to_odometry
 from track_msgs_py.qos import STATIC_QOS, TRUTH_QOS
+from track_msgs_py.records.idsq import layout_to_pointcloud2
 from track_msgs_py.topics import FRAME_MAP, IDSQ_LAYOUT, IDSQ_TRUTH
-from track_nodes.base import FixedRateSteps, Param, TrackNode
+from track_nodes.base import FixedRateSteps, TrackNode, param
 
 _SC = Scenario()
-PARAMS = (
-    Param('seed', 0, 'layout seed: draw_run(Scenario, SeedSequence(seed)).layout', 0, 2**31 - 1),
-    Param('n_sensors', 24, 'K sensors on a K/4 × 4 grid (a multiple of 4, §5.1)', 8, 4096),
-    Param('doa_fraction', 0.3, 'fraction of DOA sensors (Table 4: 30 %)', 0.0, 1.0),
-    Param('width', _SC.width, 'field width, x (§5.1: 150 m) [m]', 1.0, 1e5),
-    Param('height', _SC.height, 'field height, y; the vehicle drives south to north (§5.1: 250 m) [m]', 1.0, 1e5),
-    Param('jitter_var', _SC.jitter_var, 'variance of the N(0, σ²) jitter of each sensor coordinate (§5.1: 25) [m²]',
-          0.0, 1e6),
-    Param('speed', _SC.speed, 'vehicle speed (§5.1: 7 m/s) [m/s]', 1e-3, 1e3),
-    Param('dt', _SC.tracker.dt, 'tracker step Δt = truth period (§5.1: 0.5 s) [s]', 1e-3, 60.0),
-    Param('max_steps', 0, 'stop after this many steps; 0 = when the vehicle leaves the field', 0, 10**7),
-    Param('vehicle_id', 'vehicle', 'child_frame_id of the truth'),
-    Param('publish_truth', True, 'publish the §5.1 vehicle; false: only the layout (the sensors then sense '
-          'other sources, see the truth_topics of the sensors)'),
-)
+
+@dataclass
+class VehicleSimParams:
+    """Parameters of ``vehicle_sim``."""
+
+    seed: int = param(0, 'layout seed: draw_run(Scenario, SeedSequence(seed)).layout', 0, 2**31 - 1)
+    n_sensors: int = param(24, 'K sensors on a K/4 × 4 grid (a multiple of 4, §5.1)', 8, 4096)
+    doa_fraction: float = param(0.3, 'fraction of DOA sensors (Table 4: 30 %)', 0.0, 1.0)
+    width: float = param(_SC.width, 'field width, x (§5.1: 150 m) [m]', 1.0, 1e5)
+    height: float = param(_SC.height, 'field height, y; the vehicle drives south to north (§5.1: 250 m) [m]', 1.0, 1e5)
+    jitter_var: float = param(_SC.jitter_var, 'variance of the N(0, σ²) jitter of each sensor coordinate (§5.1: 25) '
+                              '[m²]', 0.0, 1e6)
+    speed: float = param(_SC.speed, 'vehicle speed (§5.1: 7 m/s) [m/s]', 1e-3, 1e3)
+    dt: float = param(_SC.tracker.dt, 'tracker step Δt = truth period (§5.1: 0.5 s) [s]', 1e-3, 60.0)
+    max_steps: int = param(0, 'stop after this many steps; 0 = when the vehicle leaves the field', 0, 10**7)
+    vehicle_id: str = param('vehicle', 'child_frame_id of the truth')
+    publish_truth: bool = param(True, 'publish the §5.1 vehicle; false: only the layout (the sensors then sense '
+        'other sources, see the truth_topics of the sensors)')
 
 
 class VehicleSimNode(TrackNode):
     DEFAULT_NAME = 'vehicle_sim'
-    PARAMS = PARAMS
+    Params = VehicleSimParams
 
     def setup(self) -> None:
         p = self.p

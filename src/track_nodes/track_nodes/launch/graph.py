@@ -19,10 +19,10 @@ from rclpy.context import Context
 from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 
-from track_msgs_py.convert import ns_to_stamp
 from track_msgs_py.qos import CLOCK_QOS
 from track_msgs_py.records import RecordError
 from track_msgs_py.records.ready import NodeReady
+from track_msgs_py.stamps import ns_to_stamp
 from track_msgs_py.topics import CLOCK, READY, TF, TF_STATIC
 from track_nodes.bag.api import msg_class, recording_qos
 from track_nodes.base.ready import WATCH_QOS

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from track_core.metrics import match_stamps, mean_nees, rms
-from track_msgs_py.convert import odometry_to_cv_state
+from track_msgs_py.odometry import odometry_to_cv_state
 from track_msgs_py.topics import DEMO_TRACK, DEMO_TRUTH
 from track_nodes.report.read import read_topics
 

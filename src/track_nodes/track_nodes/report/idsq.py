@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from track_core.metrics import match_stamps, rms
-from track_msgs_py.convert import odometry_to_cv_state
+from track_msgs_py.odometry import odometry_to_cv_state
 from track_msgs_py.records.idsq import IdsqLeaderEvent
 from track_msgs_py.topics import IDSQ_ESTIMATE, IDSQ_HANDOFF_REGEX, IDSQ_LEADER, IDSQ_TRUTH
 from track_nodes.report.read import read_topics, topics_matching

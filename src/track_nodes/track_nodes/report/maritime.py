@@ -42,8 +42,10 @@ import numpy as np
 
 from track_core.filters import ellipse_points
 from track_core.metrics import match_stamps, rms
-from track_msgs_py.convert import odometry_to_cv_state, pointcloud2_to_table, pose_cov_to_position, stamp_to_sec
+from track_msgs_py.clouds import pointcloud2_to_table
+from track_msgs_py.odometry import odometry_to_cv_state, pose_cov_to_position
 from track_msgs_py.records.fusion import FusionPairScore
+from track_msgs_py.stamps import stamp_to_sec
 from track_msgs_py.topics import (
     FUSION_SCORES,
     IDSQ_ESTIMATE,

@@ -24,7 +24,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 import yaml
@@ -36,7 +35,7 @@ from track_core.idsq.ledger import loudest, measurement_normal, stamp_of_step, s
 from track_core.idsq.models import simulate_measurement
 from track_core.idsq.network import SensorLayout
 from track_core.idsq.tracker import leader_step
-from track_nodes.idsq.params import sensor_params, sensor_setup
+from track_nodes.idsq.params import SENSOR_PARAMS, sensor_setup
 from track_nodes.report import maritime as mar
 
 FUSION_SOURCE = {mar.SONAR_TRACK: '/sonar/estimate', mar.NETWORK_TRACK: '/idsq/estimate', mar.RADAR_DECOY: '/radar'}
@@ -47,7 +46,8 @@ def sensors_of(scenario: Path, comm_range: float | None = None, **tracker):
     cfg = yaml.safe_load(Path(scenario).read_text())
     entries = sorted((v['ros__parameters'] for k, v in cfg.items() if k.startswith('sensor_')), key=lambda e: e['id'])
     first = entries[0]
-    p = SimpleNamespace(**{q.name: first.get(q.name, q.default) for q in sensor_params(first['type'])})
+    cls = SENSOR_PARAMS[first['type']]
+    p = cls(**{f.name: first[f.name] for f in dataclasses.fields(cls) if f.name in first})
     setup = sensor_setup(p, np.asarray(p.position, dtype=float), tuple(p.truth_topics))
     setup = dataclasses.replace(setup, tracker=dataclasses.replace(setup.tracker, **tracker))
     layout = SensorLayout(np.array([e['position'] for e in entries], dtype=float),

@@ -22,8 +22,9 @@ def slam_metrics(bag: Path) -> list[str]:
     """
     from track_core.filters import wrap_angle
     from track_core.slam import victoria
-    from track_msgs_py.convert import odometry_to_pose, stamp_to_sec
+    from track_msgs_py.odometry import odometry_to_pose
     from track_msgs_py.records.slam import SlamEvent, SlamMode
+    from track_msgs_py.stamps import stamp_to_sec
     from track_msgs_py.topics import SLAM_EVENTS, SLAM_GPS, SLAM_MODE, SLAM_POSE, SLAM_TRUTH
 
     msgs = read_topics(bag, {SLAM_POSE, SLAM_TRUTH, SLAM_GPS, SLAM_EVENTS, SLAM_MODE})

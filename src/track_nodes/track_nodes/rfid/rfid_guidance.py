@@ -59,6 +59,7 @@ with one line.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
@@ -70,9 +71,11 @@ from track_core.rfid.loop import CommandLoop, Tick, Use
 from track_core.rfid.pf import SUGGESTION_RULES, WEIGHTINGS, PFParams
 from track_core.rfid.phase import PhaseModel
 from track_core.rfid.protocol import Command, CommandKind
-from track_msgs_py.convert import DIAG_OK, DIAG_WARN, diagnostic_array, positions_to_pose_array, sec_to_stamp
+from track_msgs_py.diagnostics import DIAG_OK, DIAG_WARN, diagnostic_array
+from track_msgs_py.odometry import positions_to_pose_array
 from track_msgs_py.qos import ESTIMATE_QOS, SENSOR_QOS
 from track_msgs_py.records.rfid import RfidCommand, RfidFound, read_step
+from track_msgs_py.stamps import sec_to_stamp
 from track_msgs_py.tf import planar_transform
 from track_msgs_py.topics import (
     RFID_COMMAND,
@@ -83,32 +86,34 @@ from track_msgs_py.topics import (
     RFID_STEP,
     RFID_TAG_ESTIMATE,
 )
-from track_nodes.base import Param, ParameterError, TrackNode
-from track_nodes.rfid.params import PHASE_PARAMS
+from track_nodes.base import ParameterError, TrackNode, param
+from track_nodes.rfid.params import PhaseParams
 
 _PF = PFParams()
 
-PARAMS = (
-    Param('seed', 0, 'seed; the filter draws use the second of SeedSequence(seed).spawn(2)', 0, 2**31 - 1),
-    *PHASE_PARAMS,
-    Param('n_particles', _PF.n_particles, 'number of particles N (Table I: 10-1000)', 1, 10_000_000),
-    Param('s_step', _PF.s_step, 'commanded step length (§VI: 0.5 m) [m]', 1e-3, 10.0),
-    Param('s_r', _PF.s_r, 'step error std s_r of the motion model (§VI: 0.1 m) [m]', 0.0, 10.0),
-    Param('s_a_deg', math.degrees(_PF.s_a), 'heading error std per step s_a (§VI: 11.5°) [deg]', 0.0, 180.0),
-    Param('beam_width_deg', math.degrees(_PF.beam_width), 'beam width assumed at the start (tag inside it) [deg]',
-          1e-3, 360.0),
-    Param('suggestion', _PF.suggestion, 'turn rule: mean (eq. 24, circular), side, auto (track_core.rfid.pf)',
-          choices=SUGGESTION_RULES),
-    Param('weighting', _PF.weighting, 'f_w: inverse_square (Section V) or gaussian (track_core.rfid.pf)',
-          choices=WEIGHTINGS),
-    Param('reinit_factor', 3.0, 're-initialise when min |m| > factor · m₀; 0 = never', 0.0, 1e6),
-    Param('max_repeats', 2, 'unusable MOVEs in a row before asking for a half turn', 1, 1000),
-    Param('max_steps', 200, 'MOVE results (repeats included) before the search ends as a failure', 1, 1_000_000,
-          live=True),
-    Param('period', 0.1, 'timer of the first command and of re-sends [node s]', 1e-3, 60.0, live=True),
-    Param('resend_after', 2.0, 're-send the pending command after this long without its answer [node s]',
-          1e-3, 3600.0, live=True),
-)
+
+@dataclass
+class RfidGuidanceParams(PhaseParams):
+    """Parameters of ``rfid_guidance``."""
+
+    seed: int = param(0, 'seed; the filter draws use the second of SeedSequence(seed).spawn(2)', 0, 2**31 - 1)
+    n_particles: int = param(_PF.n_particles, 'number of particles N (Table I: 10-1000)', 1, 10_000_000)
+    s_step: float = param(_PF.s_step, 'commanded step length (§VI: 0.5 m) [m]', 1e-3, 10.0)
+    s_r: float = param(_PF.s_r, 'step error std s_r of the motion model (§VI: 0.1 m) [m]', 0.0, 10.0)
+    s_a_deg: float = param(math.degrees(_PF.s_a), 'heading error std per step s_a (§VI: 11.5°) [deg]', 0.0, 180.0)
+    beam_width_deg: float = param(math.degrees(_PF.beam_width), 'beam width assumed at the start (tag inside it) [deg]',
+                                  1e-3, 360.0)
+    suggestion: str = param(_PF.suggestion, 'turn rule: mean (eq. 24, circular), side, auto (track_core.rfid.pf)',
+                            choices=SUGGESTION_RULES)
+    weighting: str = param(_PF.weighting, 'f_w: inverse_square (Section V) or gaussian (track_core.rfid.pf)',
+                           choices=WEIGHTINGS)
+    reinit_factor: float = param(3.0, 're-initialise when min |m| > factor · m₀; 0 = never', 0.0, 1e6)
+    max_repeats: int = param(2, 'unusable MOVEs in a row before asking for a half turn', 1, 1000)
+    max_steps: int = param(200, 'MOVE results (repeats included) before the search ends as a failure',
+                           1, 1_000_000, live=True)
+    period: float = param(0.1, 'timer of the first command and of re-sends [node s]', 1e-3, 60.0, live=True)
+    resend_after: float = param(2.0, 're-send the pending command after this long without its answer [node s]',
+                                1e-3, 3600.0, live=True)
 
 
 def pf_params(p) -> PFParams:
@@ -122,7 +127,7 @@ def pf_params(p) -> PFParams:
 
 class RfidGuidanceNode(TrackNode):
     DEFAULT_NAME = 'rfid_guidance'
-    PARAMS = PARAMS
+    Params = RfidGuidanceParams
 
     def setup(self) -> None:
         p = self.p

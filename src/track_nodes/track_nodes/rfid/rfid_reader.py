@@ -60,10 +60,11 @@ from track_core.rfid.phase import PhaseModel
 from track_core.rfid.protocol import Command, CommandKind
 from track_core.rfid.signal import UnwrapConfig
 from track_core.rfid.world import SimReader, WorldParams, office_obstacles
-from track_msgs_py.convert import DIAG_OK, DIAG_WARN, diagnostic_array, sec_to_stamp
+from track_msgs_py.diagnostics import DIAG_OK, DIAG_WARN, diagnostic_array
 from track_msgs_py.qos import ESTIMATE_QOS
 from track_msgs_py.records import RecordError
 from track_msgs_py.records.rfid import RfidPhase, RfidStep, RfidUserStatus, read_command
+from track_msgs_py.stamps import sec_to_stamp
 from track_msgs_py.tf import planar_transform, pose_transform
 from track_msgs_py.topics import (
     FRAME_MAP,
@@ -74,47 +75,51 @@ from track_msgs_py.topics import (
     RFID_USER_POSE,
     RFID_USER_STATUS,
 )
-from track_nodes.base import Param, ParameterError, TrackNode
-from track_nodes.rfid.params import PHASE_PARAMS
+from track_nodes.base import ParameterError, TrackNode, param
+from track_nodes.rfid.params import PhaseParams
 
 _W = WorldParams()
 
-PARAMS = (
-    Param('seed', 0, 'seed; the world/user draws use the first of SeedSequence(seed).spawn(2)', 0, 2**31 - 1),
-    *PHASE_PARAMS,
-    Param('start_distance', _W.start_distance, 'distance of the random start from the tag (§VI: 10 m) [m]',
-          1e-3, 1e3),
-    Param('random_start', True, 'start start_distance away in a random direction (false: use start)'),
-    Param('start', [10.0, 0.0, 180.0], 'fixed start [x m, y m, facing deg from +x] (map, tag at the origin)'),
-    Param('beam_width_deg', math.degrees(_W.beam_width), 'antenna half-power beam width (§VI: 180°, real 68°) [deg]',
-          1e-3, 360.0),
-    Param('max_range', _W.max_range, 'read range [m]', 1e-3, 1e3),
-    Param('back_lobe_range', _W.back_lobe_range, 'range of the back/side lobes [m]', 0.0, 1e3),
-    Param('read_rate', _W.read_rate, 'reads per second while the tag is read (Poisson) [1/s]', 1e-3, 1e5),
-    Param('outlier_prob', _W.outlier_prob, 'probability that a read is an outlier (uniform phase)', 0.0, 0.999),
-    Param('walk_speed', _W.walk_speed, 'walking speed [m/s]', 1e-3, 10.0),
-    Param('turn_read_s', _W.turn_read_s, 'reads collected after a TURN to check the signal [s]', 0.0, 60.0),
-    Param('s_step', _W.s_step, 'step length s_step (§VI: 0.5 m) [m]', 1e-3, 10.0),
-    Param('s_r', _W.s_r, 'step error std s_r (§VI: 0.1 m) [m]', 0.0, 10.0),
-    Param('s_a_deg', math.degrees(_W.s_a), 'heading error std per step s_a (§VI: 11.5°) [deg]', 0.0, 180.0),
-    Param('step_model', _W.step_model, "eq1: eqs. 1-2 (default); eq20: (s_step + r) along the heading",
-          choices=('eq1', 'eq20')),
-    Param('found_radius', _W.found_radius, 'the tag is found within this distance at the end of a MOVE [m]',
-          1e-3, 100.0),
-    Param('obstacles', 'none', 'none, or office: the obstacle variant (track_core.rfid.world.office_obstacles)',
-          choices=('none', 'office')),
-    Param('hop_dwell_s', 0.0, 'frequency hopping: dwell per channel; 0 = one carrier (carrier_hz) [s]', 0.0, 60.0),
-    Param('hop_channels_mhz', [920.625 + 0.5 * j for j in range(8)], 'hopping carriers when hop_dwell_s > 0 [MHz]'),
-    Param('phase_step_rate', 0.0, 'simulated lasting multipath phase steps per second; 0 = none [1/s]', 0.0, 1e3),
-    Param('phase_step_size', [0.8, 2.5], 'their size, uniform in [lo, hi], random sign [rad]'),
-    Param('relock_reads', 0, 'signal processing: agreeing reads that re-lock after a lasting phase step; 0 = never',
-          0, 1000),
-    Param('noise', 'fixed', 'signal processing: fixed (the paper) or online (per-read noise from the data)',
-          choices=('fixed', 'online')),
-    Param('time_scale', 1.0, 'node seconds per second of the simulated action before answering; 0 = at once',
-          0.0, 1e3, live=True),
-    Param('tick', 0.05, 'period of the timer that publishes due answers [node s]', 1e-3, 10.0, live=True),
-)
+
+@dataclass
+class RfidReaderParams(PhaseParams):
+    """Parameters of ``rfid_reader``."""
+
+    seed: int = param(0, 'seed; the world/user draws use the first of SeedSequence(seed).spawn(2)', 0, 2**31 - 1)
+    start_distance: float = param(_W.start_distance, 'distance of the random start from the tag (§VI: 10 m) [m]',
+                                  1e-3, 1e3)
+    random_start: bool = param(True, 'start start_distance away in a random direction (false: use start)')
+    start: list[float] = param([10.0, 0.0, 180.0], 'fixed start [x m, y m, facing deg from +x] (map, tag at the '
+                               'origin)')
+    beam_width_deg: float = param(math.degrees(_W.beam_width), 'antenna half-power beam width (§VI: 180°, real 68°) '
+                                  '[deg]', 1e-3, 360.0)
+    max_range: float = param(_W.max_range, 'read range [m]', 1e-3, 1e3)
+    back_lobe_range: float = param(_W.back_lobe_range, 'range of the back/side lobes [m]', 0.0, 1e3)
+    read_rate: float = param(_W.read_rate, 'reads per second while the tag is read (Poisson) [1/s]', 1e-3, 1e5)
+    outlier_prob: float = param(_W.outlier_prob, 'probability that a read is an outlier (uniform phase)', 0.0, 0.999)
+    walk_speed: float = param(_W.walk_speed, 'walking speed [m/s]', 1e-3, 10.0)
+    turn_read_s: float = param(_W.turn_read_s, 'reads collected after a TURN to check the signal [s]', 0.0, 60.0)
+    s_step: float = param(_W.s_step, 'step length s_step (§VI: 0.5 m) [m]', 1e-3, 10.0)
+    s_r: float = param(_W.s_r, 'step error std s_r (§VI: 0.1 m) [m]', 0.0, 10.0)
+    s_a_deg: float = param(math.degrees(_W.s_a), 'heading error std per step s_a (§VI: 11.5°) [deg]', 0.0, 180.0)
+    step_model: str = param(_W.step_model, 'eq1: eqs. 1-2 (default); eq20: (s_step + r) along the heading',
+                            choices=('eq1', 'eq20'))
+    found_radius: float = param(_W.found_radius, 'the tag is found within this distance at the end of a MOVE [m]',
+                                1e-3, 100.0)
+    obstacles: str = param('none', 'none, or office: the obstacle variant (track_core.rfid.world.office_obstacles)',
+                           choices=('none', 'office'))
+    hop_dwell_s: float = param(0.0, 'frequency hopping: dwell per channel; 0 = one carrier (carrier_hz) [s]', 0.0, 60.0)
+    hop_channels_mhz: list[float] = param([920.625 + 0.5 * j for j in range(8)], 'hopping carriers when hop_dwell_s > '
+                                          '0 [MHz]')
+    phase_step_rate: float = param(0.0, 'simulated lasting multipath phase steps per second; 0 = none [1/s]', 0.0, 1e3)
+    phase_step_size: list[float] = param([0.8, 2.5], 'their size, uniform in [lo, hi], random sign [rad]')
+    relock_reads: int = param(0, 'signal processing: agreeing reads that re-lock after a lasting phase step; 0 = never',
+                              0, 1000)
+    noise: str = param('fixed', 'signal processing: fixed (the paper) or online (per-read noise from the data)',
+                       choices=('fixed', 'online'))
+    time_scale: float = param(1.0, 'node seconds per second of the simulated action before answering; 0 = at once',
+                              0.0, 1e3, live=True)
+    tick: float = param(0.05, 'period of the timer that publishes due answers [node s]', 1e-3, 10.0, live=True)
 
 
 @dataclass(frozen=True)
@@ -154,7 +159,7 @@ def pose_stamped(t: float, pose: np.ndarray, frame_id: str = FRAME_MAP) -> PoseS
 
 class RfidReaderNode(TrackNode):
     DEFAULT_NAME = 'rfid_reader'
-    PARAMS = PARAMS
+    Params = RfidReaderParams
 
     def setup(self) -> None:
         p = self.p

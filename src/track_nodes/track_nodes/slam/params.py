@@ -1,46 +1,55 @@
-"""Parameters of the ``slam`` node: its own, and the profiles that give the cekf.*/pf.*/hybrid.* defaults."""
+"""Parameters of the ``slam`` node: its own, and the core's configuration groups with the defaults of
+its ``profile`` (``track_core.slam.profiles``)."""
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 from track_core.slam import HybridParams, PFParams, SlamParams
 from track_core.slam.profiles import PROFILES
 from track_msgs_py.topics import FRAME_LASER, FRAME_MAP
 from track_msgs_py.validate import InputPolicy
-from track_nodes.base import Param
-
-#: (parameter prefix, core dataclass, profile attribute) of the core's configuration groups
-CORE_GROUPS = (('cekf', SlamParams, 'slam'), ('pf', PFParams, 'pf'), ('hybrid', HybridParams, 'hybrid'))
-
-PROFILE_PARAM = Param('profile', 'victoria_park', 'defaults of the cekf.*, pf.*, hybrid.* and pose0 parameters',
-                      choices=tuple(PROFILES))
+from track_nodes.base import group, param
 
 
-def node_params(pose0: list[float]) -> tuple[Param, ...]:
-    return (
-        Param('seed', 0, 'seed of the particle filter Generator', 0, 2**31 - 1),
-        Param('pose0', pose0, 'initial laser pose [x m, y m, heading rad] in map'),
-        Param('pose0_var', [1e-6, 1e-6, 1e-6], 'initial pose variances [m², m², rad²] (all > 0)'),
-        Param('compressed', True, 'Compressed EKF (false: the full EKF; same result, slower)'),
-        Param('add_radius', True, 'landmark = trunk centre: range + diameter/2 (victoria.load add_radius)'),
-        Param('bearing_tolerance', 1e-6, 'bearings this far outside hybrid.bearing_limits are clipped, not '
-              'dropped (float32 rounding) [rad]', 0.0, 0.1),
-        Param('pause_wall', 0.2, 'a stream silent this long (wall) while the other delivered >= 2 messages no '
-              'longer holds the other back [s]', 0.0, 60.0),
-        Param('flush_idle', 0.5, 'process everything buffered after this long without a message (wall) [s]',
-              0.01, 60.0),
-        Param('drain_budget', 0.2, 'wall time one callback may spend on buffered events; the rest follows in the '
-              'next callbacks (keeps the node responsive, e.g. to shutdown, during a backlog) [s]', 0.001, 60.0),
-        Param('queue_depth', 100000, 'depth of the reliable input and scan subscriptions', 10, 1_000_000),
-        Param('map_period', 2.0, 'publish the map at most every this much data time [s]; 0 = every scan',
-              0.0, 3600.0),
-        Param('ellipse_points', 16, 'points per 2σ landmark ellipse', 4, 360),
-        Param('max_particles_published', 500, 'particles per PoseArray (an even subsample)', 1, 1_000_000),
-        Param('warn_throttle', 5.0, 'at most one log line per kind of refused input per this many seconds [s]',
-              0.0, 3600.0),
-        Param('stamp_horizon', InputPolicy.horizon, 'refuse messages stamped more than this ahead of the node clock '
-              '[s]', 1e-3, 1e9),
-        Param('stamp_lead', 1.0, 'look-ahead tolerance: refuse messages stamped more than this ahead of the node '
-              'clock (a few input periods; also late messages of a run before a clock jump) [s]', 1e-3, 1e9),
-        Param('frame_id', FRAME_MAP, 'frame of the pose, map and particles'),
-        Param('child_frame_id', FRAME_LASER, 'child_frame_id of the pose (the SLAM state is the laser pose)'),
-    )
+def _profile(values):
+    return PROFILES[values['profile']]()
+
+
+@dataclass
+class SlamNodeParams:
+    """Parameters of ``slam``: ``profile`` first, since it gives the defaults of pose0 and the groups."""
+
+    profile: str = param('victoria_park', 'defaults of the cekf.*, pf.*, hybrid.* and pose0 parameters',
+                         choices=tuple(PROFILES))
+    seed: int = param(0, 'seed of the particle filter Generator', 0, 2**31 - 1)
+    pose0: list[float] = param([0.0, 0.0, 0.0], 'initial laser pose [x m, y m, heading rad] in map',
+                               default_from=lambda v: list(_profile(v).pose0))
+    pose0_var: list[float] = param([1e-6, 1e-6, 1e-6], 'initial pose variances [m², m², rad²] (all > 0)')
+    compressed: bool = param(True, 'Compressed EKF (false: the full EKF; same result, slower)')
+    add_radius: bool = param(True, 'landmark = trunk centre: range + diameter/2 (victoria.load add_radius)')
+    bearing_tolerance: float = param(1e-6, 'bearings this far outside hybrid.bearing_limits are clipped, not '
+                                     'dropped (float32 rounding) [rad]', 0.0, 0.1)
+    pause_wall: float = param(0.2, 'a stream silent this long (wall) while the other delivered >= 2 messages no '
+                              'longer holds the other back [s]', 0.0, 60.0)
+    flush_idle: float = param(0.5, 'process everything buffered after this long without a message (wall) [s]',
+                              0.01, 60.0)
+    drain_budget: float = param(0.2, 'wall time one callback may spend on buffered events; the rest follows in the '
+                                'next callbacks (keeps the node responsive, e.g. to shutdown, during a backlog) [s]',
+                                0.001, 60.0)
+    queue_depth: int = param(100000, 'depth of the reliable input and scan subscriptions', 10, 1_000_000)
+    map_period: float = param(2.0, 'publish the map at most every this much data time [s]; 0 = every scan', 0.0, 3600.0)
+    ellipse_points: int = param(16, 'points per 2σ landmark ellipse', 4, 360)
+    max_particles_published: int = param(500, 'particles per PoseArray (an even subsample)', 1, 1_000_000)
+    warn_throttle: float = param(5.0, 'at most one log line per kind of refused input per this many seconds [s]',
+                                 0.0, 3600.0)
+    stamp_horizon: float = param(InputPolicy.horizon, 'refuse messages stamped more than this ahead of the node clock '
+                                 '[s]', 1e-3, 1e9)
+    stamp_lead: float = param(1.0, 'look-ahead tolerance: refuse messages stamped more than this ahead of the node '
+                              'clock (a few input periods; also late messages of a run before a clock jump) [s]',
+                              1e-3, 1e9)
+    frame_id: str = param(FRAME_MAP, 'frame of the pose, map and particles')
+    child_frame_id: str = param(FRAME_LASER, 'child_frame_id of the pose (the SLAM state is the laser pose)')
+    cekf: SlamParams = group(SlamParams, default_from=lambda v: _profile(v).slam)
+    pf: PFParams = group(PFParams, default_from=lambda v: _profile(v).pf)
+    hybrid: HybridParams = group(HybridParams, default_from=lambda v: _profile(v).hybrid)

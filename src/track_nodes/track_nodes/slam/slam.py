@@ -80,11 +80,12 @@ from track_core.filters import symmetrize
 from track_core.slam import HybridSlam
 from track_core.slam.blas import single_threaded_blas
 from track_core.slam.streams import INPUT, SCAN, StreamMerger, scan_observations
-from track_msgs_py.convert import pose_to_odometry, positions_to_pose_array, stamp_to_ns, twist_to_inputs
 from track_msgs_py.markers.slam import map_markers
+from track_msgs_py.odometry import pose_to_odometry, positions_to_pose_array, twist_to_inputs
 from track_msgs_py.qos import ESTIMATE_QOS, SENSOR_QOS, STATIC_QOS
 from track_msgs_py.records import RecordError
 from track_msgs_py.records.slam import SlamEvent, SlamMode, SlamScan
+from track_msgs_py.stamps import stamp_to_ns
 from track_msgs_py.tf import frame_pair_problem, odometry_transform, planar_transform
 from track_msgs_py.topics import (
     FRAME_BASE,
@@ -97,14 +98,15 @@ from track_msgs_py.topics import (
     SLAM_SCAN,
 )
 from track_msgs_py.validate import InputPolicy, clock_now, speed_steer_problem, stamp_problem
-from track_nodes.base import TrackNode, declare_dataclass, declare_params, run_node, vector
-from track_nodes.slam.params import CORE_GROUPS, PROFILE_PARAM, PROFILES, node_params
+from track_nodes.base import ParameterError, TrackNode, run_node, vector
+from track_nodes.slam.params import SlamNodeParams
 
 _TOPIC = {INPUT: SLAM_INPUTS, SCAN: SLAM_SCAN}
 
 
 class SlamNode(TrackNode):
     DEFAULT_NAME = 'slam'
+    Params = SlamNodeParams
 
     @classmethod
     def main(cls, argv=None, **kwargs) -> int:
@@ -114,16 +116,15 @@ class SlamNode(TrackNode):
             return run_node(cls, argv, **kwargs)
 
     def setup(self) -> None:
-        profile = PROFILES[declare_params(self, [PROFILE_PARAM]).profile]()
-        self.p = p = declare_params(self, node_params(list(profile.pose0)))
-        cores = {attr: declare_dataclass(self, prefix, getattr(profile, attr)) for prefix, _, attr in CORE_GROUPS}
+        p = self.p
         pose0, var0 = vector('pose0', p.pose0, 3), vector('pose0_var', p.pose0_var, 3, positive=True)
-        self._new_slam = lambda: HybridSlam(pose0, np.diag(var0), np.random.default_rng(p.seed), cores['slam'],
-                                            cores['pf'], cores['hybrid'], compressed=p.compressed)
+        self._new_slam = lambda: HybridSlam(pose0, np.diag(var0), np.random.default_rng(p.seed), p.cekf, p.pf,
+                                            p.hybrid, compressed=p.compressed)
         self.slam = self._new_slam()
         problem = frame_pair_problem(p.frame_id, p.child_frame_id) or frame_pair_problem(p.child_frame_id, FRAME_BASE)
         if problem:
-            raise ValueError(f'parameters frame_id={p.frame_id!r}, child_frame_id={p.child_frame_id!r}: {problem}')
+            raise ParameterError(f'parameters frame_id={p.frame_id!r}, child_frame_id={p.child_frame_id!r}: '
+                                 f'{problem}')
         self.policy = InputPolicy(horizon=p.stamp_horizon, lead=p.stamp_lead)
         self.refusals.throttle = p.warn_throttle
         self.merger = StreamMerger(p.pause_wall, p.flush_idle, p.drain_budget, time.monotonic())

@@ -29,23 +29,30 @@ default world's noise levels.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from geometry_msgs.msg import TwistStamped
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import PointCloud2
 
 from track_core.slam.sim import LoopWorld, simulate
-from track_msgs_py.convert import inputs_to_twist, pose_to_odometry
+from track_msgs_py.odometry import inputs_to_twist, pose_to_odometry
 from track_msgs_py.qos import qos_for_topic
 from track_msgs_py.records.slam import SlamScan
 from track_msgs_py.tf import odometry_transform
 from track_msgs_py.topics import FRAME_LASER_TRUTH, FRAME_MAP, SLAM_INPUTS, SLAM_SCAN, SLAM_TRUTH
-from track_nodes.base import FixedRateSteps, Param, ParameterError, TrackNode, declare_dataclass
+from track_nodes.base import FixedRateSteps, ParameterError, TrackNode, group, param
 
-PARAMS = (
-    Param('seed', 0, 'seed of the simulated run (truth, input and sensor noise)', 0, 2**31 - 1),
-    Param('max_time', 0.0, 'stop publishing after this node time since origin [s]; 0 = never', 0.0, 1e9),
-)
+
+@dataclass
+class SlamSimParams:
+    """Parameters of ``slam_sim``."""
+
+    seed: int = param(0, 'seed of the simulated run (truth, input and sensor noise)', 0, 2**31 - 1)
+    max_time: float = param(0.0, 'stop publishing after this node time since origin [s]; 0 = never', 0.0, 1e9)
+    world: LoopWorld = group(LoopWorld)
+
 
 _SCAN, _INPUT, _TRUTH = 0, 1, 2
 # LoopWorld does not check itself: allowed ranges of its fields (inclusive)
@@ -64,12 +71,11 @@ def _check_world(w: LoopWorld) -> None:
 
 class SlamSimNode(TrackNode):
     DEFAULT_NAME = 'slam_sim'
-    PARAMS = PARAMS
+    Params = SlamSimParams
 
     def setup(self) -> None:
         p = self.p
-        default = LoopWorld()
-        self.world = w = declare_dataclass(self, 'world', default)
+        self.world = w = p.world
         _check_world(w)
         run = simulate(w, np.random.default_rng(p.seed))
         self.run = run

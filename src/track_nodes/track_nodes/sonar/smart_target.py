@@ -30,6 +30,7 @@ latest observer position received.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
@@ -38,16 +39,11 @@ from nav_msgs.msg import Odometry
 
 from track_core.sonar import SmartTarget, SmartTargetParams, SonarParams
 from track_core.sonar.lockstep import TargetGate
-from track_msgs_py.convert import (
-    DIAG_OK,
-    cv_state_to_odometry,
-    diagnostic_array,
-    odometry_to_cv_state,
-    sec_to_stamp,
-    stamp_to_ns,
-)
+from track_msgs_py.diagnostics import DIAG_OK, diagnostic_array
+from track_msgs_py.odometry import cv_state_to_odometry, odometry_to_cv_state
 from track_msgs_py.qos import ESTIMATE_QOS, TRUTH_QOS
 from track_msgs_py.records.sonar import SonarTargetStatus
+from track_msgs_py.stamps import sec_to_stamp, stamp_to_ns
 from track_msgs_py.topics import FRAME_MAP, KNOWN_FRAMES, SONAR_OBSERVER, SONAR_PING, SONAR_TARGET_STATUS, SONAR_TRUTH
 from track_msgs_py.validate import (
     DEFAULT_POLICY,
@@ -56,32 +52,35 @@ from track_msgs_py.validate import (
     odometry_bounds_problem,
     odometry_problem,
 )
-from track_nodes.base import FixedRateSteps, Param, TrackNode, vector
+from track_nodes.base import FixedRateSteps, TrackNode, param, vector
 
 _D = SmartTargetParams()
-PARAMS = (
-    Param('seed', 0, 'seed of the numpy Generator driving process noise and ping detection', 0, 2**31 - 1),
-    Param('period', 1.0, 'step T of the target model (Table 1: 1 s) [s]', 1e-3, 60.0),
-    Param('q_s', 1.0, 'CV process-noise intensity q_s of eq. 4 (Table 1: 1) [m²/s³]', 1e-9, 1e3),
-    Param('x0', [300.0, 12.25, 300.0, -12.25], 'initial state [x, vx, y, vy] in map (Section 5) [m, m/s]'),
-    Param('naive', False, 'the paper\'s constant-velocity target (never evades)'),
-    Param('p_max', _D.p_max, 'detection probability of a ping at close range', 0.0, 1.0),
-    Param('r_50', _D.r_50, 'range at which a ping is heard with probability p_max/2 [m]', 1e-3, 1e7),
-    Param('width', _D.width, 'width of the logistic fall-off of the detection probability [m]', 1e-3, 1e7),
-    Param('evade_speed', _D.evade_speed, 'speed while evading [m/s]', 0.0, 1e3),
-    Param('max_turn_rate_deg', math.degrees(_D.max_turn_rate), 'bounded turn rate while manoeuvring [deg/s]',
-          0.0, 360.0),
-    Param('max_accel', _D.max_accel, 'bounded speed change [m/s²]', 0.0, 1e3),
-    Param('quiet_period', _D.quiet_period, 'time without a detected ping before cruising again [s]', 0.0, 1e6),
-    Param('sync_observer', True, 'step k waits for the observer\'s Odometry of t_{k-1} (deterministic lock-step)'),
-    Param('max_time', 0.0, 'stop after this node time since origin [s]; 0 = never', 0.0, 1e9),
-    Param('track_id', 'smart_target', 'child_frame_id of the truth odometry and name of the status'),
-)
+
+@dataclass
+class SmartTargetNodeParams:
+    """Parameters of ``smart_target``."""
+
+    seed: int = param(0, 'seed of the numpy Generator driving process noise and ping detection', 0, 2**31 - 1)
+    period: float = param(1.0, 'step T of the target model (Table 1: 1 s) [s]', 1e-3, 60.0)
+    q_s: float = param(1.0, 'CV process-noise intensity q_s of eq. 4 (Table 1: 1) [m²/s³]', 1e-9, 1e3)
+    x0: list[float] = param([300.0, 12.25, 300.0, -12.25], 'initial state [x, vx, y, vy] in map (Section 5) [m, m/s]')
+    naive: bool = param(False, 'the paper\'s constant-velocity target (never evades)')
+    p_max: float = param(_D.p_max, 'detection probability of a ping at close range', 0.0, 1.0)
+    r_50: float = param(_D.r_50, 'range at which a ping is heard with probability p_max/2 [m]', 1e-3, 1e7)
+    width: float = param(_D.width, 'width of the logistic fall-off of the detection probability [m]', 1e-3, 1e7)
+    evade_speed: float = param(_D.evade_speed, 'speed while evading [m/s]', 0.0, 1e3)
+    max_turn_rate_deg: float = param(math.degrees(_D.max_turn_rate), 'bounded turn rate while manoeuvring [deg/s]',
+                                     0.0, 360.0)
+    max_accel: float = param(_D.max_accel, 'bounded speed change [m/s²]', 0.0, 1e3)
+    quiet_period: float = param(_D.quiet_period, 'time without a detected ping before cruising again [s]', 0.0, 1e6)
+    sync_observer: bool = param(True, 'step k waits for the observer\'s Odometry of t_{k-1} (deterministic lock-step)')
+    max_time: float = param(0.0, 'stop after this node time since origin [s]; 0 = never', 0.0, 1e9)
+    track_id: str = param('smart_target', 'child_frame_id of the truth odometry and name of the status')
 
 
 class SmartTargetNode(TrackNode):
     DEFAULT_NAME = 'smart_target'
-    PARAMS = PARAMS
+    Params = SmartTargetNodeParams
 
     def setup(self) -> None:
         p = self.p

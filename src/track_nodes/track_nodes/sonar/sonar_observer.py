@@ -11,7 +11,7 @@ For every target truth (``/sonar/target/truth``), in step order, the observer
 4. publishes, in this order:
    - ``/sonar/ping`` (geometry_msgs/PointStamped at the observer position), only when it pinged;
    - ``/sonar/estimate`` (nav_msgs/Odometry with the particle covariance, ``child_frame_id`` =
-     ``track_id``; position–velocity cross-covariances are dropped, see track_msgs_py.convert);
+     ``track_id``; position–velocity cross-covariances are dropped, see track_msgs_py.odometry);
    - ``/sonar/particles`` (geometry_msgs/PoseArray, one pose per selected particle, identity
      orientation like our Odometry tracks: particles carry no heading; weights are equal after
      the selection step, so no weight field is needed);
@@ -50,6 +50,7 @@ diagonal; 16: a row-major 4×4 matrix) stop the node with one line.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
@@ -70,19 +71,14 @@ from track_core.sonar import (
 )
 from track_core.sonar.lockstep import TruthGate
 from track_core.sonar.scenario import DEFAULT_LEGS
+from track_core.sonar.scheduler import DELTA
 from track_core.sonar.sspf import TRACKERS
-from track_msgs_py.convert import (
-    DIAG_OK,
-    cv_state_to_odometry,
-    diagnostic_array,
-    ns_to_stamp,
-    odometry_to_cv_state,
-    positions_to_pose_array,
-    stamp_to_ns,
-)
+from track_msgs_py.diagnostics import DIAG_OK, diagnostic_array
 from track_msgs_py.markers.sonar import estimate_markers
+from track_msgs_py.odometry import cv_state_to_odometry, odometry_to_cv_state, positions_to_pose_array
 from track_msgs_py.qos import ESTIMATE_QOS, SENSOR_QOS, TRUTH_QOS
 from track_msgs_py.records.sonar import SonarMode
+from track_msgs_py.stamps import ns_to_stamp, stamp_to_ns
 from track_msgs_py.tf import frame_pair_problem, odometry_transform
 from track_msgs_py.topics import (
     FRAME_MAP,
@@ -96,38 +92,39 @@ from track_msgs_py.topics import (
     SONAR_TRUTH,
 )
 from track_msgs_py.validate import InputPolicy, clock_now, odometry_bounds_problem, odometry_problem, stamp_problem
-from track_nodes.base import Param, ParameterError, TrackNode
+from track_nodes.base import ParameterError, TrackNode, param
 
-PARAMS = (
-    Param('seed', 0, 'seed of the measurement noise and of the particle filter (two spawned streams)', 0, 2**31 - 1),
-    Param('tracker', 'ss-pf', 'ss-pf: eq. 7 scheduling; papf: passive only; acpf: active only',
-          choices=TRACKERS),
-    Param('delta', 5.0, 'threshold δ of eq. 7 (Table 1: 5) [m²]', 0.0, 1e12, live=True),
-    Param('P_D', [float(v) for v in np.diag(DEFAULT_P_D)],
-          'desired covariance P_D of eq. 7 in [x, vx, y, vy]: 4 values (diagonal) or 16 (row-major 4x4), '
-          'symmetric PSD'),
-    Param('metric', 'spectral', 'eq. 7 distance: spectral ‖P_D − Cov‖₂ (paper) or excess λmax(Cov − P_D)',
-          choices=('spectral', 'excess')),
-    Param('n_particles', 200, 'number of particles N (Table 1: 200)', 1, 1_000_000),
-    Param('regularize', True, 'Liu-West move after resampling (track_core.sonar.sspf; not in the paper)'),
-    Param('period', 1.0, 'sampling period T (Table 1: 1 s) [s]', 1e-3, 60.0),
-    Param('q_s', 1.0, 'process-noise intensity q_s of the filter model (Table 1: 1) [m²/s³]', 1e-9, 1e3),
-    Param('sigma_b_deg', 1.0, 'bearing noise std σ_b (Table 1: 1°) [deg]', 1e-6, 180.0),
-    Param('sigma_d', 5.0, 'range noise std σ_d of the active sonar (Table 1: 5 m) [m]', 1e-6, 1e6),
-    Param('prior_mean', [300.0, 12.25, 300.0, -12.25], 'prior mean m₀ = [x, vx, y, vy] at t = 0 [m, m/s]'),
-    Param('prior_pos_std', 20.0, 'prior position std per axis [m]', 1e-6, 1e6),
-    Param('prior_vel_std', 2.0, 'prior velocity std per axis [m/s]', 1e-6, 1e6),
-    Param('start', [0.0, 0.0], 'observer start position [x, y] in map [m]'),
-    Param('speed', 10.0, 'observer speed [m/s]', 0.0, 1e3),
-    Param('heading0_deg', 90.0, 'observer initial heading, clockwise from north [deg]', -360.0, 360.0),
-    Param('legs', [float(v) for leg in DEFAULT_LEGS for v in leg],
-          'observer legs, flat [duration s, turn rate deg/s, ...]; the last leg extends past its duration'),
-    Param('max_time', 0.0, 'stop after step k with k·T > max_time (trajectory time) [s]; 0 = never', 0.0, 1e9),
-    Param('track_id', 'sonar_track', 'child_frame_id of the estimate'),
-    Param('observer_id', 'sonar_observer', 'child_frame_id of the observer odometry'),
-    Param('stamp_lead', 3.0, 'look-ahead tolerance: refuse truths stamped more than this ahead of the node clock '
-          '(a few periods; also a late truth of a run before a clock jump) [s]', 1e-3, 1e9, live=True),
-)
+
+@dataclass
+class SonarObserverParams:
+    """Parameters of ``sonar_observer``."""
+
+    seed: int = param(0, 'seed of the measurement noise and of the particle filter (two spawned streams)', 0, 2**31 - 1)
+    tracker: str = param('ss-pf', 'ss-pf: eq. 7 scheduling; papf: passive only; acpf: active only', choices=TRACKERS)
+    delta: float = param(DELTA, 'threshold δ of eq. 7 (Table 1: 5) [m²]', 0.0, 1e12, live=True)
+    P_D: list[float] = param([float(v) for v in np.diag(DEFAULT_P_D)], 'desired covariance P_D of eq. 7 in [x, vx, y, '
+                             'vy]: 4 values (diagonal) or 16 (row-major 4x4), symmetric PSD')
+    metric: str = param('spectral', 'eq. 7 distance: spectral ‖P_D − Cov‖₂ (paper) or excess λmax(Cov − P_D)',
+                        choices=('spectral', 'excess'))
+    n_particles: int = param(200, 'number of particles N (Table 1: 200)', 1, 1_000_000)
+    regularize: bool = param(True, 'Liu-West move after resampling (track_core.sonar.sspf; not in the paper)')
+    period: float = param(1.0, 'sampling period T (Table 1: 1 s) [s]', 1e-3, 60.0)
+    q_s: float = param(1.0, 'process-noise intensity q_s of the filter model (Table 1: 1) [m²/s³]', 1e-9, 1e3)
+    sigma_b_deg: float = param(1.0, 'bearing noise std σ_b (Table 1: 1°) [deg]', 1e-6, 180.0)
+    sigma_d: float = param(5.0, 'range noise std σ_d of the active sonar (Table 1: 5 m) [m]', 1e-6, 1e6)
+    prior_mean: list[float] = param([300.0, 12.25, 300.0, -12.25], 'prior mean m₀ = [x, vx, y, vy] at t = 0 [m, m/s]')
+    prior_pos_std: float = param(20.0, 'prior position std per axis [m]', 1e-6, 1e6)
+    prior_vel_std: float = param(2.0, 'prior velocity std per axis [m/s]', 1e-6, 1e6)
+    start: list[float] = param([0.0, 0.0], 'observer start position [x, y] in map [m]')
+    speed: float = param(10.0, 'observer speed [m/s]', 0.0, 1e3)
+    heading0_deg: float = param(90.0, 'observer initial heading, clockwise from north [deg]', -360.0, 360.0)
+    legs: list[float] = param([float(v) for leg in DEFAULT_LEGS for v in leg], 'observer legs, flat [duration s, turn '
+                              'rate deg/s, ...]; the last leg extends past its duration')
+    max_time: float = param(0.0, 'stop after step k with k·T > max_time (trajectory time) [s]; 0 = never', 0.0, 1e9)
+    track_id: str = param('sonar_track', 'child_frame_id of the estimate')
+    observer_id: str = param('sonar_observer', 'child_frame_id of the observer odometry')
+    stamp_lead: float = param(3.0, 'look-ahead tolerance: refuse truths stamped more than this ahead of the node clock '
+        '(a few periods; also a late truth of a run before a clock jump) [s]', 1e-3, 1e9, live=True)
 
 
 WAIT_WARN = 10.0  # steady s without a truth before a (throttled) warning that none comes
@@ -146,24 +143,24 @@ def _p_d(values) -> np.ndarray:
 
 class SonarObserverNode(TrackNode):
     DEFAULT_NAME = 'sonar_observer'
-    PARAMS = PARAMS
+    Params = SonarObserverParams
 
     def setup(self) -> None:
         p = self.p
         P_D = _p_d(p.P_D)
         m0 = np.asarray(p.prior_mean, dtype=float)
         if m0.shape != (4,) or not np.all(np.isfinite(m0)):
-            raise ValueError(f'parameter prior_mean={list(p.prior_mean)!r} is invalid: allowed 4 finite numbers')
+            raise ParameterError(f'parameter prior_mean={list(p.prior_mean)!r} is invalid: allowed 4 finite numbers')
         legs = np.asarray(p.legs, dtype=float)
         if legs.size == 0 or legs.size % 2 or not np.all(np.isfinite(legs)) or np.any(legs[::2] <= 0):
-            raise ValueError(f'parameter legs={list(p.legs)!r} is invalid: allowed pairs [duration > 0 s, '
+            raise ParameterError(f'parameter legs={list(p.legs)!r} is invalid: allowed pairs [duration > 0 s, '
                              'turn rate deg/s, ...]')
         start = np.asarray(p.start, dtype=float)
         if start.shape != (2,) or not np.all(np.isfinite(start)):
-            raise ValueError(f'parameter start={list(p.start)!r} is invalid: allowed 2 finite numbers [x, y]')
+            raise ParameterError(f'parameter start={list(p.start)!r} is invalid: allowed 2 finite numbers [x, y]')
         problem = frame_pair_problem(FRAME_MAP, p.observer_id)
         if problem:
-            raise ValueError(f'parameter observer_id={p.observer_id!r}: {problem}')
+            raise ParameterError(f'parameter observer_id={p.observer_id!r}: {problem}')
         self.sonar = SonarParams(T=p.period, q_s=p.q_s, sigma_b=math.radians(p.sigma_b_deg), sigma_d=p.sigma_d,
                                  n_particles=p.n_particles)
         self.trajectory = ObserverTrajectory(start=(float(start[0]), float(start[1])), speed=p.speed,

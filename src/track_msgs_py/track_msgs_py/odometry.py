@@ -1,0 +1,165 @@
+"""Tracks, reports and poses ⇄ ``Odometry``, ``PoseWithCovarianceStamped``, ``PoseArray`` and ``TwistStamped``.
+
+Covariances are the planar 6×6 of ``track_msgs_py.covariance``:
+
+=========================  ==========================================  ===============================================
+data                       message type                                fields
+=========================  ==========================================  ===============================================
+CV state ``x=[x,ẋ,y,ẏ]``,  nav_msgs/Odometry                           ``header.stamp``, ``header.frame_id`` (``map``),
+``P`` (4×4)                                                            ``child_frame_id`` (track id);
+                                                                       ``pose.pose.position.x/y`` ← x, y (z = 0);
+                                                                       ``pose.pose.orientation`` = identity;
+                                                                       ``twist.twist.linear.x/y`` ← ẋ, ẏ (angular 0);
+                                                                       ``pose.covariance`` x/y block ← P[[0,2],[0,2]];
+                                                                       ``twist.covariance`` x/y block ← P[[1,3],[1,3]];
+                                                                       z/roll/pitch entries ``PLANAR_VARIANCE`` (0),
+                                                                       yaw and yaw rate ``NOT_ESTIMATED_VARIANCE``
+position report ``z`` (2,)  geometry_msgs/PoseWithCovarianceStamped     ``pose.pose.position.x/y`` ← z (z = 0),
+and ``R`` (2×2)                                                        orientation identity, ``pose.covariance`` x/y
+                                                                       block ← R, z/roll/pitch 0, yaw not estimated
+particle positions (N, 2)  geometry_msgs/PoseArray                     ``poses[i].position.x/y`` (z = 0), orientation
+and headings                                                           the heading about z (identity without one)
+=========================  ==========================================  ===============================================
+
+The SLAM topics' laser pose (``pose_to_odometry``) and odometry inputs (``inputs_to_twist``) are
+described with their topics in ``track_msgs_py.topics``.
+
+Deliberate deviations and losses:
+
+- Odometry twist is expressed in ``child_frame_id`` (REP-105). Our tracks carry no heading, so
+  the child frame is defined axis-aligned with ``map`` (orientation identity) and the twist is
+  the map-frame velocity: ``twist.twist.linear.x`` is the east velocity, not a forward speed.
+- Odometry has no slot for position–velocity cross-covariances: they are dropped on the way
+  out, and ``odometry_to_cv_state`` returns ``P`` with zero cross blocks.
+- A ``PoseArray`` carries no weights: particle clouds are for display, publish them after resampling.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from geometry_msgs.msg import Point, Pose, PoseArray, PoseWithCovarianceStamped, TwistStamped
+from nav_msgs.msg import Odometry
+
+from track_msgs_py.covariance import NOT_ESTIMATED_VARIANCE, as_shape, planar_covariance, xy_block
+from track_msgs_py.stamps import stamp_to_sec, stamped_header
+from track_msgs_py.topics import FRAME_BASE, FRAME_LASER, FRAME_MAP
+
+_POS = [0, 2]  # indices of x, y in the CV state [x, ẋ, y, ẏ]
+_VEL = [1, 3]  # indices of ẋ, ẏ
+
+
+# --- CV state ⇄ Odometry --------------------------------------------------------------------
+
+def cv_state_to_odometry(t: float, x: np.ndarray, P: np.ndarray, frame_id: str = FRAME_MAP,
+                         child_frame_id: str = '') -> Odometry:
+    """CV state ``x=[x, ẋ, y, ẏ]`` with covariance ``P`` (4×4) at ``t`` → ``nav_msgs/Odometry``.
+
+    See the module table; position–velocity cross-covariances are dropped.
+    """
+    x = as_shape(x, (4,), 'x')
+    P = as_shape(P, (4, 4), 'P')
+    msg = Odometry(header=stamped_header(t, frame_id), child_frame_id=child_frame_id)
+    msg.pose.pose.position.x, msg.pose.pose.position.y = float(x[0]), float(x[2])
+    msg.pose.pose.orientation.w = 1.0
+    msg.twist.twist.linear.x, msg.twist.twist.linear.y = float(x[1]), float(x[3])
+    msg.pose.covariance = planar_covariance(P[0::2, 0::2])   # rows/columns _POS = [0, 2] (a slice: no fancy index)
+    msg.twist.covariance = planar_covariance(P[1::2, 1::2])  # _VEL = [1, 3]
+    return msg
+
+
+def odometry_to_cv_state(msg: Odometry) -> tuple[float, np.ndarray, np.ndarray]:
+    """``nav_msgs/Odometry`` → ``(t, x=[x, ẋ, y, ẏ], P)``; P's position–velocity blocks are zero."""
+    p, v = msg.pose.pose.position, msg.twist.twist.linear
+    x = np.array([p.x, v.x, p.y, v.y], dtype=float)
+    P = np.zeros((4, 4))
+    P[np.ix_(_POS, _POS)] = xy_block(msg.pose.covariance)
+    P[np.ix_(_VEL, _VEL)] = xy_block(msg.twist.covariance)
+    return stamp_to_sec(msg.header.stamp), x, P
+
+
+# --- position report ⇄ PoseWithCovarianceStamped --------------------------------------------
+
+def position_to_pose_cov(t: float, z: np.ndarray, R: np.ndarray,
+                         frame_id: str = FRAME_MAP) -> PoseWithCovarianceStamped:
+    """Position ``z`` (2,) with covariance ``R`` (2×2) → ``geometry_msgs/PoseWithCovarianceStamped``."""
+    z = as_shape(z, (2,), 'z')
+    R = as_shape(R, (2, 2), 'R')
+    msg = PoseWithCovarianceStamped(header=stamped_header(t, frame_id))
+    msg.pose.pose.position.x, msg.pose.pose.position.y = float(z[0]), float(z[1])
+    msg.pose.pose.orientation.w = 1.0
+    msg.pose.covariance = planar_covariance(R)
+    return msg
+
+
+def pose_cov_to_position(msg: PoseWithCovarianceStamped) -> tuple[float, np.ndarray, np.ndarray]:
+    """``geometry_msgs/PoseWithCovarianceStamped`` → ``(t, z (2,), R (2×2))``."""
+    p = msg.pose.pose.position
+    return stamp_to_sec(msg.header.stamp), np.array([p.x, p.y], dtype=float), xy_block(msg.pose.covariance)
+
+
+# --- particle positions ⇄ PoseArray ---------------------------------------------------------
+
+def positions_to_pose_array(t: float, xy: np.ndarray, frame_id: str = FRAME_MAP,
+                            headings: np.ndarray | None = None) -> PoseArray:
+    """(N, 2) particle positions (and optional headings, rad from +x) → PoseArray (z = 0).
+
+    Particle clouds are for display, so weights are not carried: publish after resampling.
+    """
+    xy = np.asarray(xy, dtype=float)
+    msg = PoseArray()
+    msg.header = stamped_header(t, frame_id)
+    half = np.zeros(len(xy)) if headings is None else 0.5 * np.asarray(headings, dtype=float)
+    msg.poses = [Pose(position=Point(x=px, y=py)) for px, py in xy.tolist()]
+    for pose, qz, qw in zip(msg.poses, np.sin(half).tolist(), np.cos(half).tolist(), strict=True):
+        pose.orientation.z, pose.orientation.w = qz, qw
+    return msg
+
+
+def pose_array_to_positions(msg: PoseArray) -> tuple[np.ndarray, np.ndarray]:
+    """Inverse of :func:`positions_to_pose_array`: ((N, 2) positions, (N,) headings)."""
+    xy = np.array([(p.position.x, p.position.y) for p in msg.poses], dtype=float).reshape(-1, 2)
+    q = np.array([(p.orientation.z, p.orientation.w) for p in msg.poses], dtype=float).reshape(-1, 2)
+    return xy, 2.0 * np.arctan2(q[:, 0], q[:, 1])
+
+
+# --- SLAM pose ⇄ Odometry, inputs ⇄ TwistStamped (the topics are in track_msgs_py.topics) ----
+
+_POSE_IDX = (0, 1, 5)  # x, y, yaw in the 6×6 row-major pose covariance of Odometry
+
+
+def pose_to_odometry(t: float, pose: np.ndarray, P: np.ndarray, frame_id: str = FRAME_MAP,
+                     child_frame_id: str = FRAME_LASER) -> Odometry:
+    """Pose (x, y, φ) with covariance P (3×3) → Odometry: orientation yaw φ, covariance entries
+    (x, y, yaw) = P, z/roll/pitch ``PLANAR_VARIANCE``; the twist is not estimated (x/y and yaw rate
+    ``NOT_ESTIMATED_VARIANCE``, the planar rates 0)."""
+    pose = np.asarray(pose, dtype=float)
+    msg = Odometry(header=stamped_header(t, frame_id), child_frame_id=child_frame_id)
+    msg.pose.pose.position.x, msg.pose.pose.position.y = float(pose[0]), float(pose[1])
+    msg.pose.pose.orientation.z, msg.pose.pose.orientation.w = math.sin(pose[2] / 2), math.cos(pose[2] / 2)
+    cov = planar_covariance(np.zeros((2, 2)), 0.0).reshape(6, 6)
+    cov[np.ix_(_POSE_IDX, _POSE_IDX)] = np.asarray(P, dtype=float)
+    msg.pose.covariance = cov.reshape(36)
+    msg.twist.covariance = planar_covariance(np.eye(2) * NOT_ESTIMATED_VARIANCE)
+    return msg
+
+
+def odometry_to_pose(msg: Odometry) -> tuple[float, np.ndarray, np.ndarray]:
+    """Inverse of :func:`pose_to_odometry`: (t, pose (x, y, yaw), P (3×3)); yaw from a z-axis rotation."""
+    p, q = msg.pose.pose.position, msg.pose.pose.orientation
+    yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+    cov = np.asarray(msg.pose.covariance, dtype=float).reshape(6, 6)[np.ix_(_POSE_IDX, _POSE_IDX)]
+    return stamp_to_sec(msg.header.stamp), np.array([p.x, p.y, yaw]), cov.copy()
+
+
+def inputs_to_twist(t: float, speed: float, steer: float, frame_id: str = FRAME_BASE) -> TwistStamped:
+    """Encoder speed [m/s] and steering angle [rad] → TwistStamped (linear.x, angular.z)."""
+    msg = TwistStamped(header=stamped_header(t, frame_id))
+    msg.twist.linear.x, msg.twist.angular.z = float(speed), float(steer)
+    return msg
+
+
+def twist_to_inputs(msg: TwistStamped) -> tuple[float, float, float]:
+    """TwistStamped → (t, encoder speed, steering angle)."""
+    return stamp_to_sec(msg.header.stamp), float(msg.twist.linear.x), float(msg.twist.angular.z)
