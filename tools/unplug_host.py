@@ -11,7 +11,7 @@ GAP seconds, then up again. Then it reads the bag and reports (and with ``--json
   ``error_kept_chain``: the same without the estimates of void leads (an estimate is matched to its
   leader's ``step`` event by its spread, the trace of its covariance);
 - ``chains``: per step, the leaders that led it (``step`` events minus ``void`` events, the chain
-  rule of ``track_core.idsq.ledger``); ``max_chains_after`` over the steps after the gap and
+  rule of ``track_core.idsq.leader_protocol``); ``max_chains_after`` over the steps after the gap and
   ``chains_at_end`` over the last ``--end-steps`` recorded steps (1 = converged to one chain);
   ``duplicated_steps``: steps led by more than one sensor (a void lead included);
 - ``steps_lost``: steps up to the last recorded estimate with no estimate in the bag (the recorder
@@ -41,7 +41,7 @@ from watched_launch import WatchedLaunch
 
 def analyse(bag: Path, gap_steps: tuple[int, int], host_of: dict[int, int], host: int, end_steps: int) -> dict:
     """The figures of the module docstring from the recorded bag."""
-    from track_core.idsq.ledger import step_of_stamp
+    from track_core.idsq.leader_protocol import step_of_stamp
     from track_msgs_py.odometry import odometry_to_cv_state
     from track_msgs_py.records.idsq import IdsqLeaderEvent
     from track_msgs_py.stamps import stamp_to_sec

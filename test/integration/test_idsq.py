@@ -48,7 +48,7 @@ from track_core.idsq import (
     simulate_measurement,
     uniform_belief,
 )
-from track_core.idsq.ledger import measurement_normal, start_leader_of, step_of_stamp
+from track_core.idsq.leader_protocol import measurement_normal, start_leader_of, step_of_stamp
 from track_core.idsq.simulation import scenario_of
 from track_msgs_py.covariance import xy_block
 from track_msgs_py.odometry import odometry_to_cv_state

@@ -152,8 +152,8 @@ def test_each_sensor_hears_its_loudest_source():
     import numpy as np
 
     from track_core.idsq import SimNoise
+    from track_core.idsq.leader_protocol import loudest, start_leader_of
     from track_core.idsq.simulation import scenario_of
-    from track_nodes.idsq.sensor import loudest, start_leader_of
 
     sources = np.array([[75.0, 20.0], [420.0, 0.0]])
     assert loudest(sources, np.array([100.0, 0.0])).tolist() == [75.0, 20.0]

@@ -41,7 +41,7 @@ CLOCK_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
 # receiver matched is still delivered (depth 4: a leader can hand off again before the ack).
 # Across an unplugged host KEEP_LAST 4 is kept by measurement (tools/unplug_host.py,
 # README "Scenarios and time"): after a partition heals, what must arrive is the late ack of a
-# handoff that timed out, and the revoke it draws (the chain rule, track_core.idsq.ledger); a
+# handoff that timed out, and the revoke it draws (the chain rule, track_core.idsq.leader_protocol); a
 # late handoff that is lost instead is harmless (its sender re-selected). Each writer of these
 # topics has one reader, and publishes at most one message per step to it, fewer to a receiver
 # that timed out (tried last); with depth 4 every 5 s and 25 s unplug converged back to one chain,

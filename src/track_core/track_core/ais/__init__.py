@@ -15,7 +15,6 @@
   :func:`pair_tables` and :class:`StreamingDecisions` do the same in time chunks (bounded memory).
 - :mod:`.synthetic` — a seeded synthetic AIS file of another sea (long report intervals, a
   large spread, planted defects) in any column layout.
-- :mod:`.experiments` — ``track-experiment ais-association``.
 """
 
 from track_core.ais.association import (

@@ -21,7 +21,7 @@ f32 [m/s], number of hypotheses J u16), then n × u32 key j·n_cells + cell and 
 ``HEADER_BYTES + BANK_BYTES + 8·n``. The receiver rebuilds the lattice from the spacing and its
 v_max, and the position belief as the marginal of the joint.
 
-Revoke (the chain rule of ``ledger``): ``'<4sBxHHI'`` = 14 bytes, magic b'IDSR', version
+Revoke (the chain rule of ``leader_protocol``): ``'<4sBxHHI'`` = 14 bytes, magic b'IDSR', version
 1, sender u16, receiver u16, step u32: "the handoff of ``step`` that ``sender`` sent you is void".
 It travels on the same topic as the handoffs (``encode_revoke``, ``decode_revoke``).
 

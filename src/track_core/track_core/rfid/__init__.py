@@ -7,9 +7,9 @@
 - ``protocol``: ``Command`` (TURN/MOVE/DONE) and ``StepResult``, and the rule that rejects bad results.
 - ``guidance``: ``RfidGuidance``: step results in, next command out (the ``rfid_guidance`` node's core).
 - ``world``: ``SimReader``: simulated world, user and reader (the ``rfid_reader`` node's core).
-- ``search``: one search, start to end; ``experiments``/``bench``: ``rfid-table1`` and ``track-bench rfid``.
+- ``search``: one search, start to end.
 - ``batch``: the batch least-squares tag fit (the baseline of the filter's tag estimate).
-- ``reader_experiments``: ``rfid-reader``, a commercial reader's phase stream in simulation.
+- ``delivery``: the command/response exchange of the node pair, each command exactly once, in order.
 """
 
 from track_core.rfid.batch import BatchFit, fit_tag, path_from_moves, tag_in_user_frame

@@ -6,7 +6,7 @@
 - ``ukf``: the UKF peer (ours, from ``filters``) and Stone Soup's UKF behind the SS-PF interface.
 - ``scenario``: the Section 5 observer trajectory, truth, prior, one Monte-Carlo run.
 - ``smart_target``: a target that hears pings (range-dependent) and evades.
-- ``experiments``/``bench``: ``sonar-table2``, ``smart-target`` and ``track-bench sonar``.
+- ``lockstep``: when each node of the sonar pair may take its step.
 """
 
 from track_core.sonar.models import SensorMode, SonarParams, bearing, measure, residual, simulate_measurement

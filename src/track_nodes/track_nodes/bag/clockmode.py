@@ -21,7 +21,7 @@ from __future__ import annotations
 import time
 from typing import Any
 
-from track_nodes.bag.take import BeforeClock
+from track_nodes.bag.batching import BeforeClock
 from track_nodes.base.params import ParameterError
 
 MODES = ('auto', 'sim', 'wall')

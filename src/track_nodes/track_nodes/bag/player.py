@@ -106,6 +106,7 @@ def _stamp(ns: int):
 class PlayerNode(TrackNode):
     DEFAULT_NAME = 'player'
     Params = PlayerParams
+    p: PlayerParams  # the declared parameters (base/params.py)
 
     def __init__(self, exit_when_done: bool = False, **kw) -> None:
         super().__init__(**kw)

@@ -53,11 +53,11 @@ from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 
 from track_nodes.bag.api import bag_path, msg_class, qos_to_rosbags, recording_qos
+from track_nodes.bag.batching import can_take, take_pending
 from track_nodes.bag.clockmode import MODES, ClockChoice
 from track_nodes.bag.durable import open_bag
-from track_nodes.bag.loss import LossCounter, summary_line
+from track_nodes.bag.loss_count import LossCounter, summary_line
 from track_nodes.bag.selection import TopicFilter
-from track_nodes.bag.take import can_take, take_pending
 from track_nodes.base import TrackNode, param, run_node
 from track_nodes.base.cli import OneLineParser, cli_overrides
 
@@ -83,6 +83,7 @@ class RecorderParams:
 class RecorderNode(TrackNode):
     DEFAULT_NAME = 'recorder'
     Params = RecorderParams
+    p: RecorderParams  # the declared parameters (base/params.py)
 
     def setup(self) -> None:
         self._writer = self._bag = None

@@ -38,6 +38,7 @@ class DemoTargetParams:
 class DemoTargetNode(TrackNode):
     DEFAULT_NAME = 'demo_target'
     Params = DemoTargetParams
+    p: DemoTargetParams  # the declared parameters (base/params.py)
 
     def setup(self) -> None:
         p = self.p

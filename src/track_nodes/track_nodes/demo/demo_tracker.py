@@ -67,6 +67,7 @@ class DemoTrackerParams:
 class DemoTrackerNode(TrackNode):
     DEFAULT_NAME = 'demo_tracker'
     Params = DemoTrackerParams
+    p: DemoTrackerParams  # the declared parameters (base/params.py)
 
     def setup(self) -> None:
         self.tracker = CVKalmanTracker(q_s=self.p.q_s, sigma_v0=self.p.sigma_v0)

@@ -102,6 +102,7 @@ def _latlon(name: str, value) -> tuple[float, float]:
 class AisSourceNode(TrackNode):
     DEFAULT_NAME = 'ais_source'
     Params = AisSourceParams
+    p: AisSourceParams  # the declared parameters (base/params.py)
 
     def setup(self) -> None:
         p = self.p

@@ -151,6 +151,7 @@ class FusionParams:
 class FusionNode(TrackNode):
     DEFAULT_NAME = 'fusion'
     Params = FusionParams
+    p: FusionParams  # the declared parameters (base/params.py)
 
     def setup(self) -> None:
         p = self.p

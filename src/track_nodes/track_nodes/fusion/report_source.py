@@ -47,6 +47,7 @@ class ReportSourceParams:
 class ReportSourceNode(TrackNode):
     DEFAULT_NAME = 'report_source'
     Params = ReportSourceParams
+    p: ReportSourceParams  # the declared parameters (base/params.py)
 
     def setup(self) -> None:
         p = self.p

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from track_core.idsq import GridSpec, SimNoise, TrackerParams
-from track_core.idsq.ledger import SensorSetup
+from track_core.idsq.leader_protocol import SensorSetup
 from track_core.idsq.models import DEG
 from track_core.idsq.prediction import PREDICTIONS
 from track_core.idsq.tracker import SELECTIONS
@@ -48,7 +48,7 @@ class SensorParams:
     ack_timeout: float = param(2.0, 'steady-clock wait for an ack before re-selecting [s]', 1e-3, 600.0)
     track_id: str = param('idsq_track', 'child_frame_id of the estimate')
     truth_topics: list[str] = param([IDSQ_TRUTH], 'Odometry truth topics of the sources; each sensor senses the '
-                                    'loudest (nearest) source (track_core.idsq.ledger)')
+                                    'loudest (nearest) source (track_core.idsq.leader_protocol)')
 
 
 @dataclass

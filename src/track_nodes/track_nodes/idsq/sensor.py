@@ -6,7 +6,7 @@ which must agree with those three parameters (else one error line and the node s
 Its stamp is the step origin; a zero stamp means "origin pending": the sensor sets up its topics
 and holds truths until the stamped copy of the same layout comes.
 The protocol (handoffs, acks, the start rule, re-selection, randomness) is
-``track_core.idsq.ledger.HandoffLedger``; this node converts messages and carries out its effects:
+``track_core.idsq.leader_protocol.HandoffLedger``; this node converts messages and carries out its effects:
 
 - in: the handoff on ``/idsq/sensor_<id>/handoff`` (``UInt8MultiArray``, ``records.idsq.handoff_to_uint8_array``),
   the replies on ``/idsq/sensor_<id>/ack`` (``records.idsq.IdsqAck``), the truth of every
@@ -14,7 +14,7 @@ The protocol (handoffs, acks, the start rule, re-selection, randomness) is
 - out: the reply on the sender's ``/idsq/sensor_<j>/ack``; when leading a step, ``/idsq/estimate``
   (Odometry with the belief covariance), ``/idsq/belief`` (``records.idsq.IdsqBelief``), ``/idsq/markers``,
   the ``/idsq/leader`` events (``records.idsq.IdsqLeaderEvent``) and the handoff to the next sensor;
-  a ``void`` event when its lead of a step was revoked (one chain: ``track_core.idsq.ledger``), and
+  a ``void`` event when its lead of a step was revoked (one chain: ``track_core.idsq.leader_protocol``), and
   the revokes it sends on with it, on the handoff topics.
 
 QoS: handoff and ack topics are reliable and transient-local (depth 4), so a handoff published
@@ -46,8 +46,7 @@ from sensor_msgs.msg import PointCloud2
 from std_msgs.msg import UInt8MultiArray
 from visualization_msgs.msg import MarkerArray
 
-from track_core.idsq import ledger
-from track_core.idsq.ledger import loudest, start_leader_of  # noqa: F401  (imported from here by the maritime tests)
+from track_core.idsq import leader_protocol as protocol
 from track_msgs_py.covariance import NOT_ESTIMATED_VARIANCE
 from track_msgs_py.diagnostics import diagnostic_array
 from track_msgs_py.markers.idsq import sensor_markers
@@ -89,6 +88,7 @@ class IdsqSensorNode(TrackNode):
     DEFAULT_NAME = 'idsq_sensor'
     SENSOR_TYPE = 'acoustic'
     Params = SensorParams
+    p: SensorParams  # the declared parameters (base/params.py)
 
     def setup(self) -> None:
         p = self.p
@@ -102,10 +102,10 @@ class IdsqSensorNode(TrackNode):
         self.truth_topics = [t for t in p.truth_topics if t]
         if not self.truth_topics:
             raise ParameterError('parameter truth_topics is empty: allowed one or more Odometry topics')
-        self.core = ledger.HandoffLedger(sensor_setup(p, pos, tuple(self.truth_topics)))
+        self.core = protocol.HandoffLedger(sensor_setup(p, pos, tuple(self.truth_topics)))
         self.disabled = False
         self.origin: float | None = None  # the layout's stamp: step s is stamped origin + (s + 1)·dt
-        self.early: deque[tuple[Odometry, str]] = deque(maxlen=ledger.TRUTH_WINDOW)  # truths before the layout
+        self.early: deque[tuple[Odometry, str]] = deque(maxlen=protocol.TRUTH_WINDOW)  # truths before the layout
         self.ack_timers: dict[tuple[int, int], object] = {}  # (step, receiver) → steady-clock ack timer
         for sub in [s for s in self.subscriptions if s.topic_name == CLOCK]:
             self.destroy_subscription(sub)  # no ROS clock needed (module docstring)
@@ -165,12 +165,12 @@ class IdsqSensorNode(TrackNode):
                 return
             self._set_origin(msg)
             return
-        why = ledger.layout_problem(layout, self.id, self.position, self.is_doa)
+        why = protocol.layout_problem(layout, self.id, self.position, self.is_doa)
         if why is not None:
             self.disabled = True
             self.get_logger().error(f'{self.resolved(IDSQ_LAYOUT)}: sensor {self.id}: {why}; staying passive')
             return
-        targets = [ledger.handoff_targets(layout, j) for j in range(layout.n)]  # K sensors
+        targets = [protocol.handoff_targets(layout, j) for j in range(layout.n)]  # K sensors
         for k in targets[self.id]:
             self._handoff_pub(k)
         for j in range(layout.n):  # whom I may have to answer
@@ -194,7 +194,7 @@ class IdsqSensorNode(TrackNode):
                 self.early.append((msg, topic))
             return
         t = stamp_to_sec(msg.header.stamp)
-        step = ledger.step_of_stamp(t, self.p.dt, self.origin)
+        step = protocol.step_of_stamp(t, self.p.dt, self.origin)
         reason = odometry_problem(msg, KNOWN_FRAMES) or self.core.truth_problem(step, t - self.origin, self.p.dt)
         if reason is not None:
             self.refuse(topic, reason)
@@ -225,36 +225,36 @@ class IdsqSensorNode(TrackNode):
     def _do(self, effects) -> None:
         """Carry out the ledger's effects, in order."""
         for fx in effects:
-            if isinstance(fx, ledger.Log) and fx.refusal is not None:  # counted, throttled, on /diagnostics
+            if isinstance(fx, protocol.Log) and fx.refusal is not None:  # counted, throttled, on /diagnostics
                 channel, reason = fx.refusal
                 self.refuse(idsq_handoff_topic(self.id) if channel == 'handoff' else idsq_ack_topic(self.id), reason)
-            elif isinstance(fx, ledger.Log) and fx.level == 'info':  # (rclpy: one severity per call site)
+            elif isinstance(fx, protocol.Log) and fx.level == 'info':  # (rclpy: one severity per call site)
                 self.get_logger().info(fx.text)
-            elif isinstance(fx, ledger.Log):
+            elif isinstance(fx, protocol.Log):
                 self.get_logger().warning(fx.text)
-            elif isinstance(fx, ledger.Reply):
-                t = ledger.stamp_of_step(fx.step, self.p.dt, self.origin or 0.0)  # a malformed header: any u32 step
+            elif isinstance(fx, protocol.Reply):
+                t = protocol.stamp_of_step(fx.step, self.p.dt, self.origin or 0.0)  # a malformed header: any u32 step
                 status = IdsqAck.reply(fx.step, fx.sender, self.id, fx.refusal)
                 self._ack_pub(fx.sender).publish(diagnostic_array(t if t < 2**31 - 1 else 0.0, [status]))
-            elif isinstance(fx, ledger.Led):
+            elif isinstance(fx, protocol.Led):
                 self._publish_led(fx)
-            elif isinstance(fx, ledger.Reselect):
+            elif isinstance(fx, protocol.Reselect):
                 self._event(IdsqLeaderEvent('reselect', fx.step, self.id, fx.receiver, failed=fx.failed,
                                             reason=fx.reason, handoff_bytes=fx.handoff_bytes))
-            elif isinstance(fx, ledger.SelfLead):
+            elif isinstance(fx, protocol.SelfLead):
                 self._event(IdsqLeaderEvent('self', fx.step, self.id, self.id, tried=fx.tried))
-            elif isinstance(fx, ledger.Send):
+            elif isinstance(fx, protocol.Send):
                 self._handoff_pub(fx.receiver).publish(handoff_to_uint8_array(fx.payload))
                 self._disarm(fx.step, fx.receiver)
                 self.ack_timers[(fx.step, fx.receiver)] = self.create_timer(
                     self.p.ack_timeout, lambda s=fx.step, k=fx.receiver: self._on_ack_timeout(s, k),
                     clock=self._steady)
-            elif isinstance(fx, ledger.Disarm):
+            elif isinstance(fx, protocol.Disarm):
                 self._disarm(fx.step, fx.receiver)
-            elif isinstance(fx, ledger.Revoke):  # the chain rule (track_core.idsq.ledger)
+            elif isinstance(fx, protocol.Revoke):  # the chain rule (track_core.idsq.leader_protocol)
                 self.get_logger().warning(fx.text)
                 self._handoff_pub(fx.receiver).publish(handoff_to_uint8_array(fx.payload))
-            elif isinstance(fx, ledger.Void):
+            elif isinstance(fx, protocol.Void):
                 self._event(IdsqLeaderEvent('void', fx.step, self.id, self.id,
                                             previous=-1 if fx.parent is None else fx.parent))
 
@@ -264,9 +264,9 @@ class IdsqSensorNode(TrackNode):
             timer.cancel()
             self.destroy_timer(timer)
 
-    def _publish_led(self, fx: ledger.Led) -> None:
+    def _publish_led(self, fx: protocol.Led) -> None:
         """The outputs of a led step: estimate, belief cloud, markers, the ``step`` event."""
-        t, res, est = ledger.stamp_of_step(fx.step, self.p.dt, self.origin or 0.0), fx.result, fx.result.estimate
+        t, res, est = protocol.stamp_of_step(fx.step, self.p.dt, self.origin or 0.0), fx.result, fx.result.estimate
         P = np.diag([0.0, NOT_ESTIMATED_VARIANCE, 0.0, NOT_ESTIMATED_VARIANCE])  # velocity
         P[np.ix_([0, 2], [0, 2])] = est.cov
         self.pub_est.publish(cv_state_to_odometry(t, np.array([est.mean[0], 0.0, est.mean[1], 0.0]), P,
@@ -281,7 +281,7 @@ class IdsqSensorNode(TrackNode):
             handoff_bytes=len(res.payload) if fx.next != self.id else 0))
 
     def _event(self, ev: IdsqLeaderEvent) -> None:
-        t = ledger.stamp_of_step(ev.step, self.p.dt, self.origin or 0.0)
+        t = protocol.stamp_of_step(ev.step, self.p.dt, self.origin or 0.0)
         self.pub_leader.publish(diagnostic_array(t, [ev.to_status()]))
 
 

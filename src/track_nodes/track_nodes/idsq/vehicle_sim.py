@@ -65,6 +65,7 @@ class VehicleSimParams:
 class VehicleSimNode(TrackNode):
     DEFAULT_NAME = 'vehicle_sim'
     Params = VehicleSimParams
+    p: VehicleSimParams  # the declared parameters (base/params.py)
 
     def setup(self) -> None:
         p = self.p

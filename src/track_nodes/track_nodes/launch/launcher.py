@@ -258,7 +258,8 @@ class Launch:
 
     def _interrupted(self) -> bool:
         with contextlib.suppress(BlockingIOError, AttributeError, OSError):
-            self._sigint = self._sigint or any(s in self._sig_r.recv(64) for s in STOP_SIGNALS)
+            noted = self._sig_r.recv(64)  # read once: every signal number noted since the last call
+            self._sigint = self._sigint or any(s in noted for s in STOP_SIGNALS)
         return getattr(self, '_sigint', False)
 
     def _overrides(self) -> list[Parameter]:

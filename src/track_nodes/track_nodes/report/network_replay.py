@@ -31,7 +31,7 @@ import yaml
 from track_core.fusion import PairAssociator, TrackReport
 from track_core.idsq.grid import uniform_belief
 from track_core.idsq.handoff import decode_handoff
-from track_core.idsq.ledger import loudest, measurement_normal, stamp_of_step, start_leader_of
+from track_core.idsq.leader_protocol import loudest, measurement_normal, stamp_of_step, start_leader_of
 from track_core.idsq.models import simulate_measurement
 from track_core.idsq.network import SensorLayout
 from track_core.idsq.tracker import leader_step

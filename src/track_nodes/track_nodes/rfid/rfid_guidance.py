@@ -33,7 +33,7 @@ command is re-sent) is no bad input: it is dropped silently. A result whose ``se
 pending command's answers nothing: it is refused (``TrackNode.refuse``) and changes nothing, so a
 flood of them cannot spend the ``max_steps``.
 
-Command/response loop (``track_core.rfid.loop.CommandLoop``), deterministic for a seed. Every
+Command/response loop (``track_core.rfid.delivery.CommandLoop``), deterministic for a seed. Every
 ``period`` of node time (a /clock-driven timer under ``use_sim_time``) the node
 
 1. sends the first command (MOVE, seq 1) once the reader is seen (``/rfid/step`` has a publisher).
@@ -66,8 +66,8 @@ from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PointStamped, PoseArray
 
 from track_core.filters import invert_pose
+from track_core.rfid.delivery import CommandLoop, Tick, Use
 from track_core.rfid.guidance import RfidGuidance
-from track_core.rfid.loop import CommandLoop, Tick, Use
 from track_core.rfid.pf import SUGGESTION_RULES, WEIGHTINGS, PFParams
 from track_core.rfid.phase import PhaseModel
 from track_core.rfid.protocol import Command, CommandKind
@@ -128,6 +128,7 @@ def pf_params(p) -> PFParams:
 class RfidGuidanceNode(TrackNode):
     DEFAULT_NAME = 'rfid_guidance'
     Params = RfidGuidanceParams
+    p: RfidGuidanceParams  # the declared parameters (base/params.py)
 
     def setup(self) -> None:
         p = self.p
@@ -152,7 +153,7 @@ class RfidGuidanceNode(TrackNode):
                                      convention=p.convention)
         self.guide = RfidGuidance(pf_params(p), phase, np.random.default_rng(pf_ss), log_warnings=False,
                                   max_repeats=p.max_repeats)
-        self.loop = CommandLoop(p.resend_after, p.max_steps)  # pending command, re-sends (track_core.rfid.loop)
+        self.loop = CommandLoop(p.resend_after, p.max_steps)  # pending command, re-sends (track_core.rfid.delivery)
         self.cmd_msg: DiagnosticArray | None = None
         self.found = False
         self.turns = 0                           # usable TURN results

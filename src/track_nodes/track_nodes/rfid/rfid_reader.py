@@ -23,7 +23,7 @@ publishes, in this order,
 
 The phase cloud and the step result of one MOVE carry the same header stamp.
 
-Exactly one answer per command (``seq``, ``track_core.rfid.loop.AnswerCache``): a command whose
+Exactly one answer per command (``seq``, ``track_core.rfid.delivery.AnswerCache``): a command whose
 ``seq`` was already answered (the guidance re-sends its pending command until it sees the answer,
 which covers discovery races) gets the cached step result again, nothing is re-executed; a command
 older than the last one is ignored. After DONE the search is over: the reader answers DONE and
@@ -55,7 +55,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import PointCloud2
 
-from track_core.rfid.loop import AnswerCache, Verdict
+from track_core.rfid.delivery import AnswerCache, Verdict
 from track_core.rfid.phase import PhaseModel
 from track_core.rfid.protocol import Command, CommandKind
 from track_core.rfid.signal import UnwrapConfig
@@ -160,6 +160,7 @@ def pose_stamped(t: float, pose: np.ndarray, frame_id: str = FRAME_MAP) -> PoseS
 class RfidReaderNode(TrackNode):
     DEFAULT_NAME = 'rfid_reader'
     Params = RfidReaderParams
+    p: RfidReaderParams  # the declared parameters (base/params.py)
 
     def setup(self) -> None:
         p = self.p
@@ -180,7 +181,7 @@ class RfidReaderNode(TrackNode):
         # The handheld reader is at the user: its frame (the node name, frame of /rfid/phase) on /tf_static.
         self.add_static_transforms(planar_transform(0.0, RFID_FRAME_USER, self.get_name(), 0.0, 0.0, 0.0))
         self.advertise_transforms()
-        self.cache: AnswerCache[_Answer] = AnswerCache()  # one answer per seq (track_core.rfid.loop)
+        self.cache: AnswerCache[_Answer] = AnswerCache()  # one answer per seq (track_core.rfid.delivery)
         self.pub_phase = self.create_publisher(PointCloud2, RFID_PHASE, ESTIMATE_QOS)
         self.pub_pose = self.create_publisher(PoseStamped, RFID_USER_POSE, ESTIMATE_QOS)
         self.pub_status = self.create_publisher(DiagnosticArray, RFID_USER_STATUS, ESTIMATE_QOS)

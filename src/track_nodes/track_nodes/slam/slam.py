@@ -57,8 +57,7 @@ at ``pose0`` seeded again, the stream merger and the map schedule forgotten (``r
 Parameters (``slam/params.py``): the node's own, then every field of the core's ``SlamParams``,
 ``PFParams`` and ``HybridParams`` as ``cekf.*``, ``pf.*`` and ``hybrid.*``, with the defaults of
 ``profile``: ``victoria_park`` or ``loop_sim`` (``track_core.slam.profiles``; the latter is the
-default ``LoopWorld`` with the ambiguity trigger on, as ``slam-loop``). Invalid values
-stop the node with one line.
+default ``LoopWorld`` with the ambiguity trigger on, as ``slam-loop``). Invalid values stop the node.
 """
 
 from __future__ import annotations
@@ -107,6 +106,7 @@ _TOPIC = {INPUT: SLAM_INPUTS, SCAN: SLAM_SCAN}
 class SlamNode(TrackNode):
     DEFAULT_NAME = 'slam'
     Params = SlamNodeParams
+    p: SlamNodeParams  # the declared parameters (base/params.py)
 
     @classmethod
     def main(cls, argv=None, **kwargs) -> int:
@@ -123,8 +123,7 @@ class SlamNode(TrackNode):
         self.slam = self._new_slam()
         problem = frame_pair_problem(p.frame_id, p.child_frame_id) or frame_pair_problem(p.child_frame_id, FRAME_BASE)
         if problem:
-            raise ParameterError(f'parameters frame_id={p.frame_id!r}, child_frame_id={p.child_frame_id!r}: '
-                                 f'{problem}')
+            raise ParameterError(f'parameters frame_id={p.frame_id!r}, child_frame_id={p.child_frame_id!r}: {problem}')
         self.policy = InputPolicy(horizon=p.stamp_horizon, lead=p.stamp_lead)
         self.refusals.throttle = p.warn_throttle
         self.merger = StreamMerger(p.pause_wall, p.flush_idle, p.drain_budget, time.monotonic())

@@ -72,6 +72,7 @@ def _check_world(w: LoopWorld) -> None:
 class SlamSimNode(TrackNode):
     DEFAULT_NAME = 'slam_sim'
     Params = SlamSimParams
+    p: SlamSimParams  # the declared parameters (base/params.py)
 
     def setup(self) -> None:
         p = self.p

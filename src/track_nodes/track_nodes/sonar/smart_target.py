@@ -81,6 +81,7 @@ class SmartTargetNodeParams:
 class SmartTargetNode(TrackNode):
     DEFAULT_NAME = 'smart_target'
     Params = SmartTargetNodeParams
+    p: SmartTargetNodeParams  # the declared parameters (base/params.py)
 
     def setup(self) -> None:
         p = self.p

@@ -144,6 +144,7 @@ def _p_d(values) -> np.ndarray:
 class SonarObserverNode(TrackNode):
     DEFAULT_NAME = 'sonar_observer'
     Params = SonarObserverParams
+    p: SonarObserverParams  # the declared parameters (base/params.py)
 
     def setup(self) -> None:
         p = self.p

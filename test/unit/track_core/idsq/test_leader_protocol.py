@@ -28,7 +28,7 @@ import pytest
 
 from track_core.idsq import GridSpec, Handoff, SimNoise, TrackerParams, encode_handoff
 from track_core.idsq.handoff import decode_handoff
-from track_core.idsq.ledger import (
+from track_core.idsq.leader_protocol import (
     Disarm,
     HandoffLedger,
     Led,

@@ -1,6 +1,6 @@
 """LossCounter: sequence gaps on single-publisher topics, middleware events on shared ones."""
 
-from track_nodes.bag.loss import LossCounter
+from track_nodes.bag.loss_count import LossCounter
 
 
 def test_gaps_of_one_publisher_are_counted_exactly():

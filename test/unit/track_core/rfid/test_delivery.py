@@ -1,4 +1,4 @@
-"""The command/response loop (track_core.rfid.loop): unit rules, and identity with the old node path.
+"""The command/response loop (track_core.rfid.delivery): unit rules, and identity with the old node path.
 
 ``data/loop_cases.json``: 160 random command sequences for the reader and 160 random result
 sequences for the guidance, run through the node methods as they were before issue 12 (the
@@ -15,7 +15,7 @@ from types import SimpleNamespace
 
 import pytest
 
-from track_core.rfid.loop import AnswerCache, CommandLoop, Tick, Use, Verdict
+from track_core.rfid.delivery import AnswerCache, CommandLoop, Tick, Use, Verdict
 from track_core.rfid.protocol import Command, CommandKind
 
 CASES = json.loads((Path(__file__).parent / 'data/loop_cases.json').read_text())

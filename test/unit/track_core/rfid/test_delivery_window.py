@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import copy
 
-from track_core.rfid.loop import SEQ_WINDOW, AnswerCache, CommandLoop, Use, Verdict
+from track_core.rfid.delivery import SEQ_WINDOW, AnswerCache, CommandLoop, Use, Verdict
 from track_core.rfid.protocol import Command, CommandKind
 
 

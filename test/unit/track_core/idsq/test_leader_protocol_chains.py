@@ -7,7 +7,7 @@ import numpy as np
 
 from track_core.idsq import GridSpec, SimNoise, TrackerParams
 from track_core.idsq.handoff import decode_revoke, encode_revoke, peek_header
-from track_core.idsq.ledger import HandoffLedger, Revoke, Send, SensorSetup, Void, start_leader_of
+from track_core.idsq.leader_protocol import HandoffLedger, Revoke, Send, SensorSetup, Void, start_leader_of
 from track_core.idsq.simulation import scenario_of
 
 N, SEED = 8, 1

@@ -9,7 +9,7 @@ import pickle
 import numpy as np
 
 from track_core.idsq import GridSpec, Handoff, SimNoise, TrackerParams, encode_handoff
-from track_core.idsq.ledger import (
+from track_core.idsq.leader_protocol import (
     STEP_WINDOW,
     TRUTH_WINDOW,
     HandoffLedger,

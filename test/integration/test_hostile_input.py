@@ -1,4 +1,4 @@
-"""Issue 13, slice A: hostile input refused by ``demo_tracker``, ``fusion``, ``slam``, ``sonar_observer``
+"""Hostile input refused by ``demo_tracker``, ``fusion``, ``slam``, ``sonar_observer``
 and ``smart_target`` without changing their state, and without one log line per bad message.
 
 The callbacks are called directly (deterministic; the subscription path is the one the scenario
