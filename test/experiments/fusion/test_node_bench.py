@@ -21,4 +21,17 @@ def test_fusion_node_bench_runs_the_node_on_every_track(tmp_path):
     assert bench_main(['fusion-node', '--quick', '--set', 'tracks=100', '--set', 'seconds=3', '--json', str(out)]) == 0
     data = json.loads(out.read_text())
     assert data['tracks'] == 100 and data['ticks'] >= 2 and data['live_tracks_max'] == 100
+    assert data['held_every_track'] == (data['ticks_holding_every_track'] == data['ticks'])
     assert data['pairs_per_tick'] == 50 * 50 and data['cpu_share'] > 0 and data['reports_received_per_s'] > 0
+
+
+def test_a_run_that_did_not_hold_every_track_is_flagged():
+    """Ticks with fewer live tracks than published: held_every_track is false (the table says NOT HELD)."""
+    from types import SimpleNamespace
+
+    from track_experiments.fusion.node_bench import _figures
+
+    probe = SimpleNamespace(ticks=[(1.0, 100, 4950, 10, 0.1), (2.0, 67, 2211, 5, 0.1), (3.0, 100, 4950, 10, 0.1)])
+    held = _figures(probe, 0.0, 10.0, 100)
+    assert held['ticks'] == 3 and held['ticks_holding_every_track'] == 2 and not held['held_every_track']
+    assert _figures(probe, 2.5, 10.0, 100)['held_every_track']
