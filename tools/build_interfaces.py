@@ -1,4 +1,4 @@
-"""Build the interface packages under ``interfaces/`` (today: ``tf2_msgs``) into this venv.
+"""Build the interface packages under ``interfaces/`` (``tf2_msgs``, ``track_msgs``) into this venv.
 
 Why: ``tf2_msgs`` (the type of ``/tf`` and ``/tf_static``) is not on PyPI, but the rosidl
 generators are, so we build it ourselves with cmake and the machine's compilers, straight into
