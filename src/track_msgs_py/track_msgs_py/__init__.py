@@ -10,7 +10,8 @@ Modules (imported explicitly, so ``topics`` stays free of message imports):
 - conversions numpy/float seconds ⇄ messages, one module per kind, each with its mapping table
   in its docstring: ``stamps`` (time, headers), ``covariance`` (the planar 6×6 covariances),
   ``odometry`` (tracks, reports, poses), ``clouds`` (tables as PointCloud2), ``diagnostics``,
-  ``markers.ellipses`` (2σ ellipses), ``records.idsq`` (the IDSQ layout and handoff). Nodes call
+  ``markers.ellipses`` (2σ ellipses), ``records.idsq`` (the IDSQ layout and handoff),
+  ``track_arrays`` (a source's tracks as ``track_msgs/TrackArray``). Nodes call
   them in callbacks (no Node needed); the readers only extract numbers (even NaNs): ``validate``
   says whether a message is usable.
 - ``validate``: reasons (``str | None``) why an incoming message is unusable, monotonic stamps.
