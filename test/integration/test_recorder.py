@@ -167,6 +167,28 @@ def test_regex_discovers_a_topic_that_appears_later(ros, tmp_path):
     assert odoms(got['/late/odom']) == odoms(sent)
 
 
+def test_a_stop_records_what_the_subscriptions_still_hold(ros, tmp_path):
+    """Messages delivered to the recorder but not yet taken by the executor (a stop signal can land just
+    then) are in the bag after the stop: closing drains the subscriptions."""
+    node = ros.add(rclpy.create_node('held_pub', context=ros.context))
+    pub = node.create_publisher(Odometry, '/held/odom', RELIABLE)
+    seen = []
+    node.create_subscription(Odometry, '/held/odom', seen.append, RELIABLE)
+    bag = tmp_path / 'bags' / 'held'
+    rec = make_recorder(ros, bag, topics=['/held/odom'])
+    sent = publish_all(ros, pub, [odom(i) for i in range(3)])
+    assert ros.spin_until(lambda: rec.message_counts() == {'/held/odom': 3}, 10.0)
+    ros.executor.remove_node(rec)            # from now on nothing takes the recorder's messages
+    held = [odom(i) for i in range(3, 8)]
+    for m in held:
+        pub.publish(m)
+    assert ros.spin_until(lambda: len(seen) == 8, 10.0)   # delivered (to the probe on the same host)
+    ros.executor.add_node(rec)
+    close_node(ros, rec)
+    got, _ = read_bag(bag)
+    assert odoms(got['/held/odom']) == odoms(sent) + held
+
+
 def test_use_sim_time_discovers_before_clock_and_stamps_with_sim_time(ros, tmp_path):
     from rosgraph_msgs.msg import Clock
 

@@ -16,12 +16,11 @@ Usage::
   appear later are found by polling the graph every ``discovery_period`` seconds; a topic is
   subscribed once it has a publisher (its type and QoS come from the publishers). Discovery and
   flushing run on the steady clock, also under ``use_sim_time`` (/clock may start only later).
-- Subscriptions are raw (the CDR bytes are written as received). QoS
-  (``bag.api.recording_qos``): best effort if any publisher is best effort, transient-local if
-  all are, else reliable; keep-last 100,000 (best effort 1000), though Fast DDS holds at most
-  5000 samples per reader by default, so a reliable publisher's history covers the rest of a
-  burst. The publishers' offered QoS is stored in the bag.
-- Losses are counted (``bag.loss.LossCounter``: gaps in the publication sequence numbers, and
+- Subscriptions are raw (the CDR bytes are written as received). QoS (``bag.api.recording_qos``):
+  best effort if any publisher is, transient-local if all are, else reliable; keep-last 100,000
+  (best effort 1000), though Fast DDS holds at most 5000 samples per reader by default, so a
+  reliable publisher's history covers the rest of a burst. The offered QoS is stored in the bag.
+- Losses are counted (``bag.loss_count.LossCounter``: gaps in the publication sequence numbers, and
   the middleware's message-lost events where several publishers share a topic), warned about
   while recording (one line per ``warn_throttle`` seconds with the count) and printed in the
   final line.
@@ -30,13 +29,13 @@ Usage::
   clock; a backlog keeps each arrival time); it holds what it takes until it knows, at most
   ``clock_wait`` s after the first message. ``sim`` (or ``use_sim_time:=true``): the node's clock
   when the batch is taken; ``wall``: the receive time always.
-- Durability: every ``flush_period`` seconds the pending MCAP chunk is written and the file
-  flushed, so after a SIGKILL the .mcap holds every message up to the last flush; recover it
-  with ``track-bag-recover``. SIGINT, SIGTERM and SIGHUP (``base.signals``) and destroying the
-  node close the bag cleanly. A full disk (any write error, ``bag.durable``): one error line,
-  the bag closed with what was written up to the last flush (what came after is counted), exit 2.
-- Throughput: a callback also takes the messages queued behind its own (``bag.take``, ≤ ``TAKE_LIMIT``)
-  under one lock: 81k msgs/s in ``track-bench recorder`` (figures there).
+- Durability: every ``flush_period`` seconds the pending chunk is written and the file flushed, so
+  after a SIGKILL the .mcap holds every message up to the last flush (``track-bag-recover``).
+  SIGINT, SIGTERM and SIGHUP (``base.signals``) and destroying the node close the bag cleanly,
+  with what the subscriptions still hold. A full disk (any write error, ``bag.durable``): one error
+  line, the bag closed at the last flush (what came after is counted), exit 2.
+- Throughput: a callback also takes the messages queued behind its own (``bag.batching``, ≤
+  ``TAKE_LIMIT``) under one lock (``track-bench recorder``).
 """
 
 from __future__ import annotations
@@ -93,16 +92,14 @@ class RecorderNode(TrackNode):
         self._stamps = ClockChoice(p.clock, self.get_parameter('use_sim_time').value, p.clock_wait)
         if self._stamps.mode == 'node':
             self.set_parameters([Parameter('use_sim_time', value=True)])  # clock sim
-        self._batching = True  # until a subscription lacks take_message (bag.take.can_take)
+        self._batching = True  # until a subscription lacks take_message (bag.batching.can_take)
         self.dropped = 0  # taken after a write failed (bag.durable)
         self.filter = TopicFilter(p.topics, p.regex, p.tf)  # bag.selection
         name = p.bag or f'rosbag2_{datetime.now():%Y_%m_%d-%H_%M_%S}'
         self.path = bag_path(name)
         if self.path.exists():
             raise ValueError(f'{self.path}: bag exists already, not overwriting (choose another name)')
-
         from rosbags.typesys import Stores, get_typestore
-
         self.typestore = get_typestore(Stores.ROS2_JAZZY)
         self._bag = open_bag(self.path)  # bag.durable: the MCAP header reaches the file at once
         self._writer = self._bag.writer
@@ -117,7 +114,6 @@ class RecorderNode(TrackNode):
         self.flush_timer = self.create_timer(p.flush_period, self.flush, clock=steady)
         if self._stamps.mode == 'auto':  # is /clock published? (bag.clockmode)
             from rosgraph_msgs.msg import Clock as ClockMsg
-
             self.create_subscription(ClockMsg, '/clock', self._on_clock, CLOCK_QOS, as_given=True)
         self.get_logger().info(f'recording {self.filter.describe()} to {self.path}')
 
@@ -173,7 +169,16 @@ class RecorderNode(TrackNode):
         batch = [(data, info or {})]
         sub = self.subscriptions_by_topic.get(topic)
         if sub is not None and self._batching:
-            batch += take_pending(sub, TAKE_LIMIT)  # the messages queued behind this one (bag.take)
+            batch += take_pending(sub, TAKE_LIMIT)  # the messages queued behind this one (bag.batching)
+        self._write(topic, batch)
+
+    def _drain(self) -> None:
+        """Write what the subscriptions still hold at the stop (a stop signal can land before a take)."""
+        for topic, sub in list(self.subscriptions_by_topic.items()) if self._batching else ():
+            if batch := take_pending(sub, 10 * TAKE_LIMIT):
+                self._write(topic, batch)
+
+    def _write(self, topic: str, batch: list) -> None:
         lost = 0
         with self._lock:
             if self._closed:
@@ -241,6 +246,8 @@ class RecorderNode(TrackNode):
 
     def close(self) -> None:
         """Close the bag (the MCAP summary and metadata.yaml) and say what it holds; idempotent."""
+        if not self._closed:
+            self._drain()
         with self._lock:
             if self._bag is None or self._said:
                 return
