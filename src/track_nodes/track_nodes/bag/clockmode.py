@@ -10,7 +10,7 @@
   the two would go back in time).
 - ``sim``: the node's clock under ``use_sim_time`` (set by ``clock:=sim``; ``use_sim_time:=true``
   alone means the same). Messages taken before the first /clock are written at its first
-  reading (``bag.take.BeforeClock``).
+  reading (``bag.batching.BeforeClock``).
 - ``wall``: the middleware's receive time of each message (system clock).
 
 The recorder calls ``write_batch`` and ``decide`` under its lock.
