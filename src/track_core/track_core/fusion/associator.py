@@ -9,13 +9,17 @@ the last ``window`` instants, combines the window (harmonic or geometric mean, �
 the pair when the combination is ≥ ``threshold`` and fuses each associated pair by covariance
 intersection (their correlation is unknown).
 
-Gate (``gate=True``, method ``exact``): only the pairs whose 2σ ellipses may overlap are scored
-(``track_core.geofeasibility.gate``: cKDTree radius gate and separating-ellipse test); every other
-pair gets the exact score's value for disjoint ellipses, 0, so the instant scores equal scoring
-every pair (tests compare the two). The windows are one ``PairWindows`` for all pairs (what one
-``ScoreWindow`` per pair gives, vectorised: a pair's window still gets its 0 instants), and
-``Instant.pairs`` is a ``PairScores`` sequence over column arrays, so an instant of 1000 tracks
-(about 250,000 pairs) costs no Python object per pair until one is read.
+Candidates (``gate=True``, method ``exact``): only the pairs whose 2σ ellipses may overlap are
+scored (``track_core.geofeasibility.gate``: cKDTree radius gate and separating-ellipse test), with
+integer source codes masking the same-source ones; every other pair scores exactly 0 there (the
+exact score of disjoint ellipses), so nothing is computed or stored for it. ``Instant.pairs`` holds
+the candidates; ``Instant.all_pairs()`` lists every pair with the candidates' values and 0 for the
+others, equal to scoring every pair (tests compare them with the node's old path). A pair's window
+holds its last min(n, ``window``) instant scores, n being the instants at which both of its tracks
+were live (``liveness.LiveIntervals``, nothing stored per pair); ``PairWindows`` keeps the runs of
+the pairs whose newest score is positive, and a stored run broken by a non-candidate instant is
+dropped at that instant. A tick costs O(n log n + candidates) instead of O(n²). The other methods
+score every pair of different sources (their score is not 0 outside the gate).
 
 Isolation: when the batch fails (a degenerate covariance slipped past the caller's checks), each
 pair is scored alone; a pair whose score raises (or comes out not finite) is skipped and reported in
@@ -29,16 +33,17 @@ Without it ``push`` applies the report at once and the caller scores at its own 
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from track_core.filters.covariance_intersection import covariance_intersection
+from track_core.fusion.liveness import LiveIntervals
 from track_core.fusion.schedule import StampSchedule
 from track_core.fusion.tracks import TrackReport, TrackTable
-from track_core.geofeasibility import PairWindows, ScoreWindow, check_pairs, gated_score, score
-from track_core.geofeasibility.gate import GATED_METHODS
+from track_core.geofeasibility import PairWindows, ScoreWindow, check_pairs, score
+from track_core.geofeasibility.gate import GATED_METHODS, candidate_pairs
 from track_core.geofeasibility.track import THRESHOLD
 
 METHODS = ('exact', 'glr', 'glr_thresholded', 'mc')
@@ -102,7 +107,11 @@ class FusedPair:
 
 @dataclass(frozen=True)
 class Instant:
-    """Everything scored at ``t``: the live tracks (ids, μ, R), the pairs, and the pairs ``skipped`` (a, b, reason)."""
+    """Everything scored at ``t``: the live tracks (ids, μ, R), the scored pairs, the pairs ``skipped`` (a, b, reason).
+
+    ``pairs`` are the pairs scored (with the gate: the candidates); ``all_pairs()`` adds every other
+    pair of different sources, which scored 0 (built on demand: O(n²) for n tracks).
+    """
 
     t: float
     ids: list[str]
@@ -112,6 +121,11 @@ class Instant:
     fused: tuple[FusedPair, ...] = ()
     error: str | None = None
     skipped: tuple[tuple[str, str, str], ...] = ()
+    every: Callable[[], PairScores] | None = field(default=None, repr=False, compare=False)
+
+    def all_pairs(self) -> Sequence[PairScore]:
+        """Every pair of the instant (i < j in ``ids`` order): the scored ones and the zero-score rest."""
+        return self.pairs if self.every is None else self.every()
 
 
 class PairAssociator:
@@ -128,26 +142,39 @@ class PairAssociator:
         self.n_samples, self.same_source_pairs = n_samples, same_source_pairs
         self.rng = np.random.default_rng(seed)
         self.table = TrackTable(stale_after, max_prediction, q_s)
-        self.source: dict[str, str] = {}
         self.gate = gate and method in GATED_METHODS
-        self.windows = PairWindows(combine, self.window)
-        self._slot: dict[str, int] = {}   # track id → permanent integer (pair keys)
-        self._names: list[str] = []
         self.schedule = StampSchedule(stamp_rate) if stamp_rate is not None else None
+        self._clear()
+
+    def _clear(self) -> None:
+        self.source: dict[str, str] = {}
+        self.windows = PairWindows(self.combine, self.window)
+        self.live = LiveIntervals()
+        self._slot: dict[str, int] = {}      # track id → permanent integer (pair keys, liveness)
+        self._names: list[str] = []
+        self._codes: dict[str, int] = {}     # source → integer code
+        self._src: list[int] = []            # source code per slot
+        self._skips: dict[int, list[int]] = {}   # pair key → instants at which its score failed
+        self._last_t: float | None = None
 
     def reset(self) -> None:
         """Forget every track, pair window and scheduled instant (the clock jumped: their times are over)."""
         self.table = TrackTable(self.table.stale_after, self.table.max_prediction, self.table.q_s)
-        self.source.clear()
-        self.windows = PairWindows(self.combine, self.window)
-        self._slot.clear()
-        self._names.clear()
+        self._clear()
         if self.schedule is not None:
             self.schedule = StampSchedule(self.schedule.rate, self.schedule.max_skip)
 
     def update(self, source: str, track_id: str, report: TrackReport) -> None:
         """Make ``report`` the latest of ``track_id`` (a track of ``source``)."""
         self.source[track_id] = source
+        code = self._codes.setdefault(source, len(self._codes))
+        slot = self._slot.get(track_id)
+        if slot is None:
+            self._slot[track_id] = len(self._names)
+            self._names.append(track_id)
+            self._src.append(code)
+        else:
+            self._src[slot] = code
         self.table.update(track_id, report)
 
     def push(self, source: str, track_id: str, report: TrackReport) -> list[Instant]:
@@ -165,67 +192,129 @@ class PairAssociator:
         return out
 
     def pairs_at(self, ids: list[str]) -> tuple[np.ndarray, np.ndarray]:
-        """Rows (i, j), i < j, of the pairs to score among ``ids``."""
-        i, j = np.triu_indices(len(ids), 1)
+        """Rows (i, j), i < j, of every pair to score among ``ids`` (different sources unless ``same_source_pairs``)."""
+        return self._pairs_of(self._src_of(self._slots(ids)))
+
+    def _slots(self, ids: list[str]) -> np.ndarray:
+        return np.fromiter((self._slot[k] for k in ids), np.int64, len(ids))
+
+    def _src_of(self, slots: np.ndarray) -> np.ndarray:
+        return np.asarray(self._src, np.int64)[slots]
+
+    def _pairs_of(self, src: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        i, j = np.triu_indices(src.size, 1)
         if not self.same_source_pairs:
-            src = np.array([self.source[k] for k in ids])
             keep = src[i] != src[j]
             i, j = i[keep], j[keep]
         return i, j
 
     @property
     def history(self) -> dict[tuple[str, str], int]:
-        """Every pair with a window: (a, b) → instants in it (built on demand; for tests and diagnostics)."""
+        """Every pair with a stored run (positive newest score): (a, b) → instants in its window (for tests)."""
         a, b = np.divmod(self.windows.keys, _STRIDE)
+        n = np.minimum(self.windows.total, self.window)
         return {(self._names[x], self._names[y]): int(c)
-                for x, y, c in zip(a.tolist(), b.tolist(), self.windows.count.tolist(), strict=True)}
+                for x, y, c in zip(a.tolist(), b.tolist(), n.tolist(), strict=True)}
 
     def score(self, t: float) -> Instant | None:
-        """Score every pair of live tracks at ``t``; None when there is no pair to score."""
+        """Score the pairs of live tracks at ``t`` (with the gate: the candidates); None when there is no pair."""
         ids, mu, R = self.table.at(t)
         if len(ids) < 2:
             return None
-        i, j = self.pairs_at(ids)
-        if i.size == 0:
+        slots = self._slots(ids)
+        src = self._src_of(slots)
+        if not self.same_source_pairs and np.all(src == src[0]):
             return None
-        s, failed = self._scores(mu, R, i, j)
+        if self._last_t is not None and t < self._last_t:
+            raise ValueError(f'time went backwards: {t} < {self._last_t}')
+        self._last_t = float(t)
+        i, j, s, failed, gated = self._candidates(mu, R, src)
+        m = self.live.mark(slots)
+        keys = slots[i] * _STRIDE + slots[j]
         skipped = tuple((ids[i[k]], ids[j[k]], reason) for k, reason in failed.items())
         ok = np.ones(i.size, bool)
         ok[list(failed)] = False
-        i, j, s = i[ok], j[ok], s[ok]
-        slots = np.array([self._slot_of(k) for k in ids], np.int64)
-        combined, instants = self.windows.add(slots[i] * _STRIDE + slots[j], np.clip(s, 0.0, 1.0), t)
+        for key in keys[~ok].tolist():
+            self._skips.setdefault(key, []).append(m)
+        untouched = keys[~ok]          # a failed pair's window is untouched
+        i, j, s, keys = i[ok], j[ok], s[ok], keys[ok]
+        total = self.live.colive(slots[i], slots[j], m) - self._skipped(keys, m)
+        combined, instants = self.windows.add(keys, np.clip(s, 0.0, 1.0), t, total)
+        self._drop_broken_runs(np.concatenate([keys, untouched]), m)
         associated = combined >= self.threshold
         a, b = i[associated], j[associated]
         fused = []
         if a.size:
-            m, P, _ = covariance_intersection(mu[a], R[a], mu[b], R[b])   # batched over the associated pairs
-            fused = [FusedPair(ids[x], ids[y], m[k], P[k])
+            mu_f, P_f, _ = covariance_intersection(mu[a], R[a], mu[b], R[b])   # batched over the associated pairs
+            fused = [FusedPair(ids[x], ids[y], mu_f[k], P_f[k])
                      for k, (x, y) in enumerate(zip(a.tolist(), b.tolist(), strict=True))]
         pairs = PairScores(ids, i, j, s, combined, instants, associated)
-        return Instant(t, ids, mu, R, pairs, tuple(fused), skipped=skipped)
+        every = (lambda: self._every_pair(ids, slots, src, m, pairs, keys)) if gated else None
+        return Instant(t, ids, mu, R, pairs, tuple(fused), skipped=skipped, every=every)
 
-    def _slot_of(self, track_id: str) -> int:
-        slot = self._slot.get(track_id)
-        if slot is None:
-            slot = self._slot[track_id] = len(self._names)
-            self._names.append(track_id)
-        return slot
-
-    def _scores(self, mu: np.ndarray, R: np.ndarray, i: np.ndarray, j: np.ndarray) -> tuple[np.ndarray, dict]:
-        """Instant scores of the pairs (i, j) and the reason per pair that failed (isolation, see above)."""
+    def _candidates(self, mu, R, src) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict, bool]:
+        """Pairs (i, j) to score, their scores, the failures (isolation, see above), and whether gated."""
         if self.gate:
             try:
                 check_pairs(mu, R, mu, R)  # every track valid: the gate and the batch cannot fail
             except ValueError:
                 pass                       # isolate the bad tracks' pairs on the ungated path
             else:
-                s = gated_score(mu, R, i, j, self.method)[0]
-                return s, {int(k): f'scoring failed: non-finite score {s[k]}' for k in np.flatnonzero(~np.isfinite(s))}
+                i, j = candidate_pairs(mu, R)
+                if not self.same_source_pairs:
+                    keep = src[i] != src[j]
+                    i, j = i[keep], j[keep]
+                s = np.atleast_1d(score(mu[i], R[i], mu[j], R[j], self.method)) if i.size else np.zeros(0)
+                return i, j, s, _non_finite(s), True
+        i, j = self._pairs_of(src)
+        s, failed = self._scores(mu, R, i, j)
+        return i, j, s, failed, False
+
+    def _skipped(self, keys: np.ndarray, upto: int) -> np.ndarray:
+        """Instants ≤ ``upto`` at which the score of pair ``keys[k]`` failed (isolation; usually none)."""
+        out = np.zeros(keys.size, np.int64)
+        if self._skips:
+            for k, key in enumerate(keys.tolist()):
+                out[k] = sum(1 for x in self._skips.get(key, ()) if x <= upto)
+        return out
+
+    def _drop_broken_runs(self, keys: np.ndarray, m: int) -> None:
+        """Drop the stored runs of the pairs live at ``m`` but not among ``keys`` (they scored 0 there)."""
+        w = self.windows
+        if not w.keys.size:
+            return
+        a, b = np.divmod(w.keys, _STRIDE)
+        src = np.asarray(self._src, np.int64)
+        broken = self.live.live_at(a, m) & self.live.live_at(b, m) & ~np.isin(w.keys, keys)
+        if not self.same_source_pairs:
+            broken &= src[a] != src[b]
+        if broken.any():
+            w.drop(broken)
+
+    def _every_pair(self, ids, slots, src, m: int, scored: PairScores, scored_keys: np.ndarray) -> PairScores:
+        """Every pair at instant ``m``: the scored ones as they are, the others 0 with their window lengths."""
+        i, j = self._pairs_of(src)
+        keys = slots[i] * _STRIDE + slots[j]
+        if self._skips:   # a pair whose score failed at m was not scored there
+            failed = np.array([m in self._skips.get(k, ()) for k in keys.tolist()], bool)
+            i, j, keys = i[~failed], j[~failed], keys[~failed]
+        order = np.argsort(scored_keys)
+        pos = np.searchsorted(scored_keys[order], keys)
+        pos = np.minimum(pos, max(scored_keys.size - 1, 0))
+        hit = scored_keys[order][pos] == keys if scored_keys.size else np.zeros(keys.size, bool)
+        k = order[pos] if scored_keys.size else pos
+        n = np.minimum(self.live.colive(slots[i], slots[j], m) - self._skipped(keys, m), self.window)
+        return PairScores(ids, i, j, np.where(hit, scored.score[k] if len(scored) else 0.0, 0.0),
+                          np.where(hit, scored.combined[k] if len(scored) else 0.0, 0.0),
+                          np.where(hit, scored.instants[k] if len(scored) else 0, n),
+                          hit & (scored.associated[k] if len(scored) else False))
+
+    def _scores(self, mu: np.ndarray, R: np.ndarray, i: np.ndarray, j: np.ndarray) -> tuple[np.ndarray, dict]:
+        """Instant scores of every pair (i, j) and the reason per pair that failed (isolation, see above)."""
         try:
             s = np.atleast_1d(score(mu[i], R[i], mu[j], R[j], self.method, n_samples=self.n_samples,
                                     rng=self.rng, shared_samples=True))
-            failed = {int(k): f'scoring failed: non-finite score {s[k]}' for k in np.flatnonzero(~np.isfinite(s))}
+            failed = _non_finite(s)
         except (ValueError, np.linalg.LinAlgError):
             s = np.full(i.size, np.nan)
             failed = self._score_each(mu, R, i, j, s)
@@ -247,3 +336,7 @@ class PairAssociator:
             if not np.isfinite(v):
                 failed[k] = f'scoring failed: non-finite score {v}'
         return failed
+
+
+def _non_finite(s: np.ndarray) -> dict[int, str]:
+    return {int(k): f'scoring failed: non-finite score {s[k]}' for k in np.flatnonzero(~np.isfinite(s))}

@@ -121,17 +121,19 @@ class ScoreWindow:
 
 
 class PairWindows:
-    """:class:`ScoreWindow` (``max_instants`` only) for many pairs at once, keyed by integer pair keys.
+    """:class:`ScoreWindow` (``max_instants`` K only) for many pairs, of which a call passes only some.
 
-    ``add(keys, g, t)`` appends one instant score per pair (each key once) and returns, per pair, the
-    combined score and the number of instants in its window, equal to what one ``ScoreWindow(mean,
-    max_instants=K)`` per pair gives: a pair's window holds its last min(count, K) instant scores,
-    and their mean is 0 as soon as one of them is 0. So a pair is stored by its count (capped at K)
-    and the trailing run of its positive scores (at most K, newest last): its combination is the
-    mean of the last min(count, K) scores when the run is at least that long and 0 otherwise. Only
-    pairs whose newest score is positive keep a run, so a gated picture (most pairs exactly 0) costs
-    one count per pair. Pairs not in a call keep their window untouched. Vectorised over pairs; the
-    means are taken per window length in one batch (``numpy`` reductions along the window).
+    ``add(keys, g, t, total)``: pair ``keys[k]`` scored ``g[k]`` at ``t``, and ``total[k]`` counts the
+    instants at which the pair was scored so far, this one included. Every such instant that no
+    call passed scored 0 (what a gate's non-candidates score exactly), so a caller passes only the
+    pairs it scored. A pair's window holds its last n = min(total, K) instant scores, and their mean
+    is 0 as soon as one of them is 0 (the paper's means). So only the pairs whose newest score is
+    positive are stored, each with the trailing run of its positive scores (at most K, newest
+    last) and the total at its last call: the run continues only when that total is ``total − 1``
+    (otherwise an instant no call passed scored 0 and broke it). The combination is the mean of the
+    last n scores when the run is at least n long, and 0 otherwise. Equal, instant by instant, to
+    one ``ScoreWindow(mean, max_instants=K)`` per pair fed every instant (tests compare them).
+    Vectorised over pairs; the means are taken per window length in one batch.
     """
 
     def __init__(self, mean: str = 'harmonic', max_instants: int = 10) -> None:
@@ -140,9 +142,8 @@ class PairWindows:
         if max_instants < 1:
             raise ValueError(f'max_instants must be >= 1, got {max_instants}')
         self.mean, self.k = mean, int(max_instants)
-        self.keys = np.zeros(0, np.int64)         # every pair seen, sorted
-        self.count = np.zeros(0, np.int64)        # instants in its window (≤ k)
-        self.run_keys = np.zeros(0, np.int64)     # pairs with a positive newest score, sorted
+        self.keys = np.zeros(0, np.int64)         # pairs with a positive newest score, sorted
+        self.total = np.zeros(0, np.int64)        # the pair's total at its last call
         self.run_len = np.zeros(0, np.int64)
         self.run_vals = np.zeros((0, 0))          # trailing positive scores, right-aligned (newest last)
         self.last_t: float | None = None
@@ -150,54 +151,42 @@ class PairWindows:
     def __len__(self) -> int:
         return self.keys.size
 
-    def instants(self, keys) -> np.ndarray:
-        """Instants in the windows of ``keys`` (0 for a pair never added)."""
-        keys = np.asarray(keys, np.int64)
-        pos, found = _lookup(self.keys, keys)
-        return np.where(found, self.count[pos] if self.keys.size else 0, 0)
-
-    def add(self, keys, g, t: float) -> tuple[np.ndarray, np.ndarray]:
-        """Add score ``g[k]`` at ``t`` to pair ``keys[k]``; → (combined (P,), instants (P,))."""
-        keys, g = np.asarray(keys, np.int64), np.asarray(g, float)
+    def add(self, keys, g, t: float, total) -> tuple[np.ndarray, np.ndarray]:
+        """Add score ``g[k]`` at ``t`` to pair ``keys[k]`` (each key once); → (combined (P,), instants n (P,))."""
+        keys, g, total = np.asarray(keys, np.int64), np.asarray(g, float), np.asarray(total, np.int64)
         if keys.size == 0:
             return np.zeros(0), np.zeros(0, np.int64)
         if self.last_t is not None and t < self.last_t:
             raise ValueError(f'time went backwards: {t} < {self.last_t}')
         if not np.all(np.isfinite(g) & (g >= 0.0) & (g <= 1.0)):
             raise ValueError(f'scores must be in [0, 1], got {g[~((g >= 0) & (g <= 1))][:5].tolist()}')
+        if np.any(total < 1):
+            raise ValueError(f'total must count this instant (>= 1), got {total[total < 1][:5].tolist()}')
         self.last_t = float(t)
-        # counts
+        count = np.minimum(total, self.k)
         pos, found = _lookup(self.keys, keys)
-        count = np.where(found, self.count[pos] if self.keys.size else 0, 0)
-        count = np.minimum(count + 1, self.k)
-        if found.all():
-            self.count[pos] = count
-        else:                                   # new pairs: merge them into the sorted keys
-            merged = np.concatenate([self.keys, keys[~found]])
-            order = np.argsort(merged, kind='stable')
-            self.keys, self.count = merged[order], np.concatenate([self.count, count[~found]])[order]
-            self.count[np.searchsorted(self.keys, keys[found])] = count[found]
-        # runs: positive pairs extend theirs, zero pairs lose theirs, absent pairs keep theirs
-        rpos, rfound = _lookup(self.run_keys, keys)
-        prev_len = np.where(rfound, self.run_len[rpos] if self.run_keys.size else 0, 0)
+        found &= (self.total[pos] == total - 1) if self.keys.size else found
+        prev_len = np.where(found, self.run_len[pos] if self.keys.size else 0, 0)
         pos_g = g > 0.0
         run_len = np.where(pos_g, np.minimum(prev_len + 1, self.k), 0)
         width = int(max(self.run_vals.shape[1], run_len.max(initial=0)))
         kp = np.flatnonzero(pos_g)
         vals = np.full((kp.size, width), np.nan)
         if width:
-            if self.run_keys.size and width > 1:
-                old = np.full((self.run_vals.shape[0], width), np.nan)
+            cont = kp[prev_len[kp] > 0]
+            if cont.size and width > 1:
+                old = np.full((self.keys.size, width), np.nan)
                 old[:, width - self.run_vals.shape[1]:] = self.run_vals
-                vals[:, :-1] = np.where(rfound[kp, None], old[rpos[kp], 1:], np.nan)
+                vals[np.searchsorted(kp, cont), :-1] = old[pos[cont], 1:]
             vals[:, -1] = g[kp]
-        keep = ~_lookup(np.sort(keys), self.run_keys)[1]   # runs of pairs not in this call
+        keep = ~_lookup(np.sort(keys), self.keys)[1]   # runs of pairs not in this call
         old_vals = self.run_vals[keep]
         if old_vals.shape[1] < width:
             old_vals = np.concatenate([np.full((old_vals.shape[0], width - old_vals.shape[1]), np.nan), old_vals], 1)
-        rk = np.concatenate([self.run_keys[keep], keys[kp]])
+        rk = np.concatenate([self.keys[keep], keys[kp]])
         order = np.argsort(rk, kind='stable')
-        self.run_keys = rk[order]
+        self.keys = rk[order]
+        self.total = np.concatenate([self.total[keep], total[kp]])[order]
         self.run_len = np.concatenate([self.run_len[keep], run_len[kp]])[order]
         self.run_vals = np.concatenate([old_vals, vals])[order]
         # combination: positive when the run covers the whole window
@@ -208,6 +197,12 @@ class PairWindows:
             w = np.ascontiguousarray(vals[np.searchsorted(kp, sel), width - n:])
             combined[sel] = _combine_rows(w, self.mean)
         return combined, count
+
+    def drop(self, mask) -> None:
+        """Forget the stored runs where ``mask`` (over ``keys``) holds (runs known to be broken)."""
+        keep = ~np.asarray(mask, bool)
+        self.keys, self.total, self.run_len = self.keys[keep], self.total[keep], self.run_len[keep]
+        self.run_vals = self.run_vals[keep]
 
 
 def _lookup(sorted_keys: np.ndarray, keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

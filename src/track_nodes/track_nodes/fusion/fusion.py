@@ -283,7 +283,7 @@ class FusionNode(TrackNode):
             P4[0::2, 0::2] = f.P  # the x/y rows and columns of the CV state [x, ẋ, y, ẏ]
             self.pub_fused.publish(cv_state_to_odometry(t, np.array([f.mu[0], 0.0, f.mu[1], 0.0]), P4, FRAME_MAP,
                                                         fused_track_id(f.a, f.b)))
-        pairs = instant.pairs.nonzero() if self.p.publish_pairs == 'nonzero' else instant.pairs
+        pairs = instant.pairs.nonzero() if self.p.publish_pairs == 'nonzero' else instant.all_pairs()
         statuses = [FusionPairScore(q.score, q.combined, q.instants, q.associated, self.p.method).pair_status(q.a, q.b)
                     for q in pairs]
         self.pub_scores.publish(diagnostic_array(t, statuses))

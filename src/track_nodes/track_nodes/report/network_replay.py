@@ -94,7 +94,7 @@ def fuse(d: dict, rows: list[dict]) -> dict[tuple[str, str], np.ndarray]:
     out: dict[tuple[str, str], list] = {}
     for t, k, x, P in reports:
         for inst in fa.push(FUSION_SOURCE[k], k, TrackReport(t, x, P)):
-            for p in inst.pairs:
+            for p in inst.all_pairs():
                 out.setdefault(tuple(sorted((p.a, p.b))), []).append((inst.t, p.score, p.combined, p.associated))
     return {pair: np.array(v, dtype=float) for pair, v in out.items()}
 

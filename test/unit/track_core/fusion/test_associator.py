@@ -53,7 +53,7 @@ def _run(p: dict, events: list) -> list:
     out = []
     for inst in instants:
         assert inst.error is None, inst.error
-        pairs = [[q.a, q.b, q.score, q.combined, q.instants, q.associated] for q in inst.pairs]
+        pairs = [[q.a, q.b, q.score, q.combined, q.instants, q.associated] for q in inst.all_pairs()]
         fused = [[f'{f.a}+{f.b}', float(f.mu[0]), float(f.mu[1]), float(f.P[0, 0]), float(f.P[0, 1]),
                   float(f.P[1, 1])] for f in inst.fused]
         out.append([inst.t, pairs, fused])
@@ -93,7 +93,7 @@ def test_same_source_pairs_are_masked_unless_asked_for():
         core = PairAssociator(same_source_pairs=same)
         for source, tid in (('/a', '/a/0'), ('/a', '/a/1'), ('/b', '/b/0')):
             core.update(source, tid, TrackReport(0.0, np.zeros(2), R))
-        assert [(q.a, q.b) for q in core.score(0.0).pairs] == want
+        assert [(q.a, q.b) for q in core.score(0.0).all_pairs()] == want
 
 
 def test_window_combination_threshold_and_fusion():
@@ -107,17 +107,17 @@ def test_window_combination_threshold_and_fusion():
         return core.score(t)
 
     first = at(0.0, 0.0)
-    (q,) = first.pairs
+    (q,) = first.all_pairs()
     assert q.score == 1.0 and q.combined == 1.0 and q.associated and q.instants == 1
     (f,) = first.fused
     np.testing.assert_allclose(f.mu, [0.0, 0.0])
     np.testing.assert_allclose(f.P, R)  # CI of two equal estimates is the estimate
-    (q,) = at(1.0, 100.0).pairs  # ellipses do not intersect: instant score 0
+    (q,) = at(1.0, 100.0).all_pairs()  # ellipses do not intersect: instant score 0
     assert q.score == 0.0 and q.combined == 0.0 and not q.associated and q.instants == 2
     assert not core.score(1.0).fused
-    (q,) = at(2.0, 0.0).pairs
+    (q,) = at(2.0, 0.0).all_pairs()
     assert q.instants == 2 and q.combined == 0.0  # the zero instant is still in the window of 2
-    (q,) = at(3.0, 0.0).pairs
+    (q,) = at(3.0, 0.0).all_pairs()
     assert q.combined == 1.0 and q.associated
 
 
@@ -141,7 +141,7 @@ def test_stamp_schedule_scores_each_instant_once_with_the_reports_up_to_it():
     assert core.push('/a', 'a', TrackReport(1.0, np.zeros(2), R)) == []
     assert core.push('/b', 'b', TrackReport(1.0, np.zeros(2), R)) == []
     (inst,) = core.push('/a', 'a', TrackReport(2.0, np.ones(2), R))
-    assert inst.t == 1.0 and inst.ids == ['a', 'b'] and len(inst.pairs) == 1
+    assert inst.t == 1.0 and inst.ids == ['a', 'b'] and len(inst.all_pairs()) == 1
     np.testing.assert_array_equal(inst.mu, np.zeros((2, 2)))  # the 2 s report is not applied yet
 
 
@@ -156,8 +156,8 @@ def test_a_degenerate_track_is_skipped_and_every_other_pair_scored(method, varia
     a.update('ais', 'bad', TrackReport(1.0, np.array([3.0, 3.0]), np.diag([variance, variance])))
     inst = a.score(1.0)
     assert inst.error is None
-    scored = {(q.a, q.b) for q in inst.pairs}
-    assert scored == {('r0', 'p0'), ('r0', 'p1')} and all(np.isfinite(q.score) for q in inst.pairs)
+    scored = {(q.a, q.b) for q in inst.all_pairs()}
+    assert scored == {('r0', 'p0'), ('r0', 'p1')} and all(np.isfinite(q.score) for q in inst.all_pairs())
     assert {(x, y) for x, y, _ in inst.skipped} == {('r0', 'bad'), ('p0', 'bad'), ('p1', 'bad')}
     assert all('scoring failed' in why for _, _, why in inst.skipped)
     assert not any('bad' in key for key in a.history)  # a skipped pair's window is untouched
@@ -169,7 +169,7 @@ def test_valid_batches_take_the_batch_path_unchanged():
     a.update('radar', 'r0', TrackReport(1.0, np.zeros(2), np.eye(2)))
     a.update('patrol', 'p0', TrackReport(1.0, np.array([0.5, 0.2]), np.diag([2.0, 1.0])))
     inst = a.score(1.0)
-    assert inst.skipped == () and len(inst.pairs) == 1
+    assert inst.skipped == () and len(inst.all_pairs()) == 1
 
 
 def _picture_run(gate: bool, combine: str, seed: int, rows_scored: list | None = None):
@@ -188,7 +188,7 @@ def _picture_run(gate: bool, combine: str, seed: int, rows_scored: list | None =
             R = U @ np.diag([a, a / rng.uniform(1, 6)]) @ U.T
             core.update('one' if k < 30 else 'two', f't{k}', TrackReport(float(t), centre[k] + vel[k] * t, R))
         inst = core.score(float(t))
-        out.append([[q.a, q.b, q.score, q.combined, q.instants, q.associated] for q in inst.pairs]
+        out.append([[q.a, q.b, q.score, q.combined, q.instants, q.associated] for q in inst.all_pairs()]
                    + [[f.a, f.b, f.mu.tolist(), f.P.tolist()] for f in inst.fused])
     return out
 
