@@ -1,28 +1,34 @@
-"""``track-bench recorder``: messages per second through the recorder node, against two ceilings.
+"""``track-bench recorder``: messages per second through the recorder node, against the rclpy ceiling.
 
-Three consumers take the same stream in the same run, each in its own rclpy context (own
+Consumers take the same stream in the same run, each in its own rclpy context (own
 ROS_DOMAIN_ID, localhost-only discovery) with the publisher node:
 
-- the recorder (``RecorderNode``) on the executor kind it runs on by default
-  (``SingleThreadedExecutor``: ``run_node`` spins the global executor);
-- the fair ceiling: a bare rclpy raw subscription (``raw=True``, same topic, same serialized
-  ``nav_msgs/Odometry``, the recorder's subscription QoS from ``recording_qos``) whose callback
-  only counts, on the same executor kind;
+- the recorder (``RecorderNode``) on the executor it runs on (``run_node`` spins the global
+  ``SingleThreadedExecutor``; it takes what is queued behind each delivery itself, ``bag.batching``),
+  stamping with wall time: what ``clock: auto`` settles on without /clock (while auto is undecided,
+  the first ``clock_wait`` seconds, it only holds messages, which would time no writing at all);
+- the ceiling: a bare rclpy raw subscription (``raw=True``, same topic, same serialized
+  ``nav_msgs/Odometry``, the recorder's subscription QoS from ``recording_qos``) whose callback only
+  counts, on the ``EventsExecutor`` (``rclpy.experimental``), the fastest rclpy delivers messages
+  to Python. The same subscription on the ``SingleThreadedExecutor`` (and, in the full run, the
+  ``MultiThreadedExecutor``) is timed too, on fewer bursts: both collapse under a burst (a pass of
+  the executor per message), so they bound nothing;
 - the rosbags ``Writer`` alone writing the same payloads (no DDS, no executor).
 
-The stream: bursts of ``BURST`` messages from a reliable publisher (keep-last 100) are published
-while the executor is idle, then the executor drains them; the drain time is what is measured
-(a watcher timer, every millisecond, notices when the count is complete). A same-process
-publisher publishing while the consumer spins is limited by the GIL to about the consumer's own
-rate (measured: 8.7k/s published, both consumers kept up), which would measure the publisher.
+The stream (``Stream``): bursts of ``BURST`` messages from a reliable publisher (keep-last 100) are
+published while the executor is idle, then the executor drains them; the drain time is what is measured
+(a watcher timer, every millisecond, notices when the count is complete; the recorder counts a
+message once it is in the MCAP writer). A same-process publisher publishing while the consumer spins
+is limited by the GIL to about the consumer's own rate, which would measure the publisher.
 ``BURST`` is 5000: Fast DDS holds at most 5000 samples per reader by default (``max_samples``;
 a reader given 20,000 at once kept 5000), so a longer burst would only measure that limit.
 
-Reported: the rates, messages lost (published - recorded, must be 0), ``recorder_vs_rclpy_ceiling``
-and ``recorder_vs_writer`` (median over the runs of each run's ratio: the runs interleave, so a
-neighbour's load hits both sides of a ratio alike). ``--quick`` also times the ceiling on the
-``EventsExecutor`` (``rclpy.experimental``); the full run adds the ``MultiThreadedExecutor``.
-Timing lives here only, never in the tests.
+Reported: the rates; messages lost (published - in the closed bag, must be 0) and the losses the
+recorder itself counted; the headline ``recorder_vs_events_executor_subscription``, then
+``recorder_vs_rclpy_ceiling`` (the SingleThreadedExecutor subscription) and ``recorder_vs_writer``:
+each the median over the runs of that run's ratio. In each run the recorder and the EventsExecutor
+ceiling stand side by side (topics of their own) and take turns burst for burst (ABBA), so a
+neighbour's load hits both sides of a ratio alike. Timing lives here only, never in the tests.
 """
 
 from __future__ import annotations
@@ -41,6 +47,7 @@ N_PAYLOADS = 1000
 BURST = 5000  # Fast DDS's default max_samples per reader
 STALL = 2.0  # wall seconds without a new message = the consumer stopped
 EXECUTORS = ('single', 'events', 'multi')
+SLOW_ROUNDS = 2  # bursts for the executors that collapse (about 5k/s and 1.5k/s: seconds per burst)
 
 
 def _payloads() -> list[bytes]:
@@ -74,7 +81,7 @@ def _executor(kind: str, context):
     return {'single': SingleThreadedExecutor, 'multi': MultiThreadedExecutor}[kind](context=context)
 
 
-def _ceiling_node(context, qos):
+def _ceiling_node(context, qos, topic: str):
     """A bare node with one raw subscription whose callback only counts; → (node, count())."""
     import rclpy
     from nav_msgs.msg import Odometry
@@ -85,89 +92,137 @@ def _ceiling_node(context, qos):
     def count_one(_data: bytes) -> None:
         received[0] += 1
 
-    node.create_subscription(Odometry, TOPIC, count_one, qos, raw=True)
+    node.create_subscription(Odometry, topic, count_one, qos, raw=True)
     return node, lambda: received[0]
 
 
-def _recorder_node(context, bag: Path):
+def _recorder_node(context, bag: Path, topic: str):
     from rclpy.parameter import Parameter
 
     from track_nodes.bag.recorder import RecorderNode
 
     node = RecorderNode(context=context, parameter_overrides=[
-        Parameter('bag', value=str(bag)), Parameter('topics', value=[TOPIC])])
-    return node, lambda: node.message_counts().get(TOPIC, 0)
+        Parameter('bag', value=str(bag)), Parameter('topics', value=[topic]), Parameter('clock', value='wall')])
+    return node, lambda: node.message_counts().get(topic, 0)
 
 
-def run_stream(consumer: str, executor_kind: str, payloads: list[bytes], rounds: int, bag: Path) -> dict:
-    """``rounds`` bursts of ``BURST`` messages into ``consumer`` ('recorder' or 'ceiling'); count and time."""
-    import rclpy
-    from nav_msgs.msg import Odometry
-    from rclpy.context import Context
-    from rclpy.qos import QoSProfile
+def _in_bag(bag: Path) -> int:
+    """Messages in the closed bag, as a reader sees them."""
+    from rosbags.rosbag2 import Reader
 
-    from track_nodes.bag.api import recording_qos
-
-    os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
-    os.environ.pop('ROS_LOCALHOST_ONLY', None)
-    context = Context()
-    rclpy.init(context=context, domain_id=_domain_id())
-    executor = _executor(executor_kind, context)
-    pub_node = rclpy.create_node('bench_publisher', context=context)
-    node = None
-    try:
-        pub_qos = QoSProfile(depth=100)
-        pub = pub_node.create_publisher(Odometry, TOPIC, pub_qos)
-        node, count = (_recorder_node(context, bag) if consumer == 'recorder'
-                       else _ceiling_node(context, recording_qos([pub_qos])))
-        executor.add_node(node)
-        executor.add_node(pub_node)
-        deadline = time.monotonic() + 15.0
-        while pub.get_subscription_count() == 0:
-            if time.monotonic() > deadline:
-                raise OSError(f'{consumer} did not subscribe within 15 s (DDS discovery failed?)')
-            executor.spin_once(timeout_sec=0.01)
-        settle = time.monotonic() + 0.3
-        while time.monotonic() < settle:
-            executor.spin_once(timeout_sec=0.01)
-        published, seconds = _time_bursts(executor, pub_node, pub, count, payloads, rounds)
-        received = count()
-    finally:
-        executor.shutdown()
-        if node is not None:
-            node.destroy_node()  # the recorder closes its bag
-        pub_node.destroy_node()
-        context.try_shutdown()
-    return {'published': published, 'received': received, 'lost': published - received,
-            'rate': received / seconds if seconds > 0 else 0.0, 'seconds': seconds}
+    with Reader(bag) as reader:
+        return sum(1 for _ in reader.messages())
 
 
-def _time_bursts(executor, pub_node, pub, count, payloads: list[bytes], rounds: int) -> tuple[int, float]:
-    """Publish ``rounds`` bursts while the executor is idle, spin until each is drained; → (published, s)."""
-    from rclpy.clock import Clock, ClockType
-    from rclpy.task import Future
+class Stream:
+    """A publisher and one consumer ('recorder' or 'ceiling') on ``executor_kind``, in a context of their own,
+    on ``topic``; ``burst()`` publishes ``BURST`` messages while the executor is idle and times the drain."""
 
-    state: dict = {}
+    def __init__(self, consumer: str, executor_kind: str, payloads: list[bytes], bag: Path, topic: str = TOPIC):
+        import rclpy
+        from nav_msgs.msg import Odometry
+        from rclpy.clock import Clock, ClockType
+        from rclpy.context import Context
+        from rclpy.qos import QoSProfile
 
-    def watch() -> None:
-        n, now = count(), time.perf_counter()
+        from track_nodes.bag.api import recording_qos
+
+        os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+        os.environ.pop('ROS_LOCALHOST_ONLY', None)
+        self.consumer, self.payloads, self.bag = consumer, payloads, bag
+        self.published, self.seconds, self.node, self.result = 0, 0.0, None, None
+        self.context = Context()
+        rclpy.init(context=self.context, domain_id=_domain_id())
+        self.executor = _executor(executor_kind, self.context)
+        self.pub_node = rclpy.create_node(f'bench_publisher_{consumer}', context=self.context)
+        try:
+            pub_qos = QoSProfile(depth=100)
+            self.pub = self.pub_node.create_publisher(Odometry, topic, pub_qos)
+            self.node, self.count = (_recorder_node(self.context, bag, topic) if consumer == 'recorder'
+                                     else _ceiling_node(self.context, recording_qos([pub_qos]), topic))
+            self.executor.add_node(self.node)
+            self.executor.add_node(self.pub_node)
+            deadline = time.monotonic() + 15.0
+            while self.pub.get_subscription_count() == 0:
+                if time.monotonic() > deadline:
+                    raise OSError(f'{consumer} did not subscribe within 15 s (DDS discovery failed?)')
+                self.executor.spin_once(timeout_sec=0.01)
+            settle = time.monotonic() + 0.3
+            while time.monotonic() < settle:
+                self.executor.spin_once(timeout_sec=0.01)
+            self.state: dict = {}
+            self.pub_node.create_timer(0.001, self._watch, clock=Clock(clock_type=ClockType.STEADY_TIME))
+        except BaseException:
+            self.close()
+            raise
+
+    def _watch(self) -> None:
+        state = self.state
+        if not state:
+            return
+        n, now = self.count(), time.perf_counter()
         if n != state['last']:
             state['last'], state['t_last'] = n, now
         if (n >= state['want'] or now - state['t_last'] > STALL) and not state['done'].done():
             state['done'].set_result(n)
 
-    pub_node.create_timer(0.001, watch, clock=Clock(clock_type=ClockType.STEADY_TIME))
-    published, seconds = 0, 0.0
-    for _ in range(rounds):
-        before = count()
+    def burst(self) -> None:
+        from rclpy.task import Future
+
+        before = self.count()
         for i in range(BURST):
-            pub.publish(payloads[(published + i) % len(payloads)])
-        published += BURST
+            self.pub.publish(self.payloads[(self.published + i) % len(self.payloads)])
+        self.published += BURST
         t0 = time.perf_counter()
-        state.update(want=before + BURST, last=before, t_last=t0, done=Future())
-        executor.spin_until_future_complete(state['done'], timeout_sec=120.0)
-        seconds += state['t_last'] - t0
-    return published, seconds
+        self.state.update(want=before + BURST, last=before, t_last=t0, done=Future())
+        self.executor.spin_until_future_complete(self.state['done'], timeout_sec=120.0)
+        self.seconds += self.state['t_last'] - t0
+        self.state.clear()
+
+    def close(self) -> dict:
+        """Tear down (the recorder closes its bag); → published, received, lost, rate, seconds. Idempotent."""
+        if self.result is not None:
+            return self.result
+        received = self.count() if self.node is not None else 0
+        self.executor.shutdown()
+        if self.node is not None:
+            self.node.destroy_node()
+        self.pub_node.destroy_node()
+        self.context.try_shutdown()
+        out = {'published': self.published, 'received': received, 'lost': self.published - received,
+               'rate': received / self.seconds if self.seconds > 0 else 0.0, 'seconds': self.seconds}
+        if self.consumer == 'recorder' and self.node is not None:
+            out['in_bag'] = _in_bag(self.bag)
+            out['lost'] = self.published - min(received, out['in_bag'])
+            out['counted_lost'] = self.node.losses.total()
+        self.result = out
+        return out
+
+
+def run_stream(consumer: str, executor_kind: str, payloads: list[bytes], rounds: int, bag: Path) -> dict:
+    """``rounds`` bursts of ``BURST`` messages into ``consumer`` ('recorder' or 'ceiling'); count and time."""
+    stream = Stream(consumer, executor_kind, payloads, bag)
+    try:
+        for _ in range(rounds):
+            stream.burst()
+    finally:
+        out = stream.close()
+    return out
+
+
+def run_pair(payloads: list[bytes], rounds: int, bag: Path) -> dict:
+    """The recorder and the EventsExecutor ceiling side by side, burst for burst (ABBA), on topics of their own."""
+    streams: dict[str, Stream] = {}
+    try:
+        streams['ceiling_events'] = Stream('ceiling', 'events', payloads, bag, f'{TOPIC}_ceiling')
+        streams['recorder'] = Stream('recorder', 'single', payloads, bag, TOPIC)
+        order = list(streams.values())
+        for i in range(rounds):
+            for stream in order if i % 2 == 0 else order[::-1]:
+                stream.burst()
+    finally:
+        out = {key: stream.close() for key, stream in streams.items()}
+    return out
 
 
 def run_writer(payloads: list[bytes], count: int, path: Path) -> float:
@@ -187,43 +242,53 @@ def run_writer(payloads: list[bytes], count: int, path: Path) -> float:
 
 def recorder_benchmark(cfg: RunConfig) -> Outcome:
     rounds = 2 if cfg.quick else 10
-    runs = cfg.n_runs(full=3, quick=1)
-    others = ('events',) if cfg.quick else ('events', 'multi')
+    slow = min(rounds, SLOW_ROUNDS)
+    runs = cfg.n_runs(full=5, quick=1)
+    others = ('single',) if cfg.quick else ('single', 'multi')
     payloads = _payloads()
     workdir = Path(tempfile.mkdtemp(prefix='bench_recorder_'))
     results = []
     try:
         for r in cfg.progress(range(runs), desc='recorder', unit='run'):
-            res = {'ceiling': run_stream('ceiling', 'single', payloads, rounds, workdir),
-                   'recorder': run_stream('recorder', 'single', payloads, rounds, workdir / f'rec{r}')}
+            res = run_pair(payloads, rounds, workdir / f'rec{r}')
             for kind in others:
-                res[f'ceiling_{kind}'] = run_stream('ceiling', kind, payloads, rounds, workdir)
+                res[f'ceiling_{kind}'] = run_stream('ceiling', kind, payloads, slow, workdir)
             count = rounds * BURST
             res['writer'] = {'rate': count / run_writer(payloads, count, workdir / f'writer{r}')}
             results.append(res)
     finally:
         shutil.rmtree(workdir, ignore_errors=True)
     rate = {k: statistics.median(x[k]['rate'] for x in results) for k in results[0]}
-    vs_ceiling = statistics.median(x['recorder']['rate'] / x['ceiling']['rate'] for x in results)
-    vs_writer = statistics.median(x['recorder']['rate'] / x['writer']['rate'] for x in results)
-    vs_events = statistics.median(x['recorder']['rate'] / x['ceiling_events']['rate'] for x in results)
+
+    def ratio(key: str) -> float:
+        return statistics.median(x['recorder']['rate'] / x[key]['rate'] for x in results)
+
+    vs_events, vs_single, vs_writer = ratio('ceiling_events'), ratio('ceiling_single'), ratio('writer')
+    spread = [x['recorder']['rate'] / x['ceiling_events']['rate'] for x in results]
     lost = max(x['recorder']['lost'] for x in results)
-    rows = [['recorder node (SingleThreadedExecutor)', rate['recorder'], lost],
-            ['ceiling: bare raw subscription (SingleThreadedExecutor)', rate['ceiling'],
-             max(x['ceiling']['lost'] for x in results)]]
-    rows += [[f'bare raw subscription ({"EventsExecutor" if k == "events" else "MultiThreadedExecutor"})',
-              rate[f'ceiling_{k}'], max(x[f'ceiling_{k}']['lost'] for x in results)] for k in others]
-    rows += [['rosbags Writer alone', rate['writer'], ''],
-             ['recorder / ceiling', vs_ceiling, ''], ['recorder / Writer', vs_writer, ''],
-             ['recorder / bare subscription on EventsExecutor', vs_events, '']]
+    counted = max(x['recorder']['counted_lost'] for x in results)
+    names = {'single': 'SingleThreadedExecutor', 'multi': 'MultiThreadedExecutor'}
+    rows = [['recorder node (SingleThreadedExecutor, takes its queue)', rate['recorder'], lost, counted],
+            ['ceiling: bare raw subscription (EventsExecutor)', rate['ceiling_events'],
+             max(x['ceiling_events']['lost'] for x in results), '']]
+    rows += [[f'bare raw subscription ({names[k]}, {slow} bursts)', rate[f'ceiling_{k}'],
+              max(x[f'ceiling_{k}']['lost'] for x in results), ''] for k in others]
+    rows += [['rosbags Writer alone', rate['writer'], '', ''],
+             ['recorder / ceiling (EventsExecutor subscription)', vs_events, '', ''],
+             ['recorder / SingleThreadedExecutor subscription', vs_single, '', ''],
+             ['recorder / Writer', vs_writer, '', '']]
     size = len(payloads[0])
-    table = format_table(['path', 'msgs/s', 'lost'], rows)
+    table = format_table(['path', 'msgs/s', 'lost', 'counted lost'], rows)
     table += (f'\nnav_msgs/Odometry, {size} B CDR each; per run {rounds} bursts of {BURST} (reliable, keep-last 100 '
-              f'publisher), {runs} run(s), medians; lost = published - received')
-    data = {'message_bytes': size, 'burst': BURST, 'rounds': rounds, 'per_run': results,
-            'recorder_msgs_per_s': rate['recorder'], 'rclpy_ceiling_msgs_per_s': rate['ceiling'],
-            'writer_msgs_per_s': rate['writer'],
+              f'publisher), {runs} run(s), medians (recorder / ceiling per run: {min(spread):.2f} to '
+              f'{max(spread):.2f}); lost = published - in the bag (ceilings: - received); counted lost = the '
+              'recorder\'s own count')
+    data = {'message_bytes': size, 'burst': BURST, 'rounds': rounds, 'slow_rounds': slow, 'per_run': results,
+            'recorder_msgs_per_s': rate['recorder'], 'rclpy_events_executor_msgs_per_s': rate['ceiling_events'],
+            'rclpy_ceiling_msgs_per_s': rate['ceiling_single'], 'writer_msgs_per_s': rate['writer'],
             **{f'rclpy_{k}_executor_msgs_per_s': rate[f'ceiling_{k}'] for k in others},
-            'recorder_vs_rclpy_ceiling': vs_ceiling, 'recorder_vs_writer': vs_writer,
-            'recorder_vs_events_executor_subscription': vs_events, 'recorder_lost': lost}
+            'recorder_vs_events_executor_subscription': vs_events,
+            'recorder_vs_events_executor_subscription_per_run': spread,
+            'recorder_vs_rclpy_ceiling': vs_single, 'recorder_vs_writer': vs_writer,
+            'recorder_lost': lost, 'recorder_counted_lost': counted}
     return Outcome(table=table, data=data)

@@ -5,14 +5,18 @@ executor (wait set, ready list, task), many times what the rosbags ``Writer`` sp
 So when the executor calls the recorder with one message, the recorder takes the ones queued
 behind it itself, up to a limit (so the flush and discovery timers and the other topics still get
 their turn), through the subscription's own ``take_message`` (what the executors call; raw bytes
-and message info). It stays on the SingleThreadedExecutor: the EventsExecutor fails on
-message-info callbacks, which loss counting needs, and neither the MultiThreadedExecutor nor a
-writer thread beats taking inline under the GIL. The rates are in ``docs/results/recorder.md``
-(``track-bench recorder``).
+and message info), in a loop that runs in C (``iter`` over the take, ``islice``). It stays on the
+SingleThreadedExecutor: the EventsExecutor fails on message-info callbacks (rclpy 7.1: ``SystemError``),
+and loss counting needs the sequence numbers; the MultiThreadedExecutor collapses under a burst; a
+writer thread measured no faster (taking and packing both hold the GIL). The rates are in
+``docs/results/recorder.md`` (``track-bench recorder``).
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from functools import partial
+from itertools import islice
 from typing import Any
 
 
@@ -25,19 +29,12 @@ def take_pending(sub: Any, limit: int) -> list[tuple[bytes, dict]]:
     """Up to ``limit`` (raw message, message info) pairs waiting in ``sub``; [] once it is destroyed."""
     from rclpy.exceptions import InvalidHandle
 
-    out: list[tuple[bytes, dict]] = []
     try:
         handle = sub.handle
         with handle:  # the handle stays valid while we take (as in the executors)
-            take, msg_type = handle.take_message, sub.msg_type
-            for _ in range(limit):
-                got = take(msg_type, True)
-                if got is None:
-                    break
-                out.append(got)
+            return list(islice(iter(partial(handle.take_message, sub.msg_type, True), None), limit))
     except InvalidHandle:
-        pass
-    return out
+        return []
 
 
 class BeforeClock:
@@ -46,12 +43,13 @@ class BeforeClock:
     not 0: a bag whose clock starts at an epoch must not begin in 1970. The caller holds its lock."""
 
     def __init__(self) -> None:
-        self.held: list[tuple[Any, bytes]] = []  # (connection, CDR)
+        self.held: list[tuple[Any, Sequence[bytes]]] = []  # (connection, CDR of one batch), in order
 
-    def hold(self, conn: Any, raws: list[bytes]) -> None:
-        self.held += [(conn, raw) for raw in raws]
+    def hold(self, conn: Any, raws: Sequence[bytes]) -> None:
+        self.held.append((conn, raws))
 
-    def release(self, write: Any, now: int) -> None:
-        for conn, raw in self.held:
-            write(conn, now, raw)
+    def release(self, write_many: Any, now: int) -> None:
+        """``write_many(conn, stamps, raws)`` each held batch at ``now``."""
+        for conn, raws in self.held:
+            write_many(conn, [now] * len(raws), raws)
         self.held = []

@@ -13,12 +13,15 @@
   reading (``bag.batching.BeforeClock``).
 - ``wall``: the middleware's receive time of each message (system clock).
 
-The recorder calls ``write_batch`` and ``decide`` under its lock.
+The recorder calls ``write_batch`` and ``decide`` under its lock. Everything goes to the bag as
+batches (``write_many(conn, stamps, raws)``, ``bag.durable``): one stamp list per batch, no
+per-message call.
 """
 
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from typing import Any
 
 from track_nodes.bag.batching import BeforeClock
@@ -27,8 +30,10 @@ from track_nodes.base.params import ParameterError
 MODES = ('auto', 'sim', 'wall')
 
 
-def received(info: dict) -> int:
-    return info.get('received_timestamp') or time.time_ns()
+def received(infos: Sequence[dict]) -> list[int]:
+    """The middleware's receive times [ns, system clock]; now for a message without one."""
+    now = time.time_ns()
+    return [info.get('received_timestamp') or now for info in infos]
 
 
 class ClockChoice:
@@ -43,33 +48,31 @@ class ClockChoice:
         self.wait = wait
         self.latest = 0  # the last /clock value received [ns] (auto and sim)
         self.first = None  # steady time of the first message taken while auto is undecided
-        self.held: list[tuple[Any, bytes, int]] = []  # (connection, CDR, receive time) while undecided
+        self.held: list[tuple[Any, Sequence[bytes], list[int]]] = []  # batches (conn, CDR, receive times)
         self.before = BeforeClock()
         self.warned = False
 
     def on_clock(self, ns: int) -> None:
         self.latest = max(self.latest, ns)
 
-    def write_batch(self, write, conn, batch: list[tuple[bytes, dict]], node_clock) -> None:
-        """Write (or hold) one batch of (CDR, message info) taken from one subscription."""
+    def write_batch(self, write_many, conn, raws: Sequence[bytes], infos: Sequence[dict], node_clock) -> None:
+        """Write (or hold) one batch of CDR messages taken from one subscription, with their message infos."""
         mode = self.mode
         if mode == 'auto':
             self.first = self.first if self.first is not None else time.monotonic()
-            self.held += [(conn, raw, received(inf)) for raw, inf in batch]
+            self.held.append((conn, raws, received(infos)))
             return
         if mode == 'wall':
-            for raw, inf in batch:
-                write(conn, received(inf), raw)
+            write_many(conn, received(infos), raws)
             return
         now = node_clock.now().nanoseconds if mode == 'node' else self.latest
         if now == 0:  # before the first /clock: written at its first reading
-            self.before.hold(conn, [raw for raw, _ in batch])
+            self.before.hold(conn, raws)
             return
-        self.before.release(write, now)
-        for raw, _ in batch:
-            write(conn, now, raw)
+        self.before.release(write_many, now)
+        write_many(conn, [now] * len(raws), raws)
 
-    def decide(self, write, final: bool = False) -> str | None:
+    def decide(self, write_many, final: bool = False) -> str | None:
         """While auto is undecided: choose when due (or ``final``, at close) and write what was held.
 
         Returns the line to log when a choice was made (or when /clock started too late)."""
@@ -82,19 +85,19 @@ class ClockChoice:
             return None
         if self.latest:
             self.mode = 'sim'
-            for conn, raw, _ in self.held:
-                write(conn, self.latest, raw)
+            for conn, raws, _ in self.held:
+                write_many(conn, [self.latest] * len(raws), raws)
             line = 'stamping with /clock (sim time): it is published'
         elif final or (self.first is not None and time.monotonic() - self.first >= self.wait):
             self.mode = 'wall'
-            for conn, raw, t in self.held:
-                write(conn, t, raw)
+            for conn, raws, stamps in self.held:
+                write_many(conn, stamps, raws)
             line = f'stamping with wall time: no /clock within {self.wait:g} s of the first message'
         else:
             return None
         self.held = []
         return line
 
-    def close(self, write) -> None:
-        self.decide(write, final=True)
-        self.before.release(write, 0)  # the clock never started: log time 0
+    def close(self, write_many) -> None:
+        self.decide(write_many, final=True)
+        self.before.release(write_many, 0)  # the clock never started: log time 0

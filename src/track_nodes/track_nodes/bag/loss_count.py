@@ -40,6 +40,17 @@ class LossCounter:
         self.lost[topic] += gap
         return gap
 
+    def received_many(self, topic: str, seqs: list[int | None]) -> int:
+        """``received`` for each of ``seqs`` in order; a gapless run (a burst) costs one list comparison."""
+        if not seqs or not self._single.get(topic, False):
+            return 0
+        first = seqs[0]
+        if first is not None and seqs == list(range(first, first + len(seqs))):
+            gap = self.received(topic, first)  # only the step from the last batch can show a loss
+            self._last[topic] = seqs[-1]
+            return gap
+        return sum(self.received(topic, seq) for seq in seqs)
+
     def event(self, topic: str, count_change: int) -> int:
         """A message-lost event; counted only where sequence gaps cannot be (several publishers)."""
         if self._single.get(topic, False) or count_change <= 0:

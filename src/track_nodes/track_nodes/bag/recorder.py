@@ -35,7 +35,9 @@ Usage::
   with what the subscriptions still hold. A full disk (any write error, ``bag.durable``): one error
   line, the bag closed at the last flush (what came after is counted), exit 2.
 - Throughput: a callback also takes the messages queued behind its own (``bag.batching``, ≤
-  ``TAKE_LIMIT``) under one lock (``track-bench recorder``).
+  ``TAKE_LIMIT``) and writes them as one batch, one stamp list and one MCAP append
+  (``bag.durable.write_many``), under one lock: per message only the take and a few C-level passes
+  remain (``track-bench recorder``: against a bare raw subscription on the EventsExecutor).
 """
 
 from __future__ import annotations
@@ -99,8 +101,8 @@ class RecorderNode(TrackNode):
         self.path = bag_path(name)
         if self.path.exists():
             raise ValueError(f'{self.path}: bag exists already, not overwriting (choose another name)')
-        from rosbags.typesys import Stores, get_typestore
-        self.typestore = get_typestore(Stores.ROS2_JAZZY)
+        from track_nodes.bag.typestore import typestore
+        self.typestore = typestore()  # the Jazzy types and track_msgs
         self._bag = open_bag(self.path)  # bag.durable: the MCAP header reaches the file at once
         self._writer = self._bag.writer
         self.connections: dict[str, object] = {}
@@ -179,20 +181,18 @@ class RecorderNode(TrackNode):
                 self._write(topic, batch)
 
     def _write(self, topic: str, batch: list) -> None:
-        lost = 0
+        raws, infos = zip(*batch, strict=True)
         with self._lock:
             if self._closed:
-                self.dropped += len(batch) if self._bag.failed else 0
+                self.dropped += len(raws) if self._bag.failed else 0
                 return
-            conn, received = self.connections[topic], self.losses.received
             try:
-                self._stamps.write_batch(self._bag.write, conn, batch, self.get_clock())
+                self._stamps.write_batch(self._bag.write_many, self.connections[topic], raws, infos, self.get_clock())
             except OSError as exc:
-                self.counts[topic] += len(batch)
+                self.counts[topic] += len(raws)
                 return self._fail(exc)
-            for _, inf in batch:
-                lost += received(topic, inf.get('publication_sequence_number'))
-            self.counts[topic] += len(batch)
+            lost = self.losses.received_many(topic, [inf.get('publication_sequence_number') for inf in infos])
+            self.counts[topic] += len(raws)
         if lost:
             self._warn_lost(topic)
 
@@ -204,7 +204,7 @@ class RecorderNode(TrackNode):
     def _decide(self) -> None:
         with self._lock:
             try:
-                line = None if self._closed else self._stamps.decide(self._bag.write)
+                line = None if self._closed else self._stamps.decide(self._bag.write_many)
             except OSError as exc:
                 return self._fail(exc)
         if line is not None:
@@ -254,7 +254,7 @@ class RecorderNode(TrackNode):
             self._said = self._closed = True
             if self._bag.failed is None:
                 try:
-                    self._stamps.close(self._bag.write)
+                    self._stamps.close(self._bag.write_many)
                     self._bag.close()
                 except OSError as exc:
                     self._bag.fail(exc)
