@@ -9,7 +9,7 @@ in the launcher's namespace, a probe node that subscribes to every ``/idsq/senso
   handoff, matched by (step, sender, receiver): the one-way delivery of the handoff plus the
   receiver's decode, checks and reply (both stamps are the publishers' system clocks, one machine:
   the probe's own position does not enter). Only acks (not nacks) are counted.
-- **bytes per step**: the handoff payloads (``encode_handoff`` bytes, re-sends included) per led
+- **bytes per step**: the handoff package sizes (``IdsqHandoff.package_bytes``, re-sends included) per led
   step, the same figure as the launcher's summary; and with 3 hosts, what really crossed the bridge:
   the bytes the hub's ports received from the hosts and the launcher's namespace (all DDS traffic:
   handoffs, acks, truth, /clock, estimates to the recorder, discovery), sampled every wall second
@@ -44,9 +44,8 @@ class Probe:
 
     def __init__(self) -> None:
         import rclpy
-        from diagnostic_msgs.msg import DiagnosticArray
-        from std_msgs.msg import UInt8MultiArray
 
+        from track_msgs import msg as tm
         from track_msgs_py.qos import HANDOFF_QOS
         from track_msgs_py.topics import idsq_ack_topic, idsq_handoff_topic
 
@@ -58,8 +57,8 @@ class Probe:
         self.acks: list[tuple[int, int, int, str, int]] = []  # step, sender, receiver, result, source ns
         self.lock = threading.Lock()
         for k in range(N_SENSORS):
-            self.node.create_subscription(UInt8MultiArray, idsq_handoff_topic(k), self._on_handoff, HANDOFF_QOS)
-            self.node.create_subscription(DiagnosticArray, idsq_ack_topic(k), self._on_ack, HANDOFF_QOS)
+            self.node.create_subscription(tm.IdsqHandoff, idsq_handoff_topic(k), self._on_handoff, HANDOFF_QOS)
+            self.node.create_subscription(tm.IdsqAck, idsq_ack_topic(k), self._on_ack, HANDOFF_QOS)
         self.executor = rclpy.executors.SingleThreadedExecutor(context=self.ctx)
         self.executor.add_node(self.node)
         self.stop = threading.Event()
@@ -71,22 +70,18 @@ class Probe:
             self.executor.spin_once(timeout_sec=0.1)
 
     def _on_handoff(self, msg, info) -> None:
-        from track_core.idsq.handoff import peek_header
+        from track_msgs_py.records.idsq import IdsqHandoff
 
-        data = msg.data.tobytes() if hasattr(msg.data, 'tobytes') else bytes(msg.data)
-        head = peek_header(data)
-        if head is not None:
-            sender, receiver, step = head
-            with self.lock:
-                self.handoffs.append((step, sender, receiver, len(data), info['source_timestamp']))
+        size = IdsqHandoff.from_msg(msg, frame_id=None).package_bytes
+        with self.lock:
+            self.handoffs.append((msg.step, msg.sender, msg.receiver, size, info['source_timestamp']))
 
     def _on_ack(self, msg, info) -> None:
         from track_msgs_py.records.idsq import IdsqAck
 
+        a = IdsqAck.from_msg(msg)
         with self.lock:
-            for st in msg.status:
-                a = IdsqAck.from_status(st)
-                self.acks.append((a.step, a.sender, a.receiver, a.result, info['source_timestamp']))
+            self.acks.append((a.step, a.sender, a.receiver, a.result, info['source_timestamp']))
 
     def close(self) -> None:
         self.stop.set()

@@ -26,7 +26,8 @@ import tempfile
 from pathlib import Path
 
 from rosbags.rosbag2 import Reader
-from rosbags.typesys import Stores, get_typestore
+
+from track_nodes.bag.typestore import typestore
 
 CONFIG = Path(__file__).resolve().parents[1] / 'src/track_nodes/config'
 EPOCH = '2026-01-01T00:00:00'
@@ -35,7 +36,7 @@ WALL_TIME = {'victoria_park'}
 
 def digest(bag: Path) -> dict[str, list]:
     """topic -> [count, sha256 of the sorted payload sha256s]."""
-    ts = get_typestore(Stores.ROS2_JAZZY)
+    ts = typestore()  # the Jazzy types and track_msgs
     hashes: dict[str, list[bytes]] = {}
     with Reader(bag) as reader:
         for conn, _, raw in reader.messages():

@@ -60,7 +60,7 @@ def analyse(bag: Path, gap_steps: tuple[int, int], host_of: dict[int, int], host
     for m in msgs.get(IDSQ_ESTIMATE, []):
         s = step_of_stamp(stamp_to_sec(m.header.stamp), dt, origin)
         est[s].append((odometry_to_cv_state(m)[1][[0, 2]], m.pose.covariance[0] + m.pose.covariance[7]))
-    events = [IdsqLeaderEvent.from_status(st) for arr in msgs.get(IDSQ_LEADER, []) for st in arr.status]
+    events = [IdsqLeaderEvent.from_msg(m) for m in msgs.get(IDSQ_LEADER, [])]
     led, void, spread = defaultdict(set), defaultdict(set), defaultdict(list)
     for e in events:
         if e.event in ('step', 'void'):

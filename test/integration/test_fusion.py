@@ -2,15 +2,17 @@
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
-from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseWithCovarianceStamped
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
+from track_msgs.msg import PairScoreArray
 from track_msgs_py.odometry import position_to_pose_cov
 from track_msgs_py.qos import ESTIMATE_QOS
-from track_msgs_py.records.fusion import FusionPairScore
+from track_msgs_py.records.fusion import FusionPairs
 from track_msgs_py.topics import FUSION_SCORES
 from track_nodes.fusion.fusion import FusionNode
 from track_nodes.fusion.report_source import ReportSourceNode
@@ -29,21 +31,27 @@ def _scenario_nodes(ros, repo, extra_fusion=None):
     return nodes
 
 
+class Scored(NamedTuple):
+    score: float
+    combined: float
+    instants: int
+    associated: bool
+
+
 def _collect_scores(ros, history=None):
-    latest: dict[tuple[str, str], FusionPairScore] = {}
+    latest: dict[tuple[str, str], Scored] = {}
     decoy_ever_associated = []
 
-    def on_scores(msg: DiagnosticArray) -> None:
-        for st in msg.status:
-            pair, v = FusionPairScore.read(st)
-            latest[pair] = v
+    def on_scores(msg: PairScoreArray) -> None:
+        for pair, *values in FusionPairs.from_msg(msg).rows():
+            v = latest[pair] = Scored(*values)
             if history is not None:
                 history.setdefault(pair, []).append(v.associated)
             if '/radar/t2' in pair and v.associated:
                 decoy_ever_associated.append(pair)
 
     sink = ros.add(Node('sink', context=ros.context))
-    sink.create_subscription(DiagnosticArray, FUSION_SCORES, on_scores, ESTIMATE_QOS)
+    sink.create_subscription(PairScoreArray, FUSION_SCORES, on_scores, ESTIMATE_QOS)
     return latest, decoy_ever_associated
 
 
@@ -125,8 +133,8 @@ def _three_tracks(ros, publish_pairs):
             for s in ('radar', 'patrol')}
     seen: list[set] = []
     sink = ros.add(Node('sink', context=ros.context))
-    sink.create_subscription(DiagnosticArray, FUSION_SCORES,
-                             lambda m: seen.append({frozenset(FusionPairScore.read(st)[0]) for st in m.status}),
+    sink.create_subscription(PairScoreArray, FUSION_SCORES,
+                             lambda m: seen.append({frozenset(pair) for pair, *_ in FusionPairs.from_msg(m).rows()}),
                              ESTIMATE_QOS)
 
     def send() -> None:

@@ -20,6 +20,7 @@ from track_msgs_py.clouds import scan_to_pointcloud2
 from track_msgs_py.odometry import cv_state_to_odometry, inputs_to_twist, odometry_to_pose, position_to_pose_cov
 from track_msgs_py.stamps import sec_to_stamp
 from track_msgs_py.topics import FRAME_MAP, track_frame_id
+from track_msgs_py.track_arrays import tracks_to_array
 from track_nodes.demo.demo_tracker import DemoTrackerNode
 from track_nodes.fusion.fusion import FusionNode
 from track_nodes.slam.slam import SlamNode
@@ -182,6 +183,7 @@ POSE_TOPICS = ['/radar/t0', '/patrol/t0']
 
 def _fusion(ros, **params):
     over = {'pose_topics': POSE_TOPICS, 'odometry_topics': ['/odo'], 'pose_track_topics': ['/ais/reports'],
+            'track_array_topics': ['/arrays'],
             'stale_after': 1e5, 'max_prediction': 1e5, **params}
     node = ros.add(FusionNode(context=ros.context,
                               parameter_overrides=[Parameter(k, value=v) for k, v in over.items()]))
@@ -202,7 +204,13 @@ def _ais(t, z=(1.0, 2.0), R=((4.0, 0.5), (0.5, 3.0))):
     return _report(t, z, R, track_frame_id(FRAME_MAP, 'r017'))
 
 
+def _array(t, x=(1.0, 0.5, 2.0, -0.5), P=None):
+    P = np.diag([4.0, 1.0, 3.0, 1.0]) if P is None else P
+    return tracks_to_array(t, ['s1'], ['radar'], np.asarray(x, float)[None], np.asarray(P, float)[None])
+
+
 PATHS = {  # fusion input path → (callback, valid message at t, track id)
+    'track_array': (lambda n, m: n._on_track_array('/arrays', m), _array, '/arrays/s1'),
     'pose': (lambda n, m: n._on_pose('/radar/t0', m), _report, '/radar/t0'),
     'odometry': (lambda n, m: n._on_odometry('/odo', m), _odometry, '/odo/ship1'),
     'pose_track': (lambda n, m: n._on_pose_track('/ais/reports', m), _ais, '/ais/reports/r017'),
@@ -236,6 +244,13 @@ def test_fusion_hostile_magnitudes_and_variances_are_refused_on_every_input_path
         hostile = [_odometry(t0 + 0.05, (1e308, 0.0, 1.0, 0.0)), _odometry(t0 + 0.05, (1.0, 1e30, 1.0, 0.0))]
         for v in HOSTILE_VARIANCES:
             hostile.append(cv_state_to_odometry(t0 + 0.05, np.ones(4), np.diag([v, 1.0, v, 1.0]), FRAME_MAP, 'ship1'))
+    elif path == 'track_array':
+        hostile = [_array(t0 + 0.05, (1e308, 0.0, 1.0, 0.0)), _array(t0 + 0.05, (1.0, 1e30, 1.0, 0.0)),
+                   _array(t0 + 0.05, (np.nan, 0.0, 1.0, 0.0))]
+        hostile += [_array(t0 + 0.05, P=np.diag([v, 1.0, v, 1.0])) for v in HOSTILE_VARIANCES]
+        wrong_frame = _array(t0 + 0.05)
+        wrong_frame.header.frame_id = 'odom'
+        hostile.append(wrong_frame)
     else:
         hostile = _hostile_reports(t0 + 0.05)
         for m in hostile if path == 'pose_track' else ():
@@ -257,11 +272,21 @@ def test_fusion_a_degenerate_track_does_not_stop_the_scoring_of_the_others(ros):
     assert node.dropped == {'/radar/t1': 2}
     node.tick()
     assert len(scores) == 1
-    names = [st.name for st in scores[0].status]
-    assert len(names) == 1 and '/radar/t0' in names[0] and '/patrol/t0' in names[0]
+    assert [{q.a, q.b} for q in scores[0].pairs] == [{'/radar/t0', '/patrol/t0'}]
     node._on_pose('/radar/t1', _report(t0 + 0.1, (10.0, 0.0)))  # the source recovers with a valid report
     node.tick()
-    assert len(scores) == 2 and len(scores[1].status) == 2
+    assert len(scores) == 2 and len(scores[1].pairs) == 2
+
+
+def test_fusion_a_bad_track_of_an_array_is_refused_alone(ros):
+    node, _ = _fusion(ros)
+    t0 = _now(node)
+    x = np.array([[0.0, 0.0, 0.0, 0.0], [np.nan, 0.0, 0.0, 0.0], [5.0, 0.0, 0.0, 0.0], [1.0, 0.0, 1.0, 0.0]])
+    P = np.array([np.diag([4.0, 1.0, 3.0, 1.0])] * 4)
+    node._on_track_array('/arrays', tracks_to_array(t0, ['a', 'b', 'a', 'c'], ['radar'] * 4, x, P))
+    assert node.dropped == {'/arrays': 2}             # the NaN track and the second 'a'
+    assert {'/arrays/a', '/arrays/c'} == set(node.core.table.latest)
+    assert node.stamps.last('/arrays/b') is None
 
 
 # --- slam -------------------------------------------------------------------------------------------------------

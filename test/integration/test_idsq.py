@@ -7,8 +7,10 @@
   estimates as the in-process network on the same scenario file.
 - Leader failure: the sensor that is about to receive the handoff is destroyed mid-track; the
   sender re-selects after the ack timeout and the track continues with bounded error.
-- Malformed handoffs (NaN, negative mass, wrong grid, garbage) are refused with a warning and a
-  nack; a sensor refusing every handoff makes its senders re-select.
+- Malformed handoffs (NaN, negative mass, wrong grid, unknown version, arrays of different lengths)
+  are refused with a warning and a nack; a sensor refusing every handoff makes its senders re-select.
+- The recorded protocol topics (track_msgs IdsqHandoff, IdsqAck, IdsqLeaderEvent) decode with rosbags
+  from the schemas the bag embeds.
 """
 
 from __future__ import annotations
@@ -25,7 +27,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import Log
 from rclpy.node import Node
@@ -33,9 +34,9 @@ from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 from rosbags.rosbag2 import Reader
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import PointCloud2
-from std_msgs.msg import UInt8MultiArray
 
 from track_core.idsq import (
     GridSpec,
@@ -50,11 +51,11 @@ from track_core.idsq import (
 )
 from track_core.idsq.leader_protocol import measurement_normal, start_leader_of, step_of_stamp
 from track_core.idsq.simulation import scenario_of
+from track_msgs import msg as tm
 from track_msgs_py.covariance import xy_block
 from track_msgs_py.odometry import odometry_to_cv_state
 from track_msgs_py.qos import CLOCK_QOS, ESTIMATE_QOS, HANDOFF_QOS
-from track_msgs_py.records.idsq import IdsqAck, IdsqLeaderEvent
-from track_msgs_py.records.idsq import handoff_to_uint8_array as handoff_msg
+from track_msgs_py.records.idsq import IdsqAck, IdsqHandoff, IdsqLeaderEvent, IdsqRevoke
 from track_msgs_py.records.idsq import layout_to_pointcloud2 as layout_to_cloud
 from track_msgs_py.records.idsq import pointcloud2_to_layout as cloud_to_layout
 from track_msgs_py.stamps import sec_to_stamp, stamp_to_sec
@@ -62,10 +63,12 @@ from track_msgs_py.topics import (
     CLOCK,
     IDSQ_BELIEF,
     IDSQ_ESTIMATE,
+    IDSQ_HANDOFF_REGEX,
     IDSQ_LAYOUT,
     IDSQ_LEADER,
     idsq_ack_topic,
     idsq_handoff_topic,
+    idsq_revoke_topic,
 )
 from track_nodes.bag.check import check_bag
 from track_nodes.bag.frames import check_frames
@@ -117,7 +120,7 @@ class Network:
         self.led: dict[int, int] = {}  # step → leader, from /idsq/leader
         self.warnings: list[Log] = []
         self.probe.create_subscription(Odometry, IDSQ_ESTIMATE, self._on_estimate, ESTIMATE_QOS)
-        self.probe.create_subscription(DiagnosticArray, IDSQ_LEADER, self._on_leader, ESTIMATE_QOS)
+        self.probe.create_subscription(tm.IdsqLeaderEvent, IDSQ_LEADER, self._on_leader, ESTIMATE_QOS)
         self.probe.create_subscription(Log, '/rosout', self._on_log,
                                        QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE))
         self.clock = self.probe.create_publisher(Clock, CLOCK, CLOCK_QOS)
@@ -134,12 +137,11 @@ class Network:
         assert step not in self.estimates, f'two estimates for step {step}'
         self.estimates[step] = msg
 
-    def _on_leader(self, msg: DiagnosticArray) -> None:
-        for st in msg.status:
-            e = IdsqLeaderEvent.from_status(st)
-            self.events.append(e)
-            if e.event == 'step':
-                self.led[e.step] = e.leader
+    def _on_leader(self, msg: tm.IdsqLeaderEvent) -> None:
+        e = IdsqLeaderEvent.from_msg(msg)
+        self.events.append(e)
+        if e.event == 'step':
+            self.led[e.step] = e.leader
 
     def _on_log(self, msg: Log) -> None:
         if msg.level >= Log.WARN:
@@ -247,6 +249,31 @@ def _assert_recorded_track(bag, n_steps: int, in_means, in_covs, log: str) -> No
     np.testing.assert_array_equal(np.array([odometry_to_cv_state(m)[1][[0, 2]] for m in est]), in_means)
     np.testing.assert_array_equal(np.array([xy_block(m.pose.covariance) for m in est]), in_covs)
 
+
+def _assert_protocol_decodes_with_rosbags(bag, n_steps: int) -> None:
+    """The bag's handoffs, acks and leader events, decoded by rosbags from the schemas the bag embeds
+    (what Foxglove has): one step event per step, one handoff per led step (the last one's too) with
+    consistent arrays, each acknowledged."""
+    store = get_typestore(Stores.ROS2_JAZZY)
+    got: dict[str, list] = {}
+    with Reader(bag) as reader:
+        conns = [c for c in reader.connections if c.msgtype.startswith('track_msgs/')]
+        for conn in conns:
+            store.register({k: v for k, v in get_types_from_msg(conn.msgdef.data, conn.msgtype).items()
+                            if k not in store.fielddefs})
+        for conn, _, raw in reader.messages(connections=conns):
+            got.setdefault(conn.msgtype, []).append((conn.topic, store.deserialize_cdr(raw, conn.msgtype)))
+    handoffs = got.get('track_msgs/msg/IdsqHandoff', [])
+    assert len(handoffs) == n_steps and all(re.match(IDSQ_HANDOFF_REGEX, t) for t, _ in handoffs), got.keys()
+    assert all(h.version == h.VERSION_GRID and len(h.cells) == len(h.mass) > 0 and f'sensor_{h.receiver}/' in t
+               for t, h in handoffs)
+    acks = [a for _, a in got.get('track_msgs/msg/IdsqAck', [])]
+    assert len(acks) == n_steps and all(a.accepted and a.reason == '' for a in acks)
+    assert sorted((a.step, a.sender, a.receiver) for a in acks) == sorted((h.step, h.sender, h.receiver)
+                                                                         for _, h in handoffs)
+    steps = [e.step for _, e in got.get('track_msgs/msg/IdsqLeaderEvent', []) if e.event == e.STEP]
+    assert sorted(steps) == list(range(n_steps))
+
 def test_one_process_per_sensor_gives_the_same_estimates(ros, k8_file, tmp_path, env_factory):
     """K = 8, 20 steps: the launcher with --processes records exactly the in-process estimates."""
     net = Network(ros, k8_file)
@@ -266,6 +293,7 @@ def test_one_process_per_sensor_gives_the_same_estimates(ros, k8_file, tmp_path,
     assert res.ok and res.checked[IDSQ_LAYOUT] == 2 and res.checked[IDSQ_BELIEF] == K8_STEPS, res.problems
     assert res.checked[IDSQ_ESTIMATE] == K8_STEPS
     assert check_frames(tmp_path / 'bags/mp', stamps=True) == []
+    _assert_protocol_decodes_with_rosbags(tmp_path / 'bags/mp', K8_STEPS)
 
 
 # --- across simulated hosts (issue 15, part 1) -----------------------------------------------------------
@@ -363,18 +391,22 @@ def test_killing_the_next_leader_mid_track_keeps_tracking(ros, tmp_path):
 
 # --- malformed handoffs ----------------------------------------------------------------------------------
 
-def _bad_handoffs(sender: int, receiver: int) -> dict[str, tuple[bytes, str]]:
+def _bad_handoffs(sender: int, receiver: int) -> dict[str, tuple[tm.IdsqHandoff, str]]:
     grid = GridSpec.for_field(150.0, 250.0, 5.0)
     idx = np.array([10, 11, 12], dtype=np.int64)
 
-    def enc(g, mass):
-        return encode_handoff(Handoff(4, sender, receiver, g, idx, np.asarray(mass, dtype=float)), check=False)
+    def msg(g, p, **fields):
+        m = IdsqHandoff.from_handoff(3.0, Handoff(4, sender, receiver, g, idx, np.asarray(p, dtype=float))).to_msg()
+        for k, v in fields.items():
+            setattr(m, k, v)
+        return m
 
     return {
-        'nan': (enc(grid, [0.5, math.nan, 0.5]), 'non-finite'),
-        'negative': (enc(grid, [0.7, -0.2, 0.5]), 'negative mass'),
-        'grid': (enc(GridSpec.for_field(150.0, 250.0, 10.0), [0.2, 0.3, 0.5]), 'wrong grid'),
-        'garbage': (b'IDSQ' + bytes(20), 'shorter than'),
+        'nan': (msg(grid, [0.5, math.nan, 0.5]), 'non-finite'),
+        'negative': (msg(grid, [0.7, -0.2, 0.5]), 'negative mass'),
+        'grid': (msg(GridSpec.for_field(150.0, 250.0, 10.0), [0.2, 0.3, 0.5]), 'wrong grid'),
+        'version': (msg(grid, [0.2, 0.3, 0.5], version=9), 'unknown handoff version 9'),
+        'lengths': (msg(grid, [0.2, 0.3, 0.5], mass=[0.5, 0.5]), '3 cells but 2 masses'),
     }
 
 
@@ -383,25 +415,53 @@ def test_malformed_handoffs_are_refused_with_a_warning_and_a_nack(ros, k8_file):
     layout = net.vehicle.layout
     receiver = 0
     sender = int(layout.neighbours[receiver][0])
-    acks: list[DiagnosticArray] = []
-    net.probe.create_subscription(DiagnosticArray, idsq_ack_topic(sender), acks.append, HANDOFF_QOS)
-    pub = net.probe.create_publisher(UInt8MultiArray, idsq_handoff_topic(receiver), HANDOFF_QOS)
+    acks: list[tm.IdsqAck] = []
+    net.probe.create_subscription(tm.IdsqAck, idsq_ack_topic(sender), acks.append, HANDOFF_QOS)
+    pub = net.probe.create_publisher(tm.IdsqHandoff, idsq_handoff_topic(receiver), HANDOFF_QOS)
     assert ros.spin_until(lambda: pub.get_subscription_count() > 0)
     node = net.sensors[receiver]
-    for i, (kind, (data, words)) in enumerate(_bad_handoffs(sender, receiver).items()):
-        pub.publish(handoff_msg(data))
+    before = _ledger_state(node)
+    bad = _bad_handoffs(sender, receiver)
+    for i, (kind, (msg, words)) in enumerate(bad.items()):
+        pub.publish(msg)
         assert ros.spin_until(lambda i=i: node.refused == i + 1), kind
         assert ros.spin_until(lambda i=i, w=words: any(w in m.msg and 'refused:' in m.msg
                                                        for m in net.warnings[i:])), kind
-    assert ros.spin_until(lambda: len(acks) == 3)  # garbage has no readable header: nobody to answer
-    st = [a.status[0] for a in acks]
-    assert [IdsqAck.from_status(s).result for s in st] == ['nack'] * 3
-    assert all(s.message.startswith('refused: ') for s in st) and node.pending is None and not node.led
+    assert ros.spin_until(lambda: len(acks) == len(bad))  # a typed handoff always names its sender: all answered
+    replies = [IdsqAck.from_msg(a) for a in acks]
+    assert [a.result for a in replies] == ['nack'] * len(bad)
+    assert all(w in a.reason for a, (_, w) in zip(replies, bad.values(), strict=True))
+    assert node.pending is None and not node.led and _ledger_state(node) == before
     mine = [w for w in net.warnings if w.name == f'sensor_{receiver}']
-    assert len(mine) == 4 and all(m.msg.startswith(f'{idsq_handoff_topic(receiver)}: refused: ') and '\n' not in m.msg
-                                  for m in mine)
+    assert len(mine) == len(bad) and all(m.msg.startswith(f'{idsq_handoff_topic(receiver)}: refused: ')
+                                         and '\n' not in m.msg for m in mine)
     # the impersonated sender hears nacks for handoffs it never sent, and says so (one line: throttled)
     assert all(w.name == f'sensor_{sender}' and 'late reply: nack' in w.msg for w in net.warnings if w not in mine)
+
+
+def test_a_hostile_reply_or_revoke_changes_nothing(ros, k8_file):
+    """A nack whose reason is no single line is refused (one throttled line); a revoke of a handoff the
+    sensor never took, or addressed to another sensor, changes nothing."""
+    net = Network(ros, k8_file)
+    k, other = 0, int(net.vehicle.layout.neighbours[0][0])
+    node = net.sensors[k]
+    before = _ledger_state(node)
+    ack = net.probe.create_publisher(tm.IdsqAck, idsq_ack_topic(k), HANDOFF_QOS)
+    revoke = net.probe.create_publisher(tm.IdsqRevoke, idsq_revoke_topic(k), HANDOFF_QOS)
+    assert ros.spin_until(lambda: ack.get_subscription_count() > 0 and revoke.get_subscription_count() > 0)
+    for _ in range(3):
+        ack.publish(IdsqAck.reply(0, k, other, 'two\nlines').to_msg())
+    revoke.publish(IdsqRevoke(0, other, k).to_msg())  # nothing of step 0 from `other` held
+    revoke.publish(IdsqRevoke(0, other, other).to_msg())  # not for this sensor: refused
+    topic_ack, topic_revoke = node.resolved(idsq_ack_topic(k)), node.resolved(idsq_revoke_topic(k))
+    want = {(topic_ack, 'reply'): 3, (topic_revoke, 'revoke of step'): 1}
+    assert ros.spin_until(lambda: node.refusals.counts == want), node.refusals.counts
+    assert _ledger_state(node) == before
+
+    def new_kinds() -> list[str]:  # one line per kind at once, the rest summed up later (/rosout lags)
+        return [w.msg for w in net.warnings if w.name == f'sensor_{k}' and 'new kind of refusal' in w.msg]
+    assert ros.spin_until(lambda: len(new_kinds()) >= 2), new_kinds()
+    assert len(new_kinds()) == 2 and any('idsq ack: reason must be one printable line' in m for m in new_kinds())
 
 
 def test_a_refusing_sensor_makes_the_sender_reselect(ros, k8_file):
@@ -481,16 +541,16 @@ def test_a_handoff_of_step_0xffffffff_is_refused_and_the_sensor_still_leads(ros,
     assert ros.spin_until(lambda: all(3 in s.core.truth and not s.core.outgoing for s in net.sensors.values()))
     before = _ledger_state(node)
     acks: list = []  # the replies to the bad handoff (transient-local also brings older ones)
-    net.probe.create_subscription(DiagnosticArray, idsq_ack_topic(sender), lambda m: acks.extend(
-        st for st in m.status if IdsqAck.from_status(st).step == 0xFFFFFFFF), HANDOFF_QOS)
-    pub = net.probe.create_publisher(UInt8MultiArray, idsq_handoff_topic(receiver), HANDOFF_QOS)
+    net.probe.create_subscription(tm.IdsqAck, idsq_ack_topic(sender), lambda m: acks.extend(
+        [m] if m.step == 0xFFFFFFFF else []), HANDOFF_QOS)
+    pub = net.probe.create_publisher(tm.IdsqHandoff, idsq_handoff_topic(receiver), HANDOFF_QOS)
     assert ros.spin_until(lambda: pub.get_subscription_count() > 0)
     grid = GridSpec.for_field(150.0, 250.0, 5.0)
-    bad = encode_handoff(Handoff(0xFFFFFFFF, sender, receiver, grid, np.array([5, 6]), np.array([0.5, 0.5])))
+    bad = Handoff(0xFFFFFFFF, sender, receiver, grid, np.array([5, 6]), np.array([0.5, 0.5]))
     for i in range(20):  # a flood (the handoff QoS keeps 4: one at a time): counted, one log line
-        pub.publish(handoff_msg(bad))
+        pub.publish(IdsqHandoff.from_handoff(0.0, bad).to_msg())
         assert ros.spin_until(lambda i=i: node.refused == i + 1 and len(acks) == i + 1, timeout=30)
-    assert all(IdsqAck.from_status(st).result == 'nack' and 'window' in st.message for st in acks)
+    assert all(not a.accepted and 'window' in a.reason and a.header.stamp.sec == 0 for a in acks)
     assert _ledger_state(node) == before and node.pending is None
     assert node.refusals.counts == {(idsq_handoff_topic(receiver), 'window'): 20}
     assert len([w for w in net.warnings if w.name == f'sensor_{receiver}']) == 1

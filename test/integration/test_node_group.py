@@ -10,9 +10,9 @@ import signal
 import subprocess
 
 import pytest
-from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
 
+from track_msgs import msg as tm
 from track_msgs_py.qos import ESTIMATE_QOS
 from track_msgs_py.topics import IDSQ_LEADER
 from track_nodes.launch.scenario import load_scenario
@@ -25,7 +25,7 @@ def test_the_idsq_field_runs_in_one_process(ros, repo, prefix):
     entries = [f'{s.executable}:{s.name}' for s in sc.nodes]
     probe = ros.add(Node('group_probe', context=ros.context))
     events: list = []
-    probe.create_subscription(DiagnosticArray, IDSQ_LEADER, events.append, ESTIMATE_QOS)
+    probe.create_subscription(tm.IdsqLeaderEvent, IDSQ_LEADER, events.append, ESTIMATE_QOS)
     proc = subprocess.Popen([str(prefix / 'lib/track_nodes/node_group'), '--nodes', *entries,
                              '--ros-args', '--params-file', str(sc.path)],
                             env=ros.env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)

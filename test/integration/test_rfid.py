@@ -3,9 +3,11 @@
 - In-process on sim time (/clock from the test): the two nodes find the tag, and they replay the
   core-only search ``run_search(world, pf, default_rng(seed), max_steps)`` with the scenario's seed
   exactly (same steps, turns, distance, commands).
-- Bad input to the guidance (a NaN dφ, an empty phase stream): one warning line, the filter state
-  unchanged, the step asked again. A replayed answer (the reader's copy for a re-sent command) is
-  no bad input. The guidance re-sends its command until answered; the reader answers each seq once.
+- Bad input to the guidance (a NaN dφ, an empty phase stream, an unknown kind): one warning line, the
+  filter state unchanged, the step asked again. Bad commands to the reader (an unknown kind, a NaN
+  angle, seq 0): refused with one line, nothing performed. A replayed answer (the reader's copy for
+  a re-sent command) is no bad input. The guidance re-sends its command until answered; the reader
+  answers each seq once.
 - Bad parameters stop a node at start with one line.
 - Launcher: ``config/rfid.yaml`` recorded; the bag has every topic and the summary says found.
 """
@@ -20,7 +22,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PointStamped, PoseArray, PoseStamped
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -32,10 +33,11 @@ from tf2_msgs.msg import TFMessage
 
 from track_core.rfid.pf import PFParams
 from track_core.rfid.phase import PhaseModel
+from track_core.rfid.protocol import CommandKind
 from track_core.rfid.search import run_search
 from track_core.rfid.world import WorldParams
+from track_msgs import msg as tm
 from track_msgs_py.clouds import pointcloud2_to_table
-from track_msgs_py.diagnostics import diagnostic_array
 from track_msgs_py.qos import CLOCK_QOS, ESTIMATE_QOS, SENSOR_QOS
 from track_msgs_py.records.rfid import RfidCommand, RfidStep
 from track_msgs_py.stamps import sec_to_stamp
@@ -51,15 +53,17 @@ from track_msgs_py.topics import (
     RFID_USER_POSE,
     RFID_USER_STATUS,
 )
+from track_nodes.bag.api import mcap_problem
 from track_nodes.bag.check import check_bag
 from track_nodes.bag.frames import check_frames
 from track_nodes.base import ParameterError
 from track_nodes.rfid.rfid_guidance import RfidGuidanceNode
 from track_nodes.rfid.rfid_reader import RfidReaderNode
 
-TYPES = {RFID_COMMAND: DiagnosticArray, RFID_STEP: DiagnosticArray, RFID_PHASE: PointCloud2,
-         RFID_USER_POSE: PoseStamped, RFID_USER_STATUS: DiagnosticArray, RFID_PARTICLES: PoseArray,
-         RFID_TAG_ESTIMATE: PointStamped, RFID_FOUND: DiagnosticArray, TF: TFMessage, TF_STATIC: TFMessage}
+TYPES = {RFID_COMMAND: tm.RfidCommand, RFID_STEP: tm.RfidStep, RFID_PHASE: PointCloud2,
+         RFID_USER_POSE: PoseStamped, RFID_USER_STATUS: tm.RfidUserStatus, RFID_PARTICLES: PoseArray,
+         RFID_TAG_ESTIMATE: PointStamped, RFID_FOUND: tm.RfidFound, TF: TFMessage, TF_STATIC: TFMessage}
+MOVE, TURN, DONE = CommandKind.MOVE, CommandKind.TURN, CommandKind.DONE
 RECORD_S = 15.0  # node time of the launcher run: seed 4 is found after ~5 s (time_scale 0.25)
 
 
@@ -86,12 +90,12 @@ def _node(ros, repo, cls, name, **over):
                        cli_args=['--ros-args', '--params-file', str(repo / 'config/rfid.yaml')]))
 
 
-def _command(msg: DiagnosticArray) -> RfidCommand:
-    return RfidCommand.from_status(msg.status[0])
+def _command(msg: tm.RfidCommand) -> RfidCommand:
+    return RfidCommand.from_msg(msg)
 
 
-def _step(msg: DiagnosticArray) -> RfidStep:
-    return RfidStep.from_status(msg.status[0])
+def _step(msg: tm.RfidStep) -> RfidStep:
+    return RfidStep.from_msg(msg)
 
 
 class Sink:
@@ -162,8 +166,8 @@ def test_the_two_nodes_find_the_tag(search_run, repo):
     assert [c.seq for c in cmds] == list(range(1, len(cmds) + 1))
     assert [s.seq for s in steps] == list(range(1, len(cmds) + 1))
     assert [c.kind for c in cmds] == [s.kind for s in steps]
-    assert cmds[-1].kind == 'done' and cmds[-1].reason == 'tag found'
-    moves = [s for s in steps if s.kind == 'move']
+    assert cmds[-1].kind is DONE and cmds[-1].reason == 'tag found'
+    moves = [s for s in steps if s.kind is MOVE]
     assert len(moves) == ref.steps == guide.loop.moves
     # one phase cloud per MOVE with the stream's reads; particles after each usable MOVE
     assert len(sink.msgs[RFID_PHASE]) == ref.steps
@@ -176,7 +180,7 @@ def test_the_two_nodes_find_the_tag(search_run, repo):
         assert cloud.header.frame_id == 'map' and not table['z'].any()
         before = sink.msgs[RFID_USER_POSE][s.seq - 1].pose.position
         assert np.all(np.hypot(table['x'] - before.x, table['y'] - before.y) < 1.0)
-    usable = [s for s in moves if s.ok and math.isfinite(s.dphi)]
+    usable = [s for s in moves if s.ok and s.dphi is not None and math.isfinite(s.dphi)]
     assert len(sink.msgs[RFID_PARTICLES]) == len(usable) == guide.guide.pf.n_updates
     assert len(sink.msgs[RFID_PARTICLES][-1].poses) == guide.p.n_particles
     assert sink.msgs[RFID_TAG_ESTIMATE] and all(m.header.frame_id == 'rfid_user' for m in sink.msgs[RFID_TAG_ESTIMATE])
@@ -191,15 +195,19 @@ class FakeReader:
 
     def __init__(self, ros) -> None:
         self.node = ros.add(Node('fake_reader', context=ros.context))
-        self.pub = self.node.create_publisher(DiagnosticArray, RFID_STEP, ESTIMATE_QOS)
+        self.pub = self.node.create_publisher(tm.RfidStep, RFID_STEP, ESTIMATE_QOS)
         self.cmds: list[RfidCommand] = []
-        self.node.create_subscription(DiagnosticArray, RFID_COMMAND, lambda m: self.cmds.append(_command(m)),
+        self.node.create_subscription(tm.RfidCommand, RFID_COMMAND, lambda m: self.cmds.append(_command(m)),
                                       ESTIMATE_QOS)
 
-    def answer(self, seq: int, kind: str, **fields) -> None:
-        v = {'dphi': math.nan, 'turn': 0.0, 'n_reads': 150, 'n_outliers': 1, 'ok': True, 'reason': '',
+    def answer(self, seq: int, kind: CommandKind, wire: dict | None = None, **fields) -> None:
+        """A step result; ``wire``: message fields set afterwards (what no record would write)."""
+        v = {'dphi': None, 'turn': 0.0, 'n_reads': 150, 'n_outliers': 1, 'ok': True, 'reason': '',
              'found': False, 'duration': 0.5, **fields}
-        self.pub.publish(diagnostic_array(0.0, [RfidStep(seq, kind, **v).to_status('fake_reader/step')]))
+        msg = RfidStep(seq, kind, **v).to_msg(0.0)
+        for k, x in (wire or {}).items():
+            setattr(msg, k, x)
+        self.pub.publish(msg)
 
 
 def _guidance_with_fake_reader(ros, repo, **over):
@@ -213,24 +221,27 @@ def _guidance_with_fake_reader(ros, repo, **over):
 
 @pytest.mark.parametrize(('values', 'needle'), [
     ({'dphi': math.nan}, "phase difference is nan"),
+    ({'dphi': 1.5, 'wire': {'dphi_known': False}}, "phase difference is nan"),  # on the wire: no dφ
     ({'dphi': 1.5, 'n_reads': 0}, 'empty phase stream'),
+    ({'dphi': 1.5, 'wire': {'kind': 9}}, 'malformed step result: rfid step result: kind 9 is not one of'),
+    ({'dphi': 1.5, 'wire': {'duration': math.nan}}, 'non-finite duration=nan'),
 ])
 def test_bad_step_result_warns_keeps_the_state_and_repeats(ros, repo, capfd, values, needle):
     guide, fake, clock = _guidance_with_fake_reader(ros, repo)
-    assert fake.cmds[0].seq == 1 and fake.cmds[0].kind == 'move'
-    fake.answer(1, 'move', dphi=-4.0)               # a usable first step: the filter exists
+    assert fake.cmds[0].seq == 1 and fake.cmds[0].kind is MOVE
+    fake.answer(1, MOVE, dphi=-4.0)                 # a usable first step: the filter exists
     assert clock.run_until(lambda: len(fake.cmds) >= 2)
-    assert fake.cmds[1].kind == 'turn'
-    fake.answer(2, 'turn', turn=0.3)
+    assert fake.cmds[1].kind is TURN
+    fake.answer(2, TURN, turn=0.3)
     assert clock.run_until(lambda: len(fake.cmds) >= 3)
-    assert fake.cmds[2].kind == 'move' and not fake.cmds[2].repeat
+    assert fake.cmds[2].kind is MOVE and not fake.cmds[2].repeat
     core = guide.guide
     before = (core.pf.snapshot(), core.pending_turn, core.pf.n_updates)
     capfd.readouterr()
-    fake.answer(3, 'move', **values)
+    fake.answer(3, MOVE, **values)
     assert clock.run_until(lambda: len(fake.cmds) >= 4)
     repeat = fake.cmds[3]
-    assert (repeat.kind, repeat.seq, repeat.repeat) == ('move', 4, True)
+    assert (repeat.kind, repeat.seq, repeat.repeat) == (MOVE, 4, True)
     assert needle in repeat.reason
     # filter state exactly as it was (particles, weights, counters, generator), turn sum kept
     after = (core.pf.snapshot(), core.pending_turn, core.pf.n_updates)
@@ -242,42 +253,52 @@ def test_bad_step_result_warns_keeps_the_state_and_repeats(ros, repo, capfd, val
     warn = [ln for ln in capfd.readouterr().err.splitlines() if 'WARN' in ln and 'rfid_guidance' in ln]
     assert len(warn) == 1 and needle in warn[0] and 'repeat' in warn[0], warn
     # the repeated step, answered properly, is used
-    fake.answer(4, 'move', dphi=-4.2)
+    fake.answer(4, MOVE, dphi=-4.2)
     assert clock.run_until(lambda: len(fake.cmds) >= 5)
-    assert fake.cmds[4].kind == 'turn' and core.pf.n_updates == 2 and core.pending_turn == 0.0
+    assert fake.cmds[4].kind is TURN and core.pf.n_updates == 2 and core.pending_turn == 0.0
 
 
 def test_command_resent_until_answered_and_replayed_answers_ignored(ros, repo):
     guide, fake, clock = _guidance_with_fake_reader(ros, repo, resend_after=0.5)
     assert clock.run_until(lambda: len(fake.cmds) >= 3, timeout_s=5)  # not answered: re-sent, unchanged
     assert fake.cmds[0] == fake.cmds[1] == fake.cmds[2] and guide.loop.resends >= 2
-    fake.answer(1, 'move', dphi=-4.0)
+    fake.answer(1, MOVE, dphi=-4.0)
     assert clock.run_until(lambda: fake.cmds[-1].seq == 2)
     n = len(fake.cmds)
-    fake.answer(1, 'move', dphi=-4.0)                # the reader's copy of an answer already used
+    fake.answer(1, MOVE, dphi=-4.0)                  # the reader's copy of an answer already used
     clock.run_until(lambda: False, timeout_s=0.3)
     assert len(fake.cmds) == n and not guide.warnings and guide.loop.stale == 1 and guide.guide.pf.n_updates == 1
+
+
+def _fake_guidance(ros, reader):
+    """The test plays the guidance: ``command(seq, kind, angle, wire)`` publishes one command; ``wire``
+    sets message fields afterwards (what no record would write)."""
+    pub = ros.add(Node('fake_guidance', context=ros.context)).create_publisher(tm.RfidCommand, RFID_COMMAND,
+                                                                               ESTIMATE_QOS)
+    assert ros.spin_until(lambda: reader.pub_step.get_subscription_count() >= 1
+                          and pub.get_subscription_count() >= 1, timeout=10)
+
+    def command(seq: int, kind: CommandKind = MOVE, angle: float = 0.0, wire: dict | None = None) -> None:
+        msg = RfidCommand(seq, kind, angle).to_msg(0.0)
+        for k, v in (wire or {}).items():
+            setattr(msg, k, v)
+        pub.publish(msg)
+
+    return command, pub
 
 
 def test_reader_answers_each_seq_once(ros, repo):
     reader = _node(ros, repo, RfidReaderNode, 'rfid_reader', time_scale=0.0)
     sink = Sink(ros)
-    pub = ros.add(Node('fake_guidance', context=ros.context)).create_publisher(DiagnosticArray, RFID_COMMAND,
-                                                                               ESTIMATE_QOS)
-    assert ros.spin_until(lambda: reader.pub_step.get_subscription_count() >= 1
-                          and pub.get_subscription_count() >= 1, timeout=10)
-
-    def command(seq: int, kind: str, angle: float = 0.0) -> None:
-        pub.publish(diagnostic_array(0.0, [RfidCommand(seq, kind, angle).to_status('fake_guidance/command')]))
-
-    command(1, 'move')
+    command, _ = _fake_guidance(ros, reader)
+    command(1, MOVE)
     assert ros.spin_until(lambda: len(sink.msgs[RFID_STEP]) == 1)
-    command(1, 'move')                                 # a re-sent copy: same answer, not walked again
+    command(1, MOVE)                                   # a re-sent copy: same answer, not walked again
     assert ros.spin_until(lambda: len(sink.msgs[RFID_STEP]) == 2)
     assert sink.msgs[RFID_STEP][0] == sink.msgs[RFID_STEP][1] and reader.reader.steps == 1
-    command(2, 'turn', 0.5)
+    command(2, TURN, 0.5)
     assert ros.spin_until(lambda: len(sink.msgs[RFID_STEP]) == 3)
-    command(1, 'move')                                 # older than the last: ignored
+    command(1, MOVE)                                   # older than the last: ignored
     ros.spin_for(0.3)
     assert len(sink.msgs[RFID_STEP]) == 3 and reader.reader.steps == 1 and reader.cache.duplicates == 1
     assert len(sink.msgs[RFID_PHASE]) == 1 and len(sink.msgs[RFID_USER_POSE]) == 3  # start pose + 2 actions
@@ -325,8 +346,9 @@ def test_launcher_records_the_search_and_the_summary_says_found(tmp_path, env_fa
             assert conn.msgtype == f'{TYPES[conn.topic].__module__.split(".")[0]}/msg/{TYPES[conn.topic].__name__}'
         for conn, _, raw in reader.messages():
             if conn.topic == RFID_FOUND:
-                found.append(deserialize_message(raw, DiagnosticArray))
+                found.append(deserialize_message(raw, tm.RfidFound))
     assert set(counts) == set(TYPES), counts
+    assert mcap_problem(bag, sum(counts.values())) is None   # Foxglove's mcap reader decodes every message
     assert check_frames(bag, stamps=True) == []  # rfid_user, rfid_pf and the reader's frame are placed in map
     ref = _reference(repo)
     assert len(found) == 1 and counts[RFID_PHASE] == ref.steps
@@ -356,7 +378,7 @@ def test_an_llrp_hopping_reader_with_relock_and_online_noise_finds_the_tag(ros, 
     for cloud in sink.msgs[RFID_PHASE]:
         table = pointcloud2_to_table(cloud)
         assert {round(float(f), 3) for f in np.unique(table['carrier_mhz'])} <= channels
-    moves = [_step(m) for m in sink.msgs[RFID_STEP] if _step(m).kind == 'move']
+    moves = [_step(m) for m in sink.msgs[RFID_STEP] if _step(m).kind is MOVE]
     stds = [m.dphi_std for m in moves if m.ok]
     assert stds and all(math.isfinite(s) and s > 0 for s in stds)       # online noise: the filter gets it
     assert all(m.relocks >= 0 for m in moves)
@@ -369,14 +391,7 @@ def test_reader_refuses_a_seq_far_ahead_and_keeps_answering(ros, repo):
     was stale: no step result was ever sent again."""
     reader = _node(ros, repo, RfidReaderNode, 'rfid_reader', time_scale=0.0)
     sink = Sink(ros)
-    pub = ros.add(Node('fake_guidance', context=ros.context)).create_publisher(DiagnosticArray, RFID_COMMAND,
-                                                                               ESTIMATE_QOS)
-    assert ros.spin_until(lambda: reader.pub_step.get_subscription_count() >= 1
-                          and pub.get_subscription_count() >= 1, timeout=10)
-
-    def command(seq: int, kind: str = 'move') -> None:
-        pub.publish(diagnostic_array(0.0, [RfidCommand(seq, kind, 0.0).to_status('fake_guidance/command')]))
-
+    command, _ = _fake_guidance(ros, reader)
     command(1)
     assert ros.spin_until(lambda: len(sink.msgs[RFID_STEP]) == 1)
     before = (dict(vars(reader.cache)), reader.reader.pose.copy(), reader.reader.steps, reader.reader.t)
@@ -386,8 +401,29 @@ def test_reader_refuses_a_seq_far_ahead_and_keeps_answering(ros, repo):
     after = (dict(vars(reader.cache)), reader.reader.pose, reader.reader.steps, reader.reader.t)
     assert after[0] == before[0] and np.array_equal(after[1], before[1]) and after[2:] == before[2:]
     assert len(sink.msgs[RFID_STEP]) == 1 and list(reader.refusals.counts) == [(RFID_COMMAND, 'seq')]
-    command(2, 'turn')                                   # the next real command is performed
+    command(2, TURN)                                     # the next real command is performed
     assert ros.spin_until(lambda: len(sink.msgs[RFID_STEP]) == 2) and _step(sink.msgs[RFID_STEP][1]).seq == 2
+
+
+def test_reader_refuses_unknown_kinds_nan_angles_and_seq_0_with_one_line(ros, repo, capfd):
+    reader = _node(ros, repo, RfidReaderNode, 'rfid_reader', time_scale=0.0)
+    sink = Sink(ros)
+    command, _ = _fake_guidance(ros, reader)
+    command(1)
+    assert ros.spin_until(lambda: len(sink.msgs[RFID_STEP]) == 1)
+    before = (reader.reader.pose.copy(), reader.reader.steps, reader.reader.turns, reader.reader.t, reader.cache.seq)
+    capfd.readouterr()
+    bad = [{'kind': 0}, {'kind': 9}, {'angle': math.nan}, {'angle': math.inf}, {'angle_deg': math.nan}, {'seq': 0}]
+    for i, wire in enumerate(bad):
+        command(2, TURN, 0.5, wire)
+        assert ros.spin_until(lambda i=i: reader.refusals.total() == i + 1), wire
+    after = (reader.reader.pose, reader.reader.steps, reader.reader.turns, reader.reader.t, reader.cache.seq)
+    assert np.array_equal(after[0], before[0]) and after[1:] == before[1:] and len(sink.msgs[RFID_STEP]) == 1
+    assert reader.refusals.counts == {(RFID_COMMAND, 'command'): len(bad)}
+    lines = [ln for ln in capfd.readouterr().err.splitlines() if 'WARN' in ln and 'rfid_reader' in ln]
+    assert len(lines) == 1 and 'refused: command: rfid command: kind 0 is not one of' in lines[0], lines
+    command(2, TURN, 0.5)                                # the same command, well formed, is performed
+    assert ros.spin_until(lambda: len(sink.msgs[RFID_STEP]) == 2) and _step(sink.msgs[RFID_STEP][1]).kind is TURN
 
 
 def test_unsolicited_step_results_are_refused_and_change_nothing(ros, repo):
@@ -396,14 +432,14 @@ def test_unsolicited_step_results_are_refused_and_change_nothing(ros, repo):
     core = guide.guide
     before = (dict(vars(guide.loop)), core.pending, core.pending_turn, core.failed_in_a_row, core.pf.initialized)
     for i in range(30):
-        fake.answer(2 + i, 'move', dphi=-4.0)
+        fake.answer(2 + i, MOVE, dphi=-4.0)
         assert ros.spin_until(lambda i=i: guide.refusals.total() == i + 1, timeout=10)
     after = (dict(vars(guide.loop)), core.pending, core.pending_turn, core.failed_in_a_row, core.pf.initialized)
     assert after == before and guide.loop.moves == 0 and not guide.warnings
     assert guide.refusals.counts == {(RFID_STEP, 'seq'): 30}
-    fake.answer(1, 'move', dphi=-4.0)                    # the real answer is used
+    fake.answer(1, MOVE, dphi=-4.0)                      # the real answer is used
     assert clock.run_until(lambda: fake.cmds[-1].seq == 2)
-    assert fake.cmds[-1].kind == 'turn' and guide.loop.moves == 1 and core.pf.n_updates == 1
+    assert fake.cmds[-1].kind is TURN and guide.loop.moves == 1 and core.pf.n_updates == 1
 
 
 def test_the_pair_finds_the_tag_through_a_flood_of_unsolicited_results(ros, repo):
@@ -412,8 +448,8 @@ def test_the_pair_finds_the_tag_through_a_flood_of_unsolicited_results(ros, repo
     reader = _node(ros, repo, RfidReaderNode, 'rfid_reader', time_scale=0.0)
     guide = _node(ros, repo, RfidGuidanceNode, 'rfid_guidance')
     fake = FakeReader(ros)
-    fake.node.create_subscription(DiagnosticArray, RFID_COMMAND, lambda m: fake.answer(
-        _command(m).seq + 1000, 'move', dphi=-4.0, found=True), ESTIMATE_QOS)
+    fake.node.create_subscription(tm.RfidCommand, RFID_COMMAND, lambda m: fake.answer(
+        _command(m).seq + 1000, MOVE, dphi=-4.0, found=True), ESTIMATE_QOS)
     clock = TestClock(ros)
     assert ros.spin_until(lambda: guide.pub_cmd.get_subscription_count() >= 2
                           and reader.pub_step.get_subscription_count() >= 1, timeout=10)

@@ -21,6 +21,7 @@ from nav_msgs.msg import Odometry
 from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
 
+from track_msgs.msg import PairScoreArray
 from track_msgs_py.clouds import scan_to_pointcloud2
 from track_msgs_py.odometry import cv_state_to_odometry, inputs_to_twist, position_to_pose_cov
 from track_msgs_py.records import diagnostic_values
@@ -244,7 +245,7 @@ def test_every_estimator_starts_again_after_the_clock_goes_back(ros, repo, name)
 
 LOOPS = {  # scenario: (estimator class, its section in config/<scenario>.yaml, topics played, output, type)
     'fusion': (FusionNode, 'fusion', ['/radar/t0', '/radar/t1', '/radar/t2', '/patrol/t0', '/patrol/t1'],
-               '/fusion/scores', DiagnosticArray),
+               '/fusion/scores', PairScoreArray),
     'sonar': (SonarObserverNode, 'sonar_observer', ['/sonar/target/truth'], '/sonar/estimate', Odometry),
     'slam_sim': (SlamNode, 'slam', ['/slam/inputs', '/slam/scan'], '/slam/pose', Odometry),
 }
@@ -253,8 +254,7 @@ LOOPS = {  # scenario: (estimator class, its section in config/<scenario>.yaml, 
 def _finite(msg) -> bool:
     if isinstance(msg, Odometry):
         return _valid(msg)
-    return all(math.isfinite(float(kv.value)) for st in msg.status for kv in st.values
-               if kv.key in ('score', 'combined'))
+    return all(math.isfinite(q.score) and math.isfinite(q.combined) for q in msg.pairs)
 
 
 @pytest.mark.parametrize('scenario', list(LOOPS))

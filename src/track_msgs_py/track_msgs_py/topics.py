@@ -73,13 +73,6 @@ COV_PLANAR = 'planar covariance: x/y block = estimate, z/roll/pitch 0, not estim
 CLOUD_XYZ = 'float32 x, y, z at offsets 0/4/8, then'
 
 
-def fused_track_id(a: str, b: str) -> str:
-    """``child_frame_id`` of the fusion of tracks ``a`` and ``b``: ``'/radar/t0', '/patrol/t0'`` →
-    ``'radar/t0+patrol/t0'``. Track ids are topic-based and start with '/', which tf2 refuses in
-    any frame id (tools that look a child_frame_id up would fail), so the slashes are dropped."""
-    return f'{a.lstrip("/")}+{b.lstrip("/")}'
-
-
 class TopicSpec(NamedTuple):
     """What travels on a topic: full type name (``pkg/msg/Type``), QoS kind, one-line description."""
 
@@ -107,17 +100,17 @@ TOPICS: dict[str, TopicSpec] = {
     DEMO_TRACK: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
                           f'Kalman estimate of the demo target ({COV_PLANAR}: yaw, yaw rate); '
                           'child_frame_id = track id'),
-    FUSION_SCORES: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'estimate',
-                             'one status per track pair: name "A | B", values score, combined, instants, '
-                             'associated, method'),
-    FUSION_ASSOCIATIONS: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'estimate',
+    FUSION_SCORES: TopicSpec('track_msgs/msg/PairScoreArray', 'estimate',
+                             'one array per instant: per pair a, b, score, combined, instants, associated; '
+                             'the rule (method, combine, window, threshold) in the array'),
+    FUSION_ASSOCIATIONS: TopicSpec('track_msgs/msg/PairScoreArray', 'estimate',
                                    'the associated pairs only (combined score >= threshold), same layout'),
-    FUSION_FUSED: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
-                            f'covariance-intersection fusion of an associated pair ({COV_PLANAR}); '
-                            'child_frame_id = "A+B" without the leading "/" of the track ids '
-                            '(fused_track_id: "radar/t0+patrol/t0"), a valid tf2 id'),
+    FUSION_FUSED: TopicSpec('track_msgs/msg/FusedTrackArray', 'estimate',
+                            'covariance-intersection fusion of every associated pair of the instant: a, b, '
+                            'x, y, 2x2 covariance'),
     FUSION_MARKERS: TopicSpec('visualization_msgs/msg/MarkerArray', 'estimate',
-                              '2σ ellipses of the live tracks and pair links coloured by score'),
+                              '2σ ellipses (flat cylinders) of the live tracks and fused pairs, pair links '
+                              'coloured by score, at display_rate'),
 }
 
 # Sonar observer vs smart target (smart-target sensor-scheduling paper).
@@ -157,8 +150,9 @@ TOPICS.update({
 
 # Handheld UHF RFID reader guidance (Raptopoulos, Yioultsis & Dimitriou). A command/response
 # loop: rfid_guidance publishes a command, rfid_reader (the simulated user + reader) performs it and
-# answers with one step result carrying the command's seq. Both are diagnostic_msgs/DiagnosticArray with
-# one status whose values are strings (floats written with repr, so they round-trip; 'nan' is NaN).
+# answers with one step result carrying the command's seq. The protocol, its found event and the
+# user's truth are typed track_msgs messages (interfaces/track_msgs/msg/Rfid*.msg: every field
+# commented there, what `ros2 interface show` prints; records.rfid converts them).
 # Frames: the particles live in the filter's own frame (the tag at the origin; its rotation is a free
 # gauge, fixed by the first step's quadrant, see track_core/rfid/pf.py), not in ``map``; the tag estimate
 # is in the user's body frame (x along the facing direction, y to the left, REP-103). The truth pose is in
@@ -175,20 +169,18 @@ RFID_TAG_ESTIMATE = '/rfid/tag_estimate'
 RFID_FOUND = '/rfid/found'
 
 TOPICS.update({
-    RFID_COMMAND: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'estimate',
-                            'next action for the user: one status "<guidance node>/command", message = the command '
-                            'in words, level WARN when it repeats a step; values seq (int, +1 per new command), kind '
-                            '(turn|move|done), angle (TURN: suggested turn, rad, + = left), angle_deg, repeat '
-                            '(true|false), reason (why repeated / why done). Re-sent unchanged (same seq) until '
+    RFID_COMMAND: TopicSpec('track_msgs/msg/RfidCommand', 'estimate',
+                            'next action for the user: seq (+1 per new command), kind (TURN, MOVE or DONE), angle '
+                            '(TURN: suggested turn, rad, + = left), angle_deg, repeat (re-issued after an unusable '
+                            'result), reason (why repeated / why done). Re-sent unchanged (same seq) until '
                             'answered'),
-    RFID_STEP: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'estimate',
-                         'answer to one command: one status "<reader node>/step", level OK or WARN (unusable); '
-                         'values seq (of the command answered), kind (turn|move|done), dphi (MOVE: eq. 6 phase '
-                         'difference, rad; nan when unusable), turn (TURN: turn the user made and reports, rad, '
-                         '+ = left), n_reads, n_outliers, ok (true|false), reason (signal processing), found '
-                         '(true|false), duration (s of the action), dphi_std (rad, the reader\'s own std of '
-                         'dphi; nan: unknown), relocks (re-locks after lasting phase steps). Exactly one answer '
-                         'per seq; a repeated command gets the same answer again'),
+    RFID_STEP: TopicSpec('track_msgs/msg/RfidStep', 'estimate',
+                         'answer to one command: seq (of the command answered), kind, dphi (MOVE: eq. 6 phase '
+                         'difference, rad), turn (TURN: turn the user made and reports, rad, + = left), n_reads, '
+                         'n_outliers, ok, reason (signal processing), found, duration (s of the action), dphi_std '
+                         '(rad, the reader\'s own std of dphi), relocks (re-locks after lasting phase steps); an '
+                         'unknown dphi, turn or dphi_std has its *_known flag false. Exactly one answer per seq; '
+                         'a repeated command gets the same answer again'),
     RFID_PHASE: TopicSpec('sensor_msgs/msg/PointCloud2', 'estimate',
                           f'raw wrapped phase reads of one MOVE (height 1, one point per read; {CLOUD_XYZ} '
                           'float32 t = s since the step started, phase = wrapped rad in (0, P], rssi = dBm, '
@@ -199,10 +191,10 @@ TOPICS.update({
     RFID_USER_POSE: TopicSpec('geometry_msgs/msg/PoseStamped', 'estimate',
                               'evaluation only: true user pose in map (tag at the origin), orientation = facing '
                               'direction (yaw), after each action'),
-    RFID_USER_STATUS: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'estimate',
-                                'evaluation only: one status "<reader node>/user" after each action; values seq, '
-                                'steps (MOVEs walked), turns (rotations made), distance_m (walked), repeats (steps '
-                                'undone), distance_to_tag_m, found (true|false), x, y, heading'),
+    RFID_USER_STATUS: TopicSpec('track_msgs/msg/RfidUserStatus', 'estimate',
+                                'evaluation only: the user\'s truth after each action (frame map): seq, steps (MOVEs '
+                                'walked), turns (rotations made), distance_m (walked), repeats (steps undone), '
+                                'distance_to_tag_m, found, x, y, heading'),
     RFID_PARTICLES: TopicSpec('geometry_msgs/msg/PoseArray', 'sensor',
                               'particles (x, y, a) after each filter update, in frame rfid_pf (tag at the origin), '
                               'orientation = particle heading a; weights not carried'),
@@ -210,17 +202,19 @@ TOPICS.update({
                                  'estimated tag position relative to the user, frame rfid_user (x forward along the '
                                  'facing direction, y left): distance · (cos b, sin b), b = suggested bearing '
                                  'including the turns made since the last MOVE'),
-    RFID_FOUND: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'estimate',
-                          'event, published once when the search ends with the tag found: one status "<guidance '
-                          'node>/found", values seq, moves, turns, updates'),
+    RFID_FOUND: TopicSpec('track_msgs/msg/RfidFound', 'estimate',
+                          'event, published once when the search ends with the tag found: seq, moves, turns, '
+                          'updates, resamples, reinits'),
 })
 
 # Leader-based IDSQ acoustic/DOA sensor network. Besides the fixed topics below, every
-# sensor k has two topics of its own (not in TOPICS, one pair per sensor; names from the helpers):
-#   /idsq/sensor_<k>/handoff  std_msgs/msg/UInt8MultiArray, QoS static (transient-local, depth 4):
-#                             data = track_core.idsq.encode_handoff bytes (header + sparse belief)
-#   /idsq/sensor_<k>/ack      diagnostic_msgs/msg/DiagnosticArray, QoS static: one status per reply
-#                             to a handoff k sent, values step, sender, receiver, result (ack|nack)
+# sensor k has three topics of its own (not in TOPICS, three per sensor; names from the helpers),
+# all QoS HANDOFF_QOS (reliable, transient-local, depth 4; records.idsq maps them):
+#   /idsq/sensor_<k>/handoff  track_msgs/msg/IdsqHandoff: the belief handed to k (step, sender, grid,
+#                             sparse cells and masses)
+#   /idsq/sensor_<k>/ack      track_msgs/msg/IdsqAck: one per reply to a handoff k sent (ack or nack
+#                             with the reason)
+#   /idsq/sensor_<k>/revoke   track_msgs/msg/IdsqRevoke: a sender voids the handoff it sent k (chain rule)
 IDSQ_TRUTH = '/idsq/vehicle/truth'
 IDSQ_LAYOUT = '/idsq/layout'
 IDSQ_ESTIMATE = '/idsq/estimate'
@@ -238,6 +232,11 @@ def idsq_handoff_topic(sensor: int) -> str:
 def idsq_ack_topic(sensor: int) -> str:
     """Ack/nack topic of sensor ``sensor`` (replies to the handoffs it sent)."""
     return f'/idsq/sensor_{int(sensor)}/ack'
+
+
+def idsq_revoke_topic(sensor: int) -> str:
+    """Revoke topic of sensor ``sensor`` (its senders void handoffs they sent it)."""
+    return f'/idsq/sensor_{int(sensor)}/revoke'
 
 
 TOPICS.update({
@@ -259,9 +258,10 @@ TOPICS.update({
     IDSQ_MARKERS: TopicSpec('visualization_msgs/msg/MarkerArray', 'estimate',
                             'sensors (acoustic / DOA colours), the leader highlighted, the link to the next leader '
                             'and the 2σ ellipse of the estimate'),
-    IDSQ_LEADER: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'estimate',
-                           'one status per leader event, name "sensor_<k>": values event (step|reselect|self), '
-                           'step, leader, previous, next, handoff_bytes, belief_size, spread_m2, candidates, mi_bits'),
+    IDSQ_LEADER: TopicSpec('track_msgs/msg/IdsqLeaderEvent', 'estimate',
+                           'one message per leader event of sensor `leader`: event (STEP|RESELECT|SELF|VOID), '
+                           'step, next, previous, handoff_bytes, belief_size, spread_m2, candidates, mi_bits, '
+                           'tried, failed, reason (records.idsq.IdsqLeaderEvent)'),
 })
 
 # Hybrid CEKF/PF SLAM (hybrid-cekf-pf-slam paper). Inputs, scans and GPS come from the

@@ -1,9 +1,6 @@
-"""The fusion scenario's nodes in-process: true pairs associated, the decoy never."""
+"""``track-bench fusion-node``: the real node on every published track, and a run that did not hold them flagged."""
 
 from __future__ import annotations
-
-FAST = {'radar': {'period': 0.05}, 'patrol': {'period': 0.1},
-        'fusion': {'rate': 20.0, 'stale_after': 0.4, 'window': 10}}
 
 
 def test_fusion_node_bench_runs_the_node_on_every_track(tmp_path):
@@ -22,7 +19,7 @@ def test_fusion_node_bench_runs_the_node_on_every_track(tmp_path):
     data = json.loads(out.read_text())
     assert data['tracks'] == 100 and data['ticks'] >= 2 and data['live_tracks_max'] == 100
     assert data['held_every_track'] == (data['ticks_holding_every_track'] == data['ticks'])
-    assert data['pairs_per_tick'] == 50 * 50 and data['cpu_share'] > 0 and data['reports_received_per_s'] > 0
+    assert 0 < data['pairs_per_tick'] <= 50 * 50 and data['cpu_share'] > 0 and data['reports_received_per_s'] > 0
 
 
 def test_a_run_that_did_not_hold_every_track_is_flagged():

@@ -12,9 +12,12 @@ from rclpy.serialization import deserialize_message, serialize_message
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from std_msgs.msg import Header
 
+import track_msgs.msg
 from track_msgs.msg import FusedTrack, FusedTrackArray, PairScore, PairScoreArray, Track, TrackArray
 
 MESSAGES = ('Track', 'TrackArray', 'PairScore', 'PairScoreArray', 'FusedTrack', 'FusedTrackArray')
+SHARE = Path(get_package_share_directory('track_msgs')) / 'msg'
+INSTALLED = sorted(p.stem for p in SHARE.glob('*.msg'))   # every message ros2 interface show prints
 
 
 def test_the_ament_index_lists_every_message_with_its_definition():
@@ -24,6 +27,23 @@ def test_the_ament_index_lists_every_message_with_its_definition():
     for name in MESSAGES:
         assert f'msg/{name}.msg' in listed.splitlines()
         assert (share / 'msg' / f'{name}.msg').read_text().strip()
+
+
+@pytest.mark.parametrize('name', INSTALLED)
+def test_every_field_and_constant_is_commented_in_the_installed_definition(name):
+    """What ``ros2 interface show`` prints explains each field: every line of the definition has a comment."""
+    listed, _ = get_resource('rosidl_interfaces', 'track_msgs')
+    assert f'msg/{name}.msg' in listed.splitlines()
+    lines = [ln for ln in (SHARE / f'{name}.msg').read_text().splitlines() if ln.strip() and not ln.startswith('#')]
+    fields = set(getattr(track_msgs.msg, name).get_fields_and_field_types())
+    assert {ln.split()[1].split('=')[0] for ln in lines} >= fields
+    uncommented = [ln for ln in lines if '#' not in ln or not ln.split('#', 1)[1].strip()]
+    assert not uncommented, uncommented
+
+
+def test_every_message_is_installed():
+    assert set(INSTALLED) >= {*MESSAGES, 'RfidCommand', 'RfidStep', 'IdsqHandoff', 'IdsqAck', 'IdsqRevoke',
+                                         'IdsqLeaderEvent'}
 
 
 def _track_array() -> TrackArray:

@@ -1,47 +1,50 @@
-"""Fusion records: pair score and AIS truth entry round-trip, and are laid out as the old nodes wrote them."""
+"""Fusion records: the pairs and fused tracks of an instant and the AIS truth entry round-trip; the markers."""
 
 from __future__ import annotations
 
-import re
-
+import numpy as np
 import pytest
+from rclpy.serialization import deserialize_message, serialize_message
 
+from track_msgs.msg import FusedTrackArray, PairScoreArray
 from track_msgs_py.diagnostics import DIAG_OK, diagnostic_status
-from track_msgs_py.records import RecordError, diagnostic_values
-from track_msgs_py.records.fusion import AisTruthEntry, FusionPairScore, pair_name, split_pair_name
+from track_msgs_py.records import RecordError
+from track_msgs_py.records.fusion import AisTruthEntry, FusedTracks, FusionPairs
 
 
-def test_pair_score_round_trip_and_the_old_layout():
-    rec = FusionPairScore(score=0.1234564, combined=1.0, instants=7, associated=True, method='exact')
-    st = rec.pair_status('/radar/t0', '/patrol/t1')
-    # byte for byte what the pre-record fusion node published (key order included)
-    old = diagnostic_status('/radar/t0 | /patrol/t1', DIAG_OK, 'associated',
-                            {'score': '0.123456', 'combined': '1.000000', 'instants': '7', 'associated': 'true',
-                             'method': 'exact'}, hardware_id='fusion')
-    assert st == old
-    pair, back = FusionPairScore.read(st)
-    assert pair == ('/radar/t0', '/patrol/t1')
-    assert back == FusionPairScore(0.123456, 1.0, 7, True, 'exact')  # 6 decimals travel
-    assert FusionPairScore.read(back.pair_status(*pair)) == (pair, back)
-    st = FusionPairScore(0.0, 0.25, 1, False, 'mc').pair_status('a', 'b')
-    assert st.message == 'not associated' and diagnostic_values(st)['associated'] == 'false'
+def _pairs() -> FusionPairs:
+    return FusionPairs(12.5, ['/radar/t0', '/radar/t1'], ['/patrol/t1', '/patrol/t0'], np.array([0.1234564, 0.0]),
+                       np.array([1.0, 0.0]), np.array([7, 1]), np.array([True, False]), 'exact', 'geometric', 10, 0.5)
 
 
-def test_pair_names():
-    assert split_pair_name(pair_name('/a/x', '/b/y')) == ('/a/x', '/b/y')
-    for bad in ('/a/x', ' | /b', '/a | '):
-        with pytest.raises(RecordError, match=re.escape('not "<track> | <track>"')):
-            split_pair_name(bad)
+def test_pair_scores_round_trip_through_serialization():
+    rec = _pairs()
+    msg = deserialize_message(serialize_message(rec.to_msg()), PairScoreArray)
+    assert (msg.method, msg.combine, msg.window, msg.threshold) == ('exact', 'geometric', 10, 0.5)
+    back = FusionPairs.from_msg(msg)
+    assert back.t == 12.5 and list(back.rows()) == list(rec.rows())   # float64: every digit travels
+    assert next(back.rows()) == (('/radar/t0', '/patrol/t1'), 0.1234564, 1.0, 7, True)
+    assoc = back.select(back.associated)
+    assert len(assoc) == 1 and assoc.a == ['/radar/t0'] and assoc.method == 'exact'
 
 
-def test_bad_pair_score_values_are_one_line():
-    st = FusionPairScore(0.5, 0.5, 2, True, 'glr').pair_status('a', 'b')
-    st.values[3].value = 'yes'
-    with pytest.raises(RecordError, match="fusion pair score: key associated='yes'"):
-        FusionPairScore.read(st)
-    del st.values[0]
-    with pytest.raises(RecordError, match="missing key 'score'"):
-        FusionPairScore.read(st)
+def test_a_pair_without_track_ids_is_one_line():
+    msg = _pairs().to_msg()
+    msg.pairs[1].b = ''
+    with pytest.raises(RecordError, match='pair 1 has an empty track id'):
+        FusionPairs.from_msg(msg)
+
+
+def test_fused_tracks_round_trip_through_serialization():
+    P = np.array([[[4.0, 0.5], [0.5, 2.0]], [[9.0, -1.0], [-1.0, 3.0]]])
+    mu = np.array([[1.0, 2.0], [-3.0, 4.5]])
+    rec = FusedTracks(3.0, ['/radar/t0', '/radar/t1'], ['/patrol/t1', '/patrol/t0'], mu, P)
+    back = FusedTracks.from_msg(deserialize_message(serialize_message(rec.to_msg()), FusedTrackArray))
+    assert back.t == 3.0 and back.a == rec.a and back.b == rec.b
+    np.testing.assert_array_equal(back.mu, rec.mu)
+    np.testing.assert_array_equal(back.P, P)
+    empty = FusedTracks.from_msg(FusedTracks(1.0, [], [], np.zeros((0, 2)), np.zeros((0, 2, 2))).to_msg())
+    assert len(empty) == 0 and empty.mu.shape == (0, 2)
 
 
 def test_ais_truth_entry_round_trip_and_the_old_layout():
@@ -57,19 +60,29 @@ def test_ais_truth_entry_round_trip_and_the_old_layout():
 
 
 def test_fusion_markers_keep_one_id_per_track_and_colour_links_by_score():
-    import numpy as np
-
-    from track_core.fusion import Instant, PairScore
-    from track_msgs_py.markers.fusion import LINKS_NS, TRACKS_NS, FusionMarkers
+    from track_core.fusion import FusedPair, Instant, PairScore
+    from track_core.geofeasibility import ellipse_to_gaussian
+    from track_msgs_py.markers.fusion import FUSED_NS, LINK_BANDS, LINKS_NS, TRACKS_NS, FusionMarkers
 
     markers = FusionMarkers(lifetime=1.0)
-    mu, R = np.array([[0.0, 0.0], [10.0, 5.0]]), np.array([np.eye(2), 4 * np.eye(2)])
+    x0, y0, r_x, r_y, phi = 10.0, 5.0, 6.0, 2.0, np.pi / 6          # 2σ axes, bearing of the major axis
+    mu_b, R_b = ellipse_to_gaussian(x0, y0, r_x, r_y, phi)
+    mu, R = np.array([[0.0, 0.0], mu_b]), np.array([np.eye(2), R_b])
     q = PairScore('b', 'a', 0, 1, 0.9, 0.75, 3, True)
-    first = markers.build(Instant(2.0, ['b', 'a'], mu, R, (q,)))
-    assert [(m.ns, m.id) for m in first.markers] == [(TRACKS_NS, 0), (TRACKS_NS, 1), (LINKS_NS, 0)]
-    link = first.markers[-1]
-    assert [(p.x, p.y) for p in link.points] == [(0.0, 0.0), (10.0, 5.0)]
-    assert (link.colors[0].r, link.colors[0].g) == (0.25, 0.75)
+    fused = (FusedPair('b', 'a', np.array([5.0, 2.5]), np.eye(2)),)
+    first = markers.build(Instant(2.0, ['b', 'a'], mu, R, (q,), fused))
+    assert [(m.ns, m.id) for m in first.markers] == [(TRACKS_NS, 0), (TRACKS_NS, 1), (FUSED_NS, 0)] + [
+        (LINKS_NS, k) for k in range(LINK_BANDS)]
+    assert [(p.x, p.y) for p in first.markers[2].points] == [(5.0, 2.5)]
+    disc = first.markers[1]
+    assert (disc.pose.position.x, disc.pose.position.y) == pytest.approx((x0, y0))
+    assert (disc.scale.x, disc.scale.y) == pytest.approx((2 * r_x, 2 * r_y))         # diameters of the 2σ ellipse
+    yaw = 2 * np.arctan2(disc.pose.orientation.z, disc.pose.orientation.w)
+    assert np.cos(yaw) == pytest.approx(np.sin(phi)) and np.sin(yaw) == pytest.approx(np.cos(phi))
+    links = first.markers[3:]
+    assert [len(m.points) for m in links] == [0, 0, 0, 2, 0]            # combined 0.75: the band [0.6, 0.8)
+    assert [(p.x, p.y) for p in links[3].points] == [(0.0, 0.0), (x0, y0)]
+    assert (links[3].color.r, links[3].color.g) == pytest.approx((0.3, 0.7))
     again = markers.build(Instant(3.0, ['a'], mu[1:], R[1:]))
-    assert again.markers[0].id == 1 and not again.markers[-1].points  # 'a' keeps its id; no pair, no link
+    assert again.markers[0].id == 1 and not any(m.points for m in again.markers[1:])  # 'a' keeps its id; no link
     assert again.markers[0].lifetime.sec == 1

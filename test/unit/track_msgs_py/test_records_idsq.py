@@ -1,24 +1,27 @@
-"""IDSQ records: the ack/nack reply and the /idsq/leader events round-trip, and are written exactly as
-the sensors wrote them by hand before the records existed (same keys, order, words and levels); the
-sensor layout and the handoff bytes round-trip exactly, also through CDR (rclpy.serialization)."""
+"""IDSQ records: the protocol messages (track_msgs IdsqHandoff, IdsqAck, IdsqRevoke, IdsqLeaderEvent)
+round-trip exactly, also through CDR (rclpy.serialization), and hostile ones are refused with one line;
+the belief cloud and the sensor layout round-trip exactly."""
 
 from __future__ import annotations
+
+import dataclasses
+import math
 
 import numpy as np
 import pytest
 from rclpy.serialization import deserialize_message, serialize_message
 
-from track_msgs_py.diagnostics import diagnostic_status
-from track_msgs_py.records import DIAG_OK, DIAG_WARN, RecordError
+from track_msgs.msg import IdsqLeaderEvent as IdsqLeaderEventMsg
+from track_msgs_py.records import RecordError
 from track_msgs_py.records.idsq import (
-    HANDOFF_LABEL,
     LAYOUT_FIELDS,
     IdsqAck,
+    IdsqHandoff,
     IdsqLeaderEvent,
-    handoff_to_uint8_array,
+    IdsqRevoke,
     layout_to_pointcloud2,
     pointcloud2_to_layout,
-    uint8_array_to_handoff,
+    received_handoff,
 )
 
 
@@ -27,56 +30,152 @@ def cdr(msg):
     return deserialize_message(serialize_message(msg), type(msg))
 
 
-def _same(a, b) -> None:
-    assert (a.level, a.name, a.message, a.hardware_id) == (b.level, b.name, b.message, b.hardware_id)
-    assert [(kv.key, kv.value) for kv in a.values] == [(kv.key, kv.value) for kv in b.values]
+# --- ack and revoke -------------------------------------------------------------------------------
+
+@pytest.mark.parametrize('through_cdr', [False, True])
+def test_ack_and_nack_round_trip(through_cdr):
+    ack, nack = IdsqAck.reply(4, 2, 7, None, t=1002.5), IdsqAck.reply(4, 2, 7, 'wrong grid', t=1002.5)
+    assert (ack.accepted, ack.result, ack.reason) == (True, 'ack', '')
+    assert (nack.accepted, nack.result, nack.reason) == (False, 'nack', 'wrong grid')
+    for rec in (ack, nack):
+        msg = rec.to_msg()
+        assert (msg.header.stamp.sec, msg.header.stamp.nanosec) == (1002, 500_000_000)
+        assert IdsqAck.from_msg(cdr(msg) if through_cdr else msg) == rec
 
 
-def test_ack_and_nack_are_the_old_layout_and_round_trip():
-    _same(IdsqAck.reply(4, 2, 7, None), diagnostic_status(
-        'sensor_7', DIAG_OK, 'ack', {'step': 4, 'sender': 2, 'receiver': 7, 'result': 'ack'}))
-    nack = IdsqAck.reply(4, 2, 7, 'wrong grid')
-    _same(nack, diagnostic_status('sensor_7', DIAG_WARN, 'refused: wrong grid',
-                                  {'step': 4, 'sender': 2, 'receiver': 7, 'result': 'nack'}))
-    back = IdsqAck.from_status(nack)
-    assert back == IdsqAck(4, 2, 7, 'nack') and not back.accepted and IdsqAck(1, 2, 3, 'ack').accepted
-
-
-@pytest.mark.parametrize('values', [{'step': '1', 'sender': '2', 'receiver': '3'},
-                                    {'step': 'x', 'sender': '2', 'receiver': '3', 'result': 'ack'}])
-def test_a_malformed_ack_is_one_line(values):
+@pytest.mark.parametrize('reason', ['two\nlines', 'x' * 1001, 'bell\x07'])
+def test_a_nack_whose_reason_is_not_one_short_line_is_refused(reason):
+    msg = IdsqAck.reply(4, 2, 7, 'ok').to_msg()
+    msg.reason = reason
     with pytest.raises(RecordError) as exc:
-        IdsqAck.from_values(values)
-    assert 'idsq ack' in str(exc.value) and '\n' not in str(exc.value)
+        IdsqAck.from_msg(msg)
+    assert 'idsq ack: reason must be one printable line' in str(exc.value) and '\n' not in str(exc.value)
 
 
-def test_step_event_is_the_old_layout_and_round_trips():
-    z, spread, scores = np.float64(12.345678901), np.float64(123.25), np.array([0.123456789, 2.0, 1e-7])
-    ev = IdsqLeaderEvent('step', 5, 3, 9, previous=-1, z=float(z), updated=True, belief_size=np.int64(42),
-                         spread_m2=float(spread), candidates=(9, 4, 1), mi_bits=tuple(scores.tolist()),
-                         handoff_bytes=200)
-    old = diagnostic_status('sensor_3', DIAG_OK, 'step 5: sensor 3 -> sensor 9', {
-        'event': 'step', 'step': 5, 'leader': 3, 'next': 9, 'previous': -1, 'z': z, 'updated': np.True_,
-        'belief_size': np.int64(42), 'spread_m2': spread, 'candidates': '9 4 1',
-        'mi_bits': ' '.join(f'{s:.6g}' for s in scores), 'handoff_bytes': 200})
-    st = ev.to_status()
-    _same(st, old)
-    back = IdsqLeaderEvent.from_status(st)
-    assert back.updated is True and back.candidates == (9, 4, 1) and back.mi_bits == (0.123457, 2.0, 1e-7)
-    assert back == IdsqLeaderEvent(**{**ev.__dict__, 'mi_bits': (0.123457, 2.0, 1e-7), 'belief_size': 42})
+def test_an_absurd_step_is_stamped_zero():
+    """(A reply to a handoff of step 0xFFFFFFFF: its step time does not fit a stamp.)"""
+    msg = IdsqAck.reply(0xFFFFFFFF, 2, 7, 'window', t=0.5 * 2**32).to_msg()
+    assert (msg.header.stamp.sec, msg.header.stamp.nanosec, msg.step) == (0, 0, 0xFFFFFFFF)
 
 
-def test_reselect_and_self_events_are_the_old_layout():
-    _same(IdsqLeaderEvent('reselect', 7, 2, 5, failed=4, reason='timeout', handoff_bytes=96).to_status(),
-          diagnostic_status('sensor_2', DIAG_WARN, 'reselect 7: sensor 2 -> sensor 5', {
-              'event': 'reselect', 'step': 7, 'leader': 2, 'next': 5, 'failed': 4, 'reason': 'timeout',
-              'handoff_bytes': 96}))
-    st = IdsqLeaderEvent('self', 7, 2, 2, tried=(4, 5)).to_status()
-    _same(st, diagnostic_status('sensor_2', DIAG_WARN, 'self 7: sensor 2 -> sensor 2', {
-        'event': 'self', 'step': 7, 'leader': 2, 'next': 2, 'tried': '4 5', 'handoff_bytes': 0}))
-    assert IdsqLeaderEvent.from_status(st) == IdsqLeaderEvent('self', 7, 2, 2, tried=(4, 5))
-    with pytest.raises(RecordError, match='event'):
-        IdsqLeaderEvent.from_values({'event': 'lead', 'step': '1', 'leader': '2', 'next': '3'})
+def test_revoke_round_trips():
+    rec = IdsqRevoke(7, 2, 5, t=12.0)
+    assert IdsqRevoke.from_msg(cdr(rec.to_msg())) == rec
+
+
+# --- leader events ----------------------------------------------------------------------------------
+
+def test_step_event_round_trips_exactly_and_its_absent_fields_are_marked():
+    scores = (0.123456789, 2.0, 1e-7)
+    ev = IdsqLeaderEvent('step', 5, 3, 9, previous=-1, z=12.345678901, updated=True, belief_size=42,
+                         spread_m2=123.25, candidates=(9, 4, 1), mi_bits=scores, handoff_bytes=200, t=3.0)
+    msg = ev.to_msg()
+    assert (msg.event, msg.failed, msg.reason, list(msg.tried)) == (IdsqLeaderEventMsg.STEP, -1, '', [])
+    back = IdsqLeaderEvent.from_msg(cdr(msg))
+    assert back == ev and back.mi_bits == scores  # float64 on the wire: exact
+    assert back.tried is None and back.failed is None and back.reason is None
+
+
+@pytest.mark.parametrize('ev', [
+    IdsqLeaderEvent('reselect', 7, 2, 5, failed=4, reason='timeout', handoff_bytes=96),
+    IdsqLeaderEvent('self', 7, 2, 2, tried=(4, 5)),
+    IdsqLeaderEvent('void', 8, 2, 2, previous=4),
+])
+def test_reselect_self_and_void_events_round_trip(ev):
+    msg = ev.to_msg()
+    assert math.isnan(msg.z) and math.isnan(msg.spread_m2) and msg.belief_size == 0
+    assert IdsqLeaderEvent.from_msg(cdr(msg)) == ev
+
+
+def test_an_event_refuses_fields_it_does_not_carry_and_unknown_codes():
+    with pytest.raises(ValueError, match='a self event does not carry failed'):
+        IdsqLeaderEvent('self', 7, 2, 2, tried=(4,), failed=3)
+    with pytest.raises(ValueError, match='event'):
+        IdsqLeaderEvent('lead', 1, 2, 3)
+    msg = IdsqLeaderEvent('self', 7, 2, 2, tried=(4,)).to_msg()
+    msg.event = 9
+    with pytest.raises(RecordError, match=r'event code 9 is not one of 0 \(step\)'):
+        IdsqLeaderEvent.from_msg(msg)
+    msg = IdsqLeaderEvent('step', 5, 3, 9, previous=-1, z=1.0, updated=True, belief_size=4, spread_m2=1.0,
+                          candidates=(9, 4), mi_bits=(0.5, 0.25)).to_msg()
+    msg.mi_bits = [0.5]
+    with pytest.raises(RecordError, match='2 candidates but 1 scores'):
+        IdsqLeaderEvent.from_msg(msg)
+
+
+# --- the handoff -----------------------------------------------------------------------------------
+
+def _handoff(motion=None, **kw):
+    from track_core.idsq import GridSpec, Handoff
+
+    grid = GridSpec.for_field()
+    h = Handoff(4, 1, 2, grid, np.array([3, 8, 40]), np.array([0.5, 0.3, 0.2]), motion)
+    return dataclasses.replace(h, **kw)
+
+
+def _same(a, b) -> None:
+    assert (a.step, a.sender, a.receiver, a.grid) == (b.step, b.sender, b.receiver, b.grid)
+    np.testing.assert_array_equal(a.idx, b.idx)
+    np.testing.assert_array_equal(a.mass, b.mass)
+
+
+@pytest.mark.parametrize('kind', ['grid', 'motion', 'bank'])
+def test_a_handoff_message_carries_what_the_package_bytes_carry(kind):
+    """Through CDR, every version gives the receiver the belief the binary package gives it, to the bit."""
+    from track_core.idsq import Motion, TrackerParams, decode_handoff, encode_handoff, predict
+    from track_core.idsq.handoff import Handoff
+
+    h = _handoff(Motion(np.array([1.25, -6.123456789]), 7) if kind == 'motion' else None)
+    if kind == 'bank':
+        h = Handoff.from_belief(4, 1, 2, predict(h.belief(), TrackerParams(prediction='bank')))
+    msg = cdr(IdsqHandoff.from_handoff(1002.5, h).to_msg())
+    assert msg.version == {'grid': 1, 'motion': 2, 'bank': 3}[kind] and msg.header.frame_id == 'map'
+    rec = IdsqHandoff.from_msg(msg)
+    assert rec.t == 1002.5 and rec.package_bytes == len(encode_handoff(h))
+    got, want = received_handoff(msg), decode_handoff(encode_handoff(h))
+    _same(got, want)
+    if kind == 'motion':
+        np.testing.assert_array_equal(got.motion.velocity, want.motion.velocity)
+        assert got.motion.velocity[1] == float(np.float32(-6.123456789)) and got.motion.count == 7
+    if kind == 'bank':
+        np.testing.assert_array_equal(got.motion.key, want.motion.key)
+        np.testing.assert_array_equal(got.motion.mass, want.motion.mass)
+
+
+def _hostile(change):
+    msg = IdsqHandoff.from_handoff(3.0, _handoff()).to_msg()
+    change(msg)
+    return received_handoff(cdr(msg))
+
+
+@pytest.mark.parametrize(('change', 'reason'), [
+    (lambda m: setattr(m, 'version', 7), 'unknown handoff version 7, expected one of 1, 2, 3'),
+    (lambda m: setattr(m, 'mass', [0.5, 0.5]), 'handoff has 3 cells but 2 masses'),
+    (lambda m: setattr(m, 'cells', []), 'handoff has 0 cells but 3 masses'),
+    (lambda m: setattr(m, 'velocity_x', 2.0), 'velocity/observations are set in a version-1 handoff'),
+    (lambda m: setattr(m, 'bank_hypotheses', 9), 'bank_spacing/hypotheses are set in a version-1 handoff'),
+    (lambda m: setattr(m, 'grid_cell', math.nan), 'bad grid in handoff: cell=nan'),
+    (lambda m: setattr(m, 'grid_nx', 0), 'bad grid in handoff: nx=0'),
+    (lambda m: setattr(m.header, 'frame_id', 'odom'), "idsq handoff: header.frame_id='odom'"),
+    (lambda m: (setattr(m, 'version', 2), setattr(m, 'velocity_x', math.inf)), 'bad motion in handoff'),
+    (lambda m: (setattr(m, 'version', 3), setattr(m, 'bank_spacing', math.nan), setattr(m, 'bank_hypotheses', 9)),
+     'bad joint belief in handoff: bad bank lattice nan'),
+])
+def test_an_unreadable_handoff_is_one_line_with_its_address(change, reason):
+    """Refused before the ledger: the reason, and the address the typed message always has (the nack)."""
+    from track_core.idsq.handoff import Unusable
+
+    got = _hostile(change)
+    assert isinstance(got, Unusable) and got.reason.startswith(reason) and '\n' not in got.reason, got
+    assert got.address == (1, 2, 4)
+
+
+def test_a_readable_handoff_with_a_bad_belief_is_the_ledger_s_to_refuse():
+    """NaN mass reads (the ledger's validate_handoff refuses it: one place for both wire forms)."""
+    from track_core.idsq import GridSpec, validate_handoff
+
+    got = _hostile(lambda m: m.mass.__setitem__(1, math.nan))
+    assert 'non-finite' in validate_handoff(got, GridSpec.for_field(), 8, receiver=2)
 
 
 def test_belief_cloud_is_xyz_then_mass_and_round_trips():
@@ -139,21 +238,3 @@ def test_idsq_layout_reader_sorts_by_id_and_refuses_bad_clouds():
                            ({'id': [0, 1], 'x': [0, 1], 'y': [0, 1], 'type': [0, 2]}, 'type must be 0')]:
         with pytest.raises(ValueError, match=reason):
             pointcloud2_to_layout(table_to_pointcloud2(0.0, 'map', fields), 40.0)
-
-
-@pytest.mark.parametrize('through_cdr', [False, True])
-def test_idsq_handoff_message_round_trip(through_cdr):
-    from std_msgs.msg import UInt8MultiArray
-
-    from track_core.idsq import GridSpec, Handoff, encode_handoff, receive_handoff
-
-    grid = GridSpec.for_field()
-    payload = encode_handoff(Handoff(4, 1, 2, grid, np.array([3, 8, 40]), np.array([0.5, 0.25, 0.25])))
-    msg = handoff_to_uint8_array(payload)
-    assert isinstance(msg, UInt8MultiArray)
-    assert [(d.label, d.size, d.stride) for d in msg.layout.dim] == [(HANDOFF_LABEL, len(payload), len(payload))]
-    data = uint8_array_to_handoff(cdr(msg) if through_cdr else msg)
-    assert isinstance(data, bytes) and data == payload
-    h, why = receive_handoff(data, grid, receiver=2)
-    assert why is None and (h.step, h.sender, h.receiver) == (4, 1, 2)
-    assert uint8_array_to_handoff(handoff_to_uint8_array(b'')) == b''

@@ -1,15 +1,17 @@
-"""RFID records: every layout round-trips, keys and texts are the ones on the wire, bad input is one line."""
+"""RFID records ⇄ track_msgs: every layout round-trips exactly, NaN never reaches the wire, bad input is one line."""
 
 from __future__ import annotations
 
 import math
 
 import pytest
-from diagnostic_msgs.msg import DiagnosticArray
+from rclpy.serialization import deserialize_message, serialize_message
 
 from track_core.rfid.protocol import Command, CommandKind, StepResult
-from track_msgs_py.records import DIAG_WARN, RecordError, diagnostic_values
+from track_msgs import msg as tm
+from track_msgs_py.records import RecordError
 from track_msgs_py.records.rfid import (
+    KIND_VALUES,
     RfidCommand,
     RfidFound,
     RfidStep,
@@ -17,82 +19,112 @@ from track_msgs_py.records.rfid import (
     read_command,
     read_step,
 )
+from track_msgs_py.stamps import stamp_to_ns
 
 
-def _array(status) -> DiagnosticArray:
-    return DiagnosticArray(status=[status])
+def _wire(msg):
+    """Through CDR and back, as a subscriber gets it."""
+    return deserialize_message(serialize_message(msg), type(msg))
 
 
-def test_command_round_trip_and_wire_text():
+def test_kind_constants_are_the_same_in_command_and_step():
+    assert KIND_VALUES == {CommandKind.TURN: 1, CommandKind.MOVE: 2, CommandKind.DONE: 3}
+    for name in ('TURN', 'MOVE', 'DONE'):
+        assert getattr(tm.RfidCommand, name) == getattr(tm.RfidStep, name)
+
+
+def test_command_round_trip_and_wire_fields():
     cmd = Command(CommandKind.TURN, 0.1 + 0.2, seq=7, repeat=True, reason='signal lost')
-    st = RfidCommand.from_command(cmd).to_status('g/command', DIAG_WARN, 'words')
-    assert diagnostic_values(st) == {'seq': '7', 'kind': 'turn', 'angle': repr(0.1 + 0.2), 'angle_deg': '17.19',
-                                     'repeat': 'true', 'reason': 'signal lost'}
-    assert list(diagnostic_values(st)) == ['seq', 'kind', 'angle', 'angle_deg', 'repeat', 'reason']
-    assert read_command(_array(st)) == cmd
+    msg = _wire(RfidCommand.from_command(cmd).to_msg(12.5))
+    assert (msg.seq, msg.kind, msg.angle, msg.repeat, msg.reason) == (7, tm.RfidCommand.TURN, 0.1 + 0.2, True,
+                                                                     'signal lost')
+    assert msg.angle_deg == math.degrees(0.1 + 0.2) and stamp_to_ns(msg.header.stamp) == 12_500_000_000
+    assert msg.header.frame_id == ''
+    assert read_command(msg) == cmd
+    assert RfidCommand.from_msg(msg) == RfidCommand.from_command(cmd)
 
 
-def test_command_needs_only_seq_and_kind():
-    st = RfidCommand.from_values({'seq': '2', 'kind': 'move'}).to_status('x')
-    assert read_command(_array(st)) == Command(CommandKind.MOVE, 0.0, 2)
+def test_a_move_command_needs_only_seq_and_kind():
+    assert read_command(tm.RfidCommand(seq=2, kind=tm.RfidCommand.MOVE)) == Command(CommandKind.MOVE, 0.0, 2)
 
 
-@pytest.mark.parametrize(('values', 'words'), [
-    ({'kind': 'move'}, ["'seq'"]),
-    ({'seq': '1', 'kind': 'walk'}, ['walk', 'turn|move|done']),
-    ({'seq': '0', 'kind': 'move'}, ['seq 0 < 1']),
-    ({'seq': '1', 'kind': 'turn', 'angle': 'inf'}, ['non-finite angle']),
-    ({'seq': '1', 'kind': 'turn', 'angle': 'left'}, ['angle', 'left']),
+@pytest.mark.parametrize(('fields', 'words'), [
+    ({'kind': 0}, ['kind 0', '1 (turn), 2 (move), 3 (done)']),
+    ({'kind': 7}, ['kind 7']),
+    ({'seq': 0}, ['seq 0 < 1']),
+    ({'angle': math.inf}, ['non-finite angle=inf']),
+    ({'angle': math.nan}, ['non-finite angle=nan']),
+    ({'angle_deg': math.nan}, ['non-finite angle_deg=nan']),
 ])
-def test_bad_command_is_one_line(values, words):
-    st = RfidCommand.from_values({'seq': '1', 'kind': 'move'}).to_status('x')
-    st.values = [type(st.values[0])(key=k, value=v) for k, v in values.items()]
+def test_bad_command_is_one_line(fields, words):
+    msg = tm.RfidCommand(**{'seq': 1, 'kind': tm.RfidCommand.TURN, 'angle': 0.5, 'angle_deg': 28.6, **fields})
     with pytest.raises(RecordError) as exc:
-        read_command(_array(st))
+        read_command(msg)
     assert '\n' not in str(exc.value) and all(w in str(exc.value) for w in words), str(exc.value)
-    with pytest.raises(RecordError, match='no status'):
-        read_command(DiagnosticArray())
 
 
 def test_step_round_trip_exact_floats():
     res = StepResult(CommandKind.MOVE, 3, dphi=-1.0 / 3.0, turn=0.0, n_reads=151, n_outliers=2, ok=True,
                      reason='', found=False, dphi_std=0.1 + 0.2, relocks=2)
     rec = RfidStep.from_result(res, 0.5000000000000001)
-    v = rec.to_values()
-    assert list(v) == ['seq', 'kind', 'dphi', 'turn', 'n_reads', 'n_outliers', 'ok', 'reason', 'found', 'duration',
-                       'dphi_std', 'relocks']
-    assert v['dphi_std'] == repr(0.1 + 0.2) and v['relocks'] == '2'
-    assert v['dphi'] == repr(-1.0 / 3.0) and v['ok'] == 'true' and v['found'] == 'false'
-    assert RfidStep.from_values(v) == rec
-    assert read_step(_array(rec.to_status('r/step')), Command(CommandKind.MOVE, seq=3)) == (res, 3)
+    msg = _wire(rec.to_msg(3.25))
+    assert (msg.seq, msg.kind, msg.dphi, msg.dphi_known, msg.dphi_std, msg.dphi_std_known, msg.relocks) == \
+        (3, tm.RfidStep.MOVE, -1.0 / 3.0, True, 0.1 + 0.2, True, 2)
+    assert (msg.n_reads, msg.n_outliers, msg.ok, msg.found, msg.duration) == (151, 2, True, False, 0.5000000000000001)
+    assert RfidStep.from_msg(msg) == rec
+    assert read_step(msg, Command(CommandKind.MOVE, seq=3)) == (res, 3)
 
 
-def test_malformed_step_becomes_an_unusable_result_for_the_pending_command():
+def test_unknown_values_are_flags_on_the_wire_never_nan():
+    """A TURN has no dφ; fixed noise has no dφ std; a core NaN turn is unknown too: 0 and *_known false."""
+    res = StepResult(CommandKind.TURN, 4, dphi=math.nan, turn=math.nan, n_reads=3)
+    msg = _wire(RfidStep.from_result(res, 0.25).to_msg(1.0))
+    assert (msg.dphi, msg.dphi_known, msg.turn, msg.turn_known, msg.dphi_std, msg.dphi_std_known) == \
+        (0.0, False, 0.0, False, 0.0, False)
+    back, seq = read_step(msg, Command(CommandKind.TURN, seq=4))
+    assert seq == 4 and math.isnan(back.dphi) and math.isnan(back.turn) and math.isnan(back.dphi_std)
+    turn = RfidStep.from_result(StepResult(CommandKind.TURN, 5, turn=-0.75, n_reads=9), 0.5).to_msg(1.0)
+    assert (turn.turn, turn.turn_known) == (-0.75, True)
+
+
+def test_a_nan_dphi_sent_as_known_reaches_the_core_rule_as_nan():
+    msg = RfidStep.from_result(StepResult(CommandKind.MOVE, 5, dphi=1.0, n_reads=3), 0.5).to_msg(1.0)
+    msg.dphi = math.nan
+    res, seq = read_step(msg, Command(CommandKind.MOVE, seq=5))
+    assert seq == 5 and res.ok and math.isnan(res.dphi)  # the guidance's core words it: "phase difference is nan"
+
+
+@pytest.mark.parametrize(('fields', 'words'), [
+    ({'kind': 9}, ['kind 9']),
+    ({'kind': 0}, ['kind 0']),
+    ({'duration': math.nan}, ['non-finite duration=nan']),
+    ({'dphi_std': math.inf, 'dphi_std_known': True}, ['non-finite dphi_std=inf']),
+    ({'dphi_std': -0.1, 'dphi_std_known': True}, ['dphi_std=-0.1 is not > 0']),
+])
+def test_malformed_step_becomes_an_unusable_result_for_its_seq(fields, words):
     pending = Command(CommandKind.MOVE, seq=5)
-    good = RfidStep.from_result(StepResult(CommandKind.MOVE, 5, dphi=1.0, n_reads=3), 0.5).to_values()
-    bad_kind = RfidStep.from_values(good).to_status('r')
-    bad_kind.values[1].value = 'jump'
-    res, seq = read_step(_array(bad_kind), pending)
+    msg = RfidStep.from_result(StepResult(CommandKind.MOVE, 5, dphi=1.0, n_reads=3), 0.5).to_msg(1.0)
+    for k, v in fields.items():
+        setattr(msg, k, v)
+    res, seq = read_step(msg, pending)
     assert seq == 5 and res.seq == 5 and res.kind is CommandKind.MOVE and not res.ok and not res.found
-    assert res.reason.startswith('malformed step result') and 'jump' in res.reason and math.isnan(res.dphi)
-    bad_seq = RfidStep.from_values(good).to_status('r')
-    bad_seq.values[0].value = 'five'
-    res, seq = read_step(_array(bad_seq), pending)
-    assert seq is None and res.seq == 5 and not res.ok and 'five' in res.reason
-    res, seq = read_step(DiagnosticArray(), pending)
-    assert seq is None and not res.ok and 'no status' in res.reason
+    assert res.reason.startswith('malformed step result') and math.isnan(res.dphi) and '\n' not in res.reason
+    assert all(w in res.reason for w in words), res.reason
+    with pytest.raises(RecordError):
+        RfidStep.from_msg(msg)
+    msg.seq = 6                                     # malformed and for another seq: the loop classifies it by 6
+    assert read_step(msg, pending)[1] == 6
 
 
 def test_user_status_and_found_round_trip():
     rec = RfidUserStatus(4, 10, 3, 5.25, 1, 0.1 + 0.05, True, -1.5, 2.0 / 3.0, math.pi)
-    v = rec.to_values()
-    assert v['distance_m'] == '5.25' and v['found'] == 'true' and v['heading'] == repr(math.pi)
-    assert RfidUserStatus.from_status(rec.to_status('r/user')) == rec
+    msg = _wire(rec.to_msg(7.0))
+    assert msg.header.frame_id == 'map' and msg.heading == math.pi and msg.distance_to_tag_m == 0.1 + 0.05
+    assert RfidUserStatus.from_msg(msg) == rec
     found = RfidFound(12, 11, 4, 10, 7, 0)
-    assert list(found.to_values()) == ['seq', 'moves', 'turns', 'updates', 'resamples', 'reinits']
-    assert RfidFound.from_values(found.to_values()) == found
-    with pytest.raises(RecordError, match="missing key 'heading'"):
-        RfidUserStatus.from_values({k: x for k, x in v.items() if k != 'heading'})
+    msg = _wire(found.to_msg(7.0))
+    assert (msg.seq, msg.moves, msg.turns, msg.updates, msg.resamples, msg.reinits) == (12, 11, 4, 10, 7, 0)
+    assert RfidFound.from_msg(msg) == found
 
 
 # --- /rfid/phase (issue 19: positions first) ---------------------------------------------------------

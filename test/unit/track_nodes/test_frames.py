@@ -11,12 +11,12 @@ from rosbags.typesys import Stores, get_typestore
 from visualization_msgs.msg import Marker, MarkerArray
 
 from track_msgs_py.tf import TF, TF_STATIC, planar_transform, tf_message
-from track_msgs_py.topics import FUSION_FUSED, SLAM_POSE, SONAR_ESTIMATE, fused_track_id
+from track_msgs_py.topics import SLAM_POSE, SONAR_ESTIMATE
 from track_nodes.bag.frames import check_frames, main, read_frame_tree
 
 TYPES = {TF: 'tf2_msgs/msg/TFMessage', TF_STATIC: 'tf2_msgs/msg/TFMessage', '/p': 'geometry_msgs/msg/PointStamped',
          SLAM_POSE: 'nav_msgs/msg/Odometry', SONAR_ESTIMATE: 'nav_msgs/msg/Odometry',
-         FUSION_FUSED: 'nav_msgs/msg/Odometry', '/diag': 'diagnostic_msgs/msg/DiagnosticArray',
+         '/tracks': 'nav_msgs/msg/Odometry', '/diag': 'diagnostic_msgs/msg/DiagnosticArray',
          '/markers': 'visualization_msgs/msg/MarkerArray'}
 
 
@@ -50,7 +50,7 @@ def _good() -> list:
         ('/p', _point('base_link')), ('/p', _point('gps')), ('/p', _point('map#r017')),  # an AIS report's frame
         (SLAM_POSE, _odom('map', 'laser')),                    # a body frame
         (SONAR_ESTIMATE, _odom('map', 'sonar_track')),         # a track id: not a frame
-        (FUSION_FUSED, _odom('map', fused_track_id('/radar/t0', '/patrol/t0'))),
+        ('/tracks', _odom('map', 'radar/t0+patrol/t0')),         # a track id made a valid tf2 id
         ('/diag', DiagnosticArray()),                          # no frame: allowed here
         ('/markers', MarkerArray(markers=[Marker(header=_point('laser').header)])),
     ]
@@ -69,7 +69,7 @@ def test_a_bag_whose_frames_are_all_placed_has_no_problem(tmp_path, capsys):
 def test_every_kind_of_unplaced_or_invalid_frame_is_reported(tmp_path, capsys):
     bad = [(topic, msg) for topic, msg in _good() if topic != TF]  # laser (and base_link) are not placed now
     bad += [('/p', _point('nowhere')), ('/p', _point('')),
-            (SONAR_ESTIMATE, _odom('map', '/radar/t0+/patrol/t0')),  # the old fused id form
+            (SONAR_ESTIMATE, _odom('map', '/radar/t0+/patrol/t0')),  # a track id with a leading '/'
             (SLAM_POSE, _odom('map', 'ghost_laser')),
             ('/markers', MarkerArray(markers=[Marker(header=_point('/map').header)])),
             (TF_STATIC, tf_message([planar_transform(0.0, 'odom', 'gps', 0.0, 0.0, 0.0)]))]

@@ -86,6 +86,12 @@ class PairScores(Sequence):
         return PairScore(self.ids[a], self.ids[b], a, b, float(self.score[k]), float(self.combined[k]),
                          int(self.instants[k]), bool(self.associated[k]))
 
+    def subset(self, mask) -> PairScores:
+        """The pairs where ``mask`` holds, as columns."""
+        k = np.flatnonzero(mask)
+        return PairScores(self.ids, self.ia[k], self.ib[k], self.score[k], self.combined[k], self.instants[k],
+                          self.associated[k])
+
     def select(self, mask) -> list[PairScore]:
         """The ``PairScore`` of the pairs where ``mask`` (a boolean column expression) holds."""
         return [self[int(k)] for k in np.flatnonzero(mask)]
@@ -164,8 +170,11 @@ class PairAssociator:
         if self.schedule is not None:
             self.schedule = StampSchedule(self.schedule.rate, self.schedule.max_skip)
 
-    def update(self, source: str, track_id: str, report: TrackReport) -> None:
-        """Make ``report`` the latest of ``track_id`` (a track of ``source``)."""
+    def update(self, source: str, track_id: str, report: TrackReport | None) -> None:
+        """Make ``report`` the latest of ``track_id`` (a track of ``source``); None forgets the track."""
+        if report is None:
+            self.forget(track_id)
+            return
         self.source[track_id] = source
         code = self._codes.setdefault(source, len(self._codes))
         slot = self._slot.get(track_id)
@@ -177,13 +186,24 @@ class PairAssociator:
             self._src[slot] = code
         self.table.update(track_id, report)
 
-    def push(self, source: str, track_id: str, report: TrackReport) -> list[Instant]:
-        """Take one report; return the instants it made due (stamp schedule) that had a pair to score."""
+    def forget(self, track_id: str) -> None:
+        """Drop a track and its pairs' windows: if it comes back, it is a new track (a shard's track that left)."""
+        slot = self._slot.pop(track_id, None)
+        if slot is None:
+            return
+        self.table.latest.pop(track_id, None)
+        self.source.pop(track_id, None)
+        a, b = np.divmod(self.windows.keys, _STRIDE)
+        self.windows.drop((a == slot) | (b == slot))
+
+    def push(self, source: str, track_id: str, report: TrackReport, t: float | None = None) -> list[Instant]:
+        """Take one report (None: forget the track at stamp ``t``); return the instants it made due that had a pair."""
         if self.schedule is None:
             self.update(source, track_id, report)
             return []
         out = []
-        for t_k, released in self.schedule.push(report.t, track_id, (source, track_id, report)):
+        stamp = report.t if report is not None else float(t)
+        for t_k, released in self.schedule.push(stamp, track_id, (source, track_id, report)):
             for item in released:
                 self.update(*item)
             instant = self.score(t_k)
@@ -245,7 +265,8 @@ class PairAssociator:
         a, b = i[associated], j[associated]
         fused = []
         if a.size:
-            mu_f, P_f, _ = covariance_intersection(mu[a], R[a], mu[b], R[b])   # batched over the associated pairs
+            x, y = _oriented(mu, a, b)
+            mu_f, P_f, _ = covariance_intersection(mu[x], R[x], mu[y], R[y])   # batched over the associated pairs
             fused = [FusedPair(ids[x], ids[y], mu_f[k], P_f[k])
                      for k, (x, y) in enumerate(zip(a.tolist(), b.tolist(), strict=True))]
         pairs = PairScores(ids, i, j, s, combined, instants, associated)
@@ -264,7 +285,8 @@ class PairAssociator:
                 if not self.same_source_pairs:
                     keep = src[i] != src[j]
                     i, j = i[keep], j[keep]
-                s = np.atleast_1d(score(mu[i], R[i], mu[j], R[j], self.method)) if i.size else np.zeros(0)
+                a, b = _oriented(mu, i, j)
+                s = np.atleast_1d(score(mu[a], R[a], mu[b], R[b], self.method)) if i.size else np.zeros(0)
                 return i, j, s, _non_finite(s), True
         i, j = self._pairs_of(src)
         s, failed = self._scores(mu, R, i, j)
@@ -311,13 +333,14 @@ class PairAssociator:
 
     def _scores(self, mu: np.ndarray, R: np.ndarray, i: np.ndarray, j: np.ndarray) -> tuple[np.ndarray, dict]:
         """Instant scores of every pair (i, j) and the reason per pair that failed (isolation, see above)."""
+        a, b = _oriented(mu, i, j) if self.method in GATED_METHODS else (i, j)
         try:
-            s = np.atleast_1d(score(mu[i], R[i], mu[j], R[j], self.method, n_samples=self.n_samples,
+            s = np.atleast_1d(score(mu[a], R[a], mu[b], R[b], self.method, n_samples=self.n_samples,
                                     rng=self.rng, shared_samples=True))
             failed = _non_finite(s)
         except (ValueError, np.linalg.LinAlgError):
             s = np.full(i.size, np.nan)
-            failed = self._score_each(mu, R, i, j, s)
+            failed = self._score_each(mu, R, a, b, s)
         return s, failed
 
     def _score_each(self, mu: np.ndarray, R: np.ndarray, i: np.ndarray, j: np.ndarray,
@@ -340,3 +363,11 @@ class PairAssociator:
 
 def _non_finite(s: np.ndarray) -> dict[int, str]:
     return {int(k): f'scoring failed: non-finite score {s[k]}' for k in np.flatnonzero(~np.isfinite(s))}
+
+
+def _oriented(mu: np.ndarray, i: np.ndarray, j: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The pairs (i, j) ordered by their tracks' positions (x, then y): the exact score is symmetric, but
+    only up to rounding, so a pair scored in one fixed orientation gives the same bits whatever the
+    order in which its tracks were first seen (a shard and a single node agree to the last bit)."""
+    swap = (mu[i, 0] > mu[j, 0]) | ((mu[i, 0] == mu[j, 0]) & (mu[i, 1] > mu[j, 1]))
+    return np.where(swap, j, i), np.where(swap, i, j)

@@ -22,14 +22,23 @@ f32 [m/s], number of hypotheses J u16), then n × u32 key j·n_cells + cell and 
 v_max, and the position belief as the marginal of the joint.
 
 Revoke (the chain rule of ``leader_protocol``): ``'<4sBxHHI'`` = 14 bytes, magic b'IDSR', version
-1, sender u16, receiver u16, step u32: "the handoff of ``step`` that ``sender`` sent you is void".
-It travels on the same topic as the handoffs (``encode_revoke``, ``decode_revoke``).
+1, sender u16, receiver u16, step u32: "the handoff of ``step`` that ``sender`` sent you is void"
+(``encode_revoke``, ``decode_revoke``).
+
+On DDS the package travels as ``track_msgs/IdsqHandoff`` (and the revoke as ``IdsqRevoke``), field for
+field: ``Package`` is that field-level form, shared by both wire forms. ``to_package`` rounds the
+belief as the bytes do (u32 cells, f32 mass, f32 velocity and lattice spacing) and ``from_package``
+reads it back with every structural check (version, lengths, grid, motion, joint belief), so a
+belief is the same to the bit whichever way it came. The bytes remain the size we report
+(``payload_bytes``) and the input of the core-only loops and tests.
 
 ``validate_handoff`` returns ``None`` or a one-line reason (never raises) so that a node can
-refuse a malformed package with a warning and let the sender re-select; ``decode_handoff``
-raises ``ValueError`` with the same kind of one-line reason for undecodable bytes, and
-``peek_header`` still reads who sent it (sender, receiver, step) so that the refusal can be
-answered.
+refuse a malformed package with a warning and let the sender re-select; ``decode_handoff`` and
+``from_package`` raise ``ValueError`` with the same kind of one-line reason for an unreadable
+package, and ``peek_header`` still reads who sent the bytes (sender, receiver, step) so that the
+refusal can be answered (the typed message always has them). ``read_package`` turns bytes into
+what ``leader_protocol.HandoffLedger.on_handoff`` takes: a ``Handoff``, an ``Unusable`` or a
+``Revocation``.
 """
 
 from __future__ import annotations
@@ -135,23 +144,98 @@ def validate_handoff(h: Handoff, grid: GridSpec, n_sensors: int | None = None,
             or _mass_problem(mass))
 
 
+@dataclass(frozen=True, eq=False)
+class Package:
+    """The handoff's fields as they travel (module docstring): ``cells`` u32 flat cell indices, or joint
+    keys j·n_cells + cell in version 3; ``mass`` f32; the motion (version 2: ``velocity`` [m/s],
+    ``observations``) and lattice (version 3: ``bank_spacing`` [m/s], ``hypotheses``) fields, 0 otherwise."""
+
+    version: int
+    step: int
+    sender: int
+    receiver: int
+    x0: float
+    y0: float
+    cell: float
+    nx: int
+    ny: int
+    cells: np.ndarray
+    mass: np.ndarray
+    velocity: tuple[float, float] = (0.0, 0.0)
+    observations: int = 0
+    bank_spacing: float = 0.0
+    hypotheses: int = 0
+
+
+def _f32(x: float) -> float:
+    return float(np.float32(x))
+
+
+def to_package(h: Handoff) -> Package:
+    """``h`` as it travels, rounded as the bytes round it (joint keys and masses for a ``Bank``)."""
+    g = h.grid
+    head = (h.step, h.sender, h.receiver, g.x0, g.y0, g.cell, g.nx, g.ny)
+    if isinstance(h.motion, Bank):
+        b = h.motion
+        return Package(VERSION_BANK, *head, np.asarray(b.key, dtype='<u4'), np.asarray(b.mass, dtype='<f4'),
+                       bank_spacing=_f32(b.step), hypotheses=int(b.n_hyp))
+    cells, mass = np.asarray(h.idx, dtype='<u4'), np.asarray(h.mass, dtype='<f4')
+    if h.motion is None:
+        return Package(VERSION, *head, cells, mass)
+    vx, vy = (_f32(v) for v in h.motion.velocity)
+    return Package(VERSION_MOTION, *head, cells, mass, (vx, vy), int(h.motion.count))
+
+
+def _foreign_fields(p: Package) -> str | None:
+    """A motion or lattice field set in a package of another version."""
+    if p.version != VERSION_MOTION and (any(v != 0 for v in p.velocity) or p.observations != 0):
+        return f'velocity/observations are set in a version-{p.version} handoff (version {VERSION_MOTION} only)'
+    if p.version != VERSION_BANK and (p.bank_spacing != 0 or p.hypotheses != 0):
+        return f'bank_spacing/hypotheses are set in a version-{p.version} handoff (version {VERSION_BANK} only)'
+    return None
+
+
+def from_package(p: Package) -> Handoff:
+    """The ``Handoff`` a package carries; ``ValueError`` with a one-line reason if it is unreadable
+    (unknown version, arrays of different lengths, a field of another version, bad grid, motion or
+    joint belief). The belief itself is checked by ``validate_handoff``."""
+    if p.version not in VERSIONS:
+        raise ValueError(f'unknown handoff version {p.version}, expected one of {", ".join(map(str, VERSIONS))}')
+    cells, mass = np.asarray(p.cells), np.asarray(p.mass)
+    if cells.ndim != 1 or cells.shape != mass.shape:
+        raise ValueError(f'handoff has {cells.size} cells but {mass.size} masses')
+    why = _foreign_fields(p)
+    if why is not None:
+        raise ValueError(why)
+    try:
+        grid = GridSpec(p.x0, p.y0, p.cell, p.nx, p.ny)
+    except ValueError as exc:
+        raise ValueError(f'bad grid in handoff: {exc}') from None
+    idx, mass = cells.astype(np.int64), mass.astype(float)
+    if p.version == VERSION_BANK:
+        return _bank_handoff(p.step, p.sender, p.receiver, grid, p.bank_spacing, p.hypotheses, idx, mass)
+    motion = None
+    if p.version == VERSION_MOTION:
+        try:
+            motion = Motion(np.array(p.velocity, dtype=float), p.observations)
+        except ValueError as exc:
+            raise ValueError(f'bad motion in handoff: {exc}') from None
+    return Handoff(p.step, p.sender, p.receiver, grid, idx, mass, motion)
+
+
 def encode_handoff(h: Handoff, check: bool = True) -> bytes:
     """Pack ``h`` (see the module docstring); ``check`` refuses a package ``validate_handoff`` rejects."""
     if check:
         why = validate_handoff(h, h.grid)
         if why is not None:
             raise ValueError(f'refusing to encode handoff: {why}')
-    g = h.grid
-    if isinstance(h.motion, Bank):
-        b = h.motion
-        head = _HEADER.pack(MAGIC, VERSION_BANK, h.sender, h.receiver, h.step, g.x0, g.y0, g.cell, g.nx, g.ny,
-                            len(b.key)) + _BANK.pack(b.step, b.n_hyp)
-        return head + np.asarray(b.key, dtype='<u4').tobytes() + np.asarray(b.mass, dtype='<f4').tobytes()
-    ver = VERSION if h.motion is None else VERSION_MOTION
-    head = _HEADER.pack(MAGIC, ver, h.sender, h.receiver, h.step, g.x0, g.y0, g.cell, g.nx, g.ny, len(h.idx))
-    if h.motion is not None:
-        head += _MOTION.pack(*(float(v) for v in h.motion.velocity), h.motion.count)
-    return (head + np.asarray(h.idx, dtype='<u4').tobytes() + np.asarray(h.mass, dtype='<f4').tobytes())
+    p = to_package(h)
+    head = _HEADER.pack(MAGIC, p.version, p.sender, p.receiver, p.step, p.x0, p.y0, p.cell, p.nx, p.ny, len(p.cells))
+    if p.version == VERSION_MOTION:
+        head += _MOTION.pack(*p.velocity, p.observations)
+    elif p.version == VERSION_BANK:
+        head += _BANK.pack(p.bank_spacing, p.hypotheses)
+    return head + p.cells.tobytes() + p.mass.tobytes()
 
 
 def decode_handoff(data: bytes) -> Handoff:
@@ -164,26 +248,16 @@ def decode_handoff(data: bytes) -> Handoff:
     has_motion, has_bank = ver == VERSION_MOTION, ver == VERSION_BANK
     if len(data) != payload_bytes(n, has_motion, has_bank):
         raise ValueError(f'handoff length {len(data)} != {payload_bytes(n, has_motion, has_bank)} for {n} cells')
-    try:
-        grid = GridSpec(x0, y0, cell, nx, ny)
-    except ValueError as exc:
-        raise ValueError(f'bad grid in handoff: {exc}') from None
-    motion, off = None, HEADER_BYTES
+    extra, off = {}, HEADER_BYTES
     if has_motion:
-        vx, vy, count = _MOTION.unpack_from(data, HEADER_BYTES)
-        try:
-            motion = Motion(np.array([vx, vy]), count)
-        except ValueError as exc:
-            raise ValueError(f'bad motion in handoff: {exc}') from None
-        off += MOTION_BYTES
-    if has_bank:
-        bstep, n_hyp = _BANK.unpack_from(data, HEADER_BYTES)
-        off += BANK_BYTES
-    body = np.frombuffer(data, offset=off, dtype='<u4', count=n).astype(np.int64)
-    mass = np.frombuffer(data, offset=off + 4 * n, dtype='<f4', count=n).astype(float)
-    if has_bank:
-        return _bank_handoff(step, sender, receiver, grid, bstep, n_hyp, body, mass)
-    return Handoff(step, sender, receiver, grid, body, mass, motion)
+        vx, vy, count = _MOTION.unpack_from(data, off)
+        extra, off = {'velocity': (vx, vy), 'observations': count}, off + MOTION_BYTES
+    elif has_bank:
+        spacing, n_hyp = _BANK.unpack_from(data, off)
+        extra, off = {'bank_spacing': spacing, 'hypotheses': n_hyp}, off + BANK_BYTES
+    cells = np.frombuffer(data, offset=off, dtype='<u4', count=n)
+    mass = np.frombuffer(data, offset=off + 4 * n, dtype='<f4', count=n)
+    return from_package(Package(ver, step, sender, receiver, x0, y0, cell, nx, ny, cells, mass, **extra))
 
 
 def _bank_handoff(step: int, sender: int, receiver: int, grid: GridSpec, bstep: float, n_hyp: int,
@@ -222,6 +296,34 @@ def peek_header(data: bytes) -> tuple[int, int, int] | None:
         return None
     magic, version, sender, receiver, step = _ADDRESS.unpack_from(data)
     return (sender, receiver, step) if magic == MAGIC and version in VERSIONS else None
+
+
+@dataclass(frozen=True)
+class Unusable:
+    """A handoff that did not read as a package: why, and its (sender, receiver, step) when readable."""
+
+    reason: str
+    address: tuple[int, int, int] | None = None
+
+
+@dataclass(frozen=True)
+class Revocation:
+    """``sender`` revokes its handoff of ``step`` to ``receiver`` (the chain rule of ``leader_protocol``)."""
+
+    sender: int
+    receiver: int
+    step: int
+
+
+def read_package(data: bytes) -> Handoff | Unusable | Revocation:
+    """Bytes (a handoff or a revoke) as ``HandoffLedger.on_handoff`` takes them; never raises."""
+    rev = decode_revoke(data)
+    if rev is not None:
+        return Revocation(*rev)
+    try:
+        return decode_handoff(data)
+    except ValueError as exc:
+        return Unusable(str(exc), peek_header(data))
 
 
 def encode_revoke(step: int, sender: int, receiver: int) -> bytes:

@@ -7,12 +7,14 @@ effects each call returns (``Reply``, ``Send``, ``Disarm``, ``Led``, ``Reselect`
 
 Protocol (Table 1 of Liu, Reich, Zhao 2002, one leader at a time):
 
-- A sensor sleeps until a handoff (the ``encode_handoff`` bytes: step, sender = previous leader,
-  receiver, grid, sparse belief) arrives. ``receive_handoff`` validates it (NaN / negative /
-  unnormalised mass, wrong grid, wrong receiver, bad indices); it is also refused when the
-  sensor already holds a belief (*busy*) or has led a later step (*stale*). The sender gets an
-  ack or a nack with the reason (``peek_header`` finds whom to refuse when the bytes are
-  unusable). A handoff whose step is more than ``STEP_WINDOW`` away from the sensor's horizon
+- A sensor sleeps until a handoff (``handoff.Handoff``: step, sender = previous leader, receiver,
+  grid, sparse belief; read from ``track_msgs/IdsqHandoff`` by the node, or from the package bytes
+  by ``handoff.read_package``) arrives. ``validate_handoff`` checks it (NaN / negative /
+  unnormalised mass, wrong grid, wrong receiver, bad indices); an unreadable one comes as
+  ``handoff.Unusable`` with its reason. It is also refused when the sensor already holds a
+  belief (*busy*) or has led a later step (*stale*). The sender gets an ack or a nack with the
+  reason (at the address the message carries; bytes whose header is unreadable go unanswered).
+  A handoff whose step is more than ``STEP_WINDOW`` away from the sensor's horizon
   (``horizon``: the latest complete truth step, led step or pending step; -1 at the start) is
   refused too (*window*): its truth would never come, and the sensor would stay busy for good.
   A truth step more than ``TRUTH_WINDOW`` after the horizon is refused by ``truth_problem``
@@ -40,10 +42,11 @@ Protocol (Table 1 of Liu, Reich, Zhao 2002, one leader at a time):
   (measured before this rule: a 5 s unplug of one of 3 hosts left 4 chains). So each sensor
   remembers, for the last ``STEP_WINDOW`` steps it led, every receiver it sent the handoff to
   (``sent``) and the one that took it in time (``handed``: the acker, or itself after a self-lead).
-  An ack from any other receiver it sent to is answered with a *revoke* (``handoff.encode_revoke``,
-  on the handoff topic): "the handoff of step t I sent you is void". A sensor revoked for step t
-  by the sensor its belief came from (``parent``) drops that belief if it still holds it; if it
-  already led t + 1 it voids that step (``Void``; it no longer counts for the stale rule) and
+  An ack from any other receiver it sent to is answered with a *revoke* (``Revoke``; on DDS a
+  ``track_msgs/IdsqRevoke`` on the receiver's own revoke topic; ``on_revoke`` takes it): "the
+  handoff of step t I sent you is void". A sensor revoked for step t by the sensor its belief
+  came from (``parent``) drops that belief if it still holds it; if it already led t + 1 it
+  voids that step (``Void``; it no longer counts for the stale rule) and
   revokes every handoff of step t + 1 it sent, its own continuation after a self-lead included,
   so the revoke walks the void chain to its head, which stops leading. The kept chain is the
   one every sender vouches for; nothing depends on clocks, timing or which message came first,
@@ -52,6 +55,10 @@ Protocol (Table 1 of Liu, Reich, Zhao 2002, one leader at a time):
   ``tools/unplug_host.py``). A revoke that cannot be delivered (all its history evicted) leaves
   the void chain running; the handoff QoS keeps enough history that this did not happen in the
   unplug runs (``track_msgs_py.qos.HANDOFF_QOS``).
+  Revokes and handoffs travel on two topics, so nothing orders a revoke after the handoff it
+  voids: a revoke that overtakes its handoff finds nothing to cut, the receiver then takes the
+  handoff and acks it, and that ack, from a receiver the sender no longer vouches for, is answered
+  with the revoke again (the rule above): the chain still ends, one round trip later.
   Fewer void chains to revoke: a handoff that reaches the receiver more than ``ack_timeout``
   after it was published (``age``: DDS reception minus source timestamp, so the receiver's own
   executor delay does not count) is refused as *expired*: its sender has re-selected by then.
@@ -80,11 +87,12 @@ import numpy as np
 from track_core.idsq.grid import GridSpec, SparseBelief, uniform_belief
 from track_core.idsq.handoff import (
     Handoff,
-    decode_revoke,
+    Revocation,
+    Unusable,
     encode_handoff,
     encode_revoke,
-    peek_header,
-    receive_handoff,
+    read_package,
+    validate_handoff,
 )
 from track_core.idsq.models import SimNoise, TrackerParams, loudest_source, simulate_measurement
 from track_core.idsq.network import SensorLayout
@@ -182,11 +190,13 @@ class Reply:
 
 @dataclass(frozen=True)
 class Send:
-    """Publish ``payload`` to ``receiver`` and arm its ack timer for (``step``, ``receiver``)."""
+    """Publish ``handoff`` to ``receiver`` and arm its ack timer for (``step``, ``receiver``); ``payload``
+    is its package bytes (their length is the size we report)."""
 
     step: int
     receiver: int
     payload: bytes
+    handoff: Handoff | None = None
 
 
 @dataclass(frozen=True)
@@ -233,12 +243,13 @@ class Log:
 
     level: str
     text: str
-    refusal: tuple[str, str] | None = None  # ('handoff' or 'ack', reason): a refused message, for the node's refuse
+    refusal: tuple[str, str] | None = None  # (handoff, ack or revoke: its channel, reason), for the node's refuse
 
 
 @dataclass(frozen=True)
 class Revoke:
-    """Publish ``payload`` (a revoke of the handoff of ``step``) to ``receiver``, no timer; log ``text``."""
+    """Revoke this sensor's handoff of ``step`` to ``receiver`` (``payload``: the revoke's bytes), no
+    timer; log ``text``."""
 
     step: int
     receiver: int
@@ -309,7 +320,7 @@ class HandoffLedger:
         self.layout: SensorLayout | None = None
         self.truth: dict[int, np.ndarray] = {}  # step → (M, 2) source positions, once every topic has it
         self._sources: dict[int, dict[tuple[str, str], np.ndarray]] = {}  # step → (topic, child) → xy
-        self.inbox: list[tuple[bytes, float | None]] = []
+        self.inbox: list[tuple[Handoff | Unusable | Revocation, float | None]] = []
         self.pending: Pending | None = None
         self.outgoing: dict[int, Outgoing] = {}  # step → handoff awaiting its ack (several if acks lag)
         self.start_checked = False
@@ -359,9 +370,15 @@ class HandoffLedger:
             return f'step: truth step {step} is more than {TRUTH_WINDOW} after step {h}'
         return None
 
-    def on_handoff(self, data: bytes, age: float | None = None) -> list[Effect]:
-        """Handoff (or revoke) bytes; ``age`` [s]: how long after its publication they were received."""
-        self.inbox.append((data, age))
+    def on_handoff(self, item: Handoff | Unusable | Revocation | bytes, age: float | None = None) -> list[Effect]:
+        """A received handoff (``Unusable`` when it did not read; package bytes are read with
+        ``read_package``, a revoke included); ``age`` [s]: how long after its publication it came."""
+        self.inbox.append((read_package(item) if isinstance(item, bytes) else item, age))
+        return self.advance()
+
+    def on_revoke(self, sender: int, receiver: int, step: int) -> list[Effect]:
+        """``sender`` revokes its handoff of ``step`` to ``receiver`` (the chain rule, module docstring)."""
+        self.inbox.append((Revocation(sender, receiver, step), None))
         return self.advance()
 
     def on_reply(self, step: int, sender: int, receiver: int, result: str, message: str = '') -> list[Effect]:
@@ -420,12 +437,14 @@ class HandoffLedger:
             fx += self._lead(pend)
         return fx
 
-    def _receive(self, data: bytes, age: float | None = None) -> list[Effect]:
-        rev = decode_revoke(data)
-        if rev is not None:
-            return self._on_revoke(*rev)
-        h, why = receive_handoff(data, self.s.grid, self.layout.n, receiver=self.me)
-        head = peek_header(data)
+    def _receive(self, item: Handoff | Unusable | Revocation, age: float | None = None) -> list[Effect]:
+        if isinstance(item, Revocation):
+            return self._on_revoke(item.sender, item.receiver, item.step)
+        if isinstance(item, Unusable):
+            h, why, head = None, item.reason, item.address
+        else:
+            h, head = item, (item.sender, item.receiver, item.step)
+            why = validate_handoff(h, self.s.grid, self.layout.n, receiver=self.me)
         if why is None and age is not None and age > self.s.ack_timeout:
             why = f'expired: received {age:.1f} s after it was sent, beyond the ack timeout ({self.s.ack_timeout:g} s)'
         elif why is None and self.pending is not None:
@@ -485,11 +504,12 @@ class HandoffLedger:
             self.pending = Pending(out.belief, out.step + 1, None, self.me)
             return fx
         self.sent.setdefault(out.step, []).append(k)
-        payload = encode_handoff(Handoff.from_belief(out.step, self.me, k, out.belief))
+        h = Handoff.from_belief(out.step, self.me, k, out.belief)
+        payload = encode_handoff(h)
         if why is not None:
             fx.append(Reselect(out.step, k, out.receiver, why, len(payload)))
         out.receiver = k
-        return [*fx, Send(out.step, k, payload)]
+        return [*fx, Send(out.step, k, payload, h)]
 
     # -- the chain rule (module docstring) ------------------------------------------------------------
     def _revoke(self, step: int, receiver: int, text: str) -> Revoke:
@@ -501,7 +521,7 @@ class HandoffLedger:
         if receiver != self.me or sender >= self.layout.n:
             self.refused += 1
             why = f'revoke of step {step} from sensor {sender} addressed to sensor {receiver}'
-            return [Log('warning', f'refused {why}', ('handoff', why))]
+            return [Log('warning', f'refused {why}', ('revoke', why))]
         return self._cut(step, sender)
 
     def _cut(self, step: int, parent: int) -> list[Effect]:

@@ -1,23 +1,27 @@
 """``track-bench fusion-node``: the real fusion node holding N tracks at 1 Hz, and the CPU share it takes.
 
-The node (``FusionNode``: ``pose_track_topics`` of two sources, ``method exact``, ``rate`` 1 Hz,
-``stale_after`` 2.5 s, ``window`` 10, ``publish_pairs`` as given, default ``nonzero``) runs in this
-process, spun by a SingleThreadedExecutor, on its own ROS_DOMAIN_ID with localhost-only
+The node (``FusionNode``: two sources, ``method exact``, ``rate`` 1 Hz, ``stale_after`` 2.5 s,
+``window`` 10, ``publish_pairs`` as given, default ``nonzero``, ``display_rate`` 1 Hz) runs in
+this process, spun by a SingleThreadedExecutor, on its own ROS_DOMAIN_ID with localhost-only
 discovery. A publisher in a **child process** (so that its work is not counted) sends every
-second one ``PoseWithCovarianceStamped`` per track: the Solent layout of
+second the reports of every track: the Solent layout of
 ``track_experiments.fusion.bench.solent_layout`` (real ship positions, radar and patrol 2σ
-ellipses; half the tracks on ``/bench/radar/reports``, half on ``/bench/patrol/reports``, local
-id in ``header.frame_id``), each report drawn around its track's position with the report's own
-covariance. After a warm-up, for ``seconds`` of wall time: this process's CPU time (user +
-system, every thread: executor, DDS, numpy) over the wall time is the **CPU share** (1.0 = one
-core); per tick, the live tracks, the pairs, the scored (candidate) pairs and the tick's time. A
+ellipses; half the tracks on ``/bench/radar/reports``, half on ``/bench/patrol/reports``), each
+report drawn around its track's position with the report's own covariance. ``input``:
+``arrays`` (default) sends one ``track_msgs/TrackArray`` per source per second
+(``track_array_topics``), ``poses`` one ``PoseWithCovarianceStamped`` per track with the local id
+in ``header.frame_id`` (``pose_track_topics``). After a warm-up, for ``seconds`` of wall time:
+this process's CPU time (user + system, every thread: executor, DDS, numpy) over the wall time is
+the **CPU share** (1.0 = one core); per tick, the live tracks, the candidate pairs (scored), those
+scoring > 0 and the tick's time. A
 run in which a tick saw fewer live tracks than were published (the node fell behind) is flagged
 ``held_every_track: false`` and NOT HELD under the table.
 
 Options (``--set``): ``tracks`` (1000; ``--quick``: 200), ``seconds`` (20; ``--quick``: 4),
-``publish_pairs`` (``nonzero`` or ``all``), ``stale_after`` (2.5 s: the reports come once a second
-at a phase unrelated to the node's ticks, and a burst of 1000 waits behind a running tick, so a
-report must outlive one period plus that lag; with 1.5 s a track often drops out for a tick).
+``publish_pairs`` (``nonzero`` or ``all``), ``input`` (``arrays`` or ``poses``), ``stale_after``
+(2.5 s: the reports come once a second at a phase unrelated to the node's ticks, and a burst of
+1000 waits behind a running tick, so a report must outlive one period plus that lag; with 1.5 s a
+track often drops out for a tick).
 Needs the Solent data.
 """
 
@@ -45,32 +49,40 @@ def _cpu() -> float:
     return r.ru_utime + r.ru_stime
 
 
-def _publisher(domain: int, mu: np.ndarray, R: np.ndarray, seconds: float, seed: int) -> None:
-    """Child process: every second, one report per track (half on each topic), for ``seconds``."""
+def _publisher(domain: int, mu: np.ndarray, R: np.ndarray, seconds: float, seed: int, arrays: bool) -> None:
+    """Child process: every second, the reports of every track (half on each topic), for ``seconds``."""
     import rclpy
     from geometry_msgs.msg import PoseWithCovarianceStamped
     from rclpy.context import Context
     from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
+    from track_msgs.msg import TrackArray
     from track_msgs_py.odometry import position_to_pose_cov
     from track_msgs_py.topics import FRAME_MAP, track_frame_id
+    from track_msgs_py.track_arrays import position_tracks, tracks_to_array
 
     context = Context()
     rclpy.init(context=context, domain_id=domain)
     node = rclpy.create_node('bench_tracks', context=context)
-    qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=len(mu), reliability=ReliabilityPolicy.RELIABLE)
-    pubs = [node.create_publisher(PoseWithCovarianceStamped, t, qos) for t in TOPICS]
+    qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10 if arrays else len(mu),
+                     reliability=ReliabilityPolicy.RELIABLE)
+    pubs = [node.create_publisher(TrackArray if arrays else PoseWithCovarianceStamped, t, qos) for t in TOPICS]
     rng = np.random.default_rng(seed)
     L = np.linalg.cholesky(R)
     half = len(mu) // 2
+    ids = [f'{"rp"[k >= half]}{k:05d}' for k in range(len(mu))]
     t_end = time.monotonic() + seconds
     next_t = time.monotonic()
     while time.monotonic() < t_end:
         now = node.get_clock().now().nanoseconds * 1e-9
         z = mu + np.einsum('nij,nj->ni', L, rng.standard_normal((len(mu), 2)))
-        for k in range(len(mu)):
-            msg = position_to_pose_cov(now, z[k], R[k], track_frame_id(FRAME_MAP, f'{"rp"[k >= half]}{k:05d}'))
-            pubs[k >= half].publish(msg)
+        if arrays:
+            for pub, part in zip(pubs, (slice(0, half), slice(half, None)), strict=True):
+                x, P = position_tracks(z[part], R[part])
+                pub.publish(tracks_to_array(now, ids[part], [pub.topic_name] * len(x), x, P))
+        else:
+            for k in range(len(mu)):
+                pubs[k >= half].publish(position_to_pose_cov(now, z[k], R[k], track_frame_id(FRAME_MAP, ids[k])))
         next_t += 1.0
         time.sleep(max(0.0, next_t - time.monotonic()))
     node.destroy_node()
@@ -122,7 +134,7 @@ def _figures(probe: _Probe, wall0: float, wall: float, n_tracks: int) -> dict:
 
 
 def run_node(mu: np.ndarray, R: np.ndarray, seconds: float, publish_pairs: str, seed: int = 0,
-             stale_after: float = 2.5) -> dict:
+             stale_after: float = 2.5, arrays: bool = True) -> dict:
     """Run the fusion node fed with the tracks (μ, R) at 1 Hz; → CPU share and per-tick figures."""
     import rclpy
     from rclpy.context import Context
@@ -138,14 +150,15 @@ def run_node(mu: np.ndarray, R: np.ndarray, seconds: float, publish_pairs: str, 
     rclpy.init(context=context, domain_id=domain)
     executor = SingleThreadedExecutor(context=context)
     node = FusionNode(node_name='fusion_bench', context=context, parameter_overrides=[
-        Parameter('pose_track_topics', value=list(TOPICS)), Parameter('rate', value=1.0),
+        Parameter('track_array_topics' if arrays else 'pose_track_topics', value=list(TOPICS)),
+        Parameter('rate', value=1.0), Parameter('display_rate', value=1.0),
         Parameter('stale_after', value=float(stale_after)), Parameter('method', value='exact'),
         Parameter('window', value=10),
         Parameter('publish_pairs', value=publish_pairs)])
     probe = _Probe(node)
     executor.add_node(node)
     child = multiprocessing.get_context('spawn').Process(
-        target=_publisher, args=(domain, mu, R, seconds + WARMUP + 32.0, seed), daemon=True)
+        target=_publisher, args=(domain, mu, R, seconds + WARMUP + 32.0, seed, arrays), daemon=True)
     try:
         child.start()
         # warm-up: every track reported once, then WARMUP seconds more
@@ -160,13 +173,15 @@ def run_node(mu: np.ndarray, R: np.ndarray, seconds: float, publish_pairs: str, 
         executor.shutdown(timeout_sec=2.0)
         node.destroy_node()
         context.try_shutdown()
-    return {'tracks': len(mu), 'publish_pairs': publish_pairs, 'stale_after': float(stale_after), 'seconds': wall,
+    return {'tracks': len(mu), 'publish_pairs': publish_pairs, 'input': 'arrays' if arrays else 'poses',
+            'stale_after': float(stale_after), 'seconds': wall,
             'cpu_s': cpu, 'cpu_share': cpu / wall,
             'reports_received_per_s': received / wall, **_figures(probe, wall0, wall, len(mu))}
 
 
 @set_keys(tracks='tracks held (1000; --quick: 200)', seconds='wall seconds measured (20; --quick: 4)',
-          publish_pairs='nonzero or all (nonzero)', stale_after='seconds a report lives in the node (2.5)')
+          publish_pairs='nonzero or all (nonzero)', stale_after='seconds a report lives in the node (2.5)',
+          input='arrays (one TrackArray per source per second) or poses (one message per track) (arrays)')
 def bench(cfg: RunConfig) -> Outcome:
     from track_experiments.fusion.bench import solent_layout
 
@@ -175,12 +190,15 @@ def bench(cfg: RunConfig) -> Outcome:
     publish_pairs = cfg.options.get('publish_pairs', 'nonzero')
     if publish_pairs not in ('nonzero', 'all'):
         raise ValueError(f'publish_pairs must be nonzero or all, got {publish_pairs!r}')
+    kind = cfg.options.get('input', 'arrays')
+    if kind not in ('arrays', 'poses'):
+        raise ValueError(f'input must be arrays or poses, got {kind!r}')
     rng = np.random.default_rng(cfg.seed)
     mu, R = solent_layout(n, rng)
-    r = run_node(mu, R, seconds, publish_pairs, cfg.seed, float(cfg.options.get('stale_after', 2.5)))
-    table = format_table(['tracks', 'publish', 'wall s', 'CPU s', 'CPU share', 'reports/s', 'ticks', 'live tracks',
-                          'pairs', 'score > 0', 'tick s mean', 'tick s max', 'in ticks s'],
-                         [[r['tracks'], publish_pairs, r['seconds'], r['cpu_s'], r['cpu_share'],
+    r = run_node(mu, R, seconds, publish_pairs, cfg.seed, float(cfg.options.get('stale_after', 2.5)), kind == 'arrays')
+    table = format_table(['tracks', 'input', 'publish', 'wall s', 'CPU s', 'CPU share', 'reports/s', 'ticks',
+                          'live tracks', 'candidates', 'score > 0', 'tick s mean', 'tick s max', 'in ticks s'],
+                         [[r['tracks'], kind, publish_pairs, r['seconds'], r['cpu_s'], r['cpu_share'],
                            r['reports_received_per_s'], r['ticks'], f'{r["live_tracks_min"]}–{r["live_tracks_max"]}',
                            r['pairs_per_tick'], r['nonzero_pairs_per_tick'], r['tick_s_mean'], r['tick_s_max'],
                            r['tick_s_total']]])

@@ -18,8 +18,11 @@ The classes a template gets depend on what it has (its type's fields, not a list
 - DiagnosticArray values: ``value.nan``, ``value.inf``, ``value.1e308``, ``value.denormal``,
   ``value.garbage``, ``value.key_missing``; a ``seq`` or ``step`` key: ``seq.max_i32``,
   ``seq.max_u32``, ``seq.ahead``, ``seq.behind``, ``seq.negative``;
-- UInt8MultiArray: ``payload.random``, ``payload.truncated``; an IDSQ handoff: ``handoff.step_max``
-  (0xFFFFFFFF), ``handoff.step_ahead``, ``handoff.step_behind``, ``handoff.receiver``;
+- UInt8MultiArray: ``payload.random``, ``payload.truncated``;
+- the IDSQ protocol (``track_msgs`` IdsqHandoff, IdsqAck, IdsqRevoke; prefix ``handoff``, ``ack``,
+  ``revoke``): ``<prefix>.step_max`` (0xFFFFFFFF), ``<prefix>.step_ahead``, ``<prefix>.step_behind``,
+  ``<prefix>.receiver``; a handoff also ``handoff.version`` (unknown), ``handoff.lengths`` (one mass
+  fewer than cells), ``handoff.foreign`` (a velocity in a version-1 package);
 - any type: ``duplicate`` (the template again), ``raw.random`` (random bytes after a CDR header,
   published raw), ``raw.truncated`` (the template's CDR cut short).
 
@@ -29,7 +32,6 @@ The generator is pure (no node, no publishing): ``Fuzzer(templates, seed).next()
 from __future__ import annotations
 
 import array
-import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -56,6 +58,7 @@ ALL_FLOATS = ('1e308', '1e30', 'denormal')
 FUTURE_SEC = 2147483647
 OVERSIZED = 100_000  # elements of an oversized primitive array (messages: OVERSIZED // 100)
 CDR_HEADER = b'\x00\x01\x00\x00'
+IDSQ_PREFIX = {'IdsqHandoff': 'handoff', 'IdsqAck': 'ack', 'IdsqRevoke': 'revoke'}  # kinds of the IDSQ protocol
 
 
 
@@ -116,7 +119,9 @@ class Fuzzer:
         if type_name == 'DiagnosticArray':
             out += self._diag_kinds(tpl)
         if type_name == 'UInt8MultiArray':
-            out += self._payload_kinds(tpl)
+            out += self._payload_kinds()
+        if type_name in IDSQ_PREFIX:
+            out += self._idsq_kinds(IDSQ_PREFIX[type_name])
         out += [('duplicate', lambda m, n: m),
                 ('raw.random', lambda m, n: CDR_HEADER + self.rng.bytes(int(self.rng.integers(0, 256)))),
                 ('raw.truncated', _truncated_cdr)]
@@ -243,18 +248,9 @@ class Fuzzer:
                     ('seq.negative', value_setter(counters, lambda v: '-1'))]
         return out
 
-    def _payload_kinds(self, tpl) -> list[tuple[str, Callable]]:
-        out = [('payload.random', self._payload(lambda b: self.rng.bytes(len(b)))),
-               ('payload.truncated', self._payload(lambda b: b[:len(b) // 2]))]
-        try:
-            from track_core.idsq.handoff import decode_handoff
-            decode_handoff(bytes(tpl.data))
-        except (ImportError, ValueError):
-            return out
-        return [*out, ('handoff.step_max', self._handoff(lambda h: {'step': 0xFFFFFFFF})),
-                ('handoff.step_ahead', self._handoff(lambda h: {'step': h.step + 1000})),
-                ('handoff.step_behind', self._handoff(lambda h: {'step': max(0, h.step - 1000)})),
-                ('handoff.receiver', self._handoff(lambda h: {'receiver': (h.receiver + 7) % 65536}))]
+    def _payload_kinds(self) -> list[tuple[str, Callable]]:
+        return [('payload.random', self._payload(lambda b: self.rng.bytes(len(b)))),
+                ('payload.truncated', self._payload(lambda b: b[:len(b) // 2]))]
 
     def _payload(self, change: Callable[[bytes], bytes]) -> Callable:
         def fn(m, n):
@@ -262,13 +258,25 @@ class Fuzzer:
             return m
         return fn
 
-    def _handoff(self, fields: Callable) -> Callable:
-        from track_core.idsq.handoff import decode_handoff, encode_handoff
+    def _idsq_kinds(self, prefix: str) -> list[tuple[str, Callable]]:
+        def edit(change):
+            def fn(m, n):
+                change(m)
+                return m
+            return fn
 
-        def change(b: bytes) -> bytes:
-            h = decode_handoff(b)
-            return encode_handoff(dataclasses.replace(h, **fields(h)), check=False)
-        return self._payload(change)
+        def set_step(value_of):
+            return edit(lambda m: setattr(m, 'step', value_of(m.step)))
+
+        out = [(f'{prefix}.step_max', set_step(lambda s: 0xFFFFFFFF)),
+               (f'{prefix}.step_ahead', set_step(lambda s: min(s + 1000, 0xFFFFFFFF))),
+               (f'{prefix}.step_behind', set_step(lambda s: max(0, s - 1000))),
+               (f'{prefix}.receiver', edit(lambda m: setattr(m, 'receiver', (m.receiver + 7) % 65536)))]
+        if prefix == 'handoff':
+            out += [('handoff.version', edit(lambda m: setattr(m, 'version', 9))),
+                    ('handoff.lengths', edit(lambda m: setattr(m, 'mass', m.mass[:-1]))),
+                    ('handoff.foreign', edit(lambda m: (setattr(m, 'version', 1), setattr(m, 'velocity_x', 3.0))))]
+        return out
 
 
 def _truncated_cdr(m, n) -> bytes:

@@ -1,63 +1,121 @@
-"""Typed records of the fusion system: the pair score and the AIS truth table entry.
+"""Typed records of the fusion system: the pairs of an instant, the fused pairs, the AIS truth entry.
 
-``FusionPairScore``: one status of ``/fusion/scores`` (and ``/fusion/associations``) per pair
-of tracks at one instant, named ``"<track A> | <track B>"`` (``pair_name``), level OK, message
-``associated`` / ``not associated``, hardware id ``fusion``. The fusion node writes it; the
-fusion, ais and maritime summaries and the tests read it. Scores travel with 6 decimals.
+=========================  ==========================================  ===============================================
+record                     message type                                fields
+=========================  ==========================================  ===============================================
+``FusionPairs``: the       track_msgs/PairScoreArray                   ``header`` (stamp ← t, frame_id), ``method``,
+scored pairs of one                                                    ``combine``, ``window``, ``threshold``;
+instant, as columns                                                    ``pairs[k]``: ``a``, ``b``, ``score``,
+                                                                       ``combined``, ``instants``, ``associated``
+``FusedTracks``: the       track_msgs/FusedTrackArray                  ``header``; ``tracks[k]``: ``a``, ``b``, ``x``,
+associated pairs fused                                                 ``y``, ``covariance`` (2×2 row-major)
+``AisTruthEntry``          DiagnosticStatus of ``<prefix>/truth``      name = track id, ``mmsi``, ``reports``
+=========================  ==========================================  ===============================================
 
-``AisTruthEntry``: one status of ``<prefix>/truth`` per local track of an ``ais_source``, named
-like the fusion node's track id ``<prefix>/reports/<local id>``, message ``evaluation only``:
-the ship's MMSI and how many reports the source makes of it. Evaluation only: the fusion node
-never reads it.
+The fusion node publishes one ``PairScoreArray`` per instant on ``/fusion/scores`` (and the
+associated pairs on ``/fusion/associations``) and one ``FusedTrackArray`` on ``/fusion/fused``;
+the fusion, ais and maritime summaries and the tests read them back with ``from_msg``. Scores
+travel as float64. ``AisTruthEntry``: one status per local track of an ``ais_source``, named like
+the fusion node's track id ``<prefix>/reports/<local id>``, message ``evaluation only``: the
+ship's MMSI and how many reports the source makes of it; the fusion node never reads it.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, replace
 from typing import Self
 
+import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus
 
+from track_msgs.msg import FusedTrack, FusedTrackArray, PairScore, PairScoreArray
 from track_msgs_py.records import DIAG_OK, RecordError, StatusRecord
-
-PAIR_SEPARATOR = ' | '
-_SIX = '{:.6f}'.format
-
-
-def pair_name(a: str, b: str) -> str:
-    """Status name of the pair of track ids (a, b)."""
-    return f'{a}{PAIR_SEPARATOR}{b}'
+from track_msgs_py.stamps import stamp_to_sec, stamped_header
+from track_msgs_py.topics import FRAME_MAP
 
 
-def split_pair_name(name: str) -> tuple[str, str]:
-    """(a, b) from a pair status name; ``RecordError`` when it names no pair."""
-    a, sep, b = name.partition(PAIR_SEPARATOR)
-    if not sep or not a or not b:
-        raise RecordError(f'fusion pair score: status name {name!r} is not "<track> | <track>"')
-    return a, b
+@dataclass(frozen=True, eq=False)
+class FusionPairs:
+    """The pairs of one instant: track ids ``a``, ``b`` and the columns, with the rule that judged them."""
 
-
-@dataclass(frozen=True)
-class FusionPairScore(StatusRecord):
-    """Instant score, combined score of the window, instants in the window, verdict, method."""
-
-    KIND = 'fusion pair score'
-
-    score: float = field(metadata={'fmt': _SIX})
-    combined: float = field(metadata={'fmt': _SIX})
-    instants: int
-    associated: bool
+    t: float
+    a: Sequence[str]
+    b: Sequence[str]
+    score: np.ndarray
+    combined: np.ndarray
+    instants: np.ndarray
+    associated: np.ndarray
     method: str
+    combine: str
+    window: int
+    threshold: float
+    frame_id: str = FRAME_MAP
 
-    def pair_status(self, a: str, b: str, hardware_id: str = 'fusion') -> DiagnosticStatus:
-        """The status of pair (a, b) as the fusion node publishes it."""
-        return self.to_status(pair_name(a, b), DIAG_OK, 'associated' if self.associated else 'not associated',
-                              hardware_id)
+    def __len__(self) -> int:
+        return len(self.a)
+
+    def select(self, mask) -> FusionPairs:
+        """The pairs where ``mask`` holds (e.g. ``pairs.associated``)."""
+        k = np.flatnonzero(mask)
+        return replace(self, a=[self.a[i] for i in k], b=[self.b[i] for i in k], score=self.score[k],
+                       combined=self.combined[k], instants=self.instants[k], associated=self.associated[k])
+
+    def rows(self) -> Iterator[tuple[tuple[str, str], float, float, int, bool]]:
+        """((a, b), score, combined, instants, associated) per pair."""
+        for k in range(len(self)):
+            yield ((self.a[k], self.b[k]), float(self.score[k]), float(self.combined[k]), int(self.instants[k]),
+                   bool(self.associated[k]))
+
+    def to_msg(self) -> PairScoreArray:
+        msg = PairScoreArray(header=stamped_header(self.t, self.frame_id), method=self.method,
+                             combine=self.combine, window=int(self.window), threshold=float(self.threshold))
+        msg.pairs = [PairScore(a=a, b=b, score=s, combined=c, instants=n, associated=v)
+                     for a, b, s, c, n, v in zip(self.a, self.b, self.score.tolist(), self.combined.tolist(),
+                                                 self.instants.tolist(), self.associated.tolist(), strict=True)]
+        return msg
 
     @classmethod
-    def read(cls, status: DiagnosticStatus) -> tuple[tuple[str, str], Self]:
-        """((a, b), record) of one status of /fusion/scores."""
-        return split_pair_name(status.name), cls.from_status(status)
+    def from_msg(cls, msg) -> Self:
+        """The record of a ``PairScoreArray`` (an rclpy or rosbags message); ``RecordError`` on a pair without ids."""
+        p = msg.pairs
+        bad = next((k for k, q in enumerate(p) if not q.a or not q.b), None)
+        if bad is not None:
+            raise RecordError(f'fusion pairs: pair {bad} has an empty track id ({p[bad].a!r}, {p[bad].b!r})')
+        return cls(stamp_to_sec(msg.header.stamp), [q.a for q in p], [q.b for q in p],
+                   np.array([q.score for q in p], float), np.array([q.combined for q in p], float),
+                   np.array([q.instants for q in p], np.int64), np.array([q.associated for q in p], bool),
+                   msg.method, msg.combine, int(msg.window), float(msg.threshold), msg.header.frame_id)
+
+
+@dataclass(frozen=True, eq=False)
+class FusedTracks:
+    """The associated pairs (a, b) of one instant fused: positions ``mu`` (n, 2), covariances ``P`` (n, 2, 2)."""
+
+    t: float
+    a: Sequence[str]
+    b: Sequence[str]
+    mu: np.ndarray
+    P: np.ndarray
+    frame_id: str = FRAME_MAP
+
+    def __len__(self) -> int:
+        return len(self.a)
+
+    def to_msg(self) -> FusedTrackArray:
+        msg = FusedTrackArray(header=stamped_header(self.t, self.frame_id))
+        P = np.asarray(self.P, float).reshape(-1, 4)
+        msg.tracks = [FusedTrack(a=a, b=b, x=x, y=y, covariance=c)
+                      for a, b, (x, y), c in zip(self.a, self.b, np.asarray(self.mu, float).reshape(-1, 2).tolist(),
+                                                 P, strict=True)]
+        return msg
+
+    @classmethod
+    def from_msg(cls, msg) -> Self:
+        k = msg.tracks
+        P = np.array([np.asarray(q.covariance, float) for q in k], float).reshape(-1, 2, 2)
+        return cls(stamp_to_sec(msg.header.stamp), [q.a for q in k], [q.b for q in k],
+                   np.array([(q.x, q.y) for q in k], float).reshape(-1, 2), P, msg.header.frame_id)
 
 
 @dataclass(frozen=True)

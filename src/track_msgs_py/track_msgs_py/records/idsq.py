@@ -1,10 +1,36 @@
-"""IDSQ records: the reply to a handoff (``/idsq/sensor_<j>/ack``), the leader events (``/idsq/leader``),
-the leader's belief cloud (``/idsq/belief``), the sensor layout (``/idsq/layout``) and the handoff bytes
-(``/idsq/sensor_<j>/handoff``).
+"""IDSQ records: the protocol messages (``track_msgs`` ``IdsqHandoff``, ``IdsqAck``, ``IdsqRevoke``,
+``IdsqLeaderEvent``), the leader's belief cloud (``/idsq/belief``) and the sensor layout (``/idsq/layout``).
 
-The first two travel as one ``DiagnosticStatus`` named ``sensor_<id>`` of the sensor that writes it;
+One record per layout, each with ``to_msg``/``from_msg``; ``from_msg`` raises ``RecordError`` with one
+line, which a node passes to its ``refuse``. The protocol messages:
+
+=====================  ===========================================  =============================================
+record                 topic (``topics.py``), message               mapping
+=====================  ===========================================  =============================================
+``IdsqHandoff``        ``/idsq/sensor_<receiver>/handoff``,         field for field the package of
+                       ``track_msgs/IdsqHandoff``                   ``track_core.idsq.handoff.Package`` (u32 cells,
+                                                                    f32 mass: the receiver's belief is the one the
+                                                                    binary package gives, to the bit); ``t`` =
+                                                                    header.stamp, the time of the step
+``IdsqAck``            ``/idsq/sensor_<sender>/ack``,               ``accepted`` false is a nack; ``reason`` one
+                       ``track_msgs/IdsqAck``                       line of at most ``MAX_REASON`` characters
+``IdsqRevoke``         ``/idsq/sensor_<receiver>/revoke``,          the handoff of ``step`` from ``sender`` is void
+                       ``track_msgs/IdsqRevoke``
+``IdsqLeaderEvent``    ``/idsq/leader``, ``track_msgs/              ``event`` as a word (``LEADER_EVENTS``), the
+                       IdsqLeaderEvent``                            message's code on the wire; a field the event
+                                                                    does not carry (``EVENT_FIELDS``) is ``None``
+                                                                    here and 0 / -1 / NaN / empty there
+=====================  ===========================================  =============================================
+
+The revoke has a topic of its own (one type per topic, and ``ros2 topic echo`` shows what it is);
+nothing orders it against the handoffs, which the chain rule tolerates
+(``track_core.idsq.leader_protocol``). ``received_handoff`` is what a sensor hands its ledger: the
+``Handoff``, or an ``Unusable`` with the reason and the message's address, so that the refusal is
+answered. The conversions to core types import ``track_core.idsq`` only when called (it loads
+scipy.stats, about 1 s, which the other users of this module need not pay).
+
 ``IdsqBelief`` is a ``PointCloud2``: float32 ``x``, ``y`` (the cell centre, map), ``z`` (0), ``p``
-(the cell's posterior mass), one point per cell of the sparse belief. The other two:
+(the cell's posterior mass), one point per cell of the sparse belief. The layout:
 
 =========================  ==========================================  ===============================================
 data                       message type                                fields
@@ -14,75 +40,230 @@ IDSQ sensor layout         sensor_msgs/PointCloud2 (``/idsq/layout``)  ``FLOAT32
                                                                        ``x_f64``, ``y_f64``, ``type`` (0 acoustic, 1
                                                                        DOA) at 16, 24, 32, 40; ``point_step`` 48; one
                                                                        point per sensor (float64: positions exact)
-IDSQ handoff bytes         std_msgs/UInt8MultiArray                    ``data`` = the bytes; one ``layout.dim``:
-(``encode_handoff``)                                                   label ``idsq_handoff_v1``, size = stride = n
 =========================  ==========================================  ===============================================
 
 The layout carries its positions twice: float32 ``x``, ``y`` for the viewers and float64 ``x_f64``,
 ``y_f64`` that every sensor node reads: it checks its ``position`` parameter against them and builds
 its neighbour lists from them, so all must read the same exact positions. A layout without
 ``x_f64``/``y_f64`` (float64 ``id``, ``x``, ``y``, ``type`` only) reads its positions from ``x``, ``y``.
-``pointcloud2_to_layout`` imports ``track_core.idsq`` only when called (it loads scipy.stats, about
-1 s, which the other users of this module need not pay).
 """
 
 from __future__ import annotations
 
 import array
-from dataclasses import dataclass, field
+import dataclasses
+import math
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Self
 
 import numpy as np
-from diagnostic_msgs.msg import DiagnosticStatus
 from sensor_msgs.msg import PointCloud2
-from std_msgs.msg import MultiArrayDimension, UInt8MultiArray
+from std_msgs.msg import Header
 
+from track_msgs.msg import IdsqAck as IdsqAckMsg
+from track_msgs.msg import IdsqHandoff as IdsqHandoffMsg
+from track_msgs.msg import IdsqLeaderEvent as IdsqLeaderEventMsg
+from track_msgs.msg import IdsqRevoke as IdsqRevokeMsg
 from track_msgs_py.clouds import XYZ, pack_cloud, pointcloud2_to_table, points_to_pointcloud2
-from track_msgs_py.records import DIAG_OK, DIAG_WARN, RecordError, StatusRecord, read_cloud
-from track_msgs_py.stamps import stamp_to_sec
-from track_msgs_py.topics import FRAME_MAP
+from track_msgs_py.records import RecordError, read_cloud
+from track_msgs_py.stamps import sec_to_stamp, stamp_to_sec
+from track_msgs_py.topics import FRAME_MAP, idsq_ack_topic, idsq_handoff_topic, idsq_revoke_topic
 
 if TYPE_CHECKING:
+    from track_core.idsq.handoff import Handoff, Package, Unusable
     from track_core.idsq.network import SensorLayout
 
-LEADER_EVENTS = ('step', 'reselect', 'self', 'void')
+MAX_REASON = 1000  # characters of a nack's reason (it goes into one log line of the sender)
+#: The per-sensor protocol topics: kind → (message type, topic of sensor k).
+PROTOCOL = {'handoff': (IdsqHandoffMsg, idsq_handoff_topic), 'ack': (IdsqAckMsg, idsq_ack_topic),
+            'revoke': (IdsqRevokeMsg, idsq_revoke_topic)}
 
+
+def _header(t: float, frame_id: str = '') -> Header:
+    """Stamped ``t`` [s], or 0 when a stamp cannot hold it (the time of an absurd step number)."""
+    return Header(stamp=sec_to_stamp(t if 0.0 < t < 2**31 - 1 else 0.0), frame_id=frame_id)
+
+
+def _u32(values) -> array.array:
+    return array.array('I', np.asarray(values, dtype=np.uint32).tobytes())
+
+
+def _u16(values) -> array.array:
+    return array.array('H', [int(v) for v in values or ()])
+
+
+def _one_line(kind: str, name: str, text: str) -> None:
+    if len(text) > MAX_REASON or not text.isprintable():
+        raise RecordError(f'{kind}: {name} must be one printable line of at most {MAX_REASON} characters '
+                          f'(got {len(text)})')
+
+
+# --- the handoff --------------------------------------------------------------------------------
+
+@dataclass(frozen=True, eq=False)
+class IdsqHandoff:
+    """The handoff package of Table 1 step 5 as ``track_msgs/IdsqHandoff`` carries it (fields of
+    ``track_core.idsq.handoff.Package``; ``cells`` uint32, ``mass`` float32) at time ``t`` [s]."""
+
+    KIND = 'idsq handoff'
+
+    t: float
+    version: int
+    step: int
+    sender: int
+    receiver: int
+    x0: float
+    y0: float
+    cell: float
+    nx: int
+    ny: int
+    cells: np.ndarray
+    mass: np.ndarray
+    velocity: tuple[float, float] = (0.0, 0.0)
+    observations: int = 0
+    bank_spacing: float = 0.0
+    hypotheses: int = 0
+    frame_id: str = FRAME_MAP
+
+    @classmethod
+    def of_package(cls, t: float, p: Package, frame_id: str = FRAME_MAP) -> Self:
+        return cls(t, **{f.name: getattr(p, f.name) for f in dataclasses.fields(p)}, frame_id=frame_id)
+
+    @classmethod
+    def from_handoff(cls, t: float, h: Handoff, frame_id: str = FRAME_MAP) -> Self:
+        """``h`` rounded as it travels (``track_core.idsq.handoff.to_package``)."""
+        from track_core.idsq.handoff import to_package
+
+        return cls.of_package(t, to_package(h), frame_id)
+
+    def package(self) -> Package:
+        from track_core.idsq.handoff import Package
+
+        return Package(**{f.name: getattr(self, f.name) for f in dataclasses.fields(Package)})
+
+    def to_handoff(self) -> Handoff:
+        """The carried ``Handoff``; ``ValueError`` with one line if the package is unreadable
+        (``from_package``: unknown version, arrays of different lengths, ...)."""
+        from track_core.idsq.handoff import from_package
+
+        return from_package(self.package())
+
+    @property
+    def package_bytes(self) -> int:
+        """Size of the package [bytes] (``payload_bytes``): the communication cost we report."""
+        from track_core.idsq.handoff import VERSION_BANK, VERSION_MOTION, payload_bytes
+
+        return payload_bytes(len(self.cells), self.version == VERSION_MOTION, self.version == VERSION_BANK)
+
+    def to_msg(self) -> IdsqHandoffMsg:
+        return IdsqHandoffMsg(
+            header=_header(self.t, self.frame_id), version=int(self.version), step=int(self.step),
+            sender=int(self.sender), receiver=int(self.receiver), grid_x0=float(self.x0), grid_y0=float(self.y0),
+            grid_cell=float(self.cell), grid_nx=int(self.nx), grid_ny=int(self.ny), cells=_u32(self.cells),
+            mass=array.array('f', np.asarray(self.mass, dtype=np.float32).tobytes()),
+            velocity_x=float(self.velocity[0]), velocity_y=float(self.velocity[1]),
+            observations=int(self.observations), bank_spacing=float(self.bank_spacing),
+            bank_hypotheses=int(self.hypotheses))
+
+    @classmethod
+    def from_msg(cls, msg: IdsqHandoffMsg, frame_id: str | None = FRAME_MAP) -> Self:
+        """The fields as they came; ``RecordError`` if the grid is not in ``frame_id`` (``None``: any frame).
+        The other checks are ``to_handoff``'s, one place for both wire forms."""
+        if frame_id is not None and msg.header.frame_id != frame_id:
+            raise RecordError(f'{cls.KIND}: header.frame_id={msg.header.frame_id!r}, the grid is in {frame_id!r}')
+        return cls(stamp_to_sec(msg.header.stamp), msg.version, msg.step, msg.sender, msg.receiver, msg.grid_x0,
+                   msg.grid_y0, msg.grid_cell, msg.grid_nx, msg.grid_ny, np.frombuffer(msg.cells, dtype=np.uint32),
+                   np.frombuffer(msg.mass, dtype=np.float32), (msg.velocity_x, msg.velocity_y), msg.observations,
+                   msg.bank_spacing, msg.bank_hypotheses, msg.header.frame_id)
+
+
+def received_handoff(msg: IdsqHandoffMsg, frame_id: str = FRAME_MAP) -> Handoff | Unusable:
+    """What a sensor's ledger takes from a handoff message (``HandoffLedger.on_handoff``): the
+    ``Handoff``, or ``Unusable`` with the one-line reason and the address, which a typed message
+    always has (so the refusal is answered)."""
+    from track_core.idsq.handoff import Unusable
+
+    try:
+        return IdsqHandoff.from_msg(msg, frame_id).to_handoff()
+    except ValueError as exc:  # RecordError included
+        return Unusable(str(exc), (msg.sender, msg.receiver, msg.step))
+
+
+# --- the ack and the revoke -----------------------------------------------------------------------
 
 @dataclass(frozen=True)
-class IdsqAck(StatusRecord):
-    """``receiver``'s answer to ``sender``'s handoff of ``step``: ``result`` ``ack``, or ``nack`` with the
-    reason in the status message (``refused: <reason>``). Any result but ``ack`` counts as a refusal."""
+class IdsqAck:
+    """``receiver``'s answer to ``sender``'s handoff of ``step`` at time ``t`` [s]: an ack, or a nack
+    (``accepted`` false) with the ``reason``."""
 
     KIND = 'idsq ack'
 
     step: int
     sender: int
     receiver: int
-    result: str
+    accepted: bool
+    reason: str = ''
+    t: float = 0.0
 
     @property
-    def accepted(self) -> bool:
-        return self.result == 'ack'
+    def result(self) -> str:
+        """``ack`` or ``nack``, the words of ``HandoffLedger.on_reply``."""
+        return 'ack' if self.accepted else 'nack'
 
     @classmethod
-    def reply(cls, step: int, sender: int, receiver: int, refusal: str | None) -> DiagnosticStatus:
-        """The status ``receiver`` sends back: level OK + ``ack``, or WARN + ``nack`` and ``refused: <refusal>``."""
-        rec = cls(step, sender, receiver, 'ack' if refusal is None else 'nack')
-        return rec.to_status(f'sensor_{receiver}', DIAG_OK if refusal is None else DIAG_WARN,
-                             'ack' if refusal is None else f'refused: {refusal}')
+    def reply(cls, step: int, sender: int, receiver: int, refusal: str | None, t: float = 0.0) -> Self:
+        """The answer ``receiver`` sends back: an ack (``refusal`` None) or a nack with ``refusal``."""
+        return cls(step, sender, receiver, refusal is None, refusal or '', t)
 
+    def to_msg(self) -> IdsqAckMsg:
+        return IdsqAckMsg(header=_header(self.t), step=int(self.step), sender=int(self.sender),
+                          receiver=int(self.receiver), accepted=bool(self.accepted), reason=self.reason)
 
-def _bool_word(b: bool) -> str:
-    return str(bool(b))  # 'True' / 'False', as the sensors have always written it
+    @classmethod
+    def from_msg(cls, msg: IdsqAckMsg) -> Self:
+        """``RecordError`` for a reason that is not one printable line of at most ``MAX_REASON`` characters."""
+        _one_line(cls.KIND, 'reason', msg.reason)
+        return cls(msg.step, msg.sender, msg.receiver, msg.accepted, msg.reason, stamp_to_sec(msg.header.stamp))
 
 
 @dataclass(frozen=True)
-class IdsqLeaderEvent(StatusRecord):
-    """One ``/idsq/leader`` event of sensor ``leader``: ``step`` (it led ``step``; the estimate's fields),
-    ``reselect`` (the handoff of ``step`` goes to ``next`` after ``failed`` timed out or refused,
-    ``reason``), ``self`` (no neighbour took it, ``tried``; ``leader`` leads step + 1 itself) or ``void``
-    (its lead of ``step``, from ``previous``'s handoff, was revoked: a parallel chain ended).
-    ``previous`` is -1 for no previous leader; ``handoff_bytes`` is 0 when nothing is sent."""
+class IdsqRevoke:
+    """``sender`` revokes its handoff of ``step`` to ``receiver`` (the chain rule), sent at ``t`` [s]."""
+
+    step: int
+    sender: int
+    receiver: int
+    t: float = 0.0
+
+    def to_msg(self) -> IdsqRevokeMsg:
+        return IdsqRevokeMsg(header=_header(self.t), step=int(self.step), sender=int(self.sender),
+                             receiver=int(self.receiver))
+
+    @classmethod
+    def from_msg(cls, msg: IdsqRevokeMsg) -> Self:
+        return cls(msg.step, msg.sender, msg.receiver, stamp_to_sec(msg.header.stamp))
+
+
+# --- the leader events ------------------------------------------------------------------------------
+
+LEADER_EVENTS = ('step', 'reselect', 'self', 'void')
+EVENT_CODES = {'step': IdsqLeaderEventMsg.STEP, 'reselect': IdsqLeaderEventMsg.RESELECT,
+               'self': IdsqLeaderEventMsg.SELF, 'void': IdsqLeaderEventMsg.VOID}
+#: The optional fields each event carries (``handoff_bytes`` and the address: every event).
+EVENT_FIELDS = {'step': ('previous', 'z', 'updated', 'belief_size', 'spread_m2', 'candidates', 'mi_bits'),
+                'reselect': ('failed', 'reason'), 'self': ('tried',), 'void': ('previous',)}
+_OPTIONAL = ('previous', 'z', 'updated', 'belief_size', 'spread_m2', 'candidates', 'mi_bits', 'tried', 'failed',
+             'reason')
+
+
+@dataclass(frozen=True)
+class IdsqLeaderEvent:
+    """One ``/idsq/leader`` event of sensor ``leader`` at time ``t`` [s]: ``step`` (it led ``step``; the
+    estimate's fields), ``reselect`` (the handoff of ``step`` goes to ``next`` after ``failed`` timed out
+    or refused, ``reason``), ``self`` (no neighbour took it, ``tried``; ``leader`` leads step + 1 itself)
+    or ``void`` (its lead of ``step``, from ``previous``'s handoff, was revoked: a parallel chain ended).
+    ``previous`` is -1 for no previous leader; ``handoff_bytes`` is 0 when nothing is sent. A field its
+    event does not carry (``EVENT_FIELDS``) must be ``None``."""
 
     KIND = 'idsq leader event'
 
@@ -92,36 +273,75 @@ class IdsqLeaderEvent(StatusRecord):
     next: int
     previous: int | None = None
     z: float | None = None
-    updated: bool | None = field(default=None, metadata={'fmt': _bool_word})
+    updated: bool | None = None
     belief_size: int | None = None
     spread_m2: float | None = None
     candidates: tuple[int, ...] | None = None
-    mi_bits: tuple[float, ...] | None = field(default=None, metadata={'fmt': '{:.6g}'.format})
+    mi_bits: tuple[float, ...] | None = None
     tried: tuple[int, ...] | None = None
     failed: int | None = None
     reason: str | None = None
     handoff_bytes: int = 0
+    t: float = 0.0
 
     def __post_init__(self) -> None:
         if self.event not in LEADER_EVENTS:
             raise ValueError(f'event={self.event!r} is not one of {", ".join(LEADER_EVENTS)}')
+        extra = [k for k in _OPTIONAL if k not in EVENT_FIELDS[self.event] and getattr(self, k) is not None]
+        if extra:
+            raise ValueError(f'a {self.event} event does not carry {", ".join(extra)}')
+
+    def to_msg(self) -> IdsqLeaderEventMsg:
+        def num(v, none):
+            return none if v is None else v
+
+        return IdsqLeaderEventMsg(
+            header=_header(self.t), event=EVENT_CODES[self.event], step=int(self.step), leader=int(self.leader),
+            next=int(self.next), previous=int(num(self.previous, -1)), z=float(num(self.z, math.nan)),
+            updated=bool(self.updated), belief_size=int(num(self.belief_size, 0)),
+            spread_m2=float(num(self.spread_m2, math.nan)), candidates=_u16(self.candidates),
+            mi_bits=array.array('d', [float(v) for v in self.mi_bits or ()]), tried=_u16(self.tried),
+            failed=int(num(self.failed, -1)), reason=self.reason or '', handoff_bytes=int(self.handoff_bytes))
 
     @classmethod
-    def from_values(cls, values) -> Self:
-        if values.get('updated') in ('True', 'False'):  # the wire word of ``updated`` (see _bool_word)
-            values = {**values, 'updated': values['updated'].lower()}
-        return super().from_values(values)
+    def from_msg(cls, msg: IdsqLeaderEventMsg) -> Self:
+        """``RecordError`` for an unknown event code or candidates and scores of different lengths."""
+        event = next((k for k, code in EVENT_CODES.items() if code == msg.event), None)
+        if event is None:
+            raise RecordError(f'{cls.KIND}: event code {msg.event} is not one of '
+                              + ', '.join(f'{c} ({k})' for k, c in EVENT_CODES.items()))
+        if len(msg.candidates) != len(msg.mi_bits):
+            raise RecordError(f'{cls.KIND}: {len(msg.candidates)} candidates but {len(msg.mi_bits)} scores')
+        have = {'previous': msg.previous, 'z': msg.z, 'updated': msg.updated, 'belief_size': msg.belief_size,
+                'spread_m2': msg.spread_m2, 'candidates': tuple(msg.candidates), 'mi_bits': tuple(msg.mi_bits),
+                'tried': tuple(msg.tried), 'failed': msg.failed, 'reason': msg.reason}
+        return cls(event, msg.step, msg.leader, msg.next, **{k: have[k] for k in EVENT_FIELDS[event]},
+                   handoff_bytes=msg.handoff_bytes, t=stamp_to_sec(msg.header.stamp))
 
-    def to_status(self, name: str | None = None, level: int | None = None, message: str | None = None,
-                  hardware_id: str = '', extra=None) -> DiagnosticStatus:
-        """As the sensor publishes it: named ``sensor_<leader>``, OK for ``step`` and WARN otherwise,
-        message ``<event> <step>: sensor <leader> -> sensor <next>``."""
-        return super().to_status(
-            f'sensor_{self.leader}' if name is None else name,
-            (DIAG_OK if self.event == 'step' else DIAG_WARN) if level is None else level,
-            f'{self.event} {self.step}: sensor {self.leader} -> sensor {self.next}' if message is None else message,
-            hardware_id, extra)
 
+def leader_event(fx, me: int) -> IdsqLeaderEvent:
+    """The ``/idsq/leader`` event of sensor ``me``'s ledger effect ``fx`` (``track_core.idsq.leader_protocol``
+    ``Led``, ``Reselect``, ``SelfLead`` or ``Void``)."""
+    from track_core.idsq import leader_protocol as lp
+
+    if isinstance(fx, lp.Led):
+        res, est = fx.result, fx.result.estimate
+        return IdsqLeaderEvent(
+            'step', fx.step, me, fx.next, previous=-1 if fx.previous is None else fx.previous, z=fx.z,
+            updated=bool(res.updated), belief_size=int(est.size), spread_m2=float(est.spread),
+            candidates=tuple(int(c) for c in res.candidates), mi_bits=tuple(float(s) for s in res.scores),
+            handoff_bytes=len(res.payload) if fx.next != me else 0)
+    if isinstance(fx, lp.Reselect):
+        return IdsqLeaderEvent('reselect', fx.step, me, fx.receiver, failed=fx.failed, reason=fx.reason,
+                               handoff_bytes=fx.handoff_bytes)
+    if isinstance(fx, lp.SelfLead):
+        return IdsqLeaderEvent('self', fx.step, me, me, tried=tuple(fx.tried))
+    if isinstance(fx, lp.Void):
+        return IdsqLeaderEvent('void', fx.step, me, me, previous=-1 if fx.parent is None else fx.parent)
+    raise TypeError(f'{type(fx).__name__} is no leader event')
+
+
+# --- the belief cloud ---------------------------------------------------------------------------
 
 @dataclass(frozen=True, eq=False)
 class IdsqBelief:
@@ -142,14 +362,12 @@ class IdsqBelief:
                    msg.header.frame_id)
 
 
-# --- the sensor layout ⇄ PointCloud2, handoff bytes ⇄ UInt8MultiArray ------------------------
+# --- the sensor layout ⇄ PointCloud2 ----------------------------------------------------------------
 
 #: The FLOAT64 fields of the ``/idsq/layout`` cloud, after float32 x, y, z (type 0 acoustic, 1 DOA).
 LAYOUT_FIELDS = ('id', 'x_f64', 'y_f64', 'type')
 _LAYOUT_DTYPE = np.dtype({'names': [*XYZ, *LAYOUT_FIELDS], 'formats': ['<f4'] * 3 + ['<f8'] * 4,
                           'offsets': [0, 4, 8, 16, 24, 32, 40], 'itemsize': 48})
-#: ``layout.dim[0].label`` of a handoff message: ``data`` is ``track_core.idsq.encode_handoff`` bytes.
-HANDOFF_LABEL = 'idsq_handoff_v1'
 
 
 def layout_to_pointcloud2(t: float, layout: SensorLayout, frame_id: str = FRAME_MAP) -> PointCloud2:
@@ -183,18 +401,6 @@ def pointcloud2_to_layout(msg: PointCloud2, comm_range: float) -> SensorLayout:
     return SensorLayout(pos, types == 1, comm_range)
 
 
-def handoff_to_uint8_array(payload: bytes) -> UInt8MultiArray:
-    """Handoff bytes (``encode_handoff``) → ``std_msgs/UInt8MultiArray`` labelled ``HANDOFF_LABEL``."""
-    msg = UInt8MultiArray()
-    msg.layout.dim = [MultiArrayDimension(label=HANDOFF_LABEL, size=len(payload), stride=len(payload))]
-    msg.data = array.array('B', payload)
-    return msg
-
-
-def uint8_array_to_handoff(msg: UInt8MultiArray) -> bytes:
-    """``std_msgs/UInt8MultiArray`` → its ``data`` as bytes, unchecked (``receive_handoff`` validates)."""
-    return msg.data.tobytes() if hasattr(msg.data, 'tobytes') else bytes(msg.data)
-
-
-__all__ = ['HANDOFF_LABEL', 'LAYOUT_FIELDS', 'LEADER_EVENTS', 'IdsqAck', 'IdsqBelief', 'IdsqLeaderEvent', 'RecordError',
-           'handoff_to_uint8_array', 'layout_to_pointcloud2', 'pointcloud2_to_layout', 'uint8_array_to_handoff']
+__all__ = ['EVENT_CODES', 'EVENT_FIELDS', 'LAYOUT_FIELDS', 'LEADER_EVENTS', 'MAX_REASON', 'PROTOCOL', 'IdsqAck',
+           'IdsqBelief', 'IdsqHandoff', 'IdsqLeaderEvent', 'IdsqRevoke', 'RecordError', 'layout_to_pointcloud2',
+           'leader_event', 'pointcloud2_to_layout', 'received_handoff']

@@ -1,94 +1,120 @@
-"""Typed records of the RFID search links: command, step result, user truth, found event.
+"""Typed records of the RFID search links ⇄ their ``track_msgs`` messages, and the phase cloud.
 
-- ``RfidCommand``: ``/rfid/command``, guidance → reader (one ``protocol.Command``);
-- ``RfidStep``: ``/rfid/step``, reader → guidance (one ``protocol.StepResult`` + ``duration``);
-- ``RfidUserStatus``: ``/rfid/user/status``, the reader's truth (evaluation only);
-- ``RfidFound``: ``/rfid/found``, the guidance's one event when the tag is reached;
-- ``RfidPhase``: ``/rfid/phase``, the raw reads of one MOVE as a ``PointCloud2``: float32 ``x``,
-  ``y``, ``z`` = where the reader was at each read (map, tag at the origin: the simulator's truth,
-  on the segment the user walked; z = 0), then ``t`` (s since the step started), ``phase``
-  (wrapped, rad), ``rssi`` (dBm), ``carrier_mhz``. Positions make the reads drawable where they
-  were taken (coloured by phase, the wrapping is visible along the walk); nothing reads them back
-  for processing.
+=====================  ============================  ====================================================
+record                 topic, message                mapping
+=====================  ============================  ====================================================
+``RfidCommand``        ``/rfid/command``,            one ``protocol.Command``: ``seq``, ``kind`` ⇄ the
+                       ``track_msgs/RfidCommand``    ``TURN``/``MOVE``/``DONE`` constants, ``angle`` (rad),
+                       guidance → reader             ``angle_deg`` (written from ``angle``, read: checked
+                                                     finite, not used), ``repeat``, ``reason``
+``RfidStep``           ``/rfid/step``,               one ``protocol.StepResult`` + ``duration`` [s]; the
+                       ``track_msgs/RfidStep``       core's NaN (unknown ``dphi``, ``turn``,
+                       reader → guidance             ``dphi_std``) ⇄ ``None`` here ⇄ ``<field>_known``
+                                                     false and 0 on the wire, so no output carries a NaN
+``RfidUserStatus``     ``/rfid/user/status``,        the reader's truth (evaluation only), frame ``map``
+                       ``track_msgs/RfidUserStatus``
+``RfidFound``          ``/rfid/found``,              the guidance's one event when the tag is reached:
+                       ``track_msgs/RfidFound``      the result's ``seq`` and the search's counters
+``RfidPhase``          ``/rfid/phase``,              the raw reads of one MOVE (below)
+                       ``sensor_msgs/PointCloud2``
+=====================  ============================  ====================================================
 
-Floats are written with the shortest repr, so dφ, turns and angles round-trip exactly. Field
-order is the key order on the wire.
+``to_msg(t)`` stamps the header with ``t``; ``from_msg`` reads the fields back exactly (float64 on
+the wire) and raises ``RecordError`` with one line for input no sender of ours writes: an unknown
+kind value, a seq 0, a non-finite angle, duration or known ``dphi_std``. A NaN ``dphi`` or ``turn``
+passes, so that the core's bad-input rule (``protocol.step_result_problem``) words the warning.
+
+``RfidPhase``: float32 ``x``, ``y``, ``z`` = where the reader was at each read (map, tag at the
+origin: the simulator's truth, on the segment the user walked; z = 0), then ``t`` (s since the step
+started), ``phase`` (wrapped, rad), ``rssi`` (dBm), ``carrier_mhz``. Positions make the reads
+drawable where they were taken (coloured by phase, the wrapping is visible along the walk);
+nothing reads them back for processing.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Self
 
 import numpy as np
-from diagnostic_msgs.msg import DiagnosticArray
 from sensor_msgs.msg import PointCloud2
 
 from track_core.rfid.protocol import Command, CommandKind, StepResult
 from track_core.rfid.signal import PhaseStream
+from track_msgs import msg as tm
 from track_msgs_py.clouds import points_to_pointcloud2
-from track_msgs_py.records import RecordError, StatusRecord, read_cloud
-from track_msgs_py.stamps import stamp_to_sec
+from track_msgs_py.records import RecordError, read_cloud
+from track_msgs_py.stamps import stamp_to_sec, stamped_header
 from track_msgs_py.topics import FRAME_MAP
 
-KINDS = tuple(k.value for k in CommandKind)
+#: The wire value of each kind (the constants of RfidCommand and RfidStep, equal in both).
+KIND_VALUES = {CommandKind.TURN: tm.RfidCommand.TURN, CommandKind.MOVE: tm.RfidCommand.MOVE,
+               CommandKind.DONE: tm.RfidCommand.DONE}
+_KINDS = {v: k for k, v in KIND_VALUES.items()}
+_KIND_WORDS = ', '.join(f'{v} ({k.value})' for k, v in KIND_VALUES.items())
 
 
-def _kind(text: str) -> CommandKind:
+def _kind(record: str, value: int) -> CommandKind:
     try:
-        return CommandKind(text)
-    except ValueError:
-        raise RecordError(f'kind {text!r} is not one of {"|".join(KINDS)}') from None
+        return _KINDS[value]
+    except KeyError:
+        raise RecordError(f'{record}: kind {value} is not one of {_KIND_WORDS}') from None
+
+
+def _finite(record: str, name: str, value: float) -> float:
+    if not math.isfinite(value):
+        raise RecordError(f'{record}: non-finite {name}={value}')
+    return value
 
 
 @dataclass(frozen=True)
-class RfidCommand(StatusRecord):
-    """One command: ``seq`` ≥ 1, ``kind`` turn|move|done, ``angle`` rad (+ = left), ``angle_deg`` for reading."""
-
-    KIND = 'rfid command'
+class RfidCommand:
+    """One command: ``seq`` ≥ 1, ``kind``, ``angle`` rad (+ = left); ``angle_deg`` is written from it."""
 
     seq: int
-    kind: str
+    kind: CommandKind
     angle: float = 0.0
-    angle_deg: float | None = field(default=None, metadata={'fmt': '{:.2f}'.format})
     repeat: bool = False
     reason: str = ''
 
     @classmethod
     def from_command(cls, cmd: Command) -> RfidCommand:
-        return cls(cmd.seq, cmd.kind.value, float(cmd.angle), math.degrees(cmd.angle), cmd.repeat, cmd.reason)
+        return cls(cmd.seq, cmd.kind, float(cmd.angle), cmd.repeat, cmd.reason)
 
     def command(self) -> Command:
-        """The core's ``Command``; ``RecordError`` when the kind, seq or angle is unusable."""
-        kind = _kind(self.kind)
-        if self.seq < 1:
-            raise RecordError(f'seq {self.seq} < 1')
-        if not math.isfinite(self.angle):
-            raise RecordError(f'non-finite angle={self.angle}')
-        return Command(kind, self.angle, self.seq, self.repeat, self.reason)
+        return Command(self.kind, self.angle, self.seq, self.repeat, self.reason)
+
+    def to_msg(self, t: float) -> tm.RfidCommand:
+        return tm.RfidCommand(header=stamped_header(t, ''), seq=self.seq, kind=KIND_VALUES[self.kind],
+                              angle=self.angle, angle_deg=math.degrees(self.angle), repeat=self.repeat,
+                              reason=self.reason)
+
+    @classmethod
+    def from_msg(cls, msg: tm.RfidCommand) -> Self:
+        """``RecordError`` with one line when the kind, seq or an angle is unusable."""
+        kind = _kind('rfid command', msg.kind)
+        if msg.seq < 1:
+            raise RecordError(f'rfid command: seq {msg.seq} < 1')
+        _finite('rfid command', 'angle_deg', msg.angle_deg)
+        return cls(msg.seq, kind, _finite('rfid command', 'angle', msg.angle), msg.repeat, msg.reason)
 
 
-def read_command(msg: DiagnosticArray) -> Command:
+def read_command(msg: tm.RfidCommand) -> Command:
     """The ``Command`` of a ``/rfid/command`` message, or ``RecordError`` with one line."""
-    if not msg.status:
-        raise RecordError('no status')
-    return RfidCommand.from_status(msg.status[0]).command()
+    return RfidCommand.from_msg(msg).command()
 
 
 @dataclass(frozen=True)
-class RfidStep(StatusRecord):
+class RfidStep:
     """One step result (the fields of ``StepResult``) and the simulated ``duration`` of the action [s].
 
-    A value the core marks unknown with NaN (dφ and turn of an unusable step, the reader's dφ std
-    with fixed noise) is an absent key on the wire, so no output carries a NaN; reading
-    it back gives NaN again.
+    ``None``: a value the core marks unknown with NaN (dφ and turn of an unusable step, the reader's
+    dφ std with fixed noise); reading it back gives NaN again.
     """
 
-    KIND = 'rfid step result'
-
     seq: int
-    kind: str
+    kind: CommandKind
     dphi: float | None
     turn: float | None
     n_reads: int
@@ -97,18 +123,39 @@ class RfidStep(StatusRecord):
     reason: str
     found: bool
     duration: float
-    dphi_std: float | None = None  # the reader's own dφ std; absent: unknown
+    dphi_std: float | None = None  # the reader's own dφ std; None: unknown
     relocks: int = 0  # re-locks after lasting phase steps in this MOVE
 
     @classmethod
     def from_result(cls, res: StepResult, duration: float) -> RfidStep:
-        return cls(res.seq, res.kind.value, _known(res.dphi), _known(res.turn), res.n_reads, res.n_outliers,
+        return cls(res.seq, res.kind, _known(res.dphi), _known(res.turn), res.n_reads, res.n_outliers,
                    bool(res.ok), res.reason, bool(res.found), float(duration), _known(res.dphi_std), int(res.relocks))
 
     def result(self) -> StepResult:
-        return StepResult(_kind(self.kind), self.seq, dphi=_nan(self.dphi), turn=_nan(self.turn), n_reads=self.n_reads,
+        return StepResult(self.kind, self.seq, dphi=_nan(self.dphi), turn=_nan(self.turn), n_reads=self.n_reads,
                           n_outliers=self.n_outliers, ok=self.ok, reason=self.reason, found=self.found,
                           dphi_std=_nan(self.dphi_std), relocks=self.relocks)
+
+    def to_msg(self, t: float) -> tm.RfidStep:
+        return tm.RfidStep(header=stamped_header(t, ''), seq=self.seq, kind=KIND_VALUES[self.kind],
+                           dphi=_or0(self.dphi), dphi_known=self.dphi is not None, turn=_or0(self.turn),
+                           turn_known=self.turn is not None, n_reads=self.n_reads, n_outliers=self.n_outliers,
+                           ok=self.ok, reason=self.reason, found=self.found, duration=self.duration,
+                           dphi_std=_or0(self.dphi_std), dphi_std_known=self.dphi_std is not None,
+                           relocks=self.relocks)
+
+    @classmethod
+    def from_msg(cls, msg: tm.RfidStep) -> Self:
+        """``RecordError`` with one line for an unknown kind, a non-finite duration or known dφ std ≤ 0."""
+        kind = _kind('rfid step result', msg.kind)
+        duration = _finite('rfid step result', 'duration', msg.duration)
+        dphi_std = None
+        if msg.dphi_std_known:
+            dphi_std = _finite('rfid step result', 'dphi_std', msg.dphi_std)
+            if dphi_std <= 0.0:
+                raise RecordError(f'rfid step result: dphi_std={dphi_std} is not > 0')
+        return cls(msg.seq, kind, msg.dphi if msg.dphi_known else None, msg.turn if msg.turn_known else None,
+                   msg.n_reads, msg.n_outliers, msg.ok, msg.reason, msg.found, duration, dphi_std, msg.relocks)
 
 
 def _known(v: float) -> float | None:
@@ -119,44 +166,30 @@ def _nan(v: float | None) -> float:
     return math.nan if v is None else v
 
 
-def read_step(msg: DiagnosticArray, pending: Command) -> tuple[StepResult, int | None]:
-    """A ``/rfid/step`` message → (StepResult, its seq, or None when the seq is unreadable).
+def _or0(v: float | None) -> float:
+    return 0.0 if v is None else v
 
-    Never raises: a message that does not hold a valid record becomes a result for ``pending``
-    with ``ok`` False, NaN dφ and turn and the reason ``malformed step result: …``, so the core's
-    bad-input rule (``protocol.step_result_problem``) warns and repeats the step. Its seq is the
-    message's own when that one is readable (then the malformed answer still answers it).
+
+def read_step(msg: tm.RfidStep, pending: Command) -> tuple[StepResult, int]:
+    """A ``/rfid/step`` message → (StepResult, its seq). Never raises.
+
+    A message that does not hold a valid record becomes a result for its own seq with ``pending``'s
+    kind, ``ok`` False, NaN dφ and turn and the reason ``malformed step result: …``, so the core's
+    bad-input rule (``protocol.step_result_problem``) warns and repeats the step (a malformed answer
+    with the pending seq still answers it).
     """
     try:
-        if not msg.status:
-            raise RecordError('no status')
-        rec = RfidStep.from_status(msg.status[0])
+        rec = RfidStep.from_msg(msg)
         return rec.result(), rec.seq
     except RecordError as exc:
-        seq = _seq(msg)
-        bad = StepResult(pending.kind, pending.seq if seq is None else seq, dphi=math.nan, turn=math.nan,
-                         ok=False, reason=f'malformed step result: {exc}')
-        return bad, seq
+        bad = StepResult(pending.kind, msg.seq, dphi=math.nan, turn=math.nan, ok=False,
+                         reason=f'malformed step result: {exc}')
+        return bad, msg.seq
 
 
 @dataclass(frozen=True)
-class _Seq(StatusRecord):
-    KIND = 'rfid step result'
-    seq: int
-
-
-def _seq(msg: DiagnosticArray) -> int | None:
-    try:
-        return _Seq.from_status(msg.status[0]).seq if msg.status else None
-    except RecordError:
-        return None
-
-
-@dataclass(frozen=True)
-class RfidUserStatus(StatusRecord):
+class RfidUserStatus:
     """The user's truth after command ``seq`` (0: the start): counts, distances [m], pose (map, rad)."""
-
-    KIND = 'rfid user status'
 
     seq: int
     steps: int
@@ -169,12 +202,21 @@ class RfidUserStatus(StatusRecord):
     y: float
     heading: float
 
+    def to_msg(self, t: float) -> tm.RfidUserStatus:
+        return tm.RfidUserStatus(header=stamped_header(t, FRAME_MAP), seq=self.seq, steps=self.steps,
+                                 turns=self.turns, distance_m=self.distance_m, repeats=self.repeats,
+                                 distance_to_tag_m=self.distance_to_tag_m, found=self.found, x=self.x, y=self.y,
+                                 heading=self.heading)
+
+    @classmethod
+    def from_msg(cls, msg: tm.RfidUserStatus) -> Self:
+        return cls(msg.seq, msg.steps, msg.turns, msg.distance_m, msg.repeats, msg.distance_to_tag_m, msg.found,
+                   msg.x, msg.y, msg.heading)
+
 
 @dataclass(frozen=True)
-class RfidFound(StatusRecord):
+class RfidFound:
     """The found event: the step result's ``seq`` and the search's counters."""
-
-    KIND = 'rfid found'
 
     seq: int
     moves: int
@@ -182,6 +224,14 @@ class RfidFound(StatusRecord):
     updates: int
     resamples: int
     reinits: int
+
+    def to_msg(self, t: float) -> tm.RfidFound:
+        return tm.RfidFound(header=stamped_header(t, ''), seq=self.seq, moves=self.moves, turns=self.turns,
+                            updates=self.updates, resamples=self.resamples, reinits=self.reinits)
+
+    @classmethod
+    def from_msg(cls, msg: tm.RfidFound) -> Self:
+        return cls(msg.seq, msg.moves, msg.turns, msg.updates, msg.resamples, msg.reinits)
 
 
 #: The table fields of ``/rfid/phase`` after x, y, z.

@@ -118,6 +118,23 @@ def one_line(exc: BaseException) -> str:
     return text or type(exc).__name__
 
 
+def mcap_problem(path: Path, expected: int) -> str | None:
+    """Decode every message of the bag with the ``mcap`` reader (Foxglove's) and only the schemas the file
+    embeds; → why it failed, or None when it decoded ``expected`` messages (what rosbags counted)."""
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+
+    n = 0
+    try:
+        for mcap_file in storage_files(path):
+            with mcap_file.open('rb') as f:
+                for _ in make_reader(f, decoder_factories=[DecoderFactory()]).iter_decoded_messages():
+                    n += 1
+    except Exception as exc:  # a broken file makes the reader raise anything
+        return f'{path}: the mcap reader refused it: {type(exc).__name__}: {exc}'
+    return None if n == expected else f'{path}: the mcap reader decoded {n} messages, rosbags {expected}'
+
+
 def validate_messages(reader, path: Path, connections=()) -> dict[str, int]:
     """Iterate every message once (decompressing and checking every chunk); → count per topic."""
     return count_messages(reader, path, connections=connections)[0]

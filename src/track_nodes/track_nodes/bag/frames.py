@@ -8,7 +8,8 @@ line each; an empty list means every frame is placed. ``python -m track_nodes.ba
   stamped messages such as ``MarkerArray.markers``), except on /tf and /tf_static themselves, must
   reach ``root`` by following child → parent edges of the recorded transforms. An AIS report's
   ``"<frame>#<local track id>"`` (``topics.track_frame_id``) names the frame before the ``#``. An
-  empty frame id is a problem, except in ``DiagnosticArray`` (no spatial content);
+  empty frame id is a problem, except in ``DiagnosticArray`` and the RFID and IDSQ protocols' messages
+  (no spatial content);
 - ``child_frame_id`` of an Odometry on a body-frame topic (``tf.BODY_FRAME_TOPICS``: the SLAM
   laser, its truth, the sonar observer) must be placed the same way. On every other topic the
   child_frame_id names a track or target (DESIGN.md), not a frame (``tf.TRACK_CHILD_NOTE``): it is
@@ -33,7 +34,11 @@ from pathlib import Path
 from track_msgs_py.tf import BODY_FRAME_TOPICS, frame_id_problem, frame_pair_problem
 from track_msgs_py.topics import FRAME_MAP, TF, TF_STATIC, split_track_frame_id
 
-_NO_FRAME_TYPES = frozenset({'diagnostic_msgs/msg/DiagnosticArray'})
+# No spatial content: the header carries a stamp only (the RFID protocol's angles are turns of the user;
+# the IDSQ ack, revoke and leader event name sensors by id).
+_NO_FRAME_TYPES = frozenset({'diagnostic_msgs/msg/DiagnosticArray', 'track_msgs/msg/RfidCommand',
+                             'track_msgs/msg/RfidStep', 'track_msgs/msg/RfidFound', 'track_msgs/msg/IdsqAck',
+                             'track_msgs/msg/IdsqRevoke', 'track_msgs/msg/IdsqLeaderEvent'})
 _HEADER = 'std_msgs/msg/Header'
 
 
@@ -141,9 +146,10 @@ class _Collector:
 def read_frame_tree(bag: Path | str) -> FrameTree:
     """Every transform edge and every frame use of ``bag`` (see the module docstring)."""
     from rosbags.rosbag2 import Reader
-    from rosbags.typesys import Stores, get_typestore
 
-    ts = get_typestore(Stores.ROS2_JAZZY)
+    from track_nodes.bag.typestore import typestore
+
+    ts = typestore()
     out = _Collector()
     with Reader(Path(bag)) as reader:
         layout = {c.id: _frame_fields(ts, c.msgtype) for c in reader.connections}

@@ -1,97 +1,73 @@
 """``fusion``: geofeasibility scoring and track-to-track association of every pair of tracks.
 
-Subscribes to the track topics listed in ``odometry_topics`` (nav_msgs/Odometry; the track id
-is ``<topic>/<child_frame_id>``, so one topic may carry several tracks of one source) and
-``pose_topics`` (PoseWithCovarianceStamped; one track per topic, and the topic's namespace is
-its source: ``/radar/t0`` and ``/radar/t1`` are two tracks of ``/radar``) and
-``pose_track_topics`` (PoseWithCovarianceStamped carrying many tracks of one source, the source
-being the topic: the local track id travels in ``header.frame_id`` as ``"<frame>#<local id>"``,
-``track_msgs_py.topics.track_frame_id``, and the track id is ``<topic>/<local id>``; these
-subscriptions keep ``TRACKS_QOS_DEPTH`` messages, so a source may publish all its ships at one
-instant). Pairs within one source are not scored unless ``same_source_pairs`` (a source does
-not report a ship twice).
-Every incoming message is validated (finite, symmetric PSD covariance, known frame,
-non-decreasing stamp per track) and held to the input policy (``track_msgs_py.validate.
-InputPolicy``: positions and velocities within the bounds, x/y variances within the floor and
-ceiling, no zero stamp, none more than ``stamp_horizon`` ahead of the node clock once it runs, nor more
-than ``stamp_lead``, the look-ahead tolerance, so one fast clock cannot blank its track);
-a bad one is refused (``refuse``: counted per reason, one log line per reason every
-``warn_period`` seconds, /diagnostics) without touching any state or watermark. A pair whose
-score still fails is skipped and reported (``Instant.skipped``); every other pair is scored.
+Inputs (each message validated: finite, symmetric PSD covariance, known frame, non-decreasing
+stamp per track, the ``InputPolicy`` bounds, no stamp beyond ``stamp_horizon``/``stamp_lead`` of
+the node clock; a bad one is refused with one throttled line per reason and counted on
+/diagnostics, state untouched):
 
-Only the x/y blocks of the covariances are read (``track_msgs_py.covariance``: z/roll/pitch are 0 by
-the planar convention, yaw is not estimated). Velocities with ``not_estimated`` variance (≥
-``NOT_ESTIMATED_VARIANCE``, e.g. the IDSQ network's estimate) are ignored: such a track is held like
-a position report instead of being predicted with a 1e6 m²/s² velocity variance.
+- ``track_array_topics`` (track_msgs/TrackArray, one per source per tick, reliable: the topic is the
+  source, the track id ``<topic>/<track.id>``; a bad track of an array is refused alone,
+  ``track_problems``);
+- ``odometry_topics`` (nav_msgs/Odometry, track id ``<topic>/<child_frame_id>``);
+- ``pose_topics`` (PoseWithCovarianceStamped, one track per topic, its namespace the source);
+- ``pose_track_topics`` (PoseWithCovarianceStamped of many tracks of one source, the topic: local
+  id in ``header.frame_id`` as ``"<frame>#<local id>"``, ``topics.track_frame_id``).
 
-Schedule. ``schedule:=timer`` (default): score at every tick of a ``rate`` Hz timer on the node
-clock, with the reports received so far. ``schedule:=stamps``: score at the instants
-t_k = k/``rate`` of the *data* (the first one at or after the first report's stamp), and score
-t_k only once a report stamped ≥ t_k + 1/``rate`` has arrived, using the reports stamped ≤ t_k.
-The output then depends only on the reports' stamps and contents, not on when they arrive, as
-long as every report stamped ≤ t_k arrives before any report stamped ≥ t_k + 1/``rate`` (sources
-on one clock, lagging each other by less than one period): a recorded bag replayed into a fresh
-node reproduces every score. The last instant of a run is scored only when a later report comes.
-The rule lives in ``track_core.fusion.StampSchedule``, run by the associator.
+Pairs within one source are not scored unless ``same_source_pairs``. Velocities with
+``not_estimated`` variance are ignored (the track is held like a position report).
 
-At ``rate`` Hz it brings every live track to the current node time (``TrackTable``: Odometry
-tracks are predicted with their velocity, position reports are held until ``stale_after``),
-scores every pair from different sources with ``method`` (paper eqs. 49–71, batched over pairs;
-``mc`` shares one draw among the pairs of an instant; ``exact`` scores only the pairs whose 2σ
-ellipses may overlap, the others score 0 as scoring gives: ``track_core.geofeasibility.gate``),
-keeps the last ``window`` instant
-scores per pair and combines them (harmonic or geometric mean, §1; one zero instant makes the
-combination zero, as the paper's means do), and publishes:
+Schedule. ``timer`` (default): score at every tick of a ``rate`` Hz timer on the node clock.
+``stamps``: score the data instants t_k = k/``rate`` once a report stamped ≥ t_k + 1/``rate`` has
+come, with the reports stamped ≤ t_k (``track_core.fusion.StampSchedule``): a replayed bag
+reproduces every score. The core (``track_core.fusion.PairAssociator``) predicts each live track
+to the instant, scores the gate's candidates with ``method`` (eqs. 49–71), combines each pair's
+last ``window`` instants (§1) and fuses the associated pairs by covariance intersection.
 
 | topic | type | content |
 |---|---|---|
-| /fusion/scores | DiagnosticArray | one status per pair ``A | B``: score, combined, instants, associated, method |
-| /fusion/associations | DiagnosticArray | the pairs whose combined score ≥ ``threshold`` |
-| /fusion/fused | Odometry | covariance intersection of each associated pair, child_frame_id ``A+B`` (no leading '/') |
-| /fusion/markers | MarkerArray | 2σ ellipse per track, a link per pair coloured red→green by score |
+| /fusion/scores | track_msgs/PairScoreArray | one array per instant: the pairs (``publish_pairs``) and the rule |
+| /fusion/associations | track_msgs/PairScoreArray | the pairs whose combined score ≥ ``threshold`` |
+| /fusion/fused | track_msgs/FusedTrackArray | covariance intersection of each associated pair |
+| /fusion/markers | MarkerArray | 2σ ellipses of tracks and fused pairs, links, at ``display_rate`` |
 
-``publish_pairs:=nonzero`` publishes (scores, links) only the pairs with a positive instant or combined
-score or associated; every pair left out scored 0 and has a combined score of 0. With the exact
-score most pairs of a large picture are never scored (the core's gate), and one status per pair of
-1000 tracks (250,000 a tick) is more than a node can publish at 1 Hz; ``all`` (default) keeps one
-status per scored pair.
+Shards (``region``, ``region_margin``): a node that holds one rectangle of a large picture keeps
+only the tracks reported within the margin of it (a track leaving it is forgotten) and publishes
+the pairs whose midpoint lies in it; with ``schedule:=stamps`` and the margin of
+``track_core.fusion.region.margin_needed`` the shards of a tiling publish exactly one node's pairs
+(``track-bench fusion-shards``).
 
-The pairing, masking, windows, thresholds and covariance intersection are
-``track_core.fusion.PairAssociator``; a pair's status is ``track_msgs_py.records.fusion.FusionPairScore``;
-the markers are built by ``track_msgs_py.markers.fusion``. This node validates and converts the
-messages, runs the timer, and publishes.
+``publish_pairs:=nonzero`` publishes only the pairs with a positive instant or combined score or
+associated (every other pair scored 0 throughout); ``all`` lists every pair of different sources
+(n²/2 a tick: for small pictures). Conversions: ``track_msgs_py.records.fusion``,
+``track_msgs_py.track_arrays``, ``track_msgs_py.markers.fusion``.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
-from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseWithCovarianceStamped
 from nav_msgs.msg import Odometry
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from visualization_msgs.msg import MarkerArray
 
 from track_core.fusion import Instant, PairAssociator, TrackReport
-from track_core.geofeasibility.track import THRESHOLD
+from track_core.fusion.region import Region, ShardInput
+from track_msgs.msg import FusedTrackArray, PairScoreArray, TrackArray
 from track_msgs_py.covariance import not_estimated
-from track_msgs_py.diagnostics import diagnostic_array
 from track_msgs_py.markers.fusion import FusionMarkers
-from track_msgs_py.odometry import cv_state_to_odometry, odometry_to_cv_state, pose_cov_to_position
+from track_msgs_py.odometry import odometry_to_cv_state, pose_cov_to_position
 from track_msgs_py.qos import ESTIMATE_QOS
-from track_msgs_py.records.fusion import FusionPairScore
+from track_msgs_py.records.fusion import FusedTracks, FusionPairs
 from track_msgs_py.stamps import stamp_to_sec
 from track_msgs_py.topics import (
-    FRAME_MAP,
     FUSION_ASSOCIATIONS,
     FUSION_FUSED,
     FUSION_MARKERS,
     FUSION_SCORES,
     KNOWN_FRAMES,
-    fused_track_id,
     split_track_frame_id,
 )
+from track_msgs_py.track_arrays import array_to_tracks, track_problems
 from track_msgs_py.validate import (
     InputPolicy,
     StampMonotonic,
@@ -103,7 +79,8 @@ from track_msgs_py.validate import (
     pose_cov_problem,
     stamp_problem,
 )
-from track_nodes.base import ParameterError, TrackNode, param
+from track_nodes.base import ParameterError, TrackNode
+from track_nodes.fusion.params import FusionParams
 
 # Best effort accepts both reliable and best-effort publishers; depth covers a few rate periods.
 TRACK_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=50, reliability=ReliabilityPolicy.BEST_EFFORT)
@@ -111,41 +88,9 @@ TRACK_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=50, reliability=Re
 TRACKS_QOS_DEPTH = 1000
 TRACKS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=TRACKS_QOS_DEPTH,
                         reliability=ReliabilityPolicy.BEST_EFFORT)
-
-
-@dataclass
-class FusionParams:
-    """Parameters of ``fusion``."""
-
-    odometry_topics: list[str] = param([''], 'nav_msgs/Odometry track topics (track id = topic/child_frame_id)')
-    pose_topics: list[str] = param([''], 'PoseWithCovarianceStamped track topics (one track per topic)')
-    pose_track_topics: list[str] = param([''], 'PoseWithCovarianceStamped topics of many tracks of one source '
-        '(header.frame_id = "<frame>#<local id>", track id = topic/<local id>)')
-    rate: float = param(2.0, 'scoring rate [Hz]', 0.01, 100.0, live=True)
-    method: str = param('exact', 'geofeasibility score', choices=('exact', 'glr', 'glr_thresholded', 'mc'))
-    n_samples: int = param(500, 'Monte-Carlo samples per pair (method mc)', 10, 1_000_000)
-    threshold: float = param(THRESHOLD, 'associate a pair when its combined score is at least this',
-                             0.0, 1.0, live=True)
-    combine: str = param('geometric', 'track-level combination of instant scores', choices=('geometric', 'harmonic'))
-    window: int = param(10, 'instant scores kept per pair for the combination', 1, 100_000)
-    stale_after: float = param(2.0, 'a position report older than this drops out [s]', 1e-3, 1e6, live=True)
-    max_prediction: float = param(10.0, 'an Odometry track predicted further than this drops out [s]',
-                                  1e-3, 1e6, live=True)
-    q_s: float = param(0.1, 'CV process-noise intensity used when predicting tracks [m²/s³]', 0.0, 1e6)
-    seed: int = param(0, 'seed of the Generator used by the mc method', 0, 2**31 - 1)
-    same_source_pairs: bool = param(False, 'also score pairs from one source (Odometry: same topic; pose: same '
-        'namespace)')
-    schedule: str = param('timer', 'timer: score at node-clock ticks; stamps: at the data instants k/rate, '
-        'deterministic (module docstring)', choices=('timer', 'stamps'))
-    publish_pairs: str = param('all', 'all: a status and a link per scored pair; nonzero: only the pairs with a '
-        'positive score or combined score, or associated (module docstring)', choices=('all', 'nonzero'))
-    warn_period: float = param(5.0, 'at most one bad-input warning per topic per this many seconds',
-                               0.0, 1e6, live=True)
-    stamp_horizon: float = param(InputPolicy.horizon, 'refuse reports stamped more than this ahead of the node clock '
-                                 '[s]', 1e-3, 1e9, live=True)
-    stamp_lead: float = param(2.0, 'look-ahead tolerance: refuse reports stamped more than this ahead of the node '
-        'clock (a few report periods) [s]', 1e-3, 1e9, live=True)
-
+# A TrackArray is a whole source's tick (hundreds of kB at 5000 tracks): reliable, or one lost
+# fragment loses the tick for every track of the source. Its publishers must be reliable too.
+ARRAY_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=10, reliability=ReliabilityPolicy.RELIABLE)
 
 
 class FusionNode(TrackNode):
@@ -155,29 +100,35 @@ class FusionNode(TrackNode):
 
     def setup(self) -> None:
         p = self.p
-        odo = [t for t in p.odometry_topics if t]
-        pose = [t for t in p.pose_topics if t]
-        multi = [t for t in p.pose_track_topics if t]
-        if not odo and not pose and not multi:
-            raise ParameterError('parameters odometry_topics, pose_topics and pose_track_topics are all empty: '
-                             'nothing to fuse')
+        arrays, odo, pose, multi = ([t for t in ts if t] for ts in (p.track_array_topics, p.odometry_topics,
+                                                                      p.pose_topics, p.pose_track_topics))
+        if not (arrays or odo or pose or multi):
+            raise ParameterError('parameters track_array_topics, odometry_topics, pose_topics and pose_track_topics '
+                                 'are all empty: nothing to fuse')
+        try:
+            self.region = Region.parse(p.region, p.region_margin)
+        except ValueError as exc:
+            raise ParameterError(f'parameter region: {exc}') from None
+        self.shard = ShardInput(self.region)
         self.core = PairAssociator(p.method, p.threshold, p.combine, p.window, n_samples=p.n_samples,
                                    same_source_pairs=p.same_source_pairs, stale_after=p.stale_after,
                                    max_prediction=p.max_prediction, q_s=p.q_s, seed=p.seed,
                                    stamp_rate=p.rate if p.schedule == 'stamps' else None)
-        self.markers = FusionMarkers(lifetime=2.0 / p.rate)
+        self.markers = FusionMarkers(lifetime=2.0 / min(p.rate, p.display_rate))
         self.stamps = StampMonotonic()
         self.policy = InputPolicy(horizon=p.stamp_horizon, lead=p.stamp_lead)
         self.refusals.throttle = p.warn_period
         self.dropped: dict[str, int] = {}
+        self._displayed: float | None = None   # instant of the last markers
         # The track topics are the user's names, as given: relative ones resolve in the node's namespace.
         # Track ids use the resolved name (track_id = <resolved topic>/<id>), the same in any namespace form.
-        self.subs = [self._track_sub(Odometry, t, '_on_odometry', TRACK_QOS) for t in odo]
+        self.subs = [self._track_sub(TrackArray, t, '_on_track_array', ARRAY_QOS) for t in arrays]
+        self.subs += [self._track_sub(Odometry, t, '_on_odometry', TRACK_QOS) for t in odo]
         self.subs += [self._track_sub(PoseWithCovarianceStamped, t, '_on_pose', TRACK_QOS) for t in pose]
         self.subs += [self._track_sub(PoseWithCovarianceStamped, t, '_on_pose_track', TRACKS_QOS) for t in multi]
-        self.pub_scores = self.create_publisher(DiagnosticArray, FUSION_SCORES, ESTIMATE_QOS)
-        self.pub_assoc = self.create_publisher(DiagnosticArray, FUSION_ASSOCIATIONS, ESTIMATE_QOS)
-        self.pub_fused = self.create_publisher(Odometry, FUSION_FUSED, ESTIMATE_QOS)
+        self.pub_scores = self.create_publisher(PairScoreArray, FUSION_SCORES, ESTIMATE_QOS)
+        self.pub_assoc = self.create_publisher(PairScoreArray, FUSION_ASSOCIATIONS, ESTIMATE_QOS)
+        self.pub_fused = self.create_publisher(FusedTrackArray, FUSION_FUSED, ESTIMATE_QOS)
         self.pub_markers = self.create_publisher(MarkerArray, FUSION_MARKERS, ESTIMATE_QOS)
         self.timer = self.create_timer(1.0 / p.rate, self.tick) if p.schedule == 'timer' else None
 
@@ -198,11 +149,13 @@ class FusionNode(TrackNode):
         self.policy = InputPolicy(horizon=p.stamp_horizon, lead=p.stamp_lead)
         if 'rate' in changed and self.timer is not None:
             self.timer.timer_period_ns = round(1e9 / p.rate)
-            self.markers.lifetime = 2.0 / p.rate
+        self.markers.lifetime = 2.0 / min(p.rate, p.display_rate)
 
     def reset_time_state(self) -> tuple[str, ...]:
         self.core.reset()
         self.stamps.reset()
+        self.shard.clear()
+        self._displayed = None
         return ('tracks', 'pair windows', 'stamp schedule', 'stamp watermarks')
 
     @property
@@ -221,6 +174,26 @@ class FusionNode(TrackNode):
     def _stamp_problem(self, msg) -> str | None:
         return stamp_problem(stamp_to_sec(msg.header.stamp), clock_now(self.get_clock().now().nanoseconds), self.policy)
 
+    def _on_track_array(self, topic: str, msg: TrackArray) -> None:
+        reason = frame_problem(msg.header.frame_id, KNOWN_FRAMES) or self._stamp_problem(msg)
+        if reason:
+            self._drop(topic, reason)
+            return
+        t, ids, _, x, P = array_to_tracks(msg)
+        bad = track_problems(ids, x, P, self.policy)
+        inside = self.region.contains_all(x[:, 0], x[:, 2])
+        held = self.shard.held
+        for k, local in enumerate(ids):
+            track_id = f'{topic}/{local}'
+            if not inside[k] and k not in bad and track_id not in held:   # another shard's track: skip it fast
+                self.shard.outside += 1
+                continue
+            reason = bad.get(k) or self.stamps.problem(track_id, t)
+            if reason:
+                self._drop(topic, reason)
+            else:
+                self._push_state(topic, track_id, t, x[k], P[k])
+
     def _on_odometry(self, topic: str, msg: Odometry) -> None:
         track_id = f'{topic}/{msg.child_frame_id}' if msg.child_frame_id else topic
         reason = (odometry_problem(msg, KNOWN_FRAMES) or odometry_bounds_problem(msg, self.policy)
@@ -228,12 +201,15 @@ class FusionNode(TrackNode):
         if reason:
             self._drop(topic, reason)
             return
-        t, x, P = odometry_to_cv_state(msg)
+        self._push_state(topic, track_id, *odometry_to_cv_state(msg))
+
+    def _push_state(self, source: str, track_id: str, t: float, x: np.ndarray, P: np.ndarray) -> None:
+        """A CV state [x, ẋ, y, ẏ] and its covariance: held as a position when the velocity is not estimated."""
         Pv = P[np.ix_([1, 3], [1, 3])]
-        if np.any(not_estimated(np.diag(Pv))):  # velocity not estimated: hold the position
-            self._push(topic, track_id, TrackReport(t, x[[0, 2]], P[np.ix_([0, 2], [0, 2])]))
+        if np.any(not_estimated(np.diag(Pv))):
+            self._push(source, track_id, TrackReport(t, x[[0, 2]], P[np.ix_([0, 2], [0, 2])]))
             return
-        self._push(topic, track_id, TrackReport(t, x[[0, 2]], P[np.ix_([0, 2], [0, 2])], x[[1, 3]], Pv))
+        self._push(source, track_id, TrackReport(t, x[[0, 2]], P[np.ix_([0, 2], [0, 2])], x[[1, 3]], Pv))
 
     def _on_pose(self, topic: str, msg: PoseWithCovarianceStamped) -> None:
         reason = (pose_cov_problem(msg, KNOWN_FRAMES) or pose_cov_bounds_problem(msg, self.policy)
@@ -262,7 +238,10 @@ class FusionNode(TrackNode):
         self._push(topic, track_id, TrackReport(t, z, R))  # the topic is the source
 
     def _push(self, source: str, track_id: str, report: TrackReport) -> None:
-        for instant in self.core.push(source, track_id, report):
+        route = self.shard.route(track_id, float(report.mu[0]), float(report.mu[1]))   # another shard's track?
+        if route == 'skip':
+            return
+        for instant in self.core.push(source, track_id, report if route == 'hold' else None, t=report.t):
             self._publish(instant)
 
     # -- scoring -------------------------------------------------------------------------
@@ -277,16 +256,20 @@ class FusionNode(TrackNode):
             return
         for a, b, reason in instant.skipped:  # isolated by the core; the other pairs were scored
             self.refuse(FUSION_SCORES, f'pair {a} | {b}: {reason}')
-        t = instant.t
-        for f in instant.fused:
-            P4 = np.zeros((4, 4))
-            P4[0::2, 0::2] = f.P  # the x/y rows and columns of the CV state [x, ẋ, y, ẏ]
-            self.pub_fused.publish(cv_state_to_odometry(t, np.array([f.mu[0], 0.0, f.mu[1], 0.0]), P4, FRAME_MAP,
-                                                        fused_track_id(f.a, f.b)))
-        pairs = instant.pairs.nonzero() if self.p.publish_pairs == 'nonzero' else instant.all_pairs()
-        statuses = [FusionPairScore(q.score, q.combined, q.instants, q.associated, self.p.method).pair_status(q.a, q.b)
-                    for q in pairs]
-        self.pub_scores.publish(diagnostic_array(t, statuses))
-        self.pub_assoc.publish(diagnostic_array(t, [st for st, q in zip(statuses, pairs, strict=True)
-                                                    if q.associated]))
-        self.pub_markers.publish(self.markers.build(instant, pairs))
+        p, t, ids, mu = self.p, instant.t, instant.ids, instant.mu
+        q = instant.pairs if p.publish_pairs == 'nonzero' else instant.all_pairs()
+        keep = self.region.owns(mu[q.ia], mu[q.ib])       # a shard publishes the pairs it owns
+        if p.publish_pairs == 'nonzero':
+            keep &= (q.score > 0) | (q.combined > 0) | q.associated
+        q = q.subset(keep)
+        pairs = FusionPairs(t, [ids[k] for k in q.ia.tolist()], [ids[k] for k in q.ib.tolist()], q.score, q.combined,
+                            q.instants, q.associated, p.method, p.combine, p.window, float(self.core.threshold))
+        self.pub_scores.publish(pairs.to_msg())
+        self.pub_assoc.publish(pairs.select(pairs.associated).to_msg())
+        scored = instant.pairs.subset(instant.pairs.associated)       # the order of instant.fused
+        f = [x for x, own in zip(instant.fused, self.region.owns(mu[scored.ia], mu[scored.ib]), strict=True) if own]
+        self.pub_fused.publish(FusedTracks(t, [x.a for x in f], [x.b for x in f], np.array([x.mu for x in f]),
+                                           np.array([x.P for x in f])).to_msg())
+        if self._displayed is None or t - self._displayed >= 1.0 / p.display_rate - 1e-9 or t < self._displayed:
+            self._displayed = t
+            self.pub_markers.publish(self.markers.build(instant, q))

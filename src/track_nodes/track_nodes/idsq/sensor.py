@@ -8,16 +8,17 @@ and holds truths until the stamped copy of the same layout comes.
 The protocol (handoffs, acks, the start rule, re-selection, randomness) is
 ``track_core.idsq.leader_protocol.HandoffLedger``; this node converts messages and carries out its effects:
 
-- in: the handoff on ``/idsq/sensor_<id>/handoff`` (``UInt8MultiArray``, ``records.idsq.handoff_to_uint8_array``),
-  the replies on ``/idsq/sensor_<id>/ack`` (``records.idsq.IdsqAck``), the truth of every
-  ``truth_topics`` topic (Odometry, one ``child_frame_id`` per source; step s stamped (s + 1)·Δt);
+- in: the handoff on ``/idsq/sensor_<id>/handoff``, the replies on ``/idsq/sensor_<id>/ack`` and the
+  revokes on ``/idsq/sensor_<id>/revoke`` (``track_msgs`` ``IdsqHandoff``, ``IdsqAck``, ``IdsqRevoke``;
+  ``records.idsq``), the truth of every ``truth_topics`` topic (Odometry, one ``child_frame_id`` per
+  source; step s stamped (s + 1)·Δt);
 - out: the reply on the sender's ``/idsq/sensor_<j>/ack``; when leading a step, ``/idsq/estimate``
   (Odometry with the belief covariance), ``/idsq/belief`` (``records.idsq.IdsqBelief``), ``/idsq/markers``,
-  the ``/idsq/leader`` events (``records.idsq.IdsqLeaderEvent``) and the handoff to the next sensor;
+  the ``/idsq/leader`` events (``track_msgs/IdsqLeaderEvent``) and the handoff to the next sensor;
   a ``void`` event when its lead of a step was revoked (one chain: ``track_core.idsq.leader_protocol``), and
-  the revokes it sends on with it, on the handoff topics.
+  the revokes it sends on with it.
 
-QoS: handoff and ack topics are reliable and transient-local (depth 4), so a handoff published
+QoS: handoff, ack and revoke topics are reliable and transient-local (depth 4), so a handoff published
 while discovery is settling is delivered when they match. ``/idsq/vehicle/truth`` is reliable and
 transient-local with depth 256 (a busy leader loses no step; a late reader still gets step 0,
 which every sensor needs for the start rule); any other truth topic reliable and volatile
@@ -29,37 +30,39 @@ rebuilds its wait set over every entity at each wait, and the default QoS-event 
 of them (a wait ten times slower with them), so endpoints are made without them; and every stamp
 is the time of its step, so the node drops the /clock subscription
 that ``use_sim_time`` made (each 0.05 s launcher tick would wake every sensor).
-Refused truths, handoffs and replies go through ``TrackNode.refuse`` (its /diagnostics publisher
+Refused truths, handoffs, replies and revokes go through ``TrackNode.refuse`` (its /diagnostics publisher
 and timer are made at the first refusal only: a network never sent bad input keeps its wait set).
 """
 
 from __future__ import annotations
 
+import dataclasses
 from collections import deque
 
 import numpy as np
-from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.msg import Odometry
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import PointCloud2
-from std_msgs.msg import UInt8MultiArray
 from visualization_msgs.msg import MarkerArray
 
 from track_core.idsq import leader_protocol as protocol
+from track_msgs import msg as tm
 from track_msgs_py.covariance import NOT_ESTIMATED_VARIANCE
-from track_msgs_py.diagnostics import diagnostic_array
 from track_msgs_py.markers.idsq import sensor_markers
 from track_msgs_py.odometry import cv_state_to_odometry, odometry_to_cv_state
 from track_msgs_py.qos import ESTIMATE_QOS, HANDOFF_QOS, SENSOR_QOS, STATIC_QOS, TRUTH_QOS
 from track_msgs_py.records.idsq import (
+    PROTOCOL,
     IdsqAck,
     IdsqBelief,
+    IdsqHandoff,
     IdsqLeaderEvent,
+    IdsqRevoke,
     RecordError,
-    handoff_to_uint8_array,
+    leader_event,
     pointcloud2_to_layout,
-    uint8_array_to_handoff,
+    received_handoff,
 )
 from track_msgs_py.stamps import stamp_to_sec
 from track_msgs_py.topics import (
@@ -74,6 +77,7 @@ from track_msgs_py.topics import (
     KNOWN_FRAMES,
     idsq_ack_topic,
     idsq_handoff_topic,
+    idsq_revoke_topic,
 )
 from track_msgs_py.validate import odometry_problem
 from track_nodes.base import ParameterError, TrackNode
@@ -109,18 +113,18 @@ class IdsqSensorNode(TrackNode):
         self.ack_timers: dict[tuple[int, int], object] = {}  # (step, receiver) → steady-clock ack timer
         for sub in [s for s in self.subscriptions if s.topic_name == CLOCK]:
             self.destroy_subscription(sub)  # no ROS clock needed (module docstring)
-        self.handoff_pubs: dict[int, object] = {}
-        self.ack_pubs: dict[int, object] = {}
+        self.pubs: dict[tuple[str, int], object] = {}  # (handoff | ack | revoke, sensor) → publisher
         self.pub_est = self._pub(Odometry, IDSQ_ESTIMATE, ESTIMATE_QOS)
         self.pub_belief = self._pub(PointCloud2, IDSQ_BELIEF, SENSOR_QOS)
         self.pub_markers = self._pub(MarkerArray, IDSQ_MARKERS, ESTIMATE_QOS)
-        self.pub_leader = self._pub(DiagnosticArray, IDSQ_LEADER, ESTIMATE_QOS)
+        self.pub_leader = self._pub(tm.IdsqLeaderEvent, IDSQ_LEADER, ESTIMATE_QOS)
         self._sub(PointCloud2, IDSQ_LAYOUT, self._on_layout, STATIC_QOS)
         for topic in self.truth_topics:
             self._sub(Odometry, topic, lambda m, topic=topic: self._on_truth(m, topic),
                       TRUTH_QOS if topic == IDSQ_TRUTH else SOURCE_TRUTH_QOS)
-        self._sub(UInt8MultiArray, idsq_handoff_topic(self.id), self._on_handoff, HANDOFF_QOS)
-        self._sub(DiagnosticArray, idsq_ack_topic(self.id), self._on_ack, HANDOFF_QOS)
+        self._sub(tm.IdsqHandoff, idsq_handoff_topic(self.id), self._on_handoff, HANDOFF_QOS)
+        self._sub(tm.IdsqAck, idsq_ack_topic(self.id), self._on_ack, HANDOFF_QOS)
+        self._sub(tm.IdsqRevoke, idsq_revoke_topic(self.id), self._on_revoke, HANDOFF_QOS)
 
     # the ledger's state, as the tests and the launcher's summary see it
     layout = property(lambda self: self.core.layout)
@@ -138,15 +142,13 @@ class IdsqSensorNode(TrackNode):
         return self.create_subscription(cls, topic, callback, qos,
                                         event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
 
-    def _handoff_pub(self, k: int):
-        if k not in self.handoff_pubs:  # normally made at layout time; transient-local covers a late one
-            self.handoff_pubs[k] = self._pub(UInt8MultiArray, idsq_handoff_topic(k), HANDOFF_QOS)
-        return self.handoff_pubs[k]
-
-    def _ack_pub(self, k: int):
-        if k not in self.ack_pubs:
-            self.ack_pubs[k] = self._pub(DiagnosticArray, idsq_ack_topic(k), HANDOFF_QOS)
-        return self.ack_pubs[k]
+    def _proto_pub(self, kind: str, k: int):
+        """The ``kind`` publisher to sensor ``k``: handoffs' and acks' made at layout time, revokes' (rare)
+        when first sent; transient-local delivers what a late one publishes once it matches."""
+        if (kind, k) not in self.pubs:
+            cls, topic = PROTOCOL[kind]
+            self.pubs[(kind, k)] = self._pub(cls, topic(k), HANDOFF_QOS)
+        return self.pubs[(kind, k)]
 
     # -- inputs -------------------------------------------------------------------------------------
     def _on_layout(self, msg: PointCloud2) -> None:
@@ -172,10 +174,10 @@ class IdsqSensorNode(TrackNode):
             return
         targets = [protocol.handoff_targets(layout, j) for j in range(layout.n)]  # K sensors
         for k in targets[self.id]:
-            self._handoff_pub(k)
+            self._proto_pub('handoff', k)
         for j in range(layout.n):  # whom I may have to answer
             if self.id in targets[j]:
-                self._ack_pub(j)
+                self._proto_pub('ack', j)
         self._do(self.core.set_layout(layout))
         self._set_origin(msg)
 
@@ -202,21 +204,24 @@ class IdsqSensorNode(TrackNode):
         _, x, _ = odometry_to_cv_state(msg)
         self._do(self.core.on_truth(step, topic, msg.child_frame_id, x[[0, 2]]))
 
-    def _on_handoff(self, msg: UInt8MultiArray, info) -> None:
+    def _on_handoff(self, msg: tm.IdsqHandoff, info) -> None:
         """(With the message info: the ledger refuses a handoff that arrived after the ack timeout.)"""
         src, rcv = info.get('source_timestamp', 0), info.get('received_timestamp', 0)
         age = (rcv - src) * 1e-9 if src > 0 and rcv > 0 else None
-        self._do(self.core.on_handoff(uint8_array_to_handoff(msg), age))
+        self._do(self.core.on_handoff(received_handoff(msg), age))
 
-    def _on_ack(self, msg: DiagnosticArray) -> None:
-        for st in msg.status:
-            try:
-                a = IdsqAck.from_status(st)
-            except RecordError as exc:
-                self.refuse(idsq_ack_topic(self.id), f'reply: malformed {st.name!r}: {exc}')
-                continue
-            self._do(self.core.on_reply(a.step, a.sender, a.receiver, a.result, st.message))
+    def _on_ack(self, msg: tm.IdsqAck) -> None:
+        try:
+            a = IdsqAck.from_msg(msg)
+        except RecordError as exc:
+            self.refuse(idsq_ack_topic(self.id), f'reply: {exc}')
+            return
+        self._do(self.core.on_reply(a.step, a.sender, a.receiver, a.result, a.reason))
         self._do(self.core.advance())
+
+    def _on_revoke(self, msg: tm.IdsqRevoke) -> None:
+        r = IdsqRevoke.from_msg(msg)
+        self._do(self.core.on_revoke(r.sender, r.receiver, r.step))
 
     def _on_ack_timeout(self, step: int, receiver: int) -> None:
         self._do(self.core.timeout(step, receiver))
@@ -227,24 +232,21 @@ class IdsqSensorNode(TrackNode):
         for fx in effects:
             if isinstance(fx, protocol.Log) and fx.refusal is not None:  # counted, throttled, on /diagnostics
                 channel, reason = fx.refusal
-                self.refuse(idsq_handoff_topic(self.id) if channel == 'handoff' else idsq_ack_topic(self.id), reason)
+                self.refuse(PROTOCOL[channel][1](self.id), reason)
             elif isinstance(fx, protocol.Log) and fx.level == 'info':  # (rclpy: one severity per call site)
                 self.get_logger().info(fx.text)
             elif isinstance(fx, protocol.Log):
                 self.get_logger().warning(fx.text)
-            elif isinstance(fx, protocol.Reply):
-                t = protocol.stamp_of_step(fx.step, self.p.dt, self.origin or 0.0)  # a malformed header: any u32 step
-                status = IdsqAck.reply(fx.step, fx.sender, self.id, fx.refusal)
-                self._ack_pub(fx.sender).publish(diagnostic_array(t if t < 2**31 - 1 else 0.0, [status]))
+            elif isinstance(fx, protocol.Reply):  # (an absurd step has no stamp: records.idsq stamps it 0)
+                self._proto_pub('ack', fx.sender).publish(IdsqAck.reply(fx.step, fx.sender, self.id, fx.refusal,
+                                                                        self._t(fx.step)).to_msg())
             elif isinstance(fx, protocol.Led):
                 self._publish_led(fx)
-            elif isinstance(fx, protocol.Reselect):
-                self._event(IdsqLeaderEvent('reselect', fx.step, self.id, fx.receiver, failed=fx.failed,
-                                            reason=fx.reason, handoff_bytes=fx.handoff_bytes))
-            elif isinstance(fx, protocol.SelfLead):
-                self._event(IdsqLeaderEvent('self', fx.step, self.id, self.id, tried=fx.tried))
+            elif isinstance(fx, (protocol.Reselect, protocol.SelfLead, protocol.Void)):
+                self._event(leader_event(fx, self.id))
             elif isinstance(fx, protocol.Send):
-                self._handoff_pub(fx.receiver).publish(handoff_to_uint8_array(fx.payload))
+                self._proto_pub('handoff', fx.receiver).publish(
+                    IdsqHandoff.from_handoff(self._t(fx.step), fx.handoff).to_msg())
                 self._disarm(fx.step, fx.receiver)
                 self.ack_timers[(fx.step, fx.receiver)] = self.create_timer(
                     self.p.ack_timeout, lambda s=fx.step, k=fx.receiver: self._on_ack_timeout(s, k),
@@ -253,10 +255,8 @@ class IdsqSensorNode(TrackNode):
                 self._disarm(fx.step, fx.receiver)
             elif isinstance(fx, protocol.Revoke):  # the chain rule (track_core.idsq.leader_protocol)
                 self.get_logger().warning(fx.text)
-                self._handoff_pub(fx.receiver).publish(handoff_to_uint8_array(fx.payload))
-            elif isinstance(fx, protocol.Void):
-                self._event(IdsqLeaderEvent('void', fx.step, self.id, self.id,
-                                            previous=-1 if fx.parent is None else fx.parent))
+                self._proto_pub('revoke', fx.receiver).publish(
+                    IdsqRevoke(fx.step, self.id, fx.receiver, self._t(fx.step)).to_msg())
 
     def _disarm(self, step: int, receiver: int) -> None:
         timer = self.ack_timers.pop((step, receiver), None)
@@ -266,7 +266,7 @@ class IdsqSensorNode(TrackNode):
 
     def _publish_led(self, fx: protocol.Led) -> None:
         """The outputs of a led step: estimate, belief cloud, markers, the ``step`` event."""
-        t, res, est = protocol.stamp_of_step(fx.step, self.p.dt, self.origin or 0.0), fx.result, fx.result.estimate
+        t, res, est = self._t(fx.step), fx.result, fx.result.estimate
         P = np.diag([0.0, NOT_ESTIMATED_VARIANCE, 0.0, NOT_ESTIMATED_VARIANCE])  # velocity
         P[np.ix_([0, 2], [0, 2])] = est.cov
         self.pub_est.publish(cv_state_to_odometry(t, np.array([est.mean[0], 0.0, est.mean[1], 0.0]), P,
@@ -274,15 +274,14 @@ class IdsqSensorNode(TrackNode):
         xy = res.belief.centers()
         self.pub_belief.publish(IdsqBelief(t, xy, res.belief.mass).to_msg())
         self.pub_markers.publish(sensor_markers(t, self.layout, self.id, fx.next, est.mean, est.cov))
-        self._event(IdsqLeaderEvent(
-            'step', fx.step, self.id, fx.next, previous=-1 if fx.previous is None else fx.previous, z=fx.z,
-            updated=res.updated, belief_size=est.size, spread_m2=est.spread,
-            candidates=tuple(int(c) for c in res.candidates), mi_bits=tuple(float(s) for s in res.scores),
-            handoff_bytes=len(res.payload) if fx.next != self.id else 0))
+        self._event(leader_event(fx, self.id))
+
+    def _t(self, step: int) -> float:
+        """The stamp of ``step``'s outputs (``stamp_of_step`` from the layout's origin)."""
+        return protocol.stamp_of_step(step, self.p.dt, self.origin or 0.0)
 
     def _event(self, ev: IdsqLeaderEvent) -> None:
-        t = protocol.stamp_of_step(ev.step, self.p.dt, self.origin or 0.0)
-        self.pub_leader.publish(diagnostic_array(t, [ev.to_status()]))
+        self.pub_leader.publish(dataclasses.replace(ev, t=self._t(ev.step)).to_msg())
 
 
 class AcousticSensorNode(IdsqSensorNode):

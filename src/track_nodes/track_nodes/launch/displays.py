@@ -50,7 +50,7 @@ SCENES = {
         Layer('/idsq/layout', color_field='type', size=3.0),
         Layer('/idsq/markers'), Layer('/sonar/markers'), Layer('/fusion/markers'),
         Layer('/sonar/estimate', rgb=(80, 160, 255)), Layer('/idsq/estimate', rgb=(255, 160, 0)),
-        Layer('/sonar/target/truth', rgb=(255, 255, 255)), Layer('/fusion/fused', rgb=(0, 220, 120)),
+        Layer('/sonar/target/truth', rgb=(255, 255, 255)),
         Layer('/sonar/particles', rgb=(80, 160, 255)),
     ), centre=(150.0, 200.0), scale=2.0, raw_topic='/fusion/scores'),
     'slam': Scene('slam', (

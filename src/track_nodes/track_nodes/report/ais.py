@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from track_core.ais import Metrics, match_one_to_one
-from track_msgs_py.records.fusion import AisTruthEntry, FusionPairScore
+from track_msgs_py.records.fusion import AisTruthEntry, FusionPairs
 from track_msgs_py.topics import FUSION_SCORES
 from track_nodes.report.read import read_topics, topics_matching
 
@@ -34,13 +34,13 @@ def ais_metrics(bag: Path) -> list[str]:
     pairs: dict[tuple[str, str], list] = {}
     methods, evaluations = set(), 0
     for arr in msgs.get(FUSION_SCORES, []):
-        for st in arr.status:
-            pair, v = FusionPairScore.read(st)
+        scored = FusionPairs.from_msg(arr)
+        methods.add(scored.method)
+        for pair, score, _, _, associated in scored.rows():
             rec = pairs.setdefault(tuple(sorted(pair)), [0.0, 0, 0])  # fusion orders a pair by first report
-            rec[0] += v.score
-            rec[1] += v.associated
+            rec[0] += score
+            rec[1] += associated
             rec[2] += 1
-            methods.add(v.method)
             evaluations += 1
     if not mmsi or not pairs:
         return [f'ais: {"no truth tables" if not mmsi else "no fusion scores"} recorded']

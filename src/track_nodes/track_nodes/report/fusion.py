@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from track_msgs_py.records.fusion import FusionPairScore
+from track_msgs_py.records.fusion import FusionPairs
 from track_msgs_py.topics import FUSION_SCORES
 from track_nodes.report.read import read_topics
 
@@ -15,11 +15,10 @@ def pair_verdicts(bag: Path, topic: str = FUSION_SCORES) -> dict[tuple[str, str]
     """Per pair from the fusion scores: mean instant score, fraction associated, last verdict."""
     stats: dict[tuple[str, str], dict] = {}
     for arr in read_topics(bag, {topic}).get(topic, []):
-        for st in arr.status:
-            pair, v = FusionPairScore.read(st)
+        for pair, score, _, _, associated in FusionPairs.from_msg(arr).rows():
             rec = stats.setdefault(pair, {'scores': [], 'associated': []})
-            rec['scores'].append(v.score)
-            rec['associated'].append(v.associated)
+            rec['scores'].append(score)
+            rec['associated'].append(associated)
     return {pair: {'mean_score': float(np.mean(r['scores'])), 'fraction_associated': float(np.mean(r['associated'])),
                    'final': r['associated'][-1], 'instants': len(r['scores'])} for pair, r in stats.items()}
 

@@ -10,7 +10,7 @@ import numpy as np
 
 from track_core.metrics import match_stamps, rms
 from track_msgs_py.odometry import odometry_to_cv_state
-from track_msgs_py.records.idsq import IdsqLeaderEvent
+from track_msgs_py.records.idsq import IdsqHandoff, IdsqLeaderEvent
 from track_msgs_py.topics import IDSQ_ESTIMATE, IDSQ_HANDOFF_REGEX, IDSQ_LEADER, IDSQ_TRUTH
 from track_nodes.report.read import read_topics, topics_matching
 
@@ -18,8 +18,9 @@ from track_nodes.report.read import read_topics, topics_matching
 def idsq_metrics(bag: Path) -> list[str]:
     """IDSQ scenario: estimate error against the truth (matched by stamp), leaders used, handoff bytes.
 
-    Bytes per step = all handoff payloads sent (re-sends after a timeout or a refusal included)
-    divided by the number of estimates (leader steps); re-selections come from ``/idsq/leader``.
+    Bytes per step = the package size (``IdsqHandoff.package_bytes``) of all handoffs sent (re-sends after
+    a timeout or a refusal included) divided by the number of estimates (leader steps); re-selections
+    come from ``/idsq/leader``.
     """
     handoff_topics = topics_matching(bag, lambda topic: re.match(IDSQ_HANDOFF_REGEX, topic))
     msgs = read_topics(bag, {IDSQ_TRUTH, IDSQ_ESTIMATE, IDSQ_LEADER} | handoff_topics)
@@ -30,10 +31,10 @@ def idsq_metrics(bag: Path) -> list[str]:
     it, ie = match_stamps(np.array([s[0] for s in truth]), np.array([s[0] for s in est]))
     err = np.array([s[1] for s in truth])[it][:, [0, 2]] - np.array([s[1] for s in est])[ie][:, [0, 2]]
     dist = np.hypot(err[:, 0], err[:, 1])
-    events = [IdsqLeaderEvent.from_status(st) for arr in msgs.get(IDSQ_LEADER, []) for st in arr.status]
+    events = [IdsqLeaderEvent.from_msg(m) for m in msgs.get(IDSQ_LEADER, [])]
     leaders = [e.leader for e in events if e.event == 'step']
     reselect = sum(e.event == 'reselect' for e in events)
-    sent = sum(len(m.data) for t in handoff_topics for m in msgs.get(t, []))
+    sent = sum(IdsqHandoff.from_msg(m, frame_id=None).package_bytes for t in handoff_topics for m in msgs.get(t, []))
     n_msgs = sum(len(msgs.get(t, [])) for t in handoff_topics)
     return [
         f'idsq: {len(ie)} estimates matched to truth',

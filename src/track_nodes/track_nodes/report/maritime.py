@@ -44,7 +44,7 @@ from track_core.filters import ellipse_points
 from track_core.metrics import match_stamps, rms
 from track_msgs_py.clouds import pointcloud2_to_table
 from track_msgs_py.odometry import odometry_to_cv_state, pose_cov_to_position
-from track_msgs_py.records.fusion import FusionPairScore
+from track_msgs_py.records.fusion import FusionPairs
 from track_msgs_py.stamps import stamp_to_sec
 from track_msgs_py.topics import (
     FUSION_SCORES,
@@ -111,10 +111,9 @@ def load(bag: Path) -> dict:
     d['origin'] = stamp_to_sec(layout[-1].header.stamp) if layout else 0.0  # the network's step origin
     scores: dict[tuple[str, str], list] = {}
     for arr in msgs.get(FUSION_SCORES, []):
-        t = stamp_to_sec(arr.header.stamp)
-        for st in arr.status:
-            pair, v = FusionPairScore.read(st)
-            scores.setdefault(tuple(sorted(pair)), []).append((t, v.score, v.combined, v.associated))
+        rec = FusionPairs.from_msg(arr)
+        for pair, score, combined, _, associated in rec.rows():
+            scores.setdefault(tuple(sorted(pair)), []).append((rec.t, score, combined, associated))
     d['scores'] = {pair: np.array(rows) for pair, rows in scores.items()}  # columns t, score, combined, assoc
     return d
 

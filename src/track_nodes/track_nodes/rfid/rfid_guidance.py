@@ -3,11 +3,9 @@
 Wraps ``track_core.rfid.guidance.RfidGuidance``: it consumes the step results of ``rfid_reader``
 (``/rfid/step``) and publishes
 
-- ``/rfid/command`` (diagnostic_msgs/DiagnosticArray, one status ``<node>/command``): the next
-  action, TURN by an angle or MOVE one step, or DONE at the end; values ``seq``, ``kind``
-  (turn|move|done), ``angle`` (rad, + = left; repr, exact), ``angle_deg``, ``repeat``, ``reason``
-  (``track_msgs_py.records.rfid.RfidCommand``).
-  Level WARN when the command repeats a step whose result was unusable;
+- ``/rfid/command`` (track_msgs/RfidCommand, ``track_msgs_py.records.rfid.RfidCommand``): the next
+  action, TURN by an angle or MOVE one step, or DONE at the end: ``seq``, ``kind``, ``angle`` (rad,
+  + = left), ``angle_deg``, ``repeat`` (true when it repeats a step whose result was unusable), ``reason``;
 - after each filter update (a usable MOVE): ``/rfid/particles`` (geometry_msgs/PoseArray, the
   particles (x, y, a) in the filter's frame ``rfid_pf``, tag at the origin, orientation = a);
 - after each usable result: ``/rfid/tag_estimate`` (geometry_msgs/PointStamped in ``rfid_user``,
@@ -17,7 +15,7 @@ Wraps ``track_core.rfid.guidance.RfidGuidance``: it consumes the step results of
   the filter's frame (``RfidGuidance.user_pose``), so particles drawn in ``rfid_pf`` sit around the
   user wherever the reader places ``rfid_user`` in map (the filter frame's rotation is a free gauge:
   this estimate fixes it, as a localiser's map → odom does);
-- ``/rfid/found`` (diagnostic_msgs/DiagnosticArray, one status ``<node>/found``) once, when a step
+- ``/rfid/found`` (track_msgs/RfidFound: the result's seq and the search's counters) once, when a step
   result reports the user at the tag. The search then ends with DONE.
 
 The search also ends, as a failure, after ``max_steps`` MOVE results (repeated ones included: the
@@ -25,8 +23,9 @@ count of ``track_core.rfid.search.run_search``), with DONE and the reason.
 
 Bad input (the core's rule, ``protocol.step_result_problem``): a step result with a NaN dφ or turn,
 an empty phase stream (``n_reads`` 0), a reader failure such as "signal lost", a result for another
-command, or a malformed message, gets ONE warning log line naming the problem; the filter and the
-turn sum stay exactly as they were, and the next command repeats the step (``repeat`` true, new
+command, or a malformed message (an unknown kind, a non-finite duration, ``records.rfid.RfidStep``),
+gets ONE warning log line naming the problem; the filter and the turn sum stay exactly as they
+were, and the next command repeats the step (``repeat`` true, new
 ``seq``; after ``max_repeats`` lost MOVEs in a row, TURN by π, see the core). A copy of a result
 already used (``seq`` below the pending command's: the reader re-publishes its answer when a
 command is re-sent) is no bad input: it is dropped silently. A result whose ``seq`` is ahead of the
@@ -62,7 +61,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PointStamped, PoseArray
 
 from track_core.filters import invert_pose
@@ -71,7 +69,9 @@ from track_core.rfid.guidance import RfidGuidance
 from track_core.rfid.pf import SUGGESTION_RULES, WEIGHTINGS, PFParams
 from track_core.rfid.phase import PhaseModel
 from track_core.rfid.protocol import Command, CommandKind
-from track_msgs_py.diagnostics import DIAG_OK, DIAG_WARN, diagnostic_array
+from track_msgs.msg import RfidCommand as RfidCommandMsg
+from track_msgs.msg import RfidFound as RfidFoundMsg
+from track_msgs.msg import RfidStep as RfidStepMsg
 from track_msgs_py.odometry import positions_to_pose_array
 from track_msgs_py.qos import ESTIMATE_QOS, SENSOR_QOS
 from track_msgs_py.records.rfid import RfidCommand, RfidFound, read_step
@@ -137,12 +137,12 @@ class RfidGuidanceNode(TrackNode):
         except ValueError as exc:
             raise ParameterError(f'invalid guidance parameters: {exc}') from None
         self.warnings: list[str] = []            # the bad-input warnings, in order
-        self.pub_cmd = self.create_publisher(DiagnosticArray, RFID_COMMAND, ESTIMATE_QOS)
+        self.pub_cmd = self.create_publisher(RfidCommandMsg, RFID_COMMAND, ESTIMATE_QOS)
         self.pub_particles = self.create_publisher(PoseArray, RFID_PARTICLES, SENSOR_QOS)
         self.pub_estimate = self.create_publisher(PointStamped, RFID_TAG_ESTIMATE, ESTIMATE_QOS)
-        self.pub_found = self.create_publisher(DiagnosticArray, RFID_FOUND, ESTIMATE_QOS)
+        self.pub_found = self.create_publisher(RfidFoundMsg, RFID_FOUND, ESTIMATE_QOS)
         self.advertise_transforms()
-        self.sub_step = self.create_subscription(DiagnosticArray, RFID_STEP, self._on_step, ESTIMATE_QOS)
+        self.sub_step = self.create_subscription(RfidStepMsg, RFID_STEP, self._on_step, ESTIMATE_QOS)
         self.timer = self.create_timer(p.period, self._tick)
 
     def _start_run(self) -> None:
@@ -154,7 +154,7 @@ class RfidGuidanceNode(TrackNode):
         self.guide = RfidGuidance(pf_params(p), phase, np.random.default_rng(pf_ss), log_warnings=False,
                                   max_repeats=p.max_repeats)
         self.loop = CommandLoop(p.resend_after, p.max_steps)  # pending command, re-sends (track_core.rfid.delivery)
-        self.cmd_msg: DiagnosticArray | None = None
+        self.cmd_msg: RfidCommandMsg | None = None  # re-sent unchanged (same seq, same stamp)
         self.found = False
         self.turns = 0                           # usable TURN results
 
@@ -181,15 +181,12 @@ class RfidGuidanceNode(TrackNode):
 
     def _send(self, cmd: Command) -> None:
         t = self._now()
-        words = str(cmd) + (f': {cmd.reason}' if cmd.reason else '')
         self.loop.sent(cmd, t)
-        status = RfidCommand.from_command(cmd).to_status(f'{self.get_name()}/command',
-                                                         DIAG_WARN if cmd.repeat else DIAG_OK, words)
-        self.cmd_msg = diagnostic_array(t, [status])
+        self.cmd_msg = RfidCommand.from_command(cmd).to_msg(t)
         self.pub_cmd.publish(self.cmd_msg)
 
     # -- results --------------------------------------------------------------------------
-    def _on_step(self, msg: DiagnosticArray) -> None:
+    def _on_step(self, msg: RfidStepMsg) -> None:
         if self.loop.cmd is None:
             return  # nothing asked yet: not an answer
         res, seq = read_step(msg, self.loop.cmd)
@@ -238,6 +235,5 @@ class RfidGuidanceNode(TrackNode):
     def _publish_found(self, t: float, seq: int) -> None:
         pf, moves = self.guide.pf, self.loop.moves
         self.get_logger().info(f'tag found after {moves} steps and {self.turns} turns')
-        rec = RfidFound(seq, moves, self.turns, pf.n_updates, pf.n_resamples, pf.n_reinits)
-        self.pub_found.publish(diagnostic_array(t, [rec.to_status(f'{self.get_name()}/found', DIAG_OK,
-                                                                  'tag found')]))
+        self.pub_found.publish(RfidFound(seq, moves, self.turns, pf.n_updates, pf.n_resamples,
+                                         pf.n_reinits).to_msg(t))

@@ -12,21 +12,23 @@ publishes, in this order,
   (0, P]), ``rssi`` (dBm), ``carrier_mhz`` (the read's carrier: hopping readers change it between
   dwells);
 - ``/rfid/user/pose`` (geometry_msgs/PoseStamped in ``map``, tag at the origin) and
-  ``/rfid/user/status`` (diagnostic_msgs/DiagnosticArray: steps, turns, distance walked, ...):
+  ``/rfid/user/status`` (track_msgs/RfidUserStatus: steps, turns, distance walked, ...):
   the truth, for evaluation only (the guidance never reads them); the pose also goes on ``/tf`` as
   map → rfid_user (the user's body frame) at the same stamp, and ``/tf_static`` places the reader's
   frame (the node name, frame of ``/rfid/phase``) at the user: rfid_user → <node name>, identity;
-- ``/rfid/step`` (diagnostic_msgs/DiagnosticArray): the step result, last. One status; its values
-  are the fields of ``StepResult`` (``seq``, ``kind``, ``dphi``, ``turn``, ``n_reads``,
-  ``n_outliers``, ``ok``, ``reason``, ``found``) plus ``duration``, the record
-  ``track_msgs_py.records.rfid.RfidStep``.
+- ``/rfid/step`` (track_msgs/RfidStep): the step result, last: the fields of ``StepResult``
+  (``seq``, ``kind``, ``dphi``, ``turn``, ``n_reads``, ``n_outliers``, ``ok``, ``reason``,
+  ``found``, ``dphi_std``, ``relocks``) plus ``duration``, the record
+  ``track_msgs_py.records.rfid.RfidStep`` (an unknown dφ, turn or dφ std: its ``*_known`` false).
 
 The phase cloud and the step result of one MOVE carry the same header stamp.
 
 Exactly one answer per command (``seq``, ``track_core.rfid.delivery.AnswerCache``): a command whose
 ``seq`` was already answered (the guidance re-sends its pending command until it sees the answer,
 which covers discovery races) gets the cached step result again, nothing is re-executed; a command
-older than the last one is ignored. After DONE the search is over: the reader answers DONE and
+older than the last one is ignored. A command with an unknown kind, seq 0, a non-finite
+angle, or a seq more than ``SEQ_WINDOW`` ahead is refused (``TrackNode.refuse``) and changes
+nothing. After DONE the search is over: the reader answers DONE and
 performs nothing more (one search per node lifetime).
 
 Time. The simulated user takes time: a MOVE lasts the walk (step length / ``walk_speed``), a TURN
@@ -51,7 +53,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import PointCloud2
 
@@ -60,7 +61,9 @@ from track_core.rfid.phase import PhaseModel
 from track_core.rfid.protocol import Command, CommandKind
 from track_core.rfid.signal import UnwrapConfig
 from track_core.rfid.world import SimReader, WorldParams, office_obstacles
-from track_msgs_py.diagnostics import DIAG_OK, DIAG_WARN, diagnostic_array
+from track_msgs.msg import RfidCommand as RfidCommandMsg
+from track_msgs.msg import RfidStep as RfidStepMsg
+from track_msgs.msg import RfidUserStatus as RfidUserStatusMsg
 from track_msgs_py.qos import ESTIMATE_QOS
 from track_msgs_py.records import RecordError
 from track_msgs_py.records.rfid import RfidPhase, RfidStep, RfidUserStatus, read_command
@@ -128,8 +131,8 @@ class _Answer:
 
     stream: PointCloud2 | None
     pose: PoseStamped
-    status: DiagnosticArray
-    step: DiagnosticArray
+    status: RfidUserStatusMsg
+    step: RfidStepMsg
 
 
 def world_params(p) -> WorldParams:
@@ -184,9 +187,9 @@ class RfidReaderNode(TrackNode):
         self.cache: AnswerCache[_Answer] = AnswerCache()  # one answer per seq (track_core.rfid.delivery)
         self.pub_phase = self.create_publisher(PointCloud2, RFID_PHASE, ESTIMATE_QOS)
         self.pub_pose = self.create_publisher(PoseStamped, RFID_USER_POSE, ESTIMATE_QOS)
-        self.pub_status = self.create_publisher(DiagnosticArray, RFID_USER_STATUS, ESTIMATE_QOS)
-        self.pub_step = self.create_publisher(DiagnosticArray, RFID_STEP, ESTIMATE_QOS)
-        self.sub_cmd = self.create_subscription(DiagnosticArray, RFID_COMMAND, self._on_command, ESTIMATE_QOS)
+        self.pub_status = self.create_publisher(RfidUserStatusMsg, RFID_USER_STATUS, ESTIMATE_QOS)
+        self.pub_step = self.create_publisher(RfidStepMsg, RFID_STEP, ESTIMATE_QOS)
+        self.sub_cmd = self.create_subscription(RfidCommandMsg, RFID_COMMAND, self._on_command, ESTIMATE_QOS)
         self.timer = self.create_timer(p.tick, self._tick)
         self.get_logger().info(f'user {self.reader.distance_to_tag():.2f} m from the tag at '
                                f'({self.reader.pose[0]:.2f}, {self.reader.pose[1]:.2f}) m, '
@@ -200,15 +203,14 @@ class RfidReaderNode(TrackNode):
         return self.get_clock().now().nanoseconds * 1e-9
 
     # -- truth ----------------------------------------------------------------------------
-    def _truth(self, t: float, seq: int) -> tuple[PoseStamped, DiagnosticArray]:
+    def _truth(self, t: float, seq: int) -> tuple[PoseStamped, RfidUserStatusMsg]:
         r = self.reader
         rec = RfidUserStatus(seq, r.steps, r.turns, float(r.distance), r.repeats, r.distance_to_tag(), r.found(),
                              float(r.pose[0]), float(r.pose[1]), float(r.pose[2]))
-        status = rec.to_status(f'{self.get_name()}/user', DIAG_OK, 'found' if r.found() else 'searching')
-        return pose_stamped(t, r.pose), diagnostic_array(t, [status])
+        return pose_stamped(t, r.pose), rec.to_msg(t)
 
     # -- commands -------------------------------------------------------------------------
-    def _on_command(self, msg: DiagnosticArray) -> None:
+    def _on_command(self, msg: RfidCommandMsg) -> None:
         try:
             cmd = read_command(msg)
         except RecordError as exc:
@@ -240,9 +242,7 @@ class RfidReaderNode(TrackNode):
         duration = r.t - t0
         due = self._now() + self.p.time_scale * duration
         res = out.result
-        words = f'{cmd}: ' + ('found' if res.found else 'ok' if res.ok else res.reason or 'unusable')
-        step = RfidStep.from_result(res, duration).to_status(f'{self.get_name()}/step',
-                                                              DIAG_OK if res.ok else DIAG_WARN, words)
+        step = RfidStep.from_result(res, duration).to_msg(due)
         stream = None
         if cmd.kind is CommandKind.MOVE:
             s = out.stream
@@ -250,7 +250,7 @@ class RfidReaderNode(TrackNode):
             stream = RfidPhase.from_stream(due, s, t_start, self.world.phase.carrier_hz, r.pose).to_msg()
         pose, status = self._truth(due, cmd.seq)
         done = cmd.kind is CommandKind.DONE
-        self.cache.store(cmd.seq, _Answer(stream, pose, status, diagnostic_array(due, [step])), due, done)
+        self.cache.store(cmd.seq, _Answer(stream, pose, status, step), due, done)
         if done:
             self.get_logger().info(f'search over ({cmd.reason or "done"}): {r.steps} steps, {r.turns} turns, '
                                    f'{r.distance:.1f} m walked, {r.distance_to_tag():.2f} m from the tag')

@@ -46,8 +46,9 @@ def _brute(events, window: int, combine: str, threshold: float):
             continue
         mu = {k: latest[k].mu for k in ids}
         R = {k: latest[k].R for k in ids}
-        s = score(np.array([mu[a] for a, _ in pairs]), np.array([R[a] for a, _ in pairs]),
-                  np.array([mu[b] for _, b in pairs]), np.array([R[b] for _, b in pairs]), 'exact')
+        ordered = [(a, b) if tuple(mu[a]) <= tuple(mu[b]) else (b, a) for a, b in pairs]   # scored by position
+        s = score(np.array([mu[a] for a, _ in ordered]), np.array([R[a] for a, _ in ordered]),
+                  np.array([mu[b] for _, b in ordered]), np.array([R[b] for _, b in ordered]), 'exact')
         rows = []
         for (a, b), v in zip(pairs, np.atleast_1d(s), strict=True):
             w = wins.setdefault((a, b), ScoreWindow(combine, max_instants=window))

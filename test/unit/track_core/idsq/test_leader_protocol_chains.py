@@ -120,3 +120,24 @@ def test_a_handoff_received_after_the_ack_timeout_is_refused_as_expired():
     assert late[-1].refusal is not None and late[-1].refusal.startswith('expired: ')
     assert leds[out.receiver].pending is None and leds[out.receiver].refused == 1
     assert leds[out.receiver].on_handoff(data, age=0.003)[0].refusal is None  # in time: taken
+
+
+def test_a_revoke_that_overtakes_its_handoff_still_ends_the_chain():
+    """Revokes have a topic of their own: nothing orders one after the handoff it voids. A revoke that
+    comes first cuts nothing; the receiver takes the handoff and acks, and that ack is revoked again."""
+    from track_core.idsq.handoff import Handoff
+
+    leds, layout, truth = _net()
+    s = start_leader_of(layout, truth[0], SimNoise(), SEED)
+    leds[s].on_truth(0, 'truth', 'vehicle', truth[0])
+    first = leds[s].outgoing[0]
+    a = first.receiver
+    b = _sends(leds[s].timeout(0, a))[0].receiver
+    leds[s].on_reply(0, s, b, 'ack')
+    assert leds[a].on_revoke(s, a, 0) == [] and leds[a].pending is None  # came first: nothing to cut
+    fx = leds[a].on_handoff(Handoff.from_belief(0, s, a, first.belief))  # the typed path: a Handoff
+    assert fx[0].refusal is None and leds[a].pending is not None
+    again = [f for f in leds[s].on_reply(0, s, a, 'ack') if isinstance(f, Revoke)]
+    assert [(r.step, r.receiver) for r in again] == [(0, a)]
+    fx = leds[a].on_revoke(s, a, again[0].step)
+    assert [f.step for f in fx if isinstance(f, Void)] == [1] and leds[a].pending is None

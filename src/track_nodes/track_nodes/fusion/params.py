@@ -1,0 +1,52 @@
+"""Parameters of the ``fusion`` node (module docstring of ``track_nodes.fusion.fusion``)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from track_core.geofeasibility.track import THRESHOLD
+from track_msgs_py.validate import InputPolicy
+from track_nodes.base import param
+
+
+@dataclass
+class FusionParams:
+    """Parameters of ``fusion``."""
+
+    track_array_topics: list[str] = param([''], 'track_msgs/TrackArray topics, one source each (track id = '
+        'topic/<track id>)')
+    odometry_topics: list[str] = param([''], 'nav_msgs/Odometry track topics (track id = topic/child_frame_id)')
+    pose_topics: list[str] = param([''], 'PoseWithCovarianceStamped track topics (one track per topic)')
+    pose_track_topics: list[str] = param([''], 'PoseWithCovarianceStamped topics of many tracks of one source '
+        '(header.frame_id = "<frame>#<local id>", track id = topic/<local id>)')
+    rate: float = param(2.0, 'scoring rate [Hz]', 0.01, 100.0, live=True)
+    method: str = param('exact', 'geofeasibility score', choices=('exact', 'glr', 'glr_thresholded', 'mc'))
+    n_samples: int = param(500, 'Monte-Carlo samples per pair (method mc)', 10, 1_000_000)
+    threshold: float = param(THRESHOLD, 'associate a pair when its combined score is at least this',
+                             0.0, 1.0, live=True)
+    combine: str = param('geometric', 'track-level combination of instant scores', choices=('geometric', 'harmonic'))
+    window: int = param(10, 'instant scores kept per pair for the combination', 1, 100_000)
+    stale_after: float = param(2.0, 'a position report older than this drops out [s]', 1e-3, 1e6, live=True)
+    max_prediction: float = param(10.0, 'an Odometry track predicted further than this drops out [s]',
+                                  1e-3, 1e6, live=True)
+    q_s: float = param(0.1, 'CV process-noise intensity used when predicting tracks [m²/s³]', 0.0, 1e6)
+    seed: int = param(0, 'seed of the Generator used by the mc method', 0, 2**31 - 1)
+    same_source_pairs: bool = param(False, 'also score pairs from one source (Odometry: same topic; pose: same '
+        'namespace)')
+    schedule: str = param('timer', 'timer: score at node-clock ticks; stamps: at the data instants k/rate, '
+        'deterministic (module docstring)', choices=('timer', 'stamps'))
+    publish_pairs: str = param('all', 'all: every pair of different sources; nonzero: only the pairs with a '
+        'positive score or combined score, or associated (module docstring)', choices=('all', 'nonzero'))
+    region: list[float] = param([-math.inf, math.inf, -math.inf, math.inf], 'shard: the rectangle [xmin, xmax, '
+        'ymin, ymax] [m] whose pairs this node publishes (midpoint inside; default: the plane)')
+    region_margin: float = param(0.0, 'shard: tracks within this of the rectangle are held, the others dropped [m] '
+        '(track_core.fusion.region)', 0.0, 1e9)
+    display_rate: float = param(1.0, 'rate of /fusion/markers [Hz] (at most one per scored instant)', 0.001, 100.0,
+                                live=True)
+    warn_period: float = param(5.0, 'at most one bad-input warning per topic per this many seconds',
+                               0.0, 1e6, live=True)
+    stamp_horizon: float = param(InputPolicy.horizon, 'refuse reports stamped more than this ahead of the node clock '
+                                 '[s]', 1e-3, 1e9, live=True)
+    stamp_lead: float = param(2.0, 'look-ahead tolerance: refuse reports stamped more than this ahead of the node '
+        'clock (a few report periods) [s]', 1e-3, 1e9, live=True)
