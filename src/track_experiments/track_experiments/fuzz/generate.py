@@ -23,6 +23,8 @@ The classes a template gets depend on what it has (its type's fields, not a list
   ``revoke``): ``<prefix>.step_max`` (0xFFFFFFFF), ``<prefix>.step_ahead``, ``<prefix>.step_behind``,
   ``<prefix>.receiver``; a handoff also ``handoff.version`` (unknown), ``handoff.lengths`` (one mass
   fewer than cells), ``handoff.foreign`` (a velocity in a version-1 package);
+- a typed protocol message with a ``seq`` (RFID command, step, found, status): ``seq.max_u32``,
+  ``seq.ahead``, ``seq.behind``, ``seq.zero``; with a ``kind``: ``kind.unknown``;
 - any type: ``duplicate`` (the template again), ``raw.random`` (random bytes after a CDR header,
   published raw), ``raw.truncated`` (the template's CDR cut short).
 
@@ -120,8 +122,7 @@ class Fuzzer:
             out += self._diag_kinds(tpl)
         if type_name == 'UInt8MultiArray':
             out += self._payload_kinds()
-        if type_name in IDSQ_PREFIX:
-            out += self._idsq_kinds(IDSQ_PREFIX[type_name])
+        out += self._idsq_kinds(IDSQ_PREFIX[type_name]) if type_name in IDSQ_PREFIX else _counter_kinds(tpl)
         out += [('duplicate', lambda m, n: m),
                 ('raw.random', lambda m, n: CDR_HEADER + self.rng.bytes(int(self.rng.integers(0, 256)))),
                 ('raw.truncated', _truncated_cdr)]
@@ -277,6 +278,25 @@ class Fuzzer:
                     ('handoff.lengths', edit(lambda m: setattr(m, 'mass', m.mass[:-1]))),
                     ('handoff.foreign', edit(lambda m: (setattr(m, 'version', 1), setattr(m, 'velocity_x', 3.0))))]
         return out
+
+
+def _counter_kinds(tpl) -> list[tuple[str, Callable]]:
+    """A typed protocol message's ``seq`` (uint32) and ``kind`` (uint8) fields: out-of-window and unknown values."""
+    def set_field(name, value_of):
+        def fn(m, n):
+            setattr(m, name, value_of(getattr(m, name)))
+            return m
+        return fn
+
+    out = []
+    if isinstance(getattr(tpl, 'seq', None), int) and not isinstance(tpl.seq, bool):
+        out += [('seq.max_u32', set_field('seq', lambda v: 0xFFFFFFFF)),
+                ('seq.ahead', set_field('seq', lambda v: min(v + 1000, 0xFFFFFFFF))),
+                ('seq.behind', set_field('seq', lambda v: max(0, v - 1000))),
+                ('seq.zero', set_field('seq', lambda v: 0))]
+    if isinstance(getattr(tpl, 'kind', None), int):
+        out.append(('kind.unknown', set_field('kind', lambda v: 200)))
+    return out
 
 
 def _truncated_cdr(m, n) -> bytes:
