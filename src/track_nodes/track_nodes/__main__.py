@@ -3,7 +3,8 @@
 import contextlib
 import sys
 
-from track_nodes.registry import UnknownExecutableError, executables, main_of
+from track_nodes.base.usage import wants_help
+from track_nodes.registry import MAINS, NODES, UnknownExecutableError, executables, main_of, node_class
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -13,6 +14,10 @@ def main(argv: list[str] | None = None) -> int:
               file=sys.stderr)
         return 2
     try:
+        if args[0] in NODES and args[0] not in MAINS and wants_help(args):  # a node asked for help never starts
+            from track_nodes.base.usage import usage
+            print(usage(args[0], node_class(args[0])))
+            return 0
         entry = main_of(args[0])  # imports the node's module (numpy, scipy, rclpy: seconds on a busy machine)
         return entry([args[0], *args[1:]])
     except UnknownExecutableError:

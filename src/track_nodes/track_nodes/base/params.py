@@ -198,6 +198,24 @@ def param_specs(cls: type) -> list[Param]:
             if _PARAM in f.metadata]
 
 
+def all_specs(cls: type) -> list[Param]:
+    """Every parameter the dataclass ``cls`` declares, in order, with its start default: a group's
+    ``<field>.<name>`` parameters included, ``default_from`` resolved from the defaults before it."""
+    out: list[Param] = []
+    values: dict[str, Any] = {}
+    for f in dataclasses.fields(cls):
+        if _GROUP in f.metadata:
+            values[f.name] = f.metadata[_GROUP](values)
+            out += dataclass_params(f.name, values[f.name])
+            continue
+        spec = dataclasses.replace(f.metadata[_PARAM], name=f.name)
+        if spec.default_from is not None:
+            spec = dataclasses.replace(spec, default=spec.default_from(values))
+        values[f.name] = spec.default
+        out.append(spec)
+    return out
+
+
 def declare(node: Node, cls: type) -> Any:
     """Declare the fields of the parameter dataclass ``cls`` on ``node``, in field order; return the instance.
 
