@@ -74,7 +74,7 @@ from track_nodes.bag.check import check_bag
 from track_nodes.bag.frames import check_frames
 from track_nodes.launch.generate import idsq_yaml as scenario_yaml
 from track_nodes.launch.hosts import unavailable
-from track_nodes.launch.scenario import load_scenario
+from track_nodes.launch.scenario import load_scenario, node_params
 
 DT = 0.5
 EPOCH = 1000  # the in-process network's /clock starts here (the launcher's at --epoch, by default now)
@@ -192,12 +192,12 @@ def test_scenario_file_matches_the_layout_generator(repo):
     """config/idsq.yaml's sensor entries are the seeded §5.1 layout vehicle_sim publishes."""
     doc = yaml.safe_load((repo / 'config/idsq.yaml').read_text())
     seed = doc['/**']['ros__parameters']['seed']
-    vp = doc['vehicle_sim']['ros__parameters']
+    vp = node_params(doc, 'vehicle_sim')
     _, layout, _ = scenario_of(seed, vp['n_sensors'], vp['doa_fraction'])
     specs = [s for s in load_scenario(str(repo / 'config/idsq.yaml')).nodes if s.executable != 'vehicle_sim']
     assert len(specs) == layout.n == 24
     for spec in specs:
-        p = doc[spec.name]['ros__parameters']
+        p = node_params(doc, spec.name)
         assert spec.executable == f'{p["type"]}_sensor'
         assert p['position'] == layout.positions[p['id']].tolist()  # exact (repr round trip)
         assert (p['type'] == 'doa') == bool(layout.is_doa[p['id']])

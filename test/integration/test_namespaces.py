@@ -1,4 +1,4 @@
-"""Namespaces and remapping (issue 19, item 5): two namespaced demo scenarios side by side, no crosstalk.
+"""Namespaces and remapping: two namespaced demo scenarios side by side, no crosstalk.
 
 Each instance is the demo scenario's pair (demo_target → demo_tracker) started with
 ``-r __ns:=/robotN``, on wall time, in one process. Their topics resolve under their namespace, each
@@ -19,6 +19,7 @@ from rclpy.parameter import Parameter
 
 from track_msgs_py.qos import ESTIMATE_QOS
 from track_msgs_py.topics import DEMO_REPORTS, DEMO_TRACK, DEMO_TRUTH
+from track_nodes.base import ParameterError
 from track_nodes.demo.demo_target import DemoTargetNode
 from track_nodes.demo.demo_tracker import DemoTrackerNode
 
@@ -71,3 +72,14 @@ def test_a_refusal_names_the_resolved_topic(ros, repo):
     pub.publish(bad)
     assert ros.spin_until(lambda: tracker.refusals.total() > 0, timeout=30)
     assert all(key.startswith('/robot1' + DEMO_REPORTS + ' ') for key in tracker.refusals.by_key())
+
+
+def test_scenario_files_apply_in_a_namespace(ros, repo, tmp_path):
+    """config/*.yaml name their sections ``/**/node``, so ``-r __ns:=/robot1`` keeps the scenario's
+    parameters, and a typo under such a section is still refused for that node."""
+    target, _ = _instance(ros, repo, '/robot1')
+    assert target.get_parameter('seed').value == 7  # the node's default is 0
+    bad = tmp_path / 'typo.yaml'
+    bad.write_text((repo / 'config/demo.yaml').read_text().replace('    seed: 7\n', '    sead: 7\n'))
+    with pytest.raises(ParameterError, match=r"'sead' \(did you mean seed\?\).*for node /robot2/demo_target"):
+        DemoTargetNode(context=ros.context, cli_args=['--ros-args', '--params-file', str(bad), '-r', '__ns:=/robot2'])

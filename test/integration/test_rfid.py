@@ -57,6 +57,7 @@ from track_nodes.bag.api import mcap_problem
 from track_nodes.bag.check import check_bag
 from track_nodes.bag.frames import check_frames
 from track_nodes.base import ParameterError
+from track_nodes.launch.scenario import node_params
 from track_nodes.rfid.rfid_guidance import RfidGuidanceNode
 from track_nodes.rfid.rfid_reader import RfidReaderNode
 
@@ -74,7 +75,7 @@ def _config(repo: Path) -> dict:
 def _reference(repo: Path):
     """The core-only search with the scenario's parameters and seed."""
     cfg = _config(repo)
-    rp, gp = cfg['rfid_reader']['ros__parameters'], cfg['rfid_guidance']['ros__parameters']
+    rp, gp = node_params(cfg, 'rfid_reader'), node_params(cfg, 'rfid_guidance')
     assert rp['seed'] == gp['seed']
     phase = PhaseModel.with_wrap(rp['wrap'], carrier_hz=rp['carrier_hz'], s_theta=math.radians(rp['s_theta_deg']))
     world = WorldParams(phase=phase, start_distance=rp['start_distance'], beam_width=math.radians(rp['beam_width_deg']),
@@ -154,7 +155,7 @@ def test_the_two_nodes_find_the_tag(search_run, repo):
     ref = _reference(repo)
     assert ref.success
     assert guide.found and reader.reader.found()
-    assert reader.reader.distance_to_tag() <= _config(repo)['rfid_reader']['ros__parameters']['found_radius']
+    assert reader.reader.distance_to_tag() <= node_params(_config(repo), 'rfid_reader')['found_radius']
     assert len(sink.msgs[RFID_FOUND]) == 1
     # the node pair replays the core-only search with the same seed, exactly
     r = reader.reader

@@ -57,6 +57,7 @@ from track_msgs_py.topics import (
 from track_nodes.bag.check import check_bag
 from track_nodes.bag.frames import check_frames
 from track_nodes.base import ParameterError
+from track_nodes.launch.scenario import node_params
 from track_nodes.sonar.smart_target import SmartTargetNode
 from track_nodes.sonar.sonar_observer import SonarObserverNode
 
@@ -89,12 +90,12 @@ class Sink:
 
 
 def truth_x0(repo: Path) -> np.ndarray:
-    return np.array(_config(repo)['smart_target']['ros__parameters']['x0'])
+    return np.array(node_params(_config(repo), 'smart_target')['x0'])
 
 
 def _reference_closed_loop(cfg: dict, steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, SmartTarget]:
     """The same closed loop with the core only (as run_closed_loop): estimates, covariances, modes."""
-    tp, op = cfg['smart_target']['ros__parameters'], cfg['sonar_observer']['ros__parameters']
+    tp, op = node_params(cfg, 'smart_target'), node_params(cfg, 'sonar_observer')
     target = SmartTarget(np.array(tp['x0']), sonar=SonarParams(T=tp['period'], q_s=tp['q_s']), params=SmartTargetParams(
         p_max=tp['p_max'], r_50=tp['r_50'], width=tp['width'], evade_speed=tp['evade_speed'],
         max_turn_rate=math.radians(tp['max_turn_rate_deg']), max_accel=tp['max_accel'],
@@ -152,7 +153,7 @@ def test_estimate_converges_near_the_truth(in_process_run, repo):
     est = [odometry_to_cv_state(m) for m in sink.msgs[SONAR_ESTIMATE]]
     assert [round(t * 1e9) for t, _, _ in est] == [k * 10**9 for k in range(1, STEPS + 1)]
     err = np.array([np.hypot(*(truth[round(t * 1e9)] - x)[[0, 2]]) for t, x, _ in est])
-    op = _config(repo)['sonar_observer']['ros__parameters']
+    op = node_params(_config(repo), 'sonar_observer')
     prior_err = np.hypot(*(np.array(op['prior_mean']) - truth_x0(repo))[[0, 2]])  # ≈ 22 m
     # Table 1 sensors (σ_d = 5 m; 1° of bearing ≈ 8 m at 0.5 km) and the paper's RTAMS ≈ 8 m: the
     # last 10 s stay well inside the prior error, and within the filter's own covariance (NEES).

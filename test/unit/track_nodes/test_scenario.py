@@ -62,9 +62,10 @@ def test_maritime_radio_range_links_the_columns(seed):
 
     from track_core.idsq.simulation import scenario_of
     from track_nodes.launch.generate import maritime_yaml
+    from track_nodes.launch.scenario import section_node
 
     cfg = yaml.safe_load(maritime_yaml(seed=seed))
-    ranges = {v['ros__parameters']['comm_range'] for k, v in cfg.items() if k.startswith('sensor_')}
+    ranges = {v['ros__parameters']['comm_range'] for k, v in cfg.items() if section_node(k).startswith('sensor_')}
     assert ranges == {60.0}
     _, layout, _ = scenario_of(seed, 40, 0.3)
     rows = layout.positions.reshape(10, 4, 2)
@@ -78,6 +79,7 @@ def test_maritime_radio_range_links_the_columns(seed):
 @pytest.mark.parametrize(('extra', 'words'), [
     ('demo_trackr:\n  ros__parameters:\n    q_s: 1.0\n', ["node section 'demo_trackr' (did you mean demo_tracker"]),
     ('/ns/demo_tracker:\n  ros__parameters:\n    q_s: 1.0\n', ["'ns/demo_tracker'"]),
+    ('/**/demo_trackr:\n  ros__parameters:\n    q_s: 1.0\n', ["'demo_trackr' (did you mean demo_tracker"]),
 ])
 def test_a_section_for_no_node_of_the_scenario_is_refused(repo, tmp_path, extra, words):
     f = tmp_path / 'demo.yaml'
@@ -90,7 +92,7 @@ def test_a_section_for_no_node_of_the_scenario_is_refused(repo, tmp_path, extra,
 def test_wildcard_and_recorder_sections_are_for_every_scenario(repo, tmp_path):
     f = tmp_path / 'demo.yaml'
     f.write_text((repo / 'config/demo.yaml').read_text() + '\n/**:\n  ros__parameters:\n    use_sim_time: true\n'
-                 'recorder:\n  ros__parameters:\n    regex: x\n')
+                 'recorder:\n  ros__parameters:\n    regex: x\n/**/recorder:\n  ros__parameters:\n    regex: y\n')
     assert [n.name for n in load_scenario(str(f)).nodes] == ['demo_target', 'demo_tracker']
 
 

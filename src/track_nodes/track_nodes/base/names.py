@@ -8,11 +8,12 @@ parameter is refused with one line and the closest declared names (``difflib``).
 
 Addressed to this node means: a ``parameter_overrides`` entry, a ``-p name:=value`` (or
 ``-p node:name:=value`` with this node's name), or a key under a params-file section that names this
-node exactly (``node:``, ``/node:``, ``/ns/node:``, or nested ``ns: node:``). Keys under wildcard
-sections (``/**:``, ``/ns/*:``, ``/**/node:``) are shared by nodes that declare different sets, so
-they are not refused here (``shared_names_problem`` checks ``/**`` against all the nodes of a run that
-holds them all); sections for other nodes never reach this node. rclpy's own parameters
-(``use_sim_time``, ``start_type_description_service``, ``qos_overrides./topic...``) are valid.
+node (``node:``, ``/node:``, ``/ns/node:``, nested ``ns: node:``, or ``/**/node:``, the form our
+scenario files use so that they apply in any namespace). Keys under the other wildcard sections
+(``/**:``, ``/ns/*:``) are shared by nodes that declare different sets, so they are not refused here
+(``shared_names_problem`` checks ``/**`` against all the nodes of a run that holds them all);
+sections for other nodes never reach this node. rclpy's own parameters (``use_sim_time``,
+``start_type_description_service``, ``qos_overrides./topic...``) are valid.
 A ``-p name:=value`` without a node prefix is addressed to every node of the process, so in a
 ``node_group`` give a parameter that only some nodes have as ``-p NODE:name:=value`` (or in a section).
 
@@ -99,10 +100,11 @@ def _dash_p(options: list[tuple[str, str]], node_name: str) -> set[str]:
 def addressed_names(node: Any, args: Sequence[str], overrides: Iterable[str]) -> set[str]:
     """Parameter names that ``args`` (``--ros-args`` style) and ``overrides`` address to ``node`` itself."""
     fqn, name = node.get_fully_qualified_name(), node.get_name()
+    own = (fqn, f'/**/{name}')
     options = ros_options(args)
     names = set(overrides) | _dash_p(options, name)
     for path in (value for opt, value in options if opt == '--params-file'):
-        names.update(k for section, keys in _sections_of(path) if section == fqn for k in keys)
+        names.update(k for section, keys in _sections_of(path) if section in own for k in keys)
     return names
 
 

@@ -46,7 +46,7 @@ def idsq_yaml(seed: int = 0, n_sensors: int = 24, doa_fraction: float = 0.3, *, 
         '    selection: mi             # mi | nearest | random',
         f'    ack_timeout: {float(ack_timeout)!r}          # wall seconds before a silent receiver is skipped',
         '',
-        'vehicle_sim:',
+        '/**/vehicle_sim:',
         '  ros__parameters:',
         f'    n_sensors: {layout.n}',
         f'    doa_fraction: {float(doa_fraction)!r}',
@@ -54,7 +54,7 @@ def idsq_yaml(seed: int = 0, n_sensors: int = 24, doa_fraction: float = 0.3, *, 
     ]
     for k, (name, d) in enumerate(zip(names, layout.is_doa.tolist(), strict=True)):
         x, y = (float(v) for v in layout.positions[k])
-        lines += ['', f'{name}:', '  ros__parameters:', f'    id: {k}', f'    position: [{x!r}, {y!r}]',
+        lines += ['', f'/**/{name}:', '  ros__parameters:', f'    id: {k}', f'    position: [{x!r}, {y!r}]',
                   f'    type: {"doa" if d else "acoustic"}']
     return '\n'.join(lines) + '\n'
 
@@ -109,7 +109,7 @@ track_launch:
     duration: {duration!r}
     rate: {rate!r}
 
-smart_target:
+/**/smart_target:
   ros__parameters:
     seed: 3
     period: {dt!r}                # = the network's dt: truth stamped k·dt is the network's step k - 1
@@ -126,7 +126,7 @@ smart_target:
     sync_observer: {sync}        # lock-step with the observer only when both step every 1 s
     track_id: smart_target
 
-sonar_observer:
+/**/sonar_observer:
   ros__parameters:
     seed: 4
     tracker: ss-pf
@@ -149,7 +149,7 @@ sonar_observer:
     track_id: sonar_track
     observer_id: sonar_observer
 
-radar:                         # coastal radar: sees only the decoy
+/**/radar:                         # coastal radar: sees only the decoy
   ros__parameters:
     targets: [420.0, -3.0, -40.0, 5.5]   # decoy: its own course, north-west, never in the field
     truth_seed: 21
@@ -163,7 +163,7 @@ radar:                         # coastal radar: sees only the decoy
     prefix: /radar
     publish_truth: true        # the decoy's truth on /radar/truth (evaluation and the sensors' ears)
 
-fusion:
+/**/fusion:
   ros__parameters:
     odometry_topics: [/sonar/estimate, /idsq/estimate]
     pose_topics: [/radar/t0]
@@ -177,7 +177,7 @@ fusion:
     max_prediction: 3.0
     q_s: 1.0
 
-vehicle_sim:                   # publishes the layout only; the sensors hear the target and the decoy
+/**/vehicle_sim:                   # publishes the layout only; the sensors hear the target and the decoy
   ros__parameters:
     seed: {seed}
     n_sensors: {n_sensors}
@@ -189,7 +189,7 @@ vehicle_sim:                   # publishes the layout only; the sensors hear the
 '''
 
 _SENSOR = '''
-{name}:
+/**/{name}:
   ros__parameters:
     id: {id}
     position: [{x!r}, {y!r}]

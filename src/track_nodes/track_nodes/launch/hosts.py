@@ -16,6 +16,7 @@ from __future__ import annotations
 import atexit
 import contextlib
 import ipaddress
+import itertools
 import os
 import secrets
 import shutil
@@ -57,6 +58,9 @@ def _free_subnet(seed: int) -> ipaddress.IPv4Network:
     raise RuntimeError('no free 10.x.y.0/24 subnet for simulated hosts')
 
 
+_RUNS = itertools.count()  # a process's runs get distinct tags; the pid and a random byte separate processes
+
+
 class Hosts:
     """``n`` simulated hosts; use as a context manager (``with Hosts(3) as hosts: ...``)."""
 
@@ -64,7 +68,7 @@ class Hosts:
         if n < 1:
             raise ValueError(f'need at least one host, got {n}')
         self.n = n
-        self.tag = tag or f't{os.getpid() % 100000}{secrets.token_hex(1)}'
+        self.tag = tag or f't{os.getpid() % 100000}{next(_RUNS) % 16:x}{secrets.token_hex(1)}'
         self.subnet = _free_subnet(os.getpid() * 256 + secrets.randbelow(256))
         self.names = [f'{self.tag}-h{i}' for i in range(n)]
         self.hub = f'{self.tag}-hub'

@@ -6,9 +6,11 @@ has the same layout, the whole file stays a valid ``--params-file`` for every no
 ``ros2 launch``.
 
 Names are checked, since rcl gives a section that names no node to nobody: a ``track_launch`` option
-or a node section (``name:`` or ``/name:``) that is not the scenario's is refused in one line with the
-closest valid names. Wildcard sections (``/**:``) are for every node; the keys under a node's own
-section are checked by the node itself (``base/names.py``).
+or a node section (``name:``, ``/name:`` or ``/**/name:``) that is not the scenario's is refused in one
+line with the closest valid names. Our files write ``/**/name:`` so that they still apply when a user
+runs a node in a namespace (``-r __ns:=/robot1 --params-file config/demo.yaml``). Other wildcard
+sections (``/**:``) are for every node; the keys under a node's own section are checked by the node
+itself (``base/names.py``).
 """
 
 from __future__ import annotations
@@ -107,14 +109,32 @@ def load_scenario(name: str) -> Scenario:
 
 
 def section_problem(doc: Any, names: list[str]) -> str | None:
-    """Why a params document has a section for no node of ``names`` (nor the recorder), or None."""
+    """Why a params document has a section (``node``, ``/node``, ``/**/node``) for no node of ``names``
+    (nor the recorder), or None."""
     valid = {f'/{n}' for n in [*names, RECORDER]}
-    unknown = {section.lstrip('/') for section, _ in file_sections(doc)
-               if '*' not in section and section != f'/{LAUNCH_KEY}' and section not in valid}
+    unknown = set()
+    for section, _ in file_sections(doc):
+        named = section[3:] if section.startswith('/**/') else section  # /**/node names one node
+        if '*' not in named and named not in (f'/{LAUNCH_KEY}', *valid):
+            unknown.add(named.lstrip('/'))
     if not unknown:
         return None
     return unknown_line('node section' + ('s' if len(unknown) > 1 else ''), unknown, [*names, RECORDER],
                         known="the scenario's nodes")
+
+
+def node_params(doc: Any, name: str) -> dict[str, Any]:
+    """The ``ros__parameters`` a params document gives node ``name`` in its own section (``name:``,
+    ``/name:`` or ``/**/name:``); KeyError when it has none."""
+    for key in (f'/**/{name}', f'/{name}', name):
+        if isinstance(doc.get(key), dict) and 'ros__parameters' in doc[key]:
+            return doc[key]['ros__parameters']
+    raise KeyError(f'no section for node {name!r}')
+
+
+def section_node(key: str) -> str:
+    """The node name a top-level section key names (``/**/sensor_3`` → ``sensor_3``)."""
+    return str(key).rsplit('/', 1)[-1]
 
 
 def params_file_sections(path: Path, scenario: Scenario) -> str | None:

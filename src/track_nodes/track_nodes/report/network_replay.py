@@ -36,6 +36,7 @@ from track_core.idsq.models import simulate_measurement
 from track_core.idsq.network import SensorLayout
 from track_core.idsq.tracker import leader_step
 from track_nodes.idsq.params import SENSOR_PARAMS, sensor_setup
+from track_nodes.launch.scenario import section_node
 from track_nodes.report import maritime as mar
 
 FUSION_SOURCE = {mar.SONAR_TRACK: '/sonar/estimate', mar.NETWORK_TRACK: '/idsq/estimate', mar.RADAR_DECOY: '/radar'}
@@ -44,7 +45,8 @@ FUSION_SOURCE = {mar.SONAR_TRACK: '/sonar/estimate', mar.NETWORK_TRACK: '/idsq/e
 def sensors_of(scenario: Path, comm_range: float | None = None, **tracker):
     """(SensorSetup of sensor 0 with ``tracker`` overrides, SensorLayout) of a maritime scenario file."""
     cfg = yaml.safe_load(Path(scenario).read_text())
-    entries = sorted((v['ros__parameters'] for k, v in cfg.items() if k.startswith('sensor_')), key=lambda e: e['id'])
+    entries = sorted((v['ros__parameters'] for k, v in cfg.items() if section_node(k).startswith('sensor_')),
+                     key=lambda e: e['id'])
     first = entries[0]
     cls = SENSOR_PARAMS[first['type']]
     p = cls(**{f.name: first[f.name] for f in dataclasses.fields(cls) if f.name in first})
