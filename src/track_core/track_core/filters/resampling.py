@@ -25,14 +25,15 @@ def effective_sample_size(weights: np.ndarray) -> float:
     return float(1.0 / np.sum(w**2))
 
 
-def systematic_resample(weights: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    """Indices of N particles drawn by systematic resampling (one uniform, N strata).
+def systematic_resample(weights: np.ndarray, rng: np.random.Generator, n: int | None = None) -> np.ndarray:
+    """Indices of ``n`` particles (default N = len(weights)) drawn by systematic resampling (one uniform,
+    ``n`` strata).
 
-    ``weights`` must be normalised (sum 1); the count of index i is ⌊N wᵢ⌋ or ⌈N wᵢ⌉.
+    ``weights`` must be normalised (sum 1); the count of index i is ⌊n wᵢ⌋ or ⌈n wᵢ⌉.
     """
     w = np.asarray(weights, dtype=float)
-    n = w.size
+    n = w.size if n is None else int(n)
     positions = (rng.random() + np.arange(n)) / n
     cum = np.cumsum(w)
     cum[-1] = 1.0  # guard against rounding in the last bin
-    return np.searchsorted(cum, positions, side='right').clip(0, n - 1)
+    return np.searchsorted(cum, positions, side='right').clip(0, w.size - 1)

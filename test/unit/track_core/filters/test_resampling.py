@@ -22,3 +22,15 @@ def test_systematic_counts_are_floor_or_ceil():
         counts = np.bincount(systematic_resample(w, rng), minlength=50)
         assert counts.sum() == 50
         assert np.all(counts >= np.floor(50 * w) - 1e-9) and np.all(counts <= np.ceil(50 * w) + 1e-9)
+
+
+@pytest.mark.parametrize('n', [7, 50, 400])
+def test_systematic_draws_n_of_any_count(n):
+    """n draws from 50 weighted particles (fewer: prior boosting keeps N of init_boost·N)."""
+    rng = np.random.default_rng(1)
+    w = rng.random(50)
+    w /= w.sum()
+    idx = systematic_resample(w, rng, n)
+    counts = np.bincount(idx, minlength=50)
+    assert idx.size == n and idx.max() < 50
+    assert np.all(counts >= np.floor(n * w) - 1e-9) and np.all(counts <= np.ceil(n * w) + 1e-9)

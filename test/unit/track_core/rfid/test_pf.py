@@ -165,3 +165,41 @@ def test_estimate_nan_before_first_update_then_finite():
     pf.update(-18.0, 0.0)
     d, b = pf.tag_estimate()
     assert 0 < d < 16 and -math.pi <= b <= math.pi
+
+
+def _first_step_misfit(params: PFParams, dphi: float, seed: int) -> float:
+    """Median |predicted dφ − dφ| of the particles right after the first update (no jitter at the first)."""
+    pm = PhaseModel()
+    pf = RfidParticleFilter(params, pm, np.random.default_rng(seed))
+    pf.update(dphi, 0.0)
+    x, y, a = pf.particles.T
+    x0, y0 = x - 0.5 * np.cos(a), y - 0.5 * np.sin(a)          # the step's start, up to the step noise
+    return float(np.median(np.abs(pm.k * (np.hypot(x, y) - np.hypot(x0, y0)) - dphi)))
+
+
+def test_init_boost_keeps_n_particles_that_fit_the_first_step():
+    base = PFParams(n_particles=10, s_r=0.0, s_a=0.0)
+    boosted = replace(base, init_boost=100)
+    plain = [_first_step_misfit(base, -8.0, s) for s in range(20)]
+    boost = [_first_step_misfit(boosted, -8.0, s) for s in range(20)]
+    assert np.median(boost) < 0.5 * np.median(plain)
+    pf = RfidParticleFilter(boosted, PhaseModel(), np.random.default_rng(0))
+    pf.update(-8.0, 0.0)
+    assert pf.particles.shape == (10, 3) and np.allclose(pf.weights, 0.1)
+    with pytest.raises(ValueError, match='init_boost'):
+        PFParams(init_boost=0)
+
+
+def test_student_t_weights_have_heavier_tails_than_gaussian():
+    pm = PhaseModel()
+    m = np.array([0.0, 1.0, 10.0])
+    lt = RfidParticleFilter(PFParams(weighting='student_t', t_dof=4.0), pm, np.random.default_rng(0))._log_fw(m, 1.0)
+    lg = RfidParticleFilter(PFParams(weighting='gaussian'), pm, np.random.default_rng(0))._log_fw(m, 1.0)
+    assert lt[0] == lg[0] == 0.0
+    assert lt[2] - lt[0] > lg[2] - lg[0] + 40.0                  # 10 m₀ off: ≈ −9.7 against −50
+    pf = RfidParticleFilter(PFParams(n_particles=200, weighting='student_t'), pm, np.random.default_rng(1))
+    pf.update(-12.0, 0.0)
+    pf.update(-11.0, 0.3)
+    assert np.isfinite(pf.weights).all() and pf.weights.sum() == pytest.approx(1.0)
+    with pytest.raises(ValueError, match='t_dof'):
+        PFParams(t_dof=0.0)
