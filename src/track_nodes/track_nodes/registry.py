@@ -20,6 +20,7 @@ NODES = {
     'doa_sensor': 'track_nodes.idsq.sensor:DoaSensorNode',
     'rfid_reader': 'track_nodes.rfid.rfid_reader:RfidReaderNode',
     'rfid_guidance': 'track_nodes.rfid.rfid_guidance:RfidGuidanceNode',
+    'rfid_log_reader': 'track_nodes.rfid.rfid_log_reader:RfidLogReaderNode',
     'slam_sim': 'track_nodes.slam.slam_sim:SlamSimNode',
     'slam': 'track_nodes.slam.slam:SlamNode',
     'report_source': 'track_nodes.fusion.report_source:ReportSourceNode',

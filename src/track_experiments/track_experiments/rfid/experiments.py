@@ -57,6 +57,9 @@ Three parts, all seeded from ``--seed`` (one ``SeedSequence`` spawned per part a
 
 ``--quick`` runs 6 trials per row, 6 searches per variant and 6 filter trials; the full run 200, 200
 and 100. ``--json`` holds ``{"moves": [...], "sign": {...}, "pf_batch": {...}}``.
+
+``--set file=LOG.csv`` (``--set epc=EPC`` to pick a tag): a recorded walk (``track_core.rfid.log``) instead of
+the simulation, processed the same ways (``log_replay``).
 """
 
 from __future__ import annotations
@@ -75,7 +78,7 @@ from track_core.rfid.protocol import Command, CommandKind
 from track_core.rfid.search import SearchOutcome, run_search
 from track_core.rfid.signal import PhaseProcessor, PhaseStream, UnwrapConfig, naive_dphi, process_move
 from track_core.rfid.world import SimReader, WorldParams, office_obstacles
-from track_experiments.cli import Outcome, RunConfig, format_table
+from track_experiments.cli import Outcome, RunConfig, format_table, set_keys
 from track_experiments.plotting import pyplot
 
 PARTICLES = (10, 20, 50, 100, 300, 1000)
@@ -351,7 +354,15 @@ def pf_batch(seeds: list[np.random.SeedSequence], n_particles: int = PF_PARTICLE
     return out
 
 
+@set_keys(file='a reader log (CSV, track_core.rfid.log) processed instead of the simulation (none)',
+          epc='the tag of the log to use (the log\'s own # epc:, or its only tag)')
 def reader_experiment(cfg: RunConfig) -> Outcome:
+    if 'file' in cfg.options:      # a recorded walk instead of the simulation (rfid/log_replay.py)
+        from track_experiments.rfid.log_replay import log_experiment
+
+        return log_experiment(cfg)
+    if 'epc' in cfg.options:
+        raise ValueError('--set epc needs --set file=LOG.csv (the simulation has one tag)')
     n_trials = cfg.n_runs(full=200, quick=6)
     n_search = cfg.n_runs(full=200, quick=6)
     n_pf = cfg.n_runs(full=100, quick=6)
