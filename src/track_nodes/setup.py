@@ -23,7 +23,7 @@ setup(
         (f'share/{PKG}/displays', sorted(str(p.relative_to(HERE)) for p in (HERE / 'displays').glob('*.*'))),
         (f'lib/{PKG}', SHIMS),
     ],
-    install_requires=['track_core', 'track_msgs_py', 'PyYAML', 'rosbags', 'mcap', 'mcap-ros2-support'],
+    install_requires=['track_core', 'track_msgs_py', 'PyYAML', 'rosbags', 'mcap', 'mcap-ros2-support', 'sllurp'],
     extras_require={'test': ['pytest']},  # colcon test runs pytest (the suite's part in pytest.ini)
     zip_safe=False,
     description='rclpy nodes of the tracking package set',

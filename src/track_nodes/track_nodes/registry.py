@@ -21,6 +21,7 @@ NODES = {
     'rfid_reader': 'track_nodes.rfid.rfid_reader:RfidReaderNode',
     'rfid_guidance': 'track_nodes.rfid.rfid_guidance:RfidGuidanceNode',
     'rfid_log_reader': 'track_nodes.rfid.rfid_log_reader:RfidLogReaderNode',
+    'rfid_llrp_reader': 'track_nodes.rfid.rfid_llrp_reader:RfidLlrpReaderNode',
     'slam_sim': 'track_nodes.slam.slam_sim:SlamSimNode',
     'slam': 'track_nodes.slam.slam:SlamNode',
     'report_source': 'track_nodes.fusion.report_source:ReportSourceNode',

@@ -1,0 +1,103 @@
+"""rfid_llrp_reader in-process against an LLRP reader on localhost (``llrp_rig``: llrpkit's emulator, phases
+scripted), over real sllurp and real DDS.
+
+- A MOVE command is answered with the reads that arrived during ``move_s``: its dφ is the scripted phase
+  change (LLRP sign: the phase rises, dφ > 0; 8 rad/s over 0.5 s = 4 rad, through a wrap, on a reader
+  hopping over 8 channels every 0.2 s), published as a phase cloud and a step result.
+- The reader goes away and comes back on the same port: the node counts the drop, reconnects by itself,
+  and the next MOVE is answered from the new connection's reads.
+- No host: the node stops at start with one line.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import pytest
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from sensor_msgs.msg import PointCloud2
+
+from track_core.rfid.protocol import Command, CommandKind
+from track_msgs import msg as tm
+from track_msgs_py.qos import ESTIMATE_QOS
+from track_msgs_py.records.rfid import RfidCommand, RfidStep
+from track_msgs_py.topics import RFID_COMMAND, RFID_PHASE, RFID_STEP
+from track_nodes.base import ParameterError
+from track_nodes.rfid.rfid_llrp_reader import RfidLlrpReaderNode
+
+pytestmark = pytest.mark.integration
+
+_spec = importlib.util.spec_from_file_location('llrp_rig', Path(__file__).with_name('llrp_rig.py'))
+llrp_rig = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(llrp_rig)   # a test-support module beside this file (the suite imports by path)
+
+OMEGA = 8.0          # rad/s of scripted phase change
+MOVE_S = 0.5
+CHANNELS_MHZ = [902.75 + 0.5 * i for i in range(8)]
+
+
+@pytest.fixture
+def rig():
+    r = llrp_rig.ReaderRig(OMEGA, len(CHANNELS_MHZ), 0.2)
+    r.start()
+    yield r
+    r.close()
+
+
+def _run(ros, rig):
+    node = ros.add(RfidLlrpReaderNode(context=ros.context, parameter_overrides=[
+        Parameter('host', value='127.0.0.1'), Parameter('port', value=rig.port), Parameter('move_s', value=MOVE_S),
+        Parameter('channels_mhz', value=CHANNELS_MHZ), Parameter('carrier_hz', value=CHANNELS_MHZ[0] * 1e6),
+        Parameter('retry_s', value=0.2)]))
+    probe = ros.add(Node('llrp_probe', context=ros.context))
+    got: dict[str, list] = {RFID_STEP: [], RFID_PHASE: []}
+    probe.create_subscription(tm.RfidStep, RFID_STEP, got[RFID_STEP].append, ESTIMATE_QOS)
+    probe.create_subscription(PointCloud2, RFID_PHASE, got[RFID_PHASE].append, ESTIMATE_QOS)
+    pub = probe.create_publisher(tm.RfidCommand, RFID_COMMAND, ESTIMATE_QOS)
+    return node, got, pub
+
+
+def _move(ros, node, got, pub, seq: int) -> RfidStep:
+    """Send MOVE ``seq`` (again until answered: the guidance's resend) and return its step result."""
+    msg = RfidCommand.from_command(Command(CommandKind.MOVE, seq=seq)).to_msg(0.0)
+
+    def answered() -> bool:
+        if not any(RfidStep.from_msg(m).seq == seq for m in got[RFID_STEP]):
+            pub.publish(msg)
+            return False
+        return True
+
+    assert ros.spin_until(answered, timeout=60), (node.link.connects, node.link.failures, node.link.last_error)
+    return next(RfidStep.from_msg(m) for m in got[RFID_STEP] if RfidStep.from_msg(m).seq == seq)
+
+
+def test_a_move_is_answered_from_the_live_reads(ros, rig):
+    node, got, pub = _run(ros, rig)
+    assert ros.spin_until(lambda: node.link.up and node.live.idle_reads > 100, timeout=60), node.link.last_error
+    step = _move(ros, node, got, pub, 1)
+    assert step.ok and step.kind is CommandKind.MOVE, step
+    assert step.dphi == pytest.approx(OMEGA * MOVE_S, abs=0.3)   # 4 rad, through a wrap and 2-3 hops
+    assert 100 <= step.n_reads <= 200                             # 300 reads/s for 0.5 s
+    assert ros.spin_until(lambda: len(got[RFID_PHASE]) >= 1, timeout=30)
+    assert got[RFID_PHASE][0].width == step.n_reads and node.epc == llrp_rig.EPC
+
+
+def test_a_reader_that_goes_away_and_comes_back_is_reconnected(ros, rig):
+    node, got, pub = _run(ros, rig)
+    assert ros.spin_until(lambda: node.link.up and node.live.idle_reads > 0, timeout=60), node.link.last_error
+    rig.stop()
+    assert ros.spin_until(lambda: node.link.drops >= 1 and not node.link.up, timeout=60)
+    ros.spin_until(lambda: node.link.failures >= 2, timeout=30)   # it keeps trying while the reader is away
+    assert node.link.failures >= 2
+    rig.start()                                                   # back on the same port
+    assert ros.spin_until(lambda: node.link.connects >= 2 and node.link.up, timeout=60), node.link.last_error
+    step = _move(ros, node, got, pub, 1)
+    assert step.ok and step.dphi == pytest.approx(OMEGA * MOVE_S, abs=0.3), step
+
+
+def test_no_host_stops_the_node_with_one_line(ros):
+    with pytest.raises(ParameterError, match='parameter host is empty') as exc:
+        RfidLlrpReaderNode(context=ros.context)
+    assert '\n' not in str(exc.value)
