@@ -17,6 +17,10 @@ smart target and the sonar never see the network, so their part of the bag does 
 ``--trace`` prints one line per instant: leader (A acoustic, D DOA) and its distance to the
 target, error, belief σ (major/minor), NEES, stored entries, handoff bytes, fusion instant score,
 combined score and verdict of the true pair.
+
+NEES uses the sonar core's ``nees_or_nan``: a belief that collapsed to one cell has an all-zero
+(singular) covariance, so its NEES is undefined. Such steps get NaN, are left out of the NEES mean
+and share, and are counted (with the first one's time and reason) in the summary line.
 """
 
 from __future__ import annotations
@@ -35,6 +39,7 @@ from track_core.idsq.leader_protocol import loudest, measurement_normal, stamp_o
 from track_core.idsq.models import simulate_measurement
 from track_core.idsq.network import SensorLayout
 from track_core.idsq.tracker import leader_step
+from track_core.sonar.scenario import nees_or_nan
 from track_nodes.idsq.params import SENSOR_PARAMS, sensor_setup
 from track_nodes.launch.scenario import section_node
 from track_nodes.report import maritime as mar
@@ -110,24 +115,38 @@ def summary(d: dict, rows: list[dict], scores: dict) -> dict:
     v = mar.verdicts(d, err)
     pair = tuple(sorted((mar.SONAR_TRACK, mar.NETWORK_TRACK)))
     e = np.array([np.hypot(*(r['mean'] - r['truth'])) for r in rows])
-    nees = np.array([(r['mean'] - r['truth']) @ np.linalg.solve(r['cov'], r['mean'] - r['truth']) for r in rows])
+    nees, why = belief_nees(rows)
+    defined = np.isfinite(nees)
+    first = int(np.flatnonzero(~defined)[0]) if (~defined).any() else None
     nb = np.array([r['bytes'] for r in rows])
     return {'rtams': float(np.sqrt(np.mean(err[mar.NETWORK_TRACK][1] ** 2))), 'fraction': v[pair]['fraction'],
             'instants': v[pair]['instants_after'],
             'decoy_ever': any(r['ever'] for p, r in v.items() if mar.RADAR_DECOY in p),
-            'bytes_mean': float(nb.mean()), 'bytes_max': int(nb.max()), 'nees_mean': float(nees.mean()),
-            'nees_over_6': float(np.mean(nees > 6.0)), 'error_max': float(e.max())}
+            'bytes_mean': float(nb.mean()), 'bytes_max': int(nb.max()), 'error_max': float(e.max()),
+            'nees_mean': float(nees[defined].mean()) if defined.any() else float('nan'),
+            'nees_over_6': float(np.mean(nees[defined] > 6.0)) if defined.any() else float('nan'),
+            'nees_undefined': int((~defined).sum()),
+            'nees_undefined_first': None if first is None else (float(rows[first]['t']), why[first])}
+
+
+def belief_nees(rows: list[dict]) -> tuple[np.ndarray, list[str | None]]:
+    """(steps,) NEES of the belief (2 dof) and per step the reason it is NaN (None where defined)."""
+    if not rows:
+        return np.zeros(0), []
+    return nees_or_nan(np.array([r['mean'] - r['truth'] for r in rows]), np.array([r['cov'] for r in rows]))
 
 
 def trace_lines(rows: list[dict], scores: dict) -> list[str]:
     pair = {r[0]: r for r in scores.get(tuple(sorted((mar.SONAR_TRACK, mar.NETWORK_TRACK))), [])}
+    nees, _ = belief_nees(rows)
     out = []
-    for r in rows:
-        e, (lo, hi) = r['mean'] - r['truth'], np.sqrt(np.linalg.eigvalsh(r['cov']))
+    for r, q in zip(rows, nees, strict=True):
+        e = r['mean'] - r['truth']
+        lo, hi = np.sqrt(np.clip(np.linalg.eigvalsh(r['cov']), 0.0, None))  # a collapsed belief: 0, not NaN
         f = pair.get(r['t'])
+        nees_txt = f'NEES {q:5.1f}' if np.isfinite(q) else 'NEES  sing.'  # singular covariance: no NEES
         out.append(f"t={r['t']:5.1f} leader {r['leader']:3d}{'D' if r['doa'] else 'A'} at {r['range']:5.1f} m  "
-                   f"error {np.hypot(*e):5.1f} m  σ {hi:5.1f}/{lo:4.1f} m  "
-                   f"NEES {e @ np.linalg.solve(r['cov'], e):5.1f}  "
+                   f"error {np.hypot(*e):5.1f} m  σ {hi:5.1f}/{lo:4.1f} m  {nees_txt}  "
                    f"{r['size']:5d} entries {r['bytes']:7d} B"
                    + (f"  score {f[1]:.2f} combined {f[2]:.2f} {'assoc.' if f[3] else '-'}" if f is not None else ''))
     return out
@@ -160,7 +179,16 @@ def main(argv: list[str] | None = None) -> None:
     print(f"network RTAMS {s['rtams']:.1f} m (max error {s['error_max']:.1f} m); true pair associated at "
           f"{100 * s['fraction']:.1f}% of {s['instants']} instants after both converged; decoy ever associated: "
           f"{s['decoy_ever']}; {s['bytes_mean']:.0f} B per handoff (max {s['bytes_max']}); belief NEES mean "
-          f"{s['nees_mean']:.2f}, > 6 at {100 * s['nees_over_6']:.0f}% of the steps")
+          f"{s['nees_mean']:.2f}, > 6 at {100 * s['nees_over_6']:.0f}% of the steps" + nees_note(s))
+
+
+def nees_note(s: dict) -> str:
+    """'' or why some steps have no NEES (a belief collapsed to one cell: singular covariance)."""
+    if not s['nees_undefined']:
+        return ''
+    t, why = s['nees_undefined_first']
+    return (f" with a defined NEES; undefined at {s['nees_undefined']} step(s), first at t={t:.1f} s ({why}): "
+            'left out of the mean')
 
 
 if __name__ == '__main__':
