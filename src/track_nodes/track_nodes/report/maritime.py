@@ -32,10 +32,15 @@ converged, a tracker having converged from the first stamp its position error is
 ``CONVERGED_M`` (an evaluation-only choice; the fusion node never sees the truth); the summary
 prints the true pair's fraction (the goal: ≥ 95 %) and whether a decoy pair was ever associated. It also writes
 ``picture.png`` into the bag directory (``picture``).
+
+Times printed or drawn are seconds from the run's start (``run_start``: the network's step origin,
+else the earliest stamp), not clock stamps: a sim-time run starts at an epoch (~1.8e9 s), whose
+raw stamps read ``t=1.79628e+09``. The start itself is shown once, as a UTC date (``start_note``).
 """
 
 from __future__ import annotations
 
+from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
@@ -70,6 +75,7 @@ TRACKERS = {
 }
 CONVERGED_M = 20.0  # a tracker has converged from the first stamp its position error is below this [m]
 PICTURE = 'picture.png'
+EPOCH_MIN = 1e8  # a start stamp above this [s] (1973 on) is a calendar time, shown as a UTC date
 
 
 # --- reading the bag ------------------------------------------------------------------------------
@@ -118,6 +124,26 @@ def load(bag: Path) -> dict:
     return d
 
 
+def run_start(d: dict) -> float:
+    """The run's time zero [s of the recorded clock]: the network's step origin (the layout's stamp; the
+    truth stamped k·T is step k − 1) when a layout was recorded, else the earliest truth or track stamp."""
+    if d.get('sensors') is not None and 'origin' in d:
+        return float(d['origin'])
+    first = [float(v[0][0]) for group in ('truth', 'tracks') for v in d.get(group, {}).values() if len(v[0])]
+    return min(first) if first else 0.0
+
+
+def start_when(start: float) -> str:
+    """The run's start: a UTC date for an epoch stamp, else the raw clock value."""
+    return (f"{datetime.fromtimestamp(start, UTC):%Y-%m-%d %H:%M:%S} UTC" if start >= EPOCH_MIN
+            else f'clock t={start:g} s')
+
+
+def start_note(start: float) -> str:
+    """The one line that names the run's start, printed before times relative to it."""
+    return f"times in s from the run's start ({start_when(start)})"
+
+
 def tracker_errors(d: dict) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Per track id: (stamps, position error [m]) at the stamps matched to its target's truth."""
     out = {}
@@ -152,10 +178,16 @@ def verdicts(d: dict, errors: dict | None = None) -> dict[tuple[str, str], dict]
 # --- summary --------------------------------------------------------------------------------------
 
 def maritime_metrics(bag: Path) -> list[str]:
-    d = load(bag)
+    return summary_lines(load(bag), bag / PICTURE)
+
+
+def summary_lines(d: dict, picture_path: Path) -> list[str]:
+    """The summary of loaded data ``d`` (``load``); writes the picture to ``picture_path``."""
     errors = tracker_errors(d)
+    start = run_start(d)
     n_pings = len(d['pings'])
-    lines = [f'{"tracker":<16} {"target":<13} {"estimates":>9} {"RTAMS":>9} {"converged":>10} {"pings":>6} '
+    lines = [start_note(start),
+             f'{"tracker":<16} {"target":<13} {"estimates":>9} {"RTAMS":>9} {"converged":>10} {"pings":>6} '
              f'{"detected":>8}']
     for track_id, (label, _, _, child) in TRACKERS.items():
         t, err = errors[track_id]
@@ -163,7 +195,7 @@ def maritime_metrics(bag: Path) -> list[str]:
         conv = converged_at(t, err) if t.size else float('inf')
         lines.append(f'{label:<16} {child.replace("t0", "decoy"):<13} {t.size:>9} '
                      f'{(f"{rms(err[:, None]):.1f} m" if t.size else "-"):>9} '
-                     f'{(f"t={conv:g} s" if np.isfinite(conv) else "never"):>10} '
+                     f'{(f"t={conv - start:.1f} s" if np.isfinite(conv) else "never"):>10} '
                      f'{(str(n_pings) if sonar else "-"):>6} {(str(d["detections"]) if sonar else "-"):>8}')
     v = verdicts(d, errors)
     lines.extend(true_pair_lines(v))
@@ -178,7 +210,7 @@ def maritime_metrics(bag: Path) -> list[str]:
             lines.append(f'{name:<34} {r["mean_score"]:>10.3f} {frac:>18} '
                          f'{"associated" if r["associated"] else "not assoc.":>14} {"same" if same else "diff":>6}')
     try:
-        path = picture(d, bag / PICTURE, errors, v)
+        path = picture(d, picture_path, errors, v)
         lines.append(f'picture: {path.resolve()}')
     except Exception as exc:  # the summary must still print; the reason is one line
         lines.append(f'picture: not written ({type(exc).__name__}: {exc})')
@@ -205,6 +237,16 @@ COLOURS = {SONAR_TRACK: 'tab:red', NETWORK_TRACK: 'tab:blue', RADAR_DECOY: 'tab:
 
 def picture(d: dict, path: Path, errors: dict | None = None, v: dict | None = None, every: float = 5.0) -> Path:
     """One PNG: map (field, sensors, truth, tracks with 2σ ellipses every ``every`` s, pings) and timelines."""
+    import matplotlib.pyplot as plt
+
+    fig = figure(d, errors, v, every)
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+    return path
+
+
+def figure(d: dict, errors: dict | None = None, v: dict | None = None, every: float = 5.0):
+    """The picture's matplotlib Figure (Agg), laid out; axes: map, scores, errors."""
     import matplotlib
 
     matplotlib.use('Agg')
@@ -212,16 +254,15 @@ def picture(d: dict, path: Path, errors: dict | None = None, v: dict | None = No
 
     errors = tracker_errors(d) if errors is None else errors
     v = verdicts(d, errors) if v is None else v
+    start = run_start(d)
     fig = plt.figure(figsize=(13, 7.5))
     gs = fig.add_gridspec(2, 2, width_ratios=(1.15, 1.0))
     _map(fig.add_subplot(gs[:, 0]), d, every)
     ax1 = fig.add_subplot(gs[0, 1])
-    _scores_panel(ax1, d, v)
-    _errors_panel(fig.add_subplot(gs[1, 1], sharex=ax1), errors)
+    _scores_panel(ax1, d, v, start)
+    _errors_panel(fig.add_subplot(gs[1, 1], sharex=ax1), errors, start)
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
-    return path
+    return fig
 
 
 def _map(ax, d: dict, every: float) -> None:
@@ -257,12 +298,12 @@ def _map(ax, d: dict, every: float) -> None:
     ax.grid(alpha=0.3)
 
 
-def _scores_panel(ax1, d: dict, v: dict) -> None:
+def _scores_panel(ax1, d: dict, v: dict, start: float) -> None:
     for (a, b), rows in sorted(d['scores'].items()):
         name = f'{TRACKERS.get(a, (a,))[0]} | {TRACKERS.get(b, (b,))[0]}'
         verdict = 'associated' if v.get((a, b), {}).get('associated') else 'not associated'
-        ax1.plot(rows[:, 0], rows[:, 2], '-', lw=1.4, label=f'{name}: {verdict}')
-        ax1.plot(rows[:, 0], rows[:, 1], '.', ms=3, color=ax1.lines[-1].get_color(), alpha=0.5)
+        ax1.plot(rows[:, 0] - start, rows[:, 2], '-', lw=1.4, label=f'{name}: {verdict}')
+        ax1.plot(rows[:, 0] - start, rows[:, 1], '.', ms=3, color=ax1.lines[-1].get_color(), alpha=0.5)
     ax1.axhline(0.5, color='grey', ls='--', lw=0.8)
     ax1.set_ylim(-0.03, 1.03)
     ax1.set_ylabel('score (line: combined, dots: instant)')
@@ -271,12 +312,12 @@ def _scores_panel(ax1, d: dict, v: dict) -> None:
     ax1.grid(alpha=0.3)
 
 
-def _errors_panel(ax2, errors: dict) -> None:
+def _errors_panel(ax2, errors: dict, start: float) -> None:
     for track_id, (t, err) in errors.items():
         if t.size:
-            ax2.plot(t, err, '-', color=COLOURS[track_id],
+            ax2.plot(t - start, err, '-', color=COLOURS[track_id],
                      label=f'{TRACKERS[track_id][0]} (RTAMS {rms(err[:, None]):.1f} m)')
-    ax2.set_xlabel('time [s]')
+    ax2.set_xlabel(f"time from the run's start [s] (start: {start_when(start)})")
     ax2.set_ylabel('position error [m]')
     ax2.set_yscale('log')
     ax2.set_title('tracking error against truth')

@@ -16,7 +16,8 @@ smart target and the sonar never see the network, so their part of the bag does 
 ``--set`` overrides a ``TrackerParams`` field (``prediction=drift``, ``bank_switch=0.2``, ...);
 ``--trace`` prints one line per instant: leader (A acoustic, D DOA) and its distance to the
 target, error, belief σ (major/minor), NEES, stored entries, handoff bytes, fusion instant score,
-combined score and verdict of the true pair.
+combined score and verdict of the true pair. Times are seconds from the run's start
+(``maritime.run_start``), whose UTC date is printed once before the trace and the summary.
 
 NEES uses the sonar core's ``nees_or_nan``: a belief that collapsed to one cell has an all-zero
 (singular) covariance, so its NEES is undefined. Such steps get NaN, are left out of the NEES mean
@@ -107,7 +108,9 @@ def fuse(d: dict, rows: list[dict]) -> dict[tuple[str, str], np.ndarray]:
 
 
 def summary(d: dict, rows: list[dict], scores: dict) -> dict:
-    """RTAMS, true-pair fraction after convergence and decoy verdicts (``maritime.verdicts``) of a replay."""
+    """RTAMS, true-pair fraction after convergence and decoy verdicts (``maritime.verdicts``) of a replay;
+    belief NEES over the steps where it is defined, with the count (and the first) of those where not."""
+    start = mar.run_start(d)
     d = {**d, 'tracks': {**d['tracks'], mar.NETWORK_TRACK: (np.array([r['t'] for r in rows]),
                                                           np.array([r['mean'] for r in rows]), None)},
          'scores': scores}
@@ -126,7 +129,7 @@ def summary(d: dict, rows: list[dict], scores: dict) -> dict:
             'nees_mean': float(nees[defined].mean()) if defined.any() else float('nan'),
             'nees_over_6': float(np.mean(nees[defined] > 6.0)) if defined.any() else float('nan'),
             'nees_undefined': int((~defined).sum()),
-            'nees_undefined_first': None if first is None else (float(rows[first]['t']), why[first])}
+            'nees_undefined_first': None if first is None else (float(rows[first]['t'] - start), why[first])}
 
 
 def belief_nees(rows: list[dict]) -> tuple[np.ndarray, list[str | None]]:
@@ -136,7 +139,8 @@ def belief_nees(rows: list[dict]) -> tuple[np.ndarray, list[str | None]]:
     return nees_or_nan(np.array([r['mean'] - r['truth'] for r in rows]), np.array([r['cov'] for r in rows]))
 
 
-def trace_lines(rows: list[dict], scores: dict) -> list[str]:
+def trace_lines(rows: list[dict], scores: dict, start: float = 0.0) -> list[str]:
+    """One line per step; times in s from ``start`` (the run's start)."""
     pair = {r[0]: r for r in scores.get(tuple(sorted((mar.SONAR_TRACK, mar.NETWORK_TRACK))), [])}
     nees, _ = belief_nees(rows)
     out = []
@@ -145,7 +149,7 @@ def trace_lines(rows: list[dict], scores: dict) -> list[str]:
         lo, hi = np.sqrt(np.clip(np.linalg.eigvalsh(r['cov']), 0.0, None))  # a collapsed belief: 0, not NaN
         f = pair.get(r['t'])
         nees_txt = f'NEES {q:5.1f}' if np.isfinite(q) else 'NEES  sing.'  # singular covariance: no NEES
-        out.append(f"t={r['t']:5.1f} leader {r['leader']:3d}{'D' if r['doa'] else 'A'} at {r['range']:5.1f} m  "
+        out.append(f"t={r['t'] - start:5.1f} leader {r['leader']:3d}{'D' if r['doa'] else 'A'} at {r['range']:5.1f} m  "
                    f"error {np.hypot(*e):5.1f} m  σ {hi:5.1f}/{lo:4.1f} m  {nees_txt}  "
                    f"{r['size']:5d} entries {r['bytes']:7d} B"
                    + (f"  score {f[1]:.2f} combined {f[2]:.2f} {'assoc.' if f[3] else '-'}" if f is not None else ''))
@@ -173,8 +177,10 @@ def main(argv: list[str] | None = None) -> None:
     d = mar.load(a.bag)
     rows = replay(d, setup, layout)
     scores = fuse(d, rows)
+    start = mar.run_start(d)
+    print(mar.start_note(start))
     if a.trace:
-        print('\n'.join(trace_lines(rows, scores)))
+        print('\n'.join(trace_lines(rows, scores, start)))
     s = summary(d, rows, scores)
     print(f"network RTAMS {s['rtams']:.1f} m (max error {s['error_max']:.1f} m); true pair associated at "
           f"{100 * s['fraction']:.1f}% of {s['instants']} instants after both converged; decoy ever associated: "

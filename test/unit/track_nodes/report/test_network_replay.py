@@ -7,6 +7,8 @@ import numpy as np
 from track_nodes.report import maritime as mar
 from track_nodes.report import network_replay as nr
 
+EPOCH = 1796283180.0  # a sim-time run's start: 2026-12-03 07:33:00 UTC
+
 PAIR = tuple(sorted((mar.SONAR_TRACK, mar.NETWORK_TRACK)))
 
 
@@ -22,7 +24,9 @@ def _run(n: int = 8, collapsed: tuple[int, ...] = (3,), t0: float = 0.0):
                     mar.RADAR_DECOY: (t, truth + np.array([500.0, 0.0]), np.tile(np.eye(2), (n, 1, 1)))},
          'truth': {mar.SONAR_TRACK: (t, truth), mar.NETWORK_TRACK: (t, truth),
                    mar.RADAR_DECOY: (t, truth + np.array([500.0, 0.0]))},
-         'origin': t0}
+         'origin': t0, 'sensors': {'x': np.array([0.0, 20.0]), 'y': np.array([30.0, 30.0]),
+                                   'type': np.array([0, 1])},
+         'observer': np.zeros((0, 2)), 'pings': np.zeros((0, 2)), 'detections': 0}
     scores = {PAIR: np.c_[t, np.full(n, 0.9), np.full(n, 0.9), np.ones(n)],
               tuple(sorted((mar.RADAR_DECOY, mar.NETWORK_TRACK))): np.c_[t, np.zeros((n, 3))]}
     return d, rows, scores
@@ -33,7 +37,7 @@ def test_a_collapsed_belief_gives_nan_with_its_reason_not_a_crash():
     s = nr.summary(d, rows, scores)
     assert s['nees_undefined'] == 2
     t, why = s['nees_undefined_first']
-    assert t == rows[3]['t'] and 'singular' in why
+    assert t == 4.0 and 'singular' in why  # step 3, stamped 4 s after the start
     assert s['nees_mean'] == 0.25  # error (1, 0), covariance 4 I: 1/4 at every defined step
     assert s['nees_over_6'] == 0.0
     note = nr.nees_note(s)
@@ -56,3 +60,15 @@ def test_no_note_when_every_nees_is_defined():
     d, rows, scores = _run(collapsed=())
     s = nr.summary(d, rows, scores)
     assert s['nees_undefined'] == 0 and s['nees_undefined_first'] is None and nr.nees_note(s) == ''
+
+
+def test_the_trace_and_the_summary_give_seconds_from_an_epoch_start():
+    d, rows, scores = _run(collapsed=(3,), t0=EPOCH)
+    start = mar.run_start(d)
+    assert start == EPOCH
+    lines = nr.trace_lines(rows, scores, start)
+    assert lines[0].startswith('t=  1.0 ') and lines[-1].startswith('t=  8.0 ')
+    assert not any('1796' in ln or 'e+09' in ln for ln in lines)
+    s = nr.summary(d, rows, scores)
+    assert s['nees_undefined_first'][0] == 4.0
+    assert mar.start_note(start) == "times in s from the run's start (2026-12-03 07:33:00 UTC)"
