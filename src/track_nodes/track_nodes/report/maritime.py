@@ -255,7 +255,7 @@ def figure(d: dict, errors: dict | None = None, v: dict | None = None, every: fl
     errors = tracker_errors(d) if errors is None else errors
     v = verdicts(d, errors) if v is None else v
     start = run_start(d)
-    fig = plt.figure(figsize=(13, 7.5))
+    fig = plt.figure(figsize=(15, 7.5))
     gs = fig.add_gridspec(2, 2, width_ratios=(1.15, 1.0))
     _map(fig.add_subplot(gs[:, 0]), d, every)
     ax1 = fig.add_subplot(gs[0, 1])
@@ -298,28 +298,43 @@ def _map(ax, d: dict, every: float) -> None:
     ax.grid(alpha=0.3)
 
 
+# Lines that coincide (the decoy's two pairs both score 0; two trackers with the same error) stay
+# visible: the k-th line of a panel is drawn narrower and with another dash than the one under it,
+# and the instant dots use another marker, so a line on top of another leaves that one's edges showing.
+LINE_STYLES = (('-', 3.0), ((0, (6, 2)), 2.0), ((0, (1, 1.5)), 1.4), ((0, (4, 1.5, 1, 1.5)), 1.0))
+DOT_MARKERS = ('o', 'x', '+', '.')
+LEGEND_OUTSIDE = {'loc': 'upper left', 'bbox_to_anchor': (1.01, 1.0), 'borderaxespad': 0.0}  # never over data
+
+
+def line_style(k: int) -> dict:
+    """Dash and width of a panel's k-th line (``LINE_STYLES``, cycled)."""
+    ls, lw = LINE_STYLES[k % len(LINE_STYLES)]
+    return {'ls': ls, 'lw': lw}
+
+
 def _scores_panel(ax1, d: dict, v: dict, start: float) -> None:
-    for (a, b), rows in sorted(d['scores'].items()):
+    for k, ((a, b), rows) in enumerate(sorted(d['scores'].items())):
         name = f'{TRACKERS.get(a, (a,))[0]} | {TRACKERS.get(b, (b,))[0]}'
         verdict = 'associated' if v.get((a, b), {}).get('associated') else 'not associated'
-        ax1.plot(rows[:, 0] - start, rows[:, 2], '-', lw=1.4, label=f'{name}: {verdict}')
-        ax1.plot(rows[:, 0] - start, rows[:, 1], '.', ms=3, color=ax1.lines[-1].get_color(), alpha=0.5)
+        ax1.plot(rows[:, 0] - start, rows[:, 2], **line_style(k), label=f'{name}: {verdict}')
+        ax1.plot(rows[:, 0] - start, rows[:, 1], ls='none', marker=DOT_MARKERS[k % len(DOT_MARKERS)], ms=3,
+                 mfc='none', color=ax1.lines[-1].get_color(), alpha=0.6)
     ax1.axhline(0.5, color='grey', ls='--', lw=0.8)
     ax1.set_ylim(-0.03, 1.03)
-    ax1.set_ylabel('score (line: combined, dots: instant)')
-    ax1.set_title('fusion scores per pair (dashed: threshold)')
-    ax1.legend(fontsize=7, loc='center right')
+    ax1.set_ylabel('score (line: combined, marks: instant)')
+    ax1.set_title('fusion scores per pair (grey dashed: threshold)')
+    ax1.legend(fontsize=7, **LEGEND_OUTSIDE)
     ax1.grid(alpha=0.3)
 
 
 def _errors_panel(ax2, errors: dict, start: float) -> None:
-    for track_id, (t, err) in errors.items():
+    for k, (track_id, (t, err)) in enumerate(errors.items()):
         if t.size:
-            ax2.plot(t - start, err, '-', color=COLOURS[track_id],
+            ax2.plot(t - start, err, **line_style(k), color=COLOURS[track_id],
                      label=f'{TRACKERS[track_id][0]} (RTAMS {rms(err[:, None]):.1f} m)')
     ax2.set_xlabel(f"time from the run's start [s] (start: {start_when(start)})")
     ax2.set_ylabel('position error [m]')
     ax2.set_yscale('log')
     ax2.set_title('tracking error against truth')
-    ax2.legend(fontsize=7)
+    ax2.legend(fontsize=7, **LEGEND_OUTSIDE)
     ax2.grid(alpha=0.3)

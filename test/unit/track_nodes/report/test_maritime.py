@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+from itertools import pairwise
 
 import numpy as np
 
@@ -63,3 +64,46 @@ def test_the_picture_time_axes_read_seconds_from_the_start_with_the_date_once():
         assert sum('2026-12-03 07:33:00 UTC' in s for s in labels) == 1
     finally:
         plt.close(fig)
+
+
+def test_the_legends_sit_outside_the_data_axes_and_inside_the_figure():
+    import matplotlib.pyplot as plt
+
+    fig = mar.figure(_data())
+    try:
+        fig.canvas.draw()
+        r = fig.canvas.get_renderer()
+        for ax in fig.axes[1:]:  # scores, errors
+            lg, box = ax.get_legend().get_window_extent(r), ax.get_window_extent(r)
+            assert lg.x0 >= box.x1 or lg.x1 <= box.x0 or lg.y0 >= box.y1 or lg.y1 <= box.y0, (ax.get_title(), lg, box)
+            assert fig.bbox.contains(lg.x0, lg.y0) and fig.bbox.contains(lg.x1, lg.y1), (ax.get_title(), lg)
+    finally:
+        plt.close(fig)
+
+
+def test_coinciding_score_lines_differ_in_dash_width_and_marker():
+    """The decoy's two pairs both score 0 at every instant: one line on the other, so each must be told apart."""
+    import matplotlib.pyplot as plt
+
+    fig = mar.figure(_data())
+    try:
+        _, scores, errors = fig.axes
+        combined = [ln for ln in scores.lines if not ln.get_label().startswith('_')]
+        instant = [ln for ln in scores.lines if ln.get_marker() not in ('None', 'none', '', None)]
+        assert len(combined) == 3 and len(instant) == 3
+        zero = [ln for ln in combined if not np.any(ln.get_ydata())]
+        assert len(zero) == 2  # the data really puts two lines on 0
+        assert len({(ln.get_linestyle(), ln.get_linewidth()) for ln in combined}) == 3
+        assert zero[0].get_linestyle() != zero[1].get_linestyle()
+        assert zero[0].get_linewidth() != zero[1].get_linewidth()
+        assert len({ln.get_marker() for ln in instant}) == 3
+        err_lines = [ln for ln in errors.lines if not ln.get_label().startswith('_')]
+        assert len({ln.get_linewidth() for ln in err_lines}) == len(err_lines) == 3
+    finally:
+        plt.close(fig)
+
+
+def test_line_styles_cycle_with_distinct_neighbours():
+    styles = [mar.line_style(k) for k in range(len(mar.LINE_STYLES) + 1)]
+    assert all(a != b for a, b in pairwise(styles))
+    assert styles[len(mar.LINE_STYLES)] == styles[0]
