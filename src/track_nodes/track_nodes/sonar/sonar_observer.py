@@ -127,7 +127,7 @@ class SonarObserverParams:
         '(a few periods; also a late truth of a run before a clock jump) [s]', 1e-3, 1e9, live=True)
 
 
-WAIT_WARN = 10.0  # steady s without a truth before a (throttled) warning that none comes
+WAIT_WARN = 10.0  # s of the node's clock (sim time under use_sim_time) without a truth before a warning
 
 
 def _p_d(values) -> np.ndarray:
@@ -180,8 +180,9 @@ class SonarObserverNode(TrackNode):
         self.pub_odom = self.create_publisher(Odometry, SONAR_OBSERVER, ESTIMATE_QOS)
         self.advertise_transforms()
         self.sub_truth = self.create_subscription(Odometry, SONAR_TRUTH, self._on_truth, TRUTH_QOS)
-        self.last_truth = self.steady_now()
-        self.wait_timer = self.create_timer(WAIT_WARN, self._check_waiting, clock=self._steady)
+        # On the node's clock: a slow lock-step run (sim time) waits on its target for long wall times.
+        self.last_truth: float | None = self._clock_s() or None  # None: the sim clock has not started
+        self.wait_timer = self.create_timer(WAIT_WARN, self._check_waiting)
 
     def _start_run(self) -> None:
         """A fresh run: seeded Generators, the tracker at its prior, the truth gate at step 1."""
@@ -198,6 +199,7 @@ class SonarObserverNode(TrackNode):
     def reset_time_state(self) -> tuple[str, ...]:
         """A new run from step 1 (as a fresh node: a replayed run reproduces its estimates again)."""
         self._start_run()
+        self.last_truth = self._clock_s()  # the wait for a truth restarts on the new clock
         return ('tracker (at its prior, seeded again)', 'truth gate (step grid)')
 
     def apply_params(self, changed: set[str]) -> None:
@@ -217,7 +219,7 @@ class SonarObserverNode(TrackNode):
             self.refuse(SONAR_TRUTH, reason)
             return
         _, x, _ = odometry_to_cv_state(msg)
-        self.last_truth = self.steady_now()
+        self.last_truth = self._clock_s()
         for k, key_k, x_true in self.gate.add_truth(key, x):
             if self.p.max_time > 0 and k * self.p.period > self.p.max_time + 1e-9:
                 return
@@ -227,8 +229,15 @@ class SonarObserverNode(TrackNode):
             self.get_logger().warning(f'waiting for {self.sub_truth.topic_name} stamped {stalled} ns (lost?); '
                                       f'{len(self.gate.truth)} later truths are held')
 
+    def _clock_s(self) -> float:
+        return self.get_clock().now().nanoseconds * 1e-9
+
     def _check_waiting(self) -> None:
-        if self.steady_now() - self.last_truth >= WAIT_WARN:
+        now = self._clock_s()
+        if self.last_truth is None or now < self.last_truth:  # the clock started (0 -> /clock) or went back
+            self.last_truth = now or None
+            return
+        if now - self.last_truth >= WAIT_WARN:
             self.get_logger().warning(f'no truth on {self.sub_truth.topic_name} for {WAIT_WARN:g} s '
                                       '(is smart_target running?)', throttle_duration_sec=60.0)
 
