@@ -255,13 +255,12 @@ def figure(d: dict, errors: dict | None = None, v: dict | None = None, every: fl
     errors = tracker_errors(d) if errors is None else errors
     v = verdicts(d, errors) if v is None else v
     start = run_start(d)
-    fig = plt.figure(figsize=(15, 7.5))
+    fig = plt.figure(figsize=(15, 7.5), layout='constrained')  # makes room for the outside legends
     gs = fig.add_gridspec(2, 2, width_ratios=(1.15, 1.0))
     _map(fig.add_subplot(gs[:, 0]), d, every)
     ax1 = fig.add_subplot(gs[0, 1])
     _scores_panel(ax1, d, v, start)
     _errors_panel(fig.add_subplot(gs[1, 1], sharex=ax1), errors, start)
-    fig.tight_layout()
     return fig
 
 
@@ -301,7 +300,7 @@ def _map(ax, d: dict, every: float) -> None:
 # Lines that coincide (the decoy's two pairs both score 0; two trackers with the same error) stay
 # visible: the k-th line of a panel is drawn narrower and with another dash than the one under it,
 # and the instant dots use another marker, so a line on top of another leaves that one's edges showing.
-LINE_STYLES = (('-', 3.0), ((0, (6, 2)), 2.0), ((0, (1, 1.5)), 1.4), ((0, (4, 1.5, 1, 1.5)), 1.0))
+LINE_STYLES = (('-', 3.0), ((0, (6, 2)), 2.0), ((0, (1, 2.5)), 1.4), ((0, (4, 1.5, 1, 1.5)), 1.0))
 DOT_MARKERS = ('o', 'x', '+', '.')
 LEGEND_OUTSIDE = {'loc': 'upper left', 'bbox_to_anchor': (1.01, 1.0), 'borderaxespad': 0.0}  # never over data
 
