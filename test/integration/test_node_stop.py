@@ -1,4 +1,4 @@
-"""How node processes stop (issue 15): SIGUSR1 dumps a node's stacks without stopping it; after SIGINT it
+"""How node processes stop: SIGUSR1 dumps a node's stacks without stopping it; after SIGINT it
 tears down and leaves without CPython's module finalization, with exit code 0; the launcher kills only
 children that do not work towards their exit; a domain Fast DDS cannot use is refused before it starts."""
 
@@ -71,3 +71,26 @@ def test_a_domain_fast_dds_cannot_use_is_one_line_before_anything_starts(repo, t
     assert proc.returncode == 2 and proc.stderr.strip().splitlines() == [
         'track_nodes.launch: ROS_DOMAIN_ID=233: Fast DDS needs 0..232 (its UDP ports)'], proc.stderr
     assert 'hosts:' not in proc.stdout
+
+
+@pytest.mark.parametrize('gap', [0.0, 0.05, 0.3])
+def test_the_signals_launch_sends_stop_a_node_cleanly(ros, gap):
+    """``ros2 launch`` at Ctrl-C: the terminal's SIGINT and launch's own, then SIGTERM after a while. However
+    close they come, teardown finishes: exit code 0 (launch reports no node "died"), no traceback."""
+    probe = ros.add(Node('launch_stop_probe', context=ros.context))
+    truths: list = []
+    probe.create_subscription(Odometry, DEMO_TRUTH, truths.append, ESTIMATE_QOS)
+    proc = subprocess.Popen([sys.executable, '-m', 'track_nodes', 'demo_target', '--ros-args', '-r',
+                             '__node:=launch_stop_target'], env=ros.env, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE, text=True)
+    try:
+        assert ros.spin_until(lambda: len(truths) > 0, timeout=60), 'no truth from launch_stop_target'
+        for sig in (signal.SIGINT, signal.SIGINT, signal.SIGTERM):
+            if proc.poll() is None:
+                proc.send_signal(sig)
+            ros.spin_until(lambda: proc.poll() is not None, timeout=gap) if gap else None
+        _, err = proc.communicate(timeout=30)
+    finally:
+        proc.kill()
+    assert proc.returncode == 0, err
+    assert 'Traceback' not in err and 'KeyboardInterrupt' not in err, err

@@ -63,7 +63,7 @@ from track_nodes.base.cli import params_file_problem
 from track_nodes.base.names import CheckedNames, remember_args
 from track_nodes.base.params import NoParams, Param, ParameterError, declare
 from track_nodes.base.refusals import RefusalCounter
-from track_nodes.base.signals import STOP_SIGNALS, spin, stop_on
+from track_nodes.base.signals import STOP_SIGNALS, hold_stops, spin, stop_on
 from track_nodes.base.teardown import TEARDOWN, dds_alarm
 from track_nodes.base.timejump import watch_time_jumps
 
@@ -286,12 +286,11 @@ def run_nodes(makers: Sequence[tuple[str, Callable[[], Node]]], argv: Sequence[s
             executor.add_node(node)
         with contextlib.suppress(KeyboardInterrupt, ExternalShutdownException):
             spin(executor)  # wakes up for stop signals (base/signals.py)
-    except (Exception, KeyboardInterrupt):
-        if rclpy.ok():
-            raise
-        # Ctrl-C while the nodes were being built or inside a callback: rclpy's signal handler shut
-        # the context down under them (rcl then raises "context is invalid"); that is a clean stop.
+    except (Exception, KeyboardInterrupt) as exc:  # a clean stop: Ctrl-C (raised before rclpy's signal thread
+        if rclpy.ok() and not isinstance(exc, KeyboardInterrupt):  # shut the context), or a context shut down
+            raise                                       # under the nodes being built or a callback; else a bug
     finally:
+        hold_stops()  # a second Ctrl-C (ros2 launch sends one) must not cut teardown short (base/signals.py)
         for node in [*nodes, *([twins.node] if twins else [])]:
             node.destroy_node()  # the last node of the context takes the DDS participant with it (rmw_fastrtps)
         with dds_alarm():

@@ -11,6 +11,12 @@ Python runs a signal handler in the main thread between two bytecodes, so a main
 in C (an executor waiting with no timeout) would not see it; ``spin(executor)`` spins with a short
 timeout (``POLL`` wall seconds) for that reason. A loop of one's own must wake up as often.
 
+Teardown. Once a process is stopping, ``hold_stops()`` makes every further stop signal a count
+(``HELD.count``), not an exception: ``ros2 launch`` at Ctrl-C delivers the terminal's SIGINT and then
+its own, and SIGTERM after a while; the second one used to land in the middle of destroying the nodes
+(rclpy's handler chains to Python's, whose ``KeyboardInterrupt`` left teardown half done, exit 130,
+"process has died"). Teardown is bounded by the DDS alarm (``base/teardown.py``), so nothing is lost.
+
 A signal that is ignored when ``stop_on`` is called (``nohup`` ignores SIGHUP) stays ignored. If
 SIGINT itself is ignored (a non-interactive shell's ``&`` does that), ``stop_on`` restores Python's
 default SIGINT handler: a process that stops on SIGTERM stops on SIGINT too.
@@ -45,6 +51,28 @@ def stop_on(*signals: int) -> list[int]:
             signal.signal(sig, _as_sigint)
             taken.append(sig)
     return taken
+
+
+class _Held:
+    count = 0
+
+
+HELD = _Held()
+
+
+def _count(signum: int, frame: Any) -> None:
+    HELD.count += 1
+
+
+def hold_stops() -> None:
+    """From now on a stop signal (SIGINT, SIGTERM, SIGHUP) is counted, not acted on (module doc, Teardown).
+
+    Call it from the main thread when teardown begins (elsewhere it does nothing).
+    """
+    with contextlib.suppress(ValueError):
+        for sig in (signal.SIGINT, *STOP_SIGNALS):
+            if signal.getsignal(sig) is not signal.SIG_IGN:
+                signal.signal(sig, _count)
 
 
 def spin(executor) -> None:
