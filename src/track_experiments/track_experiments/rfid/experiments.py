@@ -29,14 +29,17 @@ Three parts, all seeded from ``--seed`` (one ``SeedSequence`` spawned per part a
    The reader is a commercial one (``READER``: LLRP sign, (0, 2π], 920.625 MHz, 0.015 rad per read)
    unless the row says otherwise; the effects (lasting phase steps: size and rate; hopping over
    ``CHANNELS`` with a dwell; per-read noise) are switched on one or a few at a time. Every MOVE's
-   stream is processed four ways: *ours* (``UnwrapConfig.real_reader(reader)``: re-lock, online noise, learning
-   its noise over the trial's MOVEs), *join* (the same with ``step_bridge='join'``), *old* (the
+   stream is processed five ways: *ours* (``UnwrapConfig.real_reader(reader)``: re-lock, robust noise, learning
+   its noise over the trial's MOVEs), *online* (the same with the earlier ``noise='online'``: a 6σ̂ gate and
+   dφ std from σ̂), *join* (the same with ``step_bridge='join'``), *old* (the
    processing without the real-reader additions: fixed noise, no re-lock, the carriers ignored; given the
    right sign, so that only the unwrapping differs) and *naive* (``signal.naive_dphi``: ``np.unwrap``
    of all reads, last minus first; it always gives a number). Reported: the share of MOVEs kept and
    the median, 95th percentile and RMS of |dφ − dφ_true| over the MOVEs each method kept (dφ_true is
    the geometric one of the step walked, ``ReaderOutput.truth_dphi``), and for ours against naive on
-   the same MOVEs (those ours kept).
+   the same MOVEs (those ours kept); cov90: the share of kept MOVEs whose error is within ±1.645·``dphi_std``
+   (ours and online). The last three rows are the heavy-tailed mode (``WorldParams.noise_dof`` 2, scale
+   0.03 rad), alone, with hopping, and with hopping and lasting steps.
 2. **Sign convention and guidance.** ``runs`` searches of Table I's setting (N = 100, the paper's
    worst-case errors) with the paper's reader, with an LLRP reader processed with its sign set, and
    with the LLRP reader's stream fed as-is (processed with the paper's sign). The same run seeds, and
@@ -193,6 +196,8 @@ def plot_route(run: SearchOutcome, world: WorldParams, path: Path, title: str) -
 CHANNELS = tuple(920.625e6 + 0.5e6 * j for j in range(8))   # 920.625 MHz and 7 others, 0.5 MHz apart
 READER = PhaseModel(carrier_hz=920.625e6, wrap_period=2.0 * math.pi, s_theta=0.015, convention='llrp')
 MOVES_PER_TRIAL = 6
+HEAVY_DOF, HEAVY_SCALE = 2.0, 0.03  # the heavy-tailed mode: t₂ read noise of scale 0.03 rad in 30 ms bursts
+HEAVY_ROW = f'heavy tails (t{HEAVY_DOF:g}, {HEAVY_SCALE:g} rad)'
 PF_PARTICLES = 20_000
 PF_INIT_RANGE = (0.3, 5.0)          # prior distance: the read range of a bench set-up (m)
 
@@ -224,6 +229,10 @@ def sweep_rows() -> list[SweepRow]:
                       replace(both, phase=replace(READER, wrap_period=math.pi)))]
     rows += [SweepRow(f'hop 0.2 s, noise {s:g} rad', replace(base, hop_dwell_s=0.2, phase=replace(READER, s_theta=s),
                                                               **hop)) for s in (0.005, 0.05, 0.15)]
+    heavy = replace(base, phase=replace(READER, s_theta=HEAVY_SCALE), noise_dof=HEAVY_DOF)
+    rows += [SweepRow(HEAVY_ROW, heavy), SweepRow(f'{HEAVY_ROW} + hop 0.2 s', replace(heavy, hop_dwell_s=0.2, **hop)),
+             SweepRow(f'{HEAVY_ROW} + hop 0.2 s + steps 0.8-2.5 rad 1/s',
+                      replace(heavy, hop_dwell_s=0.2, phase_step_rate=1.0, phase_step_size=(0.8, 2.5), **hop))]
     return rows
 
 
@@ -249,18 +258,25 @@ def move_trials(world: WorldParams, seeds: list[np.random.SeedSequence], moves: 
     ours_cfg = UnwrapConfig.real_reader(ph)
     join_cfg = replace(ours_cfg, step_bridge='join')
     old_cfg = UnwrapConfig.for_model(ph, relock_reads=0)
-    out = {k: [] for k in ('truth', 'ours', 'join', 'old', 'naive', 'relocks', 'hops')}
+    online_cfg = replace(ours_cfg, noise='online')
+    out = {k: [] for k in ('truth', 'ours', 'join', 'old', 'naive', 'online', 'relocks', 'hops', 'ours_std',
+                           'online_std')}
     for ss in seeds:
         rng = np.random.default_rng(ss)
         start = _start(rng, 4.0, 10.0, math.radians(35.0))
         sim = SimReader(world, rng, start=start, unwrap=ours_cfg)
         join = PhaseProcessor(join_cfg)             # its own noise estimate, on the same streams
+        online = PhaseProcessor(online_cfg)
         for j in range(moves):
             o = sim.execute(Command(CommandKind.MOVE, seq=j + 1))
             s = o.stream
             bare = PhaseStream(s.t, s.phase, s.rssi, s.t_start, s.t_end)
             out['truth'].append(o.truth_dphi)
             out['ours'].append(o.result.dphi)
+            out['ours_std'].append(o.result.dphi_std)
+            on = online.process(s)
+            out['online'].append(on.dphi)
+            out['online_std'].append(on.dphi_std)
             out['join'].append(join.process(s).dphi)
             out['old'].append(process_move(bare, old_cfg).dphi)
             out['naive'].append(naive_dphi(s, ours_cfg))
@@ -278,13 +294,21 @@ def _err_stats(x: np.ndarray, truth: np.ndarray, mask: np.ndarray | None = None)
             'p95': float(np.percentile(e, 95)), 'rms': float(np.sqrt(np.mean(e * e)))}
 
 
+def coverage90(x: np.ndarray, std: np.ndarray, truth: np.ndarray) -> float:
+    """Share of the kept MOVEs whose |dφ error| is within the 90 % interval ±1.645·dphi_std."""
+    ok = np.isfinite(x) & np.isfinite(std)
+    return float(np.mean(np.abs(x[ok] - truth[ok]) <= 1.645 * std[ok])) if ok.any() else math.nan
+
+
 def summarize_moves(r: dict) -> dict:
     t = r['truth']
     kept = np.isfinite(r['ours'])
     return {'moves': int(t.size), 'relocks_per_move': float(np.mean(r['relocks'])),
             'hops_per_move': float(np.mean(r['hops'])),
-            **{m: _err_stats(r[m], t) for m in ('ours', 'join', 'old', 'naive')},
-            'naive_on_ours_kept': _err_stats(r['naive'], t, kept)}
+            **{m: _err_stats(r[m], t) for m in ('ours', 'join', 'old', 'naive', 'online')},
+            'naive_on_ours_kept': _err_stats(r['naive'], t, kept),
+            'ours_cov90': coverage90(r['ours'], r['ours_std'], t),
+            'online_cov90': coverage90(r['online'], r['online_std'], t)}
 
 
 def sign_runs(seeds: list[np.random.SeedSequence], n_particles: int = 100) -> dict:
@@ -372,14 +396,17 @@ def reader_experiment(cfg: RunConfig) -> Outcome:
     for row in cfg.progress(sweep_rows(), desc='rfid-reader moves'):
         s = {'config': row.name, **summarize_moves(move_trials(row.world, move_seeds))}
         moves.append(s)
-        o, j, od, nv = s['ours'], s['join'], s['old'], s['naive_on_ours_kept']
-        rows.append([row.name, f"{100 * o['kept']:.1f}", f"{100 * od['kept']:.1f}", f"{o['median']:.3f}",
-                     f"{o['rms']:.3f}", f"{nv['median']:.3f}", f"{nv['rms']:.3f}", f"{j['median']:.3f}",
+        o, j, od, nv, on = s['ours'], s['join'], s['old'], s['naive_on_ours_kept'], s['online']
+        rows.append([row.name, f"{100 * o['kept']:.1f}", f"{100 * on['kept']:.1f}", f"{100 * od['kept']:.1f}",
+                     f"{o['median']:.3f}", f"{o['rms']:.3f}", f"{100 * s['ours_cov90']:.1f}",
+                     f"{100 * s['online_cov90']:.1f}", f"{nv['median']:.3f}", f"{nv['rms']:.3f}", f"{j['median']:.3f}",
                      f"{j['rms']:.3f}", f"{od['median']:.3f}", f"{s['relocks_per_move']:.2f}"])
     table = (f'MOVEs ({n_trials} walks x {MOVES_PER_TRIAL} MOVEs of 0.5 m per row); |dφ error| in rad, median and '
-             'RMS over the MOVEs kept; naive on the MOVEs ours kept\n'
-             + format_table(['config', 'kept %', 'old kept %', 'ours med', 'ours rms', 'naive med', 'naive rms',
-                             'join med', 'join rms', 'old med', 'relocks/move'], rows))
+             'RMS over the MOVEs kept; naive on the MOVEs ours kept; cov90: share of kept MOVEs within ±1.645 '
+             'dphi_std\n'
+             + format_table(['config', 'kept %', 'online kept %', 'old kept %', 'ours med', 'ours rms', 'cov90 %',
+                             'online cov90 %', 'naive med', 'naive rms', 'join med', 'join rms', 'old med',
+                             'relocks/move'], rows))
     sign = sign_runs(ss_sign.spawn(n_search))
     table += (f'\n\nGuidance, Table I setting, N = 100, {n_search} searches each (same seeds)\n'
               + format_table(['reader', 'success %', 'steps'],
