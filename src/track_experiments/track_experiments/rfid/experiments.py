@@ -200,11 +200,18 @@ HEAVY_DOF, HEAVY_SCALE = 2.0, 0.03  # the heavy-tailed mode: t₂ read noise of 
 HEAVY_ROW = f'heavy tails (t{HEAVY_DOF:g}, {HEAVY_SCALE:g} rad)'
 PF_PARTICLES = 20_000
 PF_INIT_RANGE = (0.3, 5.0)          # prior distance: the read range of a bench set-up (m)
+PF_INIT_BOOST = 10                  # the first update weighs 10·N prior samples (pf: init_boost)
 
 
 # part 3: (name, f_w, the filter gets the reader's dφ std); the last one keeps the paper's s_θ = 5.5°
-PF_VARIANTS = (('gaussian', 'gaussian', True), ('inverse_square', 'inverse_square', True),
+PF_VARIANTS = (('student_t', 'student_t', True), ('gaussian', 'gaussian', True),
+               ('inverse_square', 'inverse_square', True),
                ('inverse_square, fixed s_θ 5.5°', 'inverse_square', False))
+# part 3's real-reader modes on top of the hopping reader (WorldParams fields; 'phase': its s_θ)
+PF_MODES = {'hop': {},
+            'hop + heavy tails': {'phase': HEAVY_SCALE, 'noise_dof': HEAVY_DOF},
+            'hop + heavy tails + steps': {'phase': HEAVY_SCALE, 'noise_dof': HEAVY_DOF, 'phase_step_rate': 1.0,
+                                          'phase_step_size': (0.8, 2.5)}}
 
 
 @dataclass(frozen=True)
@@ -326,33 +333,42 @@ def sign_runs(seeds: list[np.random.SeedSequence], n_particles: int = 100) -> di
     return out
 
 
-def pf_batch_trial(ss: np.random.SeedSequence, n_particles: int = PF_PARTICLES, weighting: str = 'gaussian',
+def pf_batch_trial(ss: np.random.SeedSequence, n_particles: int = PF_PARTICLES, weighting: str = 'student_t',
                    n_moves: int = 5, step: float = 0.2, s_r: float = 0.002, s_a: float = math.radians(0.5),
                    reader: PhaseModel = READER, hop_dwell_s: float = 0.2,
-                   init_range: tuple[float, float] = PF_INIT_RANGE, reader_noise: bool = True
+                   init_range: tuple[float, float] = PF_INIT_RANGE, reader_noise: bool = True, mode: str = 'hop'
                    ) -> tuple[float, float, bool] | None:
     """Part 3, one walk: (filter error, batch error, filter says bimodal), errors mirror-folded (m).
 
     The tag is beside the track, as in a bench set-up: 0.5–2 m to the left or right of the walking
-    line, 0–1.5 m along it from the start (so it is in front at the start). None when a MOVE was
-    unusable (the walk is then skipped).
+    line, 0–1.5 m along it from the start (so it is in front at the start). ``mode`` adds the
+    real-reader effects of ``PF_MODES`` to the hopping reader. A MOVE the reader could not measure
+    costs that step: the filter only moves its particles (``predict``) and the batch fit leaves its
+    term out. None when fewer than 2 MOVEs were usable.
     """
     rw, rp = (np.random.default_rng(s) for s in _children(ss, 2))
     along, side = rw.uniform(0.0, 1.5), rw.uniform(0.5, 2.0) * rw.choice([-1.0, 1.0])
     start = np.array([-along, -side, 0.0])            # the tag at the origin, the user walking along +x
     world = WorldParams(phase=reader, s_step=step, s_r=s_r, s_a=s_a, beam_width=2.0 * math.pi,
                         channels_hz=CHANNELS if hop_dwell_s > 0 else (), hop_dwell_s=hop_dwell_s)
+    world = replace(world, **{k: (replace(reader, s_theta=v) if k == 'phase' else v)
+                              for k, v in PF_MODES[mode].items()})
     sim = SimReader(world, rw, start=start, unwrap=UnwrapConfig.real_reader(reader))
     pf_phase = reader if reader_noise else replace(reader, s_theta=PhaseModel().s_theta)
     pf = RfidParticleFilter(PFParams(n_particles=n_particles, s_step=step, s_r=s_r, s_a=s_a, weighting=weighting,
-                                     reinit_factor=None, init_range=init_range), pf_phase, rp)
+                                     reinit_factor=None, init_range=init_range, init_boost=PF_INIT_BOOST),
+                            pf_phase, rp)
     dphi = []
     for j in range(n_moves):
         res = sim.execute(Command(CommandKind.MOVE, seq=j + 1)).result
-        if not res.ok:
-            return None
+        if not res.ok:                # the walk goes on: this step moves the particles, weighs nothing
+            dphi.append(math.nan)
+            pf.predict(0.0)
+            continue
         dphi.append(res.dphi)
         pf.update(res.dphi, 0.0, dphi_std=res.dphi_std if reader_noise else None)
+    if np.isfinite(dphi).sum() < 2:
+        return None
     x, y, a = sim.pose
     truth = tag_in_user_frame(np.zeros(2), np.array([x, y]), a)
     est = pf.tag_posterior()
@@ -366,15 +382,18 @@ def pf_batch_trial(ss: np.random.SeedSequence, n_particles: int = PF_PARTICLES, 
     return folded(np.array([est.x, est.y])), folded(b), est.bimodal
 
 
-def pf_batch(seeds: list[np.random.SeedSequence], n_particles: int = PF_PARTICLES) -> dict:
+def pf_batch(seeds: list[np.random.SeedSequence], n_particles: int = PF_PARTICLES, modes=tuple(PF_MODES),
+             variants=PF_VARIANTS) -> dict:
+    """Part 3: per mode and filter variant, the medians over the walks (the same walks for every variant)."""
     out = {}
-    for name, weighting, reader_noise in PF_VARIANTS:
-        r = [pf_batch_trial(s, n_particles, weighting, reader_noise=reader_noise) for s in seeds]
-        r = np.array([x for x in r if x is not None], dtype=float)
-        out[name] = {'trials': int(r.shape[0]), 'particles': n_particles,
-                          'pf_median_m': float(np.median(r[:, 0])), 'batch_median_m': float(np.median(r[:, 1])),
-                          'ratio': float(np.median(r[:, 0]) / np.median(r[:, 1])),
-                          'bimodal_rate': float(np.mean(r[:, 2]))}
+    for mode in modes:
+        for name, weighting, reader_noise in variants:
+            r = [pf_batch_trial(s, n_particles, weighting, reader_noise=reader_noise, mode=mode) for s in seeds]
+            r = np.array([x for x in r if x is not None], dtype=float).reshape(-1, 3)
+            out[f'{mode}: {name}'] = {
+                'mode': mode, 'weighting': name, 'trials': int(r.shape[0]), 'particles': n_particles,
+                'pf_median_m': float(np.median(r[:, 0])), 'batch_median_m': float(np.median(r[:, 1])),
+                'ratio': float(np.median(r[:, 0]) / np.median(r[:, 1])), 'bimodal_rate': float(np.mean(r[:, 2]))}
     return out
 
 
@@ -414,7 +433,7 @@ def reader_experiment(cfg: RunConfig) -> Outcome:
     pfb = pf_batch(ss_pf.spawn(n_pf))
     table += (f'\n\nTag error after 5 MOVEs of 0.2 m (hopping reader, small motion errors), median over the walks, '
               f'mirror folded; filter N = {PF_PARTICLES}\n'
-              + format_table(['filter weights', 'walks', 'filter m', 'batch LS m', 'ratio', 'bimodal %'],
+              + format_table(['mode: filter weights', 'walks', 'filter m', 'batch LS m', 'ratio', 'bimodal %'],
                              [[k, v['trials'], f"{v['pf_median_m']:.3f}", f"{v['batch_median_m']:.3f}",
                                f"{v['ratio']:.2f}", f"{100 * v['bimodal_rate']:.0f}"] for k, v in pfb.items()]))
     return Outcome(table, {'moves': moves, 'sign': sign, 'pf_batch': pfb}, [])
