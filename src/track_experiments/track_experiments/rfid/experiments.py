@@ -44,7 +44,7 @@ Three parts, all seeded from ``--seed`` (one ``SeedSequence`` spawned per part a
    worst-case errors) with the paper's reader, with an LLRP reader processed with its sign set, and
    with the LLRP reader's stream fed as-is (processed with the paper's sign). The same run seeds, and
    so the same starts, for all three (each search gets a fresh copy of its ``SeedSequence``). Success
-   rate and mean steps.
+   rate, mean steps, and how often the guidance's convention check warned (``guidance`` module doc).
 3. **Filter against the batch fit.** ``trials`` walks of 5 straight MOVEs of 0.2 m with small motion
    errors (s_r 2 mm, s_a 0.5°) past a tag beside the track (0.5–2 m to the side, 0–1.5 m ahead at the
    start, like the issue's bench with tags at known positions along a 1 m track), read by the
@@ -329,7 +329,8 @@ def sign_runs(seeds: list[np.random.SeedSequence], n_particles: int = 100) -> di
     for name, (world, unwrap) in variants.items():
         runs = [run_search(world, pf, np.random.default_rng(_fresh(s)), unwrap=unwrap) for s in seeds]
         out[name] = {'runs': len(runs), 'success_rate': float(np.mean([r.success for r in runs])),
-                     'steps': float(np.mean([r.steps for r in runs]))}
+                     'steps': float(np.mean([r.steps for r in runs])),
+                     'sign_warned': float(np.mean([bool(r.sign_warning) for r in runs]))}
     return out
 
 
@@ -428,8 +429,9 @@ def reader_experiment(cfg: RunConfig) -> Outcome:
                              'relocks/move'], rows))
     sign = sign_runs(ss_sign.spawn(n_search))
     table += (f'\n\nGuidance, Table I setting, N = 100, {n_search} searches each (same seeds)\n'
-              + format_table(['reader', 'success %', 'steps'],
-                             [[k, f"{100 * v['success_rate']:.1f}", f"{v['steps']:.1f}"] for k, v in sign.items()]))
+              + format_table(['reader', 'success %', 'steps', 'convention warned %'],
+                             [[k, f"{100 * v['success_rate']:.1f}", f"{v['steps']:.1f}",
+                               f"{100 * v['sign_warned']:.1f}"] for k, v in sign.items()]))
     pfb = pf_batch(ss_pf.spawn(n_pf))
     table += (f'\n\nTag error after 5 MOVEs of 0.2 m (hopping reader, small motion errors), median over the walks, '
               f'mirror folded; filter N = {PF_PARTICLES}\n'
