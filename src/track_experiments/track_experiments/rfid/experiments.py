@@ -14,7 +14,8 @@ Written beside the figures:
 - ``rfid-table1-obstacles.json``: the obstacle variant at N = 100 over the same M seeds.
 - ``rfid-table1-variants.json``: N = 10 and 100 with the paper's plain circular mean
   (``suggestion='mean'``) and without the lost-filter re-initialisation, to show what those two
-  additions (``pf`` module doc) do.
+  additions (``pf`` module doc) do, and N = 10 with prior boosting (``init_boost`` 10: the first update
+  and a re-initialisation weigh 10·N prior samples and keep N).
 
 ``--json`` holds exactly ``{"rows": [{particles, steps, turns, distance_m, update_ms, success_rate}]}``.
 
@@ -89,6 +90,7 @@ PARTICLES = (10, 20, 50, 100, 300, 1000)
 PAPER_TABLE1 = {10: (30.0, 35.9, 15.4, 10.4), 20: (29.4, 35.0, 15.0, 11.8), 50: (29.2, 34.5, 15.0, 17.8),
                 100: (28.5, 33.2, 14.6, 29.2), 300: (28.3, 33.0, 14.5, 90.7), 1000: (28.0, 32.2, 14.3, 473.9)}
 MAX_STEPS = 200
+BOOST = 10        # the variant with prior boosting (pf: init_boost) at small N
 
 
 def run_batch(world: WorldParams, pf: PFParams, seeds: list[np.random.SeedSequence],
@@ -137,7 +139,9 @@ def table1(cfg: RunConfig) -> Outcome:
     for n in (10, 100):
         base = replace(pf100, n_particles=n)
         for name, pf in ((f'N={n} paper circular mean (suggestion=mean)', replace(base, suggestion='mean')),
-                         (f'N={n} no re-initialisation (reinit_factor=None)', replace(base, reinit_factor=None))):
+                         (f'N={n} no re-initialisation (reinit_factor=None)', replace(base, reinit_factor=None)),
+                         *(((f'N={n} prior boosting (init_boost={BOOST})', replace(base, init_boost=BOOST)),)
+                           if n == 10 else ())):
             variants[name] = {'particles': n, 'runs': n_runs,
                               **summarize(run_batch(world, pf, seeds, progress=lambda it, name=name: cfg.progress(
                                   it, desc=f'rfid {name[:16]}', total=n_runs)))}
