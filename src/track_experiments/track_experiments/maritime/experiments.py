@@ -12,8 +12,6 @@ the instants after both trackers converged, the decoy's pairs never associated.
 
 from __future__ import annotations
 
-import yaml
-
 from track_experiments.cli import Outcome, RunConfig, format_table, set_keys
 
 RTAMS_GOAL = 15.0
@@ -21,13 +19,10 @@ FRACTION_GOAL = 0.95
 
 
 def seed_scenario(seed: int) -> dict:
-    """The parsed maritime scenario of seed ``seed`` (see the module docstring)."""
-    from track_nodes.launch.generate import maritime_yaml
+    """The parsed maritime scenario of seed ``seed`` (``report.maritime_sim.seed_scenario``)."""
+    from track_nodes.report.maritime_sim import seed_scenario as scenario
 
-    cfg = yaml.safe_load(maritime_yaml(seed=seed))
-    for node, offset in (('smart_target', 2), ('sonar_observer', 3)):
-        cfg[f'/**/{node}']['ros__parameters']['seed'] = seed + offset
-    return cfg
+    return scenario(seed)
 
 
 def run_seed(seed: int, fusion: dict | None = None, **tracker) -> dict:

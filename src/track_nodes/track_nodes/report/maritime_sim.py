@@ -52,6 +52,17 @@ def sections(scenario: str | Path | dict) -> dict[str, dict]:
     return {section_node(k): (v or {}).get('ros__parameters', {}) for k, v in cfg.items()}
 
 
+def seed_scenario(seed: int) -> dict:
+    """The parsed maritime scenario of seed s: ``maritime_yaml(seed=s)`` (sensor layout and noise) with
+    ``smart_target`` seed s + 2 and ``sonar_observer`` seed s + 3 (s = 1 is ``config/maritime.yaml``)."""
+    from track_nodes.launch.generate import maritime_yaml
+
+    cfg = yaml.safe_load(maritime_yaml(seed=seed))
+    for node, offset in (('smart_target', 2), ('sonar_observer', 3)):
+        cfg[f'/**/{node}']['ros__parameters']['seed'] = seed + offset
+    return cfg
+
+
 def simulate(scenario: str | Path | dict, n_steps: int | None = None) -> dict:
     """``maritime.load``'s dict of one run of the scenario (``n_steps`` steps, default its duration / T)."""
     sec = sections(scenario)
