@@ -13,6 +13,7 @@ ROS isolation: every test that touches ROS gets its own ``rclpy.Context`` on a u
 
 from __future__ import annotations
 
+import collections
 import itertools
 import os
 import sys
@@ -31,16 +32,30 @@ REPO = Path(__file__).resolve().parents[1]
 VENV = Path(sys.prefix)
 os.environ.setdefault('AMENT_PREFIX_PATH', str(VENV))
 _domains = itertools.count()
+_held: collections.deque = collections.deque()  # locks on the ids handed out last
+HELD = 8  # a test uses a domain for a while after it was handed out: its lock is kept for 8 more
 
 
 def _next_domain_id() -> int:
-    # 1..100, offset by pid so two suites running at once rarely collide; under pytest-xdist each
-    # worker has its own slice (2 workers: 1..50 and 51..100), so a suite's workers never collide.
+    # 1..100; under pytest-xdist each worker has its own slice (2 workers: 1..50 and 51..100), so a
+    # suite's workers never collide. Another suite on this machine (or a launcher's test run) holds
+    # locks on the ids it uses (the launcher's lock files): those are skipped (launch.isolation.free_domain).
+    from track_nodes.launch.isolation import free_domain
+
     workers = int(os.environ.get('PYTEST_XDIST_WORKER_COUNT', '1'))
     worker = os.environ.get('PYTEST_XDIST_WORKER', 'gw0')
     size = 100 // max(1, min(workers, 100))
     k = int(worker[2:]) if worker[2:].isdigit() else 0
-    return 1 + k * size + (os.getpid() + next(_domains)) % size
+    first = 1 + k * size
+    start = first + (os.getpid() + next(_domains)) % size
+    try:
+        domain, lock = free_domain(first, first + size - 1, start)
+    except RuntimeError:  # every id of the slice held: share one, as before
+        return start
+    _held.append(lock)
+    while len(_held) > HELD:
+        _held.popleft().close()
+    return domain
 
 
 def spin_until(executor, predicate: Callable[[], bool], timeout: float = 10.0, step: float = 0.05) -> bool:

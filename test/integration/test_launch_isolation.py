@@ -156,3 +156,21 @@ def test_no_domain_twice_on_one_machine():
     c, lock_c = free_domain()
     lock_c.close()
     assert c <= max(a, b)  # released ids are taken again
+
+
+def test_a_range_is_searched_from_its_start_and_wraps_past_held_ids():
+    """The tests' own domains (test/conftest.py) come from a range and a start; held ids are skipped (240..: ids no run uses)."""
+    from track_nodes.launch.isolation import free_domain
+
+    held = [free_domain(240, 242, 242)]
+    try:
+        assert held[0][0] == 242
+        held.append(free_domain(240, 242, 242))
+        assert held[1][0] == 240  # wrapped past the held 242
+        held.append(free_domain(240, 242, 242))
+        assert held[2][0] == 241
+        with pytest.raises(RuntimeError, match=r"240\.\.242"):
+            free_domain(240, 242, 242)
+    finally:
+        for _, lock in held:
+            lock.close()

@@ -70,10 +70,17 @@ class Isolation:
         return f'ROS_DOMAIN_ID={self.domain} ({own}discovery: {reach}; export ROS_DOMAIN_ID={self.domain} to watch)'
 
 
-def free_domain() -> tuple[int, object]:
-    """The lowest domain id no other launcher on this machine holds, and its held lock file."""
+def free_domain(first: int = DOMAIN_FIRST, last: int = DOMAIN_LAST, start: int | None = None) -> tuple[int, object]:
+    """The first id of ``first..last`` (from ``start``, wrapping) no other process here holds, and its held lock.
+
+    The launcher takes the lowest free id of its range; the tests (``test/conftest.py``) take theirs
+    from 1..100 the same way, so suites running side by side never share a domain.
+    """
     LOCK_DIR.mkdir(mode=0o1777, parents=True, exist_ok=True)
-    for domain in range(DOMAIN_FIRST, DOMAIN_LAST + 1):
+    ids = list(range(first, last + 1))
+    if start is not None and first <= start <= last:
+        ids = ids[start - first:] + ids[:start - first]
+    for domain in ids:
         try:
             fd = os.open(LOCK_DIR / f'{domain}.lock', os.O_RDWR | os.O_CREAT, 0o666)
         except OSError:  # another user's file: taken
@@ -88,7 +95,7 @@ def free_domain() -> tuple[int, object]:
             lock.write(f'{os.getpid()}\n')
             lock.flush()
         return domain, lock
-    raise RuntimeError(f'every ROS domain id {DOMAIN_FIRST}..{DOMAIN_LAST} is held by another launcher run; '
+    raise RuntimeError(f'every ROS domain id {first}..{last} is held by another run on this machine; '
                        'set ROS_DOMAIN_ID to share one')
 
 
