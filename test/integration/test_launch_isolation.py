@@ -159,7 +159,7 @@ def test_no_domain_twice_on_one_machine():
 
 
 def test_a_range_is_searched_from_its_start_and_wraps_past_held_ids():
-    """The tests' own domains (test/conftest.py) come from a range and a start; held ids are skipped (240..: ids no run uses)."""
+    """Test domains (test/conftest.py) come from a range and a start; held ids are skipped (240..: unused ids)."""
     from track_nodes.launch.isolation import free_domain
 
     held = [free_domain(240, 242, 242)]
