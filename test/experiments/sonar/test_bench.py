@@ -3,7 +3,8 @@ import json
 from track_experiments.cli import RunConfig
 from track_experiments.sonar.bench import sonar_benchmark
 
-KEYS = {'n200_ms', 'n2000_ms', 'transition_n200_ms', 'ukf_ms', 'stonesoup_ukf_ms', 'filterpy_loop_n200_ms',
+KEYS = {'n200_ms', 'n2000_ms', 'transition_n200_ms', 'ukf_ms', 'smart_n200_ms', 'ukf_smart_ms',
+        'smart_pf_over_ukf', 'stonesoup_ukf_ms', 'filterpy_loop_n200_ms',
         'stonesoup_n200_ms', 'speedup_vs_filterpy', 'speedup_vs_stonesoup'}
 
 

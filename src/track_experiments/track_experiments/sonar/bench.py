@@ -1,5 +1,6 @@
 """``track-bench sonar``: time of one SS-PF step (Algorithm 3) at N = 200 and N = 2000, against
-what a user would otherwise write, in the same run:
+what a user would otherwise write, in the same run, and against the UKF given the same model (the
+CV model, and the smart-target model: ``smart_pf_over_ukf`` is the PF's cost in UKF steps):
 
 - FilterPy: one ``UnscentedKalmanFilter`` per particle in a Python loop (predict from the particle
   with a near-zero covariance, i.e. our 'transition' proposal, then update), followed by the
@@ -20,6 +21,7 @@ import numpy as np
 
 from track_core.filters import cholesky_jitter, normalize_log_weights, systematic_resample
 from track_core.sonar.models import SensorMode, SonarParams, measure, residual
+from track_core.sonar.smart_target import SmartTargetParams
 from track_core.sonar.sspf import SSPF, make_tracker
 from track_experiments.cli import Outcome, RunConfig, best_time, format_table
 
@@ -31,8 +33,9 @@ Z = np.array([math.atan2(300.0, 300.0), math.hypot(300.0, 300.0)])
 OBS = np.zeros(2)
 
 
-def _ours(n: int, seed: int, proposal: str = 'rb') -> SSPF:
-    trk = make_tracker('acpf', SonarParams(n_particles=n), np.random.default_rng(seed), proposal=proposal)
+def _ours(n: int, seed: int, proposal: str = 'rb', target_model: SmartTargetParams | None = None) -> SSPF:
+    trk = make_tracker('acpf', SonarParams(n_particles=n), np.random.default_rng(seed), proposal=proposal,
+                       target_model=target_model)
     trk.initialize(X0, P0)
     trk.step(Z, SensorMode.ACTIVE, OBS)
     return trk
@@ -147,6 +150,16 @@ def _ukf_step_fn(peer: str):
     return step
 
 
+def _smart_ukf_step_fn():
+    """One active step of our UKF with the smart-target model after a ping (both hypotheses live)."""
+    from track_core.sonar.ukf import make_ukf
+
+    trk = make_ukf('acpf', SonarParams(), target_model=SmartTargetParams())
+    trk.initialize(X0, P0)
+    trk.step(Z, SensorMode.ACTIVE, OBS)
+    return lambda: trk.step(Z, SensorMode.ACTIVE, OBS)
+
+
 def sonar_benchmark(cfg: RunConfig) -> Outcome:
     """Times per active step: our SS-PF ('rb', the default, and 'transition'), the UKF peers, FilterPy, Stone Soup."""
     repeat = 3 if cfg.quick else 5
@@ -157,6 +170,9 @@ def sonar_benchmark(cfg: RunConfig) -> Outcome:
     trk_t = _ours(200, cfg.seed, 'transition')
     t_transition = best_time(lambda: trk_t.step(Z, SensorMode.ACTIVE, OBS), repeat=repeat)
     t_ukf = best_time(_ukf_step_fn('ukf'), repeat=repeat)
+    trk_s = _ours(200, cfg.seed, target_model=SmartTargetParams())
+    t_pf_smart = best_time(lambda: trk_s.step(Z, SensorMode.ACTIVE, OBS), repeat=repeat)
+    t_ukf_smart = best_time(_smart_ukf_step_fn(), repeat=repeat)
     ss_ukf = _ukf_step_fn('stonesoup-ukf')
     t_ss_ukf = None
     if ss_ukf is not None:
@@ -178,6 +194,9 @@ def sonar_benchmark(cfg: RunConfig) -> Outcome:
         'n2000_ms': t_ours[2000] * 1e3,
         'transition_n200_ms': t_transition * 1e3,
         'ukf_ms': t_ukf * 1e3,
+        'smart_n200_ms': t_pf_smart * 1e3,
+        'ukf_smart_ms': t_ukf_smart * 1e3,
+        'smart_pf_over_ukf': t_pf_smart / t_ukf_smart,
         'stonesoup_ukf_ms': None if t_ss_ukf is None else t_ss_ukf * 1e3,
         'filterpy_loop_n200_ms': None if t_fp is None else t_fp * 1e3,
         'stonesoup_n200_ms': None if t_ss is None else t_ss * 1e3,
@@ -192,6 +211,8 @@ def sonar_benchmark(cfg: RunConfig) -> Outcome:
             ['SS-PF step, rb (ours, vectorised)', 2000, data['n2000_ms'], '-'],
             ['SS-PF step, transition (ours)', 200, data['transition_n200_ms'], '-'],
             ['UKF peer step (ours, filters/)', 1, data['ukf_ms'], '-'],
+            ['SS-PF step, rb, smart-target model', 200, data['smart_n200_ms'], '-'],
+            ['UKF step, smart-target model (same model)', 1, data['ukf_smart_ms'], '-'],
             ['Stone Soup UKF step', 1, fmt(data['stonesoup_ukf_ms']), '-'],
             ['FilterPy UKF per particle (loop)', 200, fmt(data['filterpy_loop_n200_ms']),
              fmt(data['speedup_vs_filterpy'])],

@@ -14,9 +14,10 @@ PCRLB floors of eq. 7 (``pcrlb_floor``), which is why δ = 5 and 10 keep the act
 
 smart-target: the closed loop with a ``SmartTarget`` that evades when it hears pings. First each
 tracker schedules itself (SS-PF δ = ``CLOSED_LOOP_DELTA``); then, for each schedule source of
-``PAIRED_SCHEDULES``, the UKF peer's eq. 7 decisions drive all trackers (identical pings, target
-reaction, truth and noise), comparing the UKF, our SS-PF with eq. 1's CV model and our SS-PF with
-the smart-target model (``SSPF(target_model=...)``) paired run by run.
+``PAIRED_SCHEDULES``, the CV UKF's eq. 7 decisions drive all trackers (identical pings, target
+reaction, truth and noise), comparing the UKF and our SS-PF each with eq. 1's CV model and each with
+the smart-target model (``UKFTracker``/``SSPF(target_model=...)``) paired run by run, so the gain of
+the model and the gain of the filter are measured apart.
 """
 
 from __future__ import annotations
@@ -224,7 +225,8 @@ def table2(cfg: RunConfig) -> Outcome:
                                      'band_95_pos': [plo, phi],
                                      'band_kind': 'per-step average NEES over the runs, chi2(dof*M)/M',
                                      'trackers': cons, 'pcrlb_all_active': floor}, indent=2) + '\n')
-    table = (f'reading: {reading.label}; {n_runs} runs; PF, UKF peers on the same truths, noise and prior\n'
+    table = (f'reading: {reading.label}; {n_runs} runs; PF, UKF peers on the same truths, noise and prior, '
+             'with the same target model (eq. 1 CV, which is also the truth)\n'
              + format_table(['δ / tracker', 'SS-PF act', 'SS-PF RTAMS m', 'UKF act', 'UKF RTAMS m',
                              'PF − UKF run RMS m (± SE)', 'Stone Soup act', 'Stone Soup RTAMS m',
                              'paper act', 'paper RTAMS m'], table_rows)
@@ -322,13 +324,13 @@ def _fig13(res: dict, path: Path) -> Path:
 def closed_loop_tracker(kind: str, params, rng: np.random.Generator, *, filt: str = 'pf',
                         delta: float = CLOSED_LOOP_DELTA, target_params: SmartTargetParams | None = None,
                         target_aware: bool = False):
-    """One closed-loop tracker: our SS-PF ('pf'; ``target_aware`` gives it the smart-target model) or a UKF peer."""
+    """One closed-loop tracker: our SS-PF ('pf') or a UKF peer; ``target_aware`` gives either the smart-target model."""
+    model = (target_params or SmartTargetParams()) if target_aware else None
     if filt == 'pf':
-        return make_tracker(kind, params, rng, delta=delta,
-                            target_model=(target_params or SmartTargetParams()) if target_aware else None)
+        return make_tracker(kind, params, rng, delta=delta, target_model=model)
     from track_core.sonar.ukf import make_ukf
 
-    return make_ukf(kind, params, peer=filt, delta=delta)
+    return make_ukf(kind, params, peer=filt, delta=delta, target_model=model)
 
 
 def run_closed_loop_paired(n_runs: int, seed: int, factories: dict, leader: str, *,
@@ -401,19 +403,22 @@ PAIRED_SCHEDULES = (('papf', 0.0), ('ss-pf', 100.0), ('ss-pf', 50.0), ('ss-pf', 
 
 
 def smart_target(cfg: RunConfig) -> Outcome:
-    """Closed loop against the evading target: own-schedule trackers, then a paired PF-vs-UKF comparison.
+    """Closed loop against the evading target: own-schedule trackers, then paired comparisons per schedule.
 
     Own schedule: each tracker decides its pings (SS-PF δ = ``CLOSED_LOOP_DELTA``). Paired: for each
-    schedule source in ``PAIRED_SCHEDULES`` the UKF peer's eq. 7 decision (or a fixed sensor) drives
+    schedule source in ``PAIRED_SCHEDULES`` the CV UKF's eq. 7 decision (or a fixed sensor) drives
     all trackers, so pings, truth and noise are identical, and the per-run RMS differences have a
-    standard error. 'pf-smart' is our SS-PF with the smart-target model (``SSPF(target_model=...)``),
-    'pf-cv' the same filter with eq. 1's CV model, as the UKF uses.
+    standard error. Four filters, two models: 'ukf' and 'pf-cv' with eq. 1's CV model, 'ukf-smart'
+    (``UKFTracker(target_model=...)``: evade/cruise hypotheses merged) and 'pf-smart'
+    (``SSPF(target_model=...)``) with the smart-target model. The gain of the model is
+    ukf-smart − ukf; the gain of the particle filter is pf-smart − ukf-smart (same model) and
+    pf-cv − ukf (same CV model).
     """
     n_runs = cfg.n_runs(full=50, quick=4)
     sc = Scenario()
     p = sc.params
-    own = [('ss-pf', 'pf', True), ('ss-pf cv', 'pf', False), ('ukf ss-pf', 'ukf', False), ('acpf', 'pf', True),
-           ('papf', 'pf', True)]
+    own = [('ss-pf', 'pf', True), ('ukf-smart ss-pf', 'ukf', True), ('ss-pf cv', 'pf', False),
+           ('ukf ss-pf', 'ukf', False), ('acpf', 'pf', True), ('papf', 'pf', True)]
     if not cfg.quick and 'stonesoup-ukf' in available_peers():
         own.append(('stonesoup-ukf ss-pf', 'stonesoup-ukf', False))
     trackers, rows = {}, []
@@ -433,31 +438,34 @@ def smart_target(cfg: RunConfig) -> Outcome:
                           'ANEES'], rows) + f'\n(own schedules; SS-PF δ = {CLOSED_LOOP_DELTA:g}; {n_runs} runs of 40 s)'
     paired, prow = [], []
     for kind, delta in PAIRED_SCHEDULES:
-        factories = {
-            'ukf': lambda rng, kind=kind, delta=delta: closed_loop_tracker(kind, p, rng, filt='ukf', delta=delta),
-            'pf-cv': lambda rng, kind=kind, delta=delta: closed_loop_tracker(kind, p, rng, delta=delta),
-            'pf-smart': lambda rng, kind=kind, delta=delta: closed_loop_tracker(kind, p, rng, delta=delta,
-                                                                                target_aware=True),
-        }
+        def make(filt, aware, kind=kind, delta=delta):
+            return lambda rng: closed_loop_tracker(kind, p, rng, filt=filt, delta=delta, target_aware=aware)
+
+        factories = {'ukf': make('ukf', False), 'ukf-smart': make('ukf', True), 'pf-cv': make('pf', False),
+                     'pf-smart': make('pf', True)}
         res = run_closed_loop_paired(n_runs, cfg.seed, factories, 'ukf')
         e = res['err2']
         entry = {'schedule': f'{kind} d={delta:g}' if kind == 'ss-pf' else kind, 'pings': float(res['pings'].mean()),
                  'detections': float(res['detections'].mean())}
         for n in factories:
             entry[n] = {'rtams_m': _rtams(e[n]), 'anees': float(np.nanmean(res['nees'][n]))}
-        for n in ('pf-cv', 'pf-smart'):
+        for n in ('ukf-smart', 'pf-cv', 'pf-smart'):
             entry[n]['minus_ukf_rms_m'], entry[n]['se_m'] = paired_difference(e[n], e['ukf'])
+        entry['pf-smart']['minus_ukf_smart_rms_m'], entry['pf-smart']['se_vs_ukf_smart_m'] = paired_difference(
+            e['pf-smart'], e['ukf-smart'])
         paired.append(entry)
+        ps = entry['pf-smart']
         prow.append([entry['schedule'], entry['pings'], entry['detections'], entry['ukf']['rtams_m'],
-                     entry['pf-cv']['rtams_m'],
-                     f'{entry["pf-cv"]["minus_ukf_rms_m"]:+.2f} ± {entry["pf-cv"]["se_m"]:.2f}',
-                     entry['pf-smart']['rtams_m'],
-                     f'{entry["pf-smart"]["minus_ukf_rms_m"]:+.2f} ± {entry["pf-smart"]["se_m"]:.2f}',
-                     entry['ukf']['anees'], entry['pf-smart']['anees']])
-    table += ('\n\nPaired (same truth, pings and noise; schedule from the UKF peer): RTAMS m, and per-run RMS '
-              'difference to the UKF (mean ± SE)\n'
-              + format_table(['schedule', 'pings/run', 'detected/run', 'UKF', 'PF cv', 'PF cv − UKF', 'PF smart',
-                              'PF smart − UKF', 'UKF ANEES', 'PF smart ANEES'], prow))
+                     entry['ukf-smart']['rtams_m'], entry['pf-cv']['rtams_m'], ps['rtams_m'],
+                     f'{entry["ukf-smart"]["minus_ukf_rms_m"]:+.2f} ± {entry["ukf-smart"]["se_m"]:.2f}',
+                     f'{entry["pf-cv"]["minus_ukf_rms_m"]:+.3f} ± {entry["pf-cv"]["se_m"]:.3f}',
+                     f'{ps["minus_ukf_smart_rms_m"]:+.3f} ± {ps["se_vs_ukf_smart_m"]:.3f}',
+                     entry['ukf']['anees'], entry['ukf-smart']['anees'], ps['anees']])
+    table += ('\n\nPaired (same truth, pings and noise; schedule from the CV UKF): RTAMS m, and per-run RMS '
+              'differences (mean ± SE): model = UKF smart − UKF, filter = PF − UKF with the same model\n'
+              + format_table(['schedule', 'pings/run', 'detected/run', 'UKF cv', 'UKF smart', 'PF cv', 'PF smart',
+                              'model gain', 'filter gain (cv)', 'filter gain (smart)', 'UKF cv ANEES',
+                              'UKF smart ANEES', 'PF smart ANEES'], prow))
     fig = _fig_closed_loop(cfg.out / 'smart-target.png', trackers)
     return Outcome(table, {'trackers': trackers, 'paired': paired}, [fig])
 
