@@ -141,3 +141,53 @@ def test_importance_weights_equal_brute_force_densities(proposal):
     check(np.zeros(64), None, None, np.array([0.80, 420.0]), 'active')
     w1, x1, P1 = np.log(f.weights), f.particles.copy(), f.P.copy()
     check(w1, x1, P1, np.array([0.81]), 'passive')
+
+
+def _two_mode_run(seed, **kw):
+    """Two modes on one bearing line (300 m and 600 m, moving along it): bearings cannot tell them apart."""
+    from track_core.filters import bimodality_coefficient
+
+    p = SonarParams()
+    rng = np.random.default_rng(seed)
+    f = make_tracker('papf', p, rng, **kw)
+    u = np.array([np.sin(np.pi / 4), np.cos(np.pi / 4)])
+    m = np.array([[300 * u[0], 3 * u[0], 300 * u[1], 3 * u[1]], [600 * u[0], 3 * u[0], 600 * u[1], 3 * u[1]]])
+    f.initialize_mixture(m, np.diag([100.0, 1, 100, 1]))
+    bc = []
+    for _ in range(20):
+        f.step(np.array([np.pi / 4 + p.sigma_b * rng.standard_normal()]), 'passive', np.zeros(2))
+        bc.append(bimodality_coefficient(f.particles, f.weights))
+    return np.array(bc), f
+
+
+@pytest.mark.parametrize('seed', [10, 11, 12])
+def test_a_two_mode_prior_keeps_two_modes(seed):
+    # Sarle's coefficient of the component means: 1/3 Gaussian, 5/9 uniform, 1 two point masses.
+    bc, f = _two_mode_run(seed)
+    assert f.moves == 0 and bc.min() > 5 / 9
+    # both modes keep particles and weight (their shares drift with the bearing noise)
+    w = np.full(f.n, 1 / f.n) if f.weights is None else f.weights
+    near = np.hypot(f.particles[:, 0], f.particles[:, 2]) < 450
+    assert 0.05 < w[near].sum() < 0.95
+    # the old rule (a Liu–West move after every selection) Gaussianises the mixture: the test can fail
+    bc_old, f_old = _two_mode_run(seed, move_threshold=1.0)
+    assert f_old.moves == 20 and bc_old[-5:].mean() < 0.45
+
+
+def test_degenerate_selection_still_moves():
+    # an active fix on a wide prior leaves few heavy particles: ESS < N/2, so the move runs
+    f = make_tracker('acpf', SonarParams(), np.random.default_rng(0))
+    f.initialize(np.array([300.0, 12.25, 300.0, -12.25]), np.diag([150.0**2, 4, 150.0**2, 4]))
+    est = f.step(np.array([np.pi / 4, 424.0]), 'active', np.zeros(2))
+    assert est.ess < 0.5 * f.n and f.moved and f.moves == 1
+
+
+def test_initialize_mixture_errors():
+    f = SSPF(rng=np.random.default_rng(0), proposal='transition')
+    with pytest.raises(ValueError, match="needs proposal='rb'"):
+        f.initialize_mixture(np.zeros((2, 4)), np.eye(4))
+    f = SSPF(rng=np.random.default_rng(0))
+    with pytest.raises(ValueError, match='mixture weights'):
+        f.initialize_mixture(np.zeros((2, 4)), np.eye(4), np.array([1.0, -1.0]))
+    with pytest.raises(ValueError, match=r'^move_threshold must be'):
+        SSPF(move_threshold=0.0)
