@@ -14,13 +14,21 @@ i.e. from the particle itself; the covariance attached to the particle is not st
   one; the weight is its predictive likelihood wⁱ ∝ wⁱ_prev N(νⁱ; 0, Sⁱ) (x integrated out instead
   of sampled: the expectation of Algorithm 3's p(z|x)p(x|x_prev)/q(x) under q). The prior is split
   as N(m₀, P₀) = ∫ N(m; m₀, (1−b)P₀) N(x; m, bP₀) dm with b = ``split`` = 0.25, so the N means are
-  drawn from N(m₀, 0.75 P₀) and each Pⁱ = 0.25 P₀. Selection: systematic resampling, then the
+  drawn from N(m₀, 0.75 P₀) and each Pⁱ = 0.25 P₀. A wide prior is split finer: by default
+  (``split=None``) b = min(0.25, (50 m / σ)²) with σ the prior's largest position standard deviation,
+  so no particle starts wider than 50 m (at σ = 300 m, b = 0.028): one UKF is overconfident on a
+  bearing over hundreds of metres (``sonar-wide-prior``), 200 narrower ones are not. The paper's
+  20 m prior keeps b = 0.25. Selection: systematic resampling, then the
   Liu–West move of the means (below). Output: the mixture's moments, Algorithm 3's Cov plus the
   particles' own covariances, Cov = Σ wⁱ (Pⁱ + (mⁱ − m̄)(mⁱ − m̄)ᵀ). ``split=1`` makes every particle
   the whole prior, i.e. exactly the UKF peer (``ukf.UKFTracker``; tested).
 - ``proposal='transition'``: the particle is a point, P_kⁱ = 0, so the linear prediction gives
   N(F x_kⁱ, Q) and the UKF update approximates the locally optimal proposal
   p(x_{k+1} | x_kⁱ, z_{k+1}). The weights p(z|x)p(x|x_prev)/q(x) stay nearly uniform.
+- ``proposal='bootstrap'``: the point particle is drawn from eq. 1's transition N(F xⁱ, Q) and
+  weighted by p(z | xⁱ) alone (Gordon et al. 1993); no UKF, no per-particle covariance, no move.
+  It needs many particles, so it is the large-N reference of the experiments (``sonar-wide-prior``)
+  and the proposal that scales to N = 10⁶ (``track-bench sonar``).
 - ``proposal='propagated'``: each particle carries its UKF posterior covariance P_{k+1}ⁱ to the
   next step, but the particle itself is the sample and the weight uses p(x|x_prev) = N(F x_prev, Q):
   the proposal is much wider than that transition (position var. ≈ q_s T³/3), so the weights
@@ -93,9 +101,11 @@ from track_core.sonar.smart_target import SmartTargetParams, evasive_transition
 
 log = logging.getLogger(__name__)
 
-PROPOSALS = ('rb', 'transition', 'propagated')
+PROPOSALS = ('rb', 'transition', 'propagated', 'bootstrap')
 TRACKERS = ('ss-pf', 'papf', 'acpf')
 DEFAULT_SPLIT = 0.25
+# Largest position standard deviation (m) of one 'rb' particle at the start (``SSPF.split_for``).
+COMPONENT_STD = 50.0
 # 'rb': the Liu–West move runs only after a selection whose ESS was below this share of N.
 MOVE_THRESHOLD = 0.5
 # A cloud has collapsed when its smallest covariance eigenvalue is below COLLAPSE_RTOL times its
@@ -185,7 +195,7 @@ class SSPF:
         proposal: str = 'rb',
         resample_threshold: float = 1.0,
         regularize: bool = True,
-        split: float = DEFAULT_SPLIT,
+        split: float | None = None,
         target_model: SmartTargetParams | None = None,
         move_threshold: float = MOVE_THRESHOLD,
     ) -> None:
@@ -197,9 +207,9 @@ class SSPF:
         if target_model is not None and proposal != 'rb':
             raise ValueError(f"target_model needs proposal='rb', got proposal={proposal!r}")
         self.target_model = target_model
-        if not 0.0 < split <= 1.0:
+        if split is not None and not 0.0 < split <= 1.0:
             raise ValueError(f'split must be in (0, 1] (share of the prior covariance per particle), got {split!r}')
-        self.split = float(split)
+        self.split = None if split is None else float(split)
         self.repairs = 0
         if not 0.0 < resample_threshold <= 1.0:
             raise ValueError(f'resample_threshold must be in (0, 1] (fraction of N), got {resample_threshold!r}')
@@ -242,13 +252,18 @@ class SSPF:
         self.moves = 0
         if self.proposal == 'rb':
             # N(m₀, P₀) = ∫ N(m; m₀, (1−b)P₀) N(x; m, bP₀) dm: N Gaussian particles N(mⁱ, bP₀).
-            L = cholesky_jitter((1.0 - self.split) * cov)
+            b = self.split_for(cov)
+            L = cholesky_jitter((1.0 - b) * cov)
             self.particles = mean + self.rng.standard_normal((self.n, 4)) @ L.T
-            self.P = np.broadcast_to(self.split * cov, (self.n, 4, 4)).copy()
+            self.P = np.broadcast_to(b * cov, (self.n, 4, 4)).copy()
             self._prior = None
             self._last_heard = np.full(self.n, -np.inf)  # per particle: time it last heard a ping
             self._cruise = np.hypot(self.particles[:, 1], self.particles[:, 3])
             self._prev: tuple[np.ndarray, bool] | None = None  # (observer xy, pinged) of the last step
+        elif self.proposal == 'bootstrap':
+            self.particles = mean + self.rng.standard_normal((self.n, 4)) @ cholesky_jitter(cov).T
+            self.P = None
+            self._prior = None
         else:
             L = cholesky_jitter(cov)
             self.particles = mean + self.rng.standard_normal((self.n, 4)) @ L.T
@@ -257,6 +272,14 @@ class SSPF:
             self._prior = (mean.copy(), cov.copy())
         self.scheduler.reset()
         self.estimate = None
+
+    def split_for(self, cov: np.ndarray) -> float:
+        """The share b of a prior covariance each 'rb' particle carries: ``split`` when given, else
+        min(DEFAULT_SPLIT, (COMPONENT_STD / σ)²) with σ² the largest position variance of ``cov``."""
+        if self.split is not None:
+            return self.split
+        var = float(np.linalg.eigvalsh(np.asarray(cov, float)[np.ix_([0, 2], [0, 2])])[-1])
+        return min(DEFAULT_SPLIT, COMPONENT_STD**2 / var) if var > 0 else DEFAULT_SPLIT
 
     def initialize_mixture(self, means: np.ndarray, covs: np.ndarray, weights: np.ndarray | None = None) -> None:
         """'rb' only: start from the Gaussian mixture Σ wʲ N(mʲ, Pʲ) (e.g. a two-mode prior).
@@ -277,9 +300,10 @@ class SSPF:
             raise ValueError(f'mixture weights must be {means.shape[0]} numbers >= 0 with a positive sum, got {w!r}')
         self.initialize(means[0], covs[0])
         j = systematic_resample(w / w.sum(), self.rng, self.n)
-        L = cholesky_jitter((1.0 - self.split) * covs)[j]
+        b = np.array([self.split_for(c) for c in covs])[:, None, None]
+        L = cholesky_jitter((1.0 - b) * covs)[j]
         self.particles = means[j] + np.einsum('nij,nj->ni', L, self.rng.standard_normal((self.n, 4)))
-        self.P = self.split * covs[j]
+        self.P = (b * covs)[j]
         self._cruise = np.hypot(self.particles[:, 1], self.particles[:, 3])
 
     def step(self, z: np.ndarray, mode: SensorMode | str, observer_xy: np.ndarray) -> SonarEstimate:
@@ -287,7 +311,7 @@ class SSPF:
 
         ``z`` is [bearing] (passive) or [bearing, range] (active), bearing from north in rad.
         """
-        if self.particles is None or self.P is None:
+        if self.particles is None:
             raise RuntimeError('SSPF.step called before initialize()')
         mode = SensorMode.parse(mode)
         z = np.atleast_1d(np.asarray(z, dtype=float))
@@ -297,6 +321,8 @@ class SSPF:
         obs = np.asarray(observer_xy, dtype=float)[:2]
         if self.proposal == 'rb':
             return self._step_rb(z, mode, obs)
+        if self.proposal == 'bootstrap':
+            return self._step_bootstrap(z, mode, obs)
 
         x_new, P_tilde, e, L, log_trans = self._propose(z, mode, obs)
 
@@ -387,6 +413,32 @@ class SSPF:
         log.debug('k=%d mode=%s ess=%.1f next=%s', self.k, mode.value, ess, next_mode.value)
         return self.estimate
 
+    def _step_bootstrap(self, z: np.ndarray, mode: SensorMode, obs: np.ndarray) -> SonarEstimate:
+        """Bootstrap step: point particles drawn from eq. 1's transition, x ~ N(F x_prev, Q), weighted by
+        wⁱ ∝ wⁱ_prev p(z | xⁱ) (eqs. 5–6); systematic resampling when ESS < threshold·N; no move.
+
+        O(N) arrays of (N, 4) and (N, m) only (no per-particle covariance or sigma points), so a step
+        at N = 10⁶ is a few vectorised passes over 32 MB.
+        """
+        n = self.particles.shape[0]
+        x = self.particles @ self._F.T
+        x += self.rng.standard_normal((n, 4)) @ self._L_Q.T
+        nu = residual(z, measure(x, obs, mode))
+        log_w = -0.5 * (nu * nu) @ (1.0 / np.diag(self.params.R(mode)))
+        if self.weights is not None:
+            log_w += np.log(self.weights)
+        w, _ = normalize_log_weights(log_w)
+        ess = effective_sample_size(w)
+        if ess < self.resample_threshold * n:
+            self.particles, self.weights = x[systematic_resample(w, self.rng)], None
+        else:
+            self.particles, self.weights = x, w
+        mean, cov = weighted_mean_cov(self.particles, self.weights)
+        self.k += 1
+        next_mode = self.scheduler.decide(cov)
+        self.estimate = SonarEstimate(self.k, mean, cov, mode, next_mode, ess)
+        return self.estimate
+
     def _smart_prediction(self, obs: np.ndarray) -> np.ndarray:
         """Predicted means under the smart-target model (a jump-Markov model, sampled per particle).
 
@@ -460,7 +512,7 @@ def make_tracker(
     proposal: str = 'rb',
     resample_threshold: float = 1.0,
     regularize: bool = True,
-    split: float = DEFAULT_SPLIT,
+    split: float | None = None,
     block: str = 'full',
     cov_kind: str = 'posterior',
     target_model: SmartTargetParams | None = None,

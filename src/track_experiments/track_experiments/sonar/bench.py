@@ -8,6 +8,11 @@ CV model, and the smart-target model: ``smart_pf_over_ukf`` is the PF's cost in 
 - Stone Soup: ``ParticlePredictor`` with ``KalmanProposal`` (unscented predictor/updater) and
   ``ParticleUpdater`` with systematic resampling, bearing-range measurement model.
 
+Scaling (``data['scaling']``): CPU time of one step of the point-particle 'bootstrap' proposal at
+N = 10⁵ … 10⁶ and of the 'rb' proposal at 10⁴ … 10⁵ (quick: smaller N), the peak memory traced by
+``tracemalloc`` (numpy's buffers: the particles and one step's temporaries) and the least-squares
+slope of log time against log N (1 = linear).
+
 Peers are optional (``requirements-bench.txt``); a peer that does not import is reported as
 unavailable (null in the JSON). Timings use ``best_time`` on an active-sensor step.
 """
@@ -16,6 +21,8 @@ from __future__ import annotations
 
 import logging
 import math
+import time
+import tracemalloc
 
 import numpy as np
 
@@ -160,6 +167,38 @@ def _smart_ukf_step_fn():
     return lambda: trk.step(Z, SensorMode.ACTIVE, OBS)
 
 
+# Particle counts of the scaling rows (full run, quick run).
+SCALE_N = {'bootstrap': ((100_000, 200_000, 500_000, 1_000_000), (10_000, 30_000, 100_000)),
+           'rb': ((10_000, 30_000, 100_000), (2_000, 10_000))}
+
+
+def _cpu_time(fn, repeat: int) -> float:
+    """CPU seconds of one call (all threads of the process), best of ``repeat`` after a warm-up."""
+    fn()
+    best = float('inf')
+    for _ in range(repeat):
+        t0 = time.process_time()
+        fn()
+        best = min(best, time.process_time() - t0)
+    return best
+
+
+def scaling(proposal: str, ns: tuple[int, ...], seed: int, repeat: int = 3) -> dict:
+    """CPU s per active step, peak traced memory (MB, state + one step) and the log-log slope of time in N."""
+    rows = []
+    for n in ns:
+        tracemalloc.start()
+        trk = _ours(n, seed, proposal)
+        trk.step(Z, SensorMode.ACTIVE, OBS)
+        peak_mb = tracemalloc.get_traced_memory()[1] / 1e6
+        tracemalloc.stop()
+        rows.append({'n': n, 'cpu_s': _cpu_time(lambda trk=trk: trk.step(Z, SensorMode.ACTIVE, OBS), repeat),
+                     'peak_mb': peak_mb})
+        del trk
+    logn, logt = np.log([r['n'] for r in rows]), np.log([r['cpu_s'] for r in rows])
+    return {'rows': rows, 'loglog_slope': float(np.polyfit(logn, logt, 1)[0])}
+
+
 def sonar_benchmark(cfg: RunConfig) -> Outcome:
     """Times per active step: our SS-PF ('rb', the default, and 'transition'), the UKF peers, FilterPy, Stone Soup."""
     repeat = 3 if cfg.quick else 5
@@ -204,6 +243,10 @@ def sonar_benchmark(cfg: RunConfig) -> Outcome:
         'speedup_vs_stonesoup': None if t_ss is None else t_ss / t_ours[200],
     }
 
+    pick = 1 if cfg.quick else 0
+    scale = {prop: scaling(prop, SCALE_N[prop][pick], cfg.seed) for prop in ('bootstrap', 'rb')}
+    data['scaling'] = scale
+
     def fmt(v):
         return 'unavailable' if v is None else v
 
@@ -218,4 +261,8 @@ def sonar_benchmark(cfg: RunConfig) -> Outcome:
              fmt(data['speedup_vs_filterpy'])],
             ['Stone Soup ParticleUpdater + KalmanProposal(UKF)', 200, fmt(data['stonesoup_n200_ms']),
              fmt(data['speedup_vs_stonesoup'])]]
-    return Outcome(format_table(['implementation', 'N', 'ms/step', 'ours faster by'], rows), data)
+    srows = [[prop, r['n'], r['cpu_s'], r['peak_mb'], scale[prop]['loglog_slope']] for prop in scale
+             for r in scale[prop]['rows']]
+    return Outcome(format_table(['implementation', 'N', 'ms/step', 'ours faster by'], rows)
+                   + '\n\nScaling, one active step (CPU s of the process; peak traced memory, state and one step)\n'
+                   + format_table(['proposal', 'N', 'CPU s/step', 'peak MB', 'log-log slope'], srows), data)

@@ -486,3 +486,100 @@ def _fig_closed_loop(path: Path, trackers: dict) -> Path:
     fig.savefig(path, dpi=100)
     plt.close(fig)
     return path
+
+
+# The particle filter's own ground: (label, prior position std m, observer legs; None = Section 5's).
+WIDE_PRIOR_CASES = (('prior 150 m, bearings only', 150.0, None),
+                    ('prior 300 m, bearings only', 300.0, None),
+                    ('prior 300 m, bearings only, straight observer', 300.0, ((40.0, 0.0),)))
+WIDE_PRIOR_REFERENCE_N = 20_000
+
+
+def run_wide_prior(n_runs: int, seed: int, cases=WIDE_PRIOR_CASES, *, n_ref: int = WIDE_PRIOR_REFERENCE_N,
+                   progress=iter) -> dict:
+    """PF (our default SS-PF), the UKF and a bootstrap reference of ``n_ref`` particles, all with eq. 1's
+    CV model (the truth's), on the same truths, prior means and bearing noise, passive at every step.
+
+    Per case and filter: 'err2' and 'nees' (M, K). The prior N(m₀, diag(σ², 2², σ², 2²)) has m₀ a draw
+    around the truth, so the truth is a draw from the prior each filter is given.
+    """
+    from track_core.sonar.scenario import ObserverTrajectory
+    from track_core.sonar.sspf import SonarParams
+    from track_core.sonar.ukf import make_ukf
+
+    out = {}
+    for label, std, legs in cases:
+        observer = ObserverTrajectory() if legs is None else ObserverTrajectory(legs=legs)
+        sc = Scenario(prior_pos_std=std, observer=observer)
+        K, p = sc.n_steps, sc.params
+        res = {n: {'err2': np.empty((n_runs, K)), 'nees': np.empty((n_runs, K))} for n in ('pf', 'ukf', 'reference')}
+        for i, child in enumerate(progress(np.random.SeedSequence(seed).spawn(n_runs))):
+            st = child.spawn(4)
+            r_truth = np.random.default_rng(st[0])
+            truth = sc.simulate_truth(r_truth)
+            prior_mean = sc.draw_prior_mean(r_truth, truth[0])
+            noise = np.random.default_rng(st[1]).standard_normal((K, 2))
+            trackers = {'pf': make_tracker('papf', p, np.random.default_rng(st[2])),
+                        'ukf': make_ukf('papf', p),
+                        'reference': make_tracker('papf', SonarParams(n_particles=n_ref), np.random.default_rng(st[3]),
+                                                  proposal='bootstrap')}
+            for name, trk in trackers.items():
+                r = run_once(sc, trk, truth, prior_mean, noise)
+                res[name]['err2'][i], res[name]['nees'][i] = r.pos_err_sq, r.nees
+        out[label] = res
+    return out
+
+
+def wide_prior(cfg: RunConfig) -> Outcome:
+    """Wide priors on bearings-only runs: PF against the same-model UKF and a large bootstrap reference.
+
+    Cases ``WIDE_PRIOR_CASES`` (prior position std 150 and 300 m with Section 5's manoeuvring observer,
+    and 300 m with an observer that never turns, so the range stays ambiguous). Paired per-run RMS
+    differences (mean ± SE) on identical inputs; ANEES (per-step average NEES over the runs, mean over
+    steps) against its 95 % band χ²(4M)/M. Quick: 4 runs and a 2000-particle reference.
+    """
+    n_runs = cfg.n_runs(full=100, quick=4)
+    n_ref = 2_000 if cfg.quick else WIDE_PRIOR_REFERENCE_N
+    res = run_wide_prior(n_runs, cfg.seed, n_ref=n_ref,
+                         progress=lambda it: cfg.progress(it, desc='sonar-wide-prior', total=n_runs))
+    lo, hi = (float(v) for v in chi2.ppf([0.025, 0.975], 4 * n_runs) / n_runs)
+    rows, data = [], {'runs': n_runs, 'reference_particles': n_ref, 'band_95': [lo, hi], 'cases': {}}
+    for label, r in res.items():
+        case = {}
+        for name, v in r.items():
+            anees, inside = _anees(v['nees'], lo, hi)
+            case[name] = {'rtams_m': _rtams(v['err2']), 'anees': float(np.nanmean(anees)), 'fraction_inside': inside,
+                          'in_band': bool(lo <= np.nanmean(anees) <= hi)}
+        for a, b in (('pf', 'ukf'), ('pf', 'reference'), ('ukf', 'reference')):
+            d, se = paired_difference(r[a]['err2'], r[b]['err2'])
+            case[f'{a}_minus_{b}_rms_m'], case[f'{a}_minus_{b}_se_m'] = d, se
+        case['pf_beats_ukf_by_2se'] = bool(case['pf_minus_ukf_rms_m'] + 2 * case['pf_minus_ukf_se_m'] < 0)
+        data['cases'][label] = case
+        rows.append([label, case['pf']['rtams_m'], case['ukf']['rtams_m'], case['reference']['rtams_m'],
+                     f'{case["pf_minus_ukf_rms_m"]:+.1f} ± {case["pf_minus_ukf_se_m"]:.1f}',
+                     f'{case["pf_minus_reference_rms_m"]:+.1f} ± {case["pf_minus_reference_se_m"]:.1f}',
+                     case['pf']['anees'], case['ukf']['anees'], case['reference']['anees']])
+    table = (f'{n_runs} runs of 40 passive steps; PF (SS-PF, 200 particles), UKF and a {n_ref}-particle bootstrap '
+             'reference, all with the CV model of the truth, on identical inputs; ANEES band '
+             f'[{lo:.2f}, {hi:.2f}]\n'
+             + format_table(['case', 'PF RTAMS m', 'UKF RTAMS m', 'reference RTAMS m', 'PF − UKF m (± SE)',
+                             'PF − reference m (± SE)', 'PF ANEES', 'UKF ANEES', 'reference ANEES'], rows))
+    return Outcome(table, data, [_fig_wide_prior(res, cfg.out / 'sonar-wide-prior.png')])
+
+
+def _fig_wide_prior(res: dict, path: Path) -> Path:
+    plt = pyplot()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig, axes = plt.subplots(1, len(res), figsize=(4.2 * len(res), 3.4), sharey=True)
+    for ax, (label, r) in zip(np.atleast_1d(axes), res.items(), strict=True):
+        for name in ('pf', 'ukf', 'reference'):
+            ax.plot(np.arange(1, r[name]['err2'].shape[1] + 1), np.sqrt(r[name]['err2'].mean(0)), label=name)
+        ax.set_title(label, fontsize=9)
+        ax.set_xlabel('step')
+        ax.set_yscale('log')
+    np.atleast_1d(axes)[0].set_ylabel('RMS position error (m)')
+    np.atleast_1d(axes)[0].legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path

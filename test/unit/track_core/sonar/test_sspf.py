@@ -191,3 +191,37 @@ def test_initialize_mixture_errors():
         f.initialize_mixture(np.zeros((2, 4)), np.eye(4), np.array([1.0, -1.0]))
     with pytest.raises(ValueError, match=r'^move_threshold must be'):
         SSPF(move_threshold=0.0)
+
+
+def test_bootstrap_weights_are_the_likelihood_of_transition_draws():
+    p = SonarParams(n_particles=500)
+    f = SSPF(p, FixedScheduler('active'), np.random.default_rng(3), proposal='bootstrap', resample_threshold=1e-9)
+    m0 = np.array([300.0, 12.25, 300.0, -12.25])
+    f.initialize(m0, np.diag([400.0, 4, 400, 4]))
+    x0 = f.particles.copy()
+    z, obs = np.array([0.80, 420.0]), np.array([10.0, -20.0])
+    f.step(z, 'active', obs)
+    # the draws are F x0 + Q noise: their residuals have the covariance Q
+    d = f.particles - x0 @ p.F.T
+    np.testing.assert_allclose(np.cov(d.T), p.Q, atol=0.25)
+    lw = multivariate_normal.logpdf(residual(z, measure(f.particles, obs, 'active')), np.zeros(2), p.R('active'))
+    w = np.exp(lw - lw.max())
+    np.testing.assert_allclose(f.weights, w / w.sum(), rtol=1e-8, atol=1e-14)
+    assert f.P is None  # no per-particle covariance: O(N) memory
+
+
+def test_large_bootstrap_agrees_with_the_ukf_on_the_papers_scenario():
+    # near-Gaussian posterior (AcPF): 20 000 bootstrap particles and one UKF give the same track
+    from track_core.sonar import make_ukf
+
+    sc = Scenario(n_steps=20)
+    rng = np.random.default_rng(8)
+    truth = sc.simulate_truth(rng)
+    prior = sc.draw_prior_mean(rng, truth[0])
+    noise = rng.standard_normal((20, 2))
+    boot = run_once(sc, make_tracker('acpf', SonarParams(n_particles=20_000), np.random.default_rng(9),
+                                     proposal='bootstrap'), truth, prior, noise)
+    ukf = run_once(sc, make_ukf('acpf', sc.params), truth, prior, noise)
+    gap = np.hypot(*(boot.mean - ukf.mean)[:, [0, 2]].T)
+    assert gap.max() < 2.0, gap  # metres, against a position std of about 4 m
+    np.testing.assert_allclose(np.sqrt(boot.cov[:, 0, 0]), np.sqrt(ukf.cov[:, 0, 0]), rtol=0.25)
