@@ -51,8 +51,16 @@ estimate (``repaired``) and logged; the experiments report the count.
 Smart-target model (``target_model=SmartTargetParams(...)``, 'rb' only, beyond the paper). The
 observer knows when it pinged; each particle then draws whether its target heard the ping with
 P_det(range), and evading particles move by ``smart_target.evasive_transition``. The discrete part
-is sampled, the continuous part stays Gaussian (a Rao-Blackwellised jump-Markov filter), which a
-single UKF cannot represent. This is where the particle filter is ahead of the UKF (experiments).
+is sampled, the continuous part stays Gaussian (a Rao-Blackwellised jump-Markov filter). A single
+UKF given the same model as two merged hypotheses (``ukf.UKFTracker(target_model=...)``) does as
+well in the closed loop (``smart-target``): the gain over the CV filters is the model's.
+
+Merge and split ('rb', CV model, ``merge=True`` by default; ``SSPF._merge_or_split``). On a
+near-Gaussian posterior the N Gaussians become copies of one UKF (between-component share of the
+covariance → 0 after about 15 steps of the paper's scenario), so they are merged into their moment
+match and the filter costs one UKF step; a single Gaussian whose position spread grows wide against
+its range (σ > 0.05 r) is split into N again. Not with the smart-target model, whose particles
+differ in what their target heard.
 
 First step ('transition'/'propagated'). The prior p(x₀) = N(m₀, P₀) is Gaussian and the model
 linear, so the first proposal is one RB-UKF on N(m₀, P₀) itself and the transition density in the
@@ -75,6 +83,7 @@ ESS ≥ N/2 the duplicates a selection makes are few. ``move_threshold=1`` moves
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -106,6 +115,11 @@ TRACKERS = ('ss-pf', 'papf', 'acpf')
 DEFAULT_SPLIT = 0.25
 # Largest position standard deviation (m) of one 'rb' particle at the start (``SSPF.split_for``).
 COMPONENT_STD = 50.0
+# 'rb', CV model: merge the mixture into one Gaussian when its between-component share of the
+# covariance is below MERGE_SHARE in every direction; split it again when its position spread σ
+# exceeds SPLIT_RATIO times its range from the observer (``SSPF._merge_or_split``).
+MERGE_SHARE = 1e-3
+SPLIT_RATIO = 0.05
 # 'rb': the Liu–West move runs only after a selection whose ESS was below this share of N.
 MOVE_THRESHOLD = 0.5
 # A cloud has collapsed when its smallest covariance eigenvalue is below COLLAPSE_RTOL times its
@@ -198,7 +212,11 @@ class SSPF:
         split: float | None = None,
         target_model: SmartTargetParams | None = None,
         move_threshold: float = MOVE_THRESHOLD,
+        merge: bool = True,
     ) -> None:
+        self.merge = bool(merge)
+        self.merges = 0
+        self.splits = 0
         if not 0.0 < move_threshold <= 1.0:
             raise ValueError(f'move_threshold must be in (0, 1] (fraction of N), got {move_threshold!r}')
         self.move_threshold = float(move_threshold)
@@ -250,6 +268,8 @@ class SSPF:
         self.weights = None
         self.repairs = 0
         self.moves = 0
+        self.merges = 0
+        self.splits = 0
         if self.proposal == 'rb':
             # N(m₀, P₀) = ∫ N(m; m₀, (1−b)P₀) N(x; m, bP₀) dm: N Gaussian particles N(mⁱ, bP₀).
             b = self.split_for(cov)
@@ -386,32 +406,80 @@ class SSPF:
         x_post, P_post, nu, S = rb_ukf_innovation(self.particles, self.P, z, mode, obs, self.params, self._w,
                                                   mu_p=mu_p)
         self._prev = (obs.copy(), mode is SensorMode.ACTIVE)
-        prev_w = np.full(self.n, 1.0 / self.n) if self.weights is None else self.weights
+        n = x_post.shape[0]  # N, or 1 while the mixture is merged
+        if n == 1 and self.target_model is None:  # merged: one UKF step, no weights
+            self.particles, self.P, self.weights = x_post, P_post, None
+            mean, cov = x_post[0], P_post[0]
+            if self.merge:
+                self._merge_or_split(mean, cov, obs)
+            self.k += 1
+            self.estimate = SonarEstimate(self.k, mean, cov, mode, self.scheduler.decide(cov), 1.0)
+            return self.estimate
+        prev_w = np.full(n, 1.0 / n) if self.weights is None else self.weights
         w, _ = normalize_log_weights(np.log(prev_w) + gaussian_logpdf(nu, S))
         ess = effective_sample_size(w)
         self.moved = False
-        if ess < self.resample_threshold * self.n:
+        if n > 1 and ess < self.resample_threshold * n:
             idx = systematic_resample(w, self.rng)
             m, P = x_post[idx], P_post[idx]
             self._last_heard, self._cruise = self._last_heard[idx], self._cruise[idx]
             self.weights = None
-            if self.regularize and ess < self.move_threshold * self.n:
+            if self.regularize and ess < self.move_threshold * n:
                 # Only a degenerate selection needs the move: it shrinks every mean towards the centre.
-                h = (4.0 / (self.n * (4 + 2))) ** (1.0 / (4 + 4))
+                h = (4.0 / (n * (4 + 2))) ** (1.0 / (4 + 4))
                 a = np.sqrt(1.0 - h**2)
                 m_bar, B = weighted_mean_cov(m)
-                m = a * m + (1 - a) * m_bar + h * self.rng.standard_normal((self.n, 4)) @ cholesky_jitter(B).T
+                m = a * m + (1 - a) * m_bar + h * self.rng.standard_normal((n, 4)) @ cholesky_jitter(B).T
                 self.moved = True
                 self.moves += 1
             self.particles, self.P = m, P
         else:
-            self.particles, self.P, self.weights = x_post, P_post, w
+            self.particles, self.P, self.weights = x_post, P_post, (None if n == 1 else w)
         mean, cov = mixture_mean_cov(self.particles, self.P, self.weights)
+        if self.merge and self.target_model is None:
+            self._merge_or_split(mean, cov, obs)
         self.k += 1
         next_mode = self.scheduler.decide(cov)
         self.estimate = SonarEstimate(self.k, mean, cov, mode, next_mode, ess)
         log.debug('k=%d mode=%s ess=%.1f next=%s', self.k, mode.value, ess, next_mode.value)
         return self.estimate
+
+    @property
+    def components(self) -> int:
+        """Gaussians the 'rb' filter carries now: N, or 1 while the mixture is merged."""
+        return 0 if self.particles is None else self.particles.shape[0]
+
+    def _merge_or_split(self, mean: np.ndarray, cov: np.ndarray, obs: np.ndarray) -> None:
+        """Pay for the mixture only while it exists (CV model, 'rb').
+
+        Merge: when the between-component share of the covariance is below ``MERGE_SHARE`` in every
+        direction, λmax(Cov⁻¹ B) < MERGE_SHARE with B = Σ wⁱ (mⁱ − m̄)(mⁱ − m̄)ᵀ, the N Gaussians
+        are (nearly) one: they are replaced by their moment match N(m̄, Cov), exactly the mixture's
+        two moments, and the filter continues as one UKF. Split: a single Gaussian whose position
+        spread is wide against its range from the observer, σ/r > ``SPLIT_RATIO`` (σ² the largest
+        position variance), is where one UKF linearises badly (a wide bearings-only prior, a long
+        passive stretch); it is split again as the prior is, N means from N(m̄, (1−b)Cov), each with
+        bCov, b = ``split_for(Cov)``. The merge asks for σ/r below the same ratio, so a merged filter
+        does not split at the next step.
+        """
+        a, c, b = cov[0, 0], cov[2, 2], cov[0, 2]
+        var = 0.5 * (a + c) + math.sqrt(0.25 * (a - c) ** 2 + b * b)  # λmax of the position block
+        wide = var > SPLIT_RATIO**2 * ((mean[0] - obs[0]) ** 2 + (mean[2] - obs[1]) ** 2)
+        if self.components > 1:
+            _, B = weighted_mean_cov(self.particles, self.weights)
+            share = float(np.max(np.linalg.eigvals(np.linalg.solve(cov, B)).real))
+            if share < MERGE_SHARE and not wide:
+                self.particles, self.P, self.weights = mean[None].copy(), cov[None].copy(), None
+                self._last_heard, self._cruise = self._last_heard[:1], self._cruise[:1]
+                self.merges += 1
+        elif wide and self.n > 1:
+            b = self.split_for(cov)
+            self.particles = mean + self.rng.standard_normal((self.n, 4)) @ cholesky_jitter((1.0 - b) * cov).T
+            self.P = np.broadcast_to(b * cov, (self.n, 4, 4)).copy()
+            self.weights = None
+            self._last_heard = np.full(self.n, self._last_heard[0])
+            self._cruise = np.hypot(self.particles[:, 1], self.particles[:, 3])
+            self.splits += 1
 
     def _step_bootstrap(self, z: np.ndarray, mode: SensorMode, obs: np.ndarray) -> SonarEstimate:
         """Bootstrap step: point particles drawn from eq. 1's transition, x ~ N(F x_prev, Q), weighted by
@@ -517,6 +585,7 @@ def make_tracker(
     cov_kind: str = 'posterior',
     target_model: SmartTargetParams | None = None,
     move_threshold: float = MOVE_THRESHOLD,
+    merge: bool = True,
 ) -> SSPF:
     """'ss-pf' (eq. 7 scheduling), 'papf' (passive only) or 'acpf' (active only)."""
     if kind == 'ss-pf':
@@ -529,4 +598,5 @@ def make_tracker(
     else:
         raise ValueError(f'tracker must be one of {TRACKERS}, got {kind!r}')
     return SSPF(params, sched, rng, proposal=proposal, resample_threshold=resample_threshold,
-                regularize=regularize, split=split, target_model=target_model, move_threshold=move_threshold)
+                regularize=regularize, split=split, target_model=target_model, move_threshold=move_threshold,
+                merge=merge)

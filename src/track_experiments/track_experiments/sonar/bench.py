@@ -167,6 +167,38 @@ def _smart_ukf_step_fn():
     return lambda: trk.step(Z, SensorMode.ACTIVE, OBS)
 
 
+def _track_stream(trk):
+    """A step function feeding ``trk`` the noise-free active readings of a CV target from X0 (eq. 1),
+    one new time step per call, so a tracker can be timed over as many steps as the timer needs."""
+    F = SonarParams().F
+    state = {'x': X0.copy()}
+
+    def step():
+        state['x'] = F @ state['x']
+        trk.step(measure(state['x'], OBS, SensorMode.ACTIVE), SensorMode.ACTIVE, OBS)
+
+    return step
+
+
+def merged_cost(seed: int, repeat: int) -> dict:
+    """Cost of the default SS-PF once its mixture has merged into one Gaussian, against one UKF step,
+    both stepping through the same stream of readings (no re-initialisation)."""
+    from track_core.sonar.ukf import make_ukf
+
+    pf = make_tracker('acpf', SonarParams(), np.random.default_rng(seed))
+    pf.initialize(X0, P0)
+    pf_step = _track_stream(pf)
+    k = 0
+    while pf.components > 1 and k < 200:
+        pf_step()
+        k += 1
+    ukf = make_ukf('acpf', SonarParams())
+    ukf.initialize(X0, P0)
+    t_pf, t_ukf = best_time(pf_step, repeat=repeat), best_time(_track_stream(ukf), repeat=repeat)
+    return {'steps_to_merge': k if pf.components == 1 else None, 'merged_ms': t_pf * 1e3, 'ukf_ms': t_ukf * 1e3,
+            'merged_over_ukf': t_pf / t_ukf}
+
+
 # Particle counts of the scaling rows (full run, quick run).
 SCALE_N = {'bootstrap': ((100_000, 200_000, 500_000, 1_000_000), (10_000, 30_000, 100_000)),
            'rb': ((10_000, 30_000, 100_000), (2_000, 10_000))}
@@ -243,6 +275,7 @@ def sonar_benchmark(cfg: RunConfig) -> Outcome:
         'speedup_vs_stonesoup': None if t_ss is None else t_ss / t_ours[200],
     }
 
+    data['merged'] = merged_cost(cfg.seed, repeat)
     pick = 1 if cfg.quick else 0
     scale = {prop: scaling(prop, SCALE_N[prop][pick], cfg.seed) for prop in ('bootstrap', 'rb')}
     data['scaling'] = scale
@@ -261,6 +294,9 @@ def sonar_benchmark(cfg: RunConfig) -> Outcome:
              fmt(data['speedup_vs_filterpy'])],
             ['Stone Soup ParticleUpdater + KalmanProposal(UKF)', 200, fmt(data['stonesoup_n200_ms']),
              fmt(data['speedup_vs_stonesoup'])]]
+    mg = data['merged']
+    rows.append([f'SS-PF step after its mixture merged (step {mg["steps_to_merge"]}), per UKF step', 200,
+                 mg['merged_ms'], f'{mg["merged_over_ukf"]:.2f}× UKF ({mg["ukf_ms"]:.3f} ms)'])
     srows = [[prop, r['n'], r['cpu_s'], r['peak_mb'], scale[prop]['loglog_slope']] for prop in scale
              for r in scale[prop]['rows']]
     return Outcome(format_table(['implementation', 'N', 'ms/step', 'ours faster by'], rows)

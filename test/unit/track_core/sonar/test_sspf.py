@@ -225,3 +225,47 @@ def test_large_bootstrap_agrees_with_the_ukf_on_the_papers_scenario():
     gap = np.hypot(*(boot.mean - ukf.mean)[:, [0, 2]].T)
     assert gap.max() < 2.0, gap  # metres, against a position std of about 4 m
     np.testing.assert_allclose(np.sqrt(boot.cov[:, 0, 0]), np.sqrt(ukf.cov[:, 0, 0]), rtol=0.25)
+
+
+def _cv_readings(n_steps, mode, start=None):
+    p = SonarParams()
+    x = np.array([300.0, 12.25, 300.0, -12.25]) if start is None else start
+    out = []
+    for _ in range(n_steps):
+        x = p.F @ x
+        out.append((x.copy(), measure(x, np.zeros(2), mode)))
+    return out
+
+
+def test_mixture_merges_when_identical_and_splits_when_spread_returns():
+    p = SonarParams()
+    fs = {m: SSPF(p, FixedScheduler('active'), np.random.default_rng(4), merge=m) for m in (True, False)}
+    for f in fs.values():
+        f.initialize(np.array([310.0, 12.0, 290.0, -12.5]), np.diag([400.0, 4, 400, 4]))
+    active = _cv_readings(30, 'active')
+    for _, z in active:
+        est = {m: f.step(z, 'active', np.zeros(2)) for m, f in fs.items()}
+        # merging keeps the estimate: the components it replaces are (nearly) identical
+        np.testing.assert_allclose(est[True].mean, est[False].mean, atol=0.05)
+        np.testing.assert_allclose(est[True].cov, est[False].cov, rtol=0.02, atol=1e-3)
+    f = fs[True]
+    assert f.components == 1 and f.merges == 1 and f.splits == 0 and fs[False].components == p.n_particles
+    # bearings only from a fixed observer: the range spreads again, so the Gaussian is split into N
+    comps = []
+    for _, z in _cv_readings(40, 'passive', start=active[-1][0]):
+        f.step(z[:1], 'passive', np.zeros(2))
+        comps.append(f.components)
+    assert f.splits >= 1 and p.n_particles in comps
+    assert comps[-1] == p.n_particles  # it stays split while the range is spread
+
+
+def test_no_merge_without_the_option_or_with_the_smart_model():
+    from track_core.sonar import SmartTargetParams
+
+    p = SonarParams()
+    for kw in ({'merge': False}, {'target_model': SmartTargetParams()}):
+        f = SSPF(p, FixedScheduler('active'), np.random.default_rng(4), **kw)
+        f.initialize(np.array([310.0, 12.0, 290.0, -12.5]), np.diag([400.0, 4, 400, 4]))
+        for _, z in _cv_readings(30, 'active'):
+            f.step(z, 'active', np.zeros(2))
+        assert f.components == p.n_particles and f.merges == 0
