@@ -17,8 +17,10 @@ i.e. from the particle itself; the covariance attached to the particle is not st
   drawn from N(m₀, 0.75 P₀) and each Pⁱ = 0.25 P₀. A wide prior is split finer: by default
   (``split=None``) b = min(0.25, (50 m / σ)²) with σ the prior's largest position standard deviation,
   so no particle starts wider than 50 m (at σ = 300 m, b = 0.028): one UKF is overconfident on a
-  bearing over hundreds of metres (``sonar-wide-prior``), 200 narrower ones are not. The paper's
-  20 m prior keeps b = 0.25. Selection: systematic resampling, then the
+  bearing over hundreds of metres (``sonar-wide-prior``), 200 narrower ones are not. Such a prior's
+  means are drawn from N(m₀, c(1−b)P₀), c = ``prior_inflation`` = 2, and weighted back by
+  N(m; m₀, (1−b)P₀)/N(m; m₀, c(1−b)P₀) (defensive importance sampling), so a truth in the prior's
+  tail still has particles near it. The paper's 20 m prior keeps b = 0.25 and equal weights. Selection: systematic resampling, then the
   Liu–West move of the means (below). Output: the mixture's moments, Algorithm 3's Cov plus the
   particles' own covariances, Cov = Σ wⁱ (Pⁱ + (mⁱ − m̄)(mⁱ − m̄)ᵀ). ``split=1`` makes every particle
   the whole prior, i.e. exactly the UKF peer (``ukf.UKFTracker``; tested).
@@ -119,6 +121,8 @@ COMPONENT_STD = 50.0
 # covariance is below MERGE_SHARE in every direction; split it again when its position spread σ
 # exceeds SPLIT_RATIO times its range from the observer (``SSPF._merge_or_split``).
 MERGE_SHARE = 1e-3
+# A wide prior's means are drawn from PRIOR_INFLATION times their covariance and weighted back.
+PRIOR_INFLATION = 2.0
 SPLIT_RATIO = 0.05
 # 'rb': the Liu–West move runs only after a selection whose ESS was below this share of N.
 MOVE_THRESHOLD = 0.5
@@ -213,7 +217,11 @@ class SSPF:
         target_model: SmartTargetParams | None = None,
         move_threshold: float = MOVE_THRESHOLD,
         merge: bool = True,
+        prior_inflation: float = PRIOR_INFLATION,
     ) -> None:
+        if not (math.isfinite(prior_inflation) and prior_inflation >= 1.0):
+            raise ValueError(f'prior_inflation must be a finite number >= 1, got {prior_inflation!r}')
+        self.prior_inflation = float(prior_inflation)
         self.merge = bool(merge)
         self.merges = 0
         self.splits = 0
@@ -273,8 +281,13 @@ class SSPF:
         if self.proposal == 'rb':
             # N(m₀, P₀) = ∫ N(m; m₀, (1−b)P₀) N(x; m, bP₀) dm: N Gaussian particles N(mⁱ, bP₀).
             b = self.split_for(cov)
-            L = cholesky_jitter((1.0 - b) * cov)
-            self.particles = mean + self.rng.standard_normal((self.n, 4)) @ L.T
+            # A wide prior (b < DEFAULT_SPLIT): means drawn from c·(1−b)P₀ and weighted back by
+            # N(m; m₀, (1−b)P₀)/N(m; m₀, c(1−b)P₀), so the prior's tails keep particles.
+            c = self.prior_inflation if b < DEFAULT_SPLIT else 1.0
+            e = self.rng.standard_normal((self.n, 4))
+            self.particles = mean + e @ cholesky_jitter(c * (1.0 - b) * cov).T
+            if c != 1.0:  # m = m₀ + √c L e: log N(m; m₀, LLᵀ) − log N(m; m₀, cLLᵀ) = −½ (c − 1)|e|² + const
+                self.weights, _ = normalize_log_weights(-0.5 * (c - 1.0) * np.sum(e * e, axis=1))
             self.P = np.broadcast_to(b * cov, (self.n, 4, 4)).copy()
             self._prior = None
             self._last_heard = np.full(self.n, -np.inf)  # per particle: time it last heard a ping
@@ -324,6 +337,7 @@ class SSPF:
         L = cholesky_jitter((1.0 - b) * covs)[j]
         self.particles = means[j] + np.einsum('nij,nj->ni', L, self.rng.standard_normal((self.n, 4)))
         self.P = (b * covs)[j]
+        self.weights = None
         self._cruise = np.hypot(self.particles[:, 1], self.particles[:, 3])
 
     def step(self, z: np.ndarray, mode: SensorMode | str, observer_xy: np.ndarray) -> SonarEstimate:
@@ -586,6 +600,7 @@ def make_tracker(
     target_model: SmartTargetParams | None = None,
     move_threshold: float = MOVE_THRESHOLD,
     merge: bool = True,
+    prior_inflation: float = PRIOR_INFLATION,
 ) -> SSPF:
     """'ss-pf' (eq. 7 scheduling), 'papf' (passive only) or 'acpf' (active only)."""
     if kind == 'ss-pf':
@@ -599,4 +614,4 @@ def make_tracker(
         raise ValueError(f'tracker must be one of {TRACKERS}, got {kind!r}')
     return SSPF(params, sched, rng, proposal=proposal, resample_threshold=resample_threshold,
                 regularize=regularize, split=split, target_model=target_model, move_threshold=move_threshold,
-                merge=merge)
+                merge=merge, prior_inflation=prior_inflation)

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 from scipy.stats import multivariate_normal
 
-from track_core.filters import kf_predict, kf_update
+from track_core.filters import kf_predict, kf_update, mixture_mean_cov
 from track_core.sonar import (
     SSPF,
     FixedScheduler,
@@ -269,3 +269,21 @@ def test_no_merge_without_the_option_or_with_the_smart_model():
         for _, z in _cv_readings(30, 'active'):
             f.step(z, 'active', np.zeros(2))
         assert f.components == p.n_particles and f.merges == 0
+
+
+def test_wide_prior_is_split_finer_and_its_tails_weighted_back():
+    f = SSPF(SonarParams(n_particles=4000), rng=np.random.default_rng(2))
+    m0, P0 = np.array([300.0, 12.25, 300.0, -12.25]), np.diag([300.0**2, 4, 300.0**2, 4])
+    f.initialize(m0, P0)
+    assert f.split_for(P0) == pytest.approx((50.0 / 300.0) ** 2)
+    np.testing.assert_allclose(f.P[0], f.split_for(P0) * P0)
+    # means drawn wider, weighted back: the weighted mixture still has the prior's moments
+    mean, cov = mixture_mean_cov(f.particles, f.P, f.weights)
+    np.testing.assert_allclose(mean[[0, 2]], m0[[0, 2]], atol=25.0)
+    np.testing.assert_allclose(np.sqrt(np.diag(cov)), np.sqrt(np.diag(P0)), rtol=0.1)
+    assert np.std(f.particles[:, 0]) > 1.2 * 300.0  # the draws reach further than the prior
+    # the paper's 20 m prior: b = 0.25 and equal weights, as before
+    f.initialize(m0, np.diag([400.0, 4, 400, 4]))
+    assert f.split_for(np.diag([400.0, 4, 400, 4])) == 0.25 and f.weights is None
+    with pytest.raises(ValueError, match=r'^prior_inflation must be'):
+        SSPF(prior_inflation=0.5)
