@@ -20,8 +20,9 @@ i.e. from the particle itself; the covariance attached to the particle is not st
   bearing over hundreds of metres (``sonar-wide-prior``), 200 narrower ones are not. Such a prior's
   means are drawn from N(m₀, c(1−b)P₀), c = ``prior_inflation`` = 2, and weighted back by
   N(m; m₀, (1−b)P₀)/N(m; m₀, c(1−b)P₀) (defensive importance sampling), so a truth in the prior's
-  tail still has particles near it. The paper's 20 m prior keeps b = 0.25 and equal weights. Selection: systematic resampling, then the
-  Liu–West move of the means (below). Output: the mixture's moments, Algorithm 3's Cov plus the
+  tail still has particles near it. The paper's 20 m prior keeps b = 0.25 and equal weights.
+  Selection: systematic resampling, then, after a degenerate selection, the Liu–West move of the
+  means (below). Output: the mixture's moments, Algorithm 3's Cov plus the
   particles' own covariances, Cov = Σ wⁱ (Pⁱ + (mⁱ − m̄)(mⁱ − m̄)ᵀ). ``split=1`` makes every particle
   the whole prior, i.e. exactly the UKF peer (``ukf.UKFTracker``; tested).
 - ``proposal='transition'``: the particle is a point, P_kⁱ = 0, so the linear prediction gives

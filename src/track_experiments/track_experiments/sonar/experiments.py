@@ -1,4 +1,4 @@
-"""``track-experiment`` entries of the sonar system: ``sonar-table2`` and ``smart-target``.
+"""``track-experiment`` entries of the sonar system: ``sonar-table2``, ``smart-target`` and ``sonar-wide-prior``.
 
 sonar-table2: Table 2 (M runs of 40 steps) over a δ sweep (``CURVE_DELTAS``; ``--quick``: Table 2's
 δ), plus the PaPF and AcPF baselines, for our SS-PF and the UKF peers (ours from ``filters``,
@@ -18,6 +18,11 @@ tracker schedules itself (SS-PF δ = ``CLOSED_LOOP_DELTA``); then, for each sche
 reaction, truth and noise), comparing the UKF and our SS-PF each with eq. 1's CV model and each with
 the smart-target model (``UKFTracker``/``SSPF(target_model=...)``) paired run by run, so the gain of
 the model and the gain of the filter are measured apart.
+
+sonar-wide-prior: the particle filter's own ground, bearings-only runs from a wide prior (150 and 300 m,
+and 300 m with an observer that never turns), where one UKF linearises over hundreds of metres: our
+SS-PF, the UKF with the same (CV) model and a 20 000-particle bootstrap reference on identical inputs,
+paired, with the ANEES of each.
 """
 
 from __future__ import annotations
