@@ -122,9 +122,9 @@ COMPONENT_STD = 50.0
 # covariance is below MERGE_SHARE in every direction; split it again when its position spread σ
 # exceeds SPLIT_RATIO times its range from the observer (``SSPF._merge_or_split``).
 MERGE_SHARE = 1e-3
+SPLIT_RATIO = 0.05
 # A wide prior's means are drawn from PRIOR_INFLATION times their covariance and weighted back.
 PRIOR_INFLATION = 2.0
-SPLIT_RATIO = 0.05
 # 'rb': the Liu–West move runs only after a selection whose ESS was below this share of N.
 MOVE_THRESHOLD = 0.5
 # A cloud has collapsed when its smallest covariance eigenvalue is below COLLAPSE_RTOL times its
@@ -319,7 +319,8 @@ class SSPF:
         """'rb' only: start from the Gaussian mixture Σ wʲ N(mʲ, Pʲ) (e.g. a two-mode prior).
 
         Each of the N particles picks a component by systematic resampling of ``weights`` and is a
-        Gaussian N(m, bP) with m ~ N(mʲ, (1−b)Pʲ), b = ``split``, like ``initialize`` per component.
+        Gaussian N(m, bP) with m ~ N(mʲ, (1−b)Pʲ), b = ``split_for(Pʲ)``, like ``initialize`` per
+        component but with equal weights (no prior inflation).
         """
         if self.proposal != 'rb':
             raise ValueError(f"initialize_mixture needs proposal='rb', got proposal={self.proposal!r}")
