@@ -98,16 +98,20 @@ def test_table2_never_crashes(seed):
         assert np.isfinite(v['nees']).all() and v['repairs'].sum() == 0
 
 
-def test_smart_aware_pf_beats_the_ukf_in_the_closed_loop():
-    # Same truth, pings (the UKF's eq. 7 decisions, δ = 50) and noise for all three trackers.
-    p = SonarParams()
+def test_smart_target_gain_is_the_models_not_the_filters():
+    # Same truth, pings (the CV UKF's eq. 7 decisions, δ = 50) and noise for all four trackers.
+    p, tp = SonarParams(), SmartTargetParams()
     factories = {'ukf': lambda rng: make_ukf('ss-pf', p, delta=50.0),
+                 'ukf-smart': lambda rng: make_ukf('ss-pf', p, delta=50.0, target_model=tp),
                  'pf-cv': lambda rng: make_tracker('ss-pf', p, rng, delta=50.0),
-                 'pf-smart': lambda rng: make_tracker('ss-pf', p, rng, delta=50.0, target_model=SmartTargetParams())}
+                 'pf-smart': lambda rng: make_tracker('ss-pf', p, rng, delta=50.0, target_model=tp)}
     res = run_closed_loop_paired(6, 1, factories, 'ukf')
-    d_smart, se_smart = paired_difference(res['err2']['pf-smart'], res['err2']['ukf'])
-    d_cv, se_cv = paired_difference(res['err2']['pf-cv'], res['err2']['ukf'])
-    assert d_smart + 3 * se_smart < 0  # the smart-target model is where a particle filter wins
+    e = res['err2']
+    d_model, se_model = paired_difference(e['ukf-smart'], e['ukf'])
+    d_smart, se_smart = paired_difference(e['pf-smart'], e['ukf-smart'])
+    d_cv, se_cv = paired_difference(e['pf-cv'], e['ukf'])
+    assert d_model + 3 * se_model < 0  # the smart-target model wins, in a UKF too
+    assert abs(d_smart) < 3 * se_smart + 0.2  # with the same smart model the PF ties the UKF
     assert abs(d_cv) < 3 * se_cv + 0.2  # with the same CV model the PF ties the UKF
     assert res['pings'].mean() > 0
 

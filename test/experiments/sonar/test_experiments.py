@@ -48,3 +48,18 @@ def test_cli_reading_flag(tmp_path, capsys):
     assert experiment_main(['sonar-table2', '--quick', '--runs', '1', '--no-progress', '--out', str(tmp_path),
                             '--reading', 'frobenius']) == 2
     assert 'unknown word' in capsys.readouterr().err
+
+
+def test_wide_prior_quick(tmp_path):
+    from track_experiments.sonar.experiments import WIDE_PRIOR_CASES, wide_prior
+
+    out = wide_prior(RunConfig(quick=True, runs=4, out=tmp_path, show_progress=False))
+    assert set(out.data['cases']) == {c[0] for c in WIDE_PRIOR_CASES}
+    assert out.data['reference_particles'] == 2000
+    for case in out.data['cases'].values():
+        assert {'pf', 'ukf', 'reference', 'pf_minus_ukf_rms_m', 'pf_minus_ukf_se_m', 'pf_beats_ukf_by_2se'} <= set(case)
+        assert case['pf']['in_band'], case  # the particle filter stays consistent on a wide prior
+        # and follows the large bootstrap reference (the PF-vs-UKF verdict needs the full run's 100 runs)
+        assert case['pf']['rtams_m'] < 1.5 * case['reference']['rtams_m'], case
+    assert all(f.exists() for f in out.figures)
+    json.dumps(out.data)

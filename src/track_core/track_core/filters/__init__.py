@@ -27,7 +27,7 @@ __all__ = [
 # Particle-filter and unscented blocks (added with the sonar system; shared by every system).
 from track_core.filters.angles import circular_mean, invert_pose, wrap_angle
 from track_core.filters.densities import cholesky_jitter, gaussian_logpdf
-from track_core.filters.particles import weighted_mean_cov
+from track_core.filters.particles import bimodality_coefficient, mixture_mean_cov, weighted_mean_cov
 from track_core.filters.resampling import (
     effective_sample_size,
     normalize_log_weights,
@@ -42,11 +42,13 @@ from track_core.filters.unscented import (
 
 __all__ += [
     'UnscentedWeights',
+    'bimodality_coefficient',
     'cholesky_jitter',
     'circular_mean',
     'effective_sample_size',
     'gaussian_logpdf',
     'invert_pose',
+    'mixture_mean_cov',
     'normalize_log_weights',
     'sigma_points',
     'systematic_resample',

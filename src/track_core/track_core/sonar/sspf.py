@@ -14,13 +14,24 @@ i.e. from the particle itself; the covariance attached to the particle is not st
   one; the weight is its predictive likelihood wⁱ ∝ wⁱ_prev N(νⁱ; 0, Sⁱ) (x integrated out instead
   of sampled: the expectation of Algorithm 3's p(z|x)p(x|x_prev)/q(x) under q). The prior is split
   as N(m₀, P₀) = ∫ N(m; m₀, (1−b)P₀) N(x; m, bP₀) dm with b = ``split`` = 0.25, so the N means are
-  drawn from N(m₀, 0.75 P₀) and each Pⁱ = 0.25 P₀. Selection: systematic resampling, then the
-  Liu–West move of the means (below). Output: the mixture's moments, Algorithm 3's Cov plus the
+  drawn from N(m₀, 0.75 P₀) and each Pⁱ = 0.25 P₀. A wide prior is split finer: by default
+  (``split=None``) b = min(0.25, (50 m / σ)²) with σ the prior's largest position standard deviation,
+  so no particle starts wider than 50 m (at σ = 300 m, b = 0.028): one UKF is overconfident on a
+  bearing over hundreds of metres (``sonar-wide-prior``), 200 narrower ones are not. Such a prior's
+  means are drawn from N(m₀, c(1−b)P₀), c = ``prior_inflation`` = 2, and weighted back by
+  N(m; m₀, (1−b)P₀)/N(m; m₀, c(1−b)P₀) (defensive importance sampling), so a truth in the prior's
+  tail still has particles near it. The paper's 20 m prior keeps b = 0.25 and equal weights.
+  Selection: systematic resampling, then, after a degenerate selection, the Liu–West move of the
+  means (below). Output: the mixture's moments, Algorithm 3's Cov plus the
   particles' own covariances, Cov = Σ wⁱ (Pⁱ + (mⁱ − m̄)(mⁱ − m̄)ᵀ). ``split=1`` makes every particle
   the whole prior, i.e. exactly the UKF peer (``ukf.UKFTracker``; tested).
 - ``proposal='transition'``: the particle is a point, P_kⁱ = 0, so the linear prediction gives
   N(F x_kⁱ, Q) and the UKF update approximates the locally optimal proposal
   p(x_{k+1} | x_kⁱ, z_{k+1}). The weights p(z|x)p(x|x_prev)/q(x) stay nearly uniform.
+- ``proposal='bootstrap'``: the point particle is drawn from eq. 1's transition N(F xⁱ, Q) and
+  weighted by p(z | xⁱ) alone (Gordon et al. 1993); no UKF, no per-particle covariance, no move.
+  It needs many particles, so it is the large-N reference of the experiments (``sonar-wide-prior``)
+  and the proposal that scales to N = 10⁶ (``track-bench sonar``).
 - ``proposal='propagated'``: each particle carries its UKF posterior covariance P_{k+1}ⁱ to the
   next step, but the particle itself is the sample and the weight uses p(x|x_prev) = N(F x_prev, Q):
   the proposal is much wider than that transition (position var. ≈ q_s T³/3), so the weights
@@ -43,8 +54,16 @@ estimate (``repaired``) and logged; the experiments report the count.
 Smart-target model (``target_model=SmartTargetParams(...)``, 'rb' only, beyond the paper). The
 observer knows when it pinged; each particle then draws whether its target heard the ping with
 P_det(range), and evading particles move by ``smart_target.evasive_transition``. The discrete part
-is sampled, the continuous part stays Gaussian (a Rao-Blackwellised jump-Markov filter), which a
-single UKF cannot represent. This is where the particle filter is ahead of the UKF (experiments).
+is sampled, the continuous part stays Gaussian (a Rao-Blackwellised jump-Markov filter). A single
+UKF given the same model as two merged hypotheses (``ukf.UKFTracker(target_model=...)``) does as
+well in the closed loop (``smart-target``): the gain over the CV filters is the model's.
+
+Merge and split ('rb', CV model, ``merge=True`` by default; ``SSPF._merge_or_split``). On a
+near-Gaussian posterior the N Gaussians become copies of one UKF (between-component share of the
+covariance → 0 after about 15 steps of the paper's scenario), so they are merged into their moment
+match and the filter costs one UKF step; a single Gaussian whose position spread grows wide against
+its range (σ > 0.05 r) is split into N again. Not with the smart-target model, whose particles
+differ in what their target heard.
 
 First step ('transition'/'propagated'). The prior p(x₀) = N(m₀, P₀) is Gaussian and the model
 linear, so the first proposal is one RB-UKF on N(m₀, P₀) itself and the transition density in the
@@ -56,12 +75,18 @@ Algorithm 3 does; a smaller value resamples only when ESS < threshold·N (weight
 ``regularize=True`` (default; not in the paper) moves the selected particles (their means, for
 'rb') with a Liu–West shrinkage kernel, x ← a x + (1−a) x̄ + h L e, h = (4/(N(n+2)))^{1/(n+4)},
 a = √(1−h²), L L' = the particles' (means') covariance, which keeps the cloud's mean and
-covariance but restores the diversity that resampling removes.
+covariance but restores the diversity that resampling removes. For 'rb' the move runs only when the
+cloud needs it: after a selection whose ESS was below ``move_threshold``·N (default 0.5, counted in
+``SSPF.moves``). At N = 200, a = 0.87 pulls every mean 13 % towards the centre, so a move at every
+step turns a two-mode mixture into one Gaussian within a few steps (the bimodality coefficient of the
+means falls to that of a Gaussian, 1/3); an 'rb' particle already carries its spread in Pⁱ, and with
+ESS ≥ N/2 the duplicates a selection makes are few. ``move_threshold=1`` moves after every selection.
 """
 
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -73,6 +98,7 @@ from track_core.filters import (
     effective_sample_size,
     gaussian_logpdf,
     kf_predict,
+    mixture_mean_cov,
     normalize_log_weights,
     symmetrize,
     systematic_resample,
@@ -87,9 +113,20 @@ from track_core.sonar.smart_target import SmartTargetParams, evasive_transition
 
 log = logging.getLogger(__name__)
 
-PROPOSALS = ('rb', 'transition', 'propagated')
+PROPOSALS = ('rb', 'transition', 'propagated', 'bootstrap')
 TRACKERS = ('ss-pf', 'papf', 'acpf')
 DEFAULT_SPLIT = 0.25
+# Largest position standard deviation (m) of one 'rb' particle at the start (``SSPF.split_for``).
+COMPONENT_STD = 50.0
+# 'rb', CV model: merge the mixture into one Gaussian when its between-component share of the
+# covariance is below MERGE_SHARE in every direction; split it again when its position spread σ
+# exceeds SPLIT_RATIO times its range from the observer (``SSPF._merge_or_split``).
+MERGE_SHARE = 1e-3
+SPLIT_RATIO = 0.05
+# A wide prior's means are drawn from PRIOR_INFLATION times their covariance and weighted back.
+PRIOR_INFLATION = 2.0
+# 'rb': the Liu–West move runs only after a selection whose ESS was below this share of N.
+MOVE_THRESHOLD = 0.5
 # A cloud has collapsed when its smallest covariance eigenvalue is below COLLAPSE_RTOL times its
 # largest or times the smallest eigenvalue of Q (one step of process noise: a cloud that is
 # narrower than that in every direction after the proposal has lost its spread).
@@ -177,15 +214,29 @@ class SSPF:
         proposal: str = 'rb',
         resample_threshold: float = 1.0,
         regularize: bool = True,
-        split: float = DEFAULT_SPLIT,
+        split: float | None = None,
         target_model: SmartTargetParams | None = None,
+        move_threshold: float = MOVE_THRESHOLD,
+        merge: bool = True,
+        prior_inflation: float = PRIOR_INFLATION,
     ) -> None:
+        if not (math.isfinite(prior_inflation) and prior_inflation >= 1.0):
+            raise ValueError(f'prior_inflation must be a finite number >= 1, got {prior_inflation!r}')
+        self.prior_inflation = float(prior_inflation)
+        self.merge = bool(merge)
+        self.merges = 0
+        self.splits = 0
+        if not 0.0 < move_threshold <= 1.0:
+            raise ValueError(f'move_threshold must be in (0, 1] (fraction of N), got {move_threshold!r}')
+        self.move_threshold = float(move_threshold)
+        self.moves = 0
+        self.moved = False
         if target_model is not None and proposal != 'rb':
             raise ValueError(f"target_model needs proposal='rb', got proposal={proposal!r}")
         self.target_model = target_model
-        if not 0.0 < split <= 1.0:
+        if split is not None and not 0.0 < split <= 1.0:
             raise ValueError(f'split must be in (0, 1] (share of the prior covariance per particle), got {split!r}')
-        self.split = float(split)
+        self.split = None if split is None else float(split)
         self.repairs = 0
         if not 0.0 < resample_threshold <= 1.0:
             raise ValueError(f'resample_threshold must be in (0, 1] (fraction of N), got {resample_threshold!r}')
@@ -225,15 +276,28 @@ class SSPF:
         self.k = 0
         self.weights = None
         self.repairs = 0
+        self.moves = 0
+        self.merges = 0
+        self.splits = 0
         if self.proposal == 'rb':
             # N(m₀, P₀) = ∫ N(m; m₀, (1−b)P₀) N(x; m, bP₀) dm: N Gaussian particles N(mⁱ, bP₀).
-            L = cholesky_jitter((1.0 - self.split) * cov)
-            self.particles = mean + self.rng.standard_normal((self.n, 4)) @ L.T
-            self.P = np.broadcast_to(self.split * cov, (self.n, 4, 4)).copy()
+            b = self.split_for(cov)
+            # A wide prior (b < DEFAULT_SPLIT): means drawn from c·(1−b)P₀ and weighted back by
+            # N(m; m₀, (1−b)P₀)/N(m; m₀, c(1−b)P₀), so the prior's tails keep particles.
+            c = self.prior_inflation if b < DEFAULT_SPLIT else 1.0
+            e = self.rng.standard_normal((self.n, 4))
+            self.particles = mean + e @ cholesky_jitter(c * (1.0 - b) * cov).T
+            if c != 1.0:  # m = m₀ + √c L e: log N(m; m₀, LLᵀ) − log N(m; m₀, cLLᵀ) = −½ (c − 1)|e|² + const
+                self.weights, _ = normalize_log_weights(-0.5 * (c - 1.0) * np.sum(e * e, axis=1))
+            self.P = np.broadcast_to(b * cov, (self.n, 4, 4)).copy()
             self._prior = None
             self._last_heard = np.full(self.n, -np.inf)  # per particle: time it last heard a ping
             self._cruise = np.hypot(self.particles[:, 1], self.particles[:, 3])
             self._prev: tuple[np.ndarray, bool] | None = None  # (observer xy, pinged) of the last step
+        elif self.proposal == 'bootstrap':
+            self.particles = mean + self.rng.standard_normal((self.n, 4)) @ cholesky_jitter(cov).T
+            self.P = None
+            self._prior = None
         else:
             L = cholesky_jitter(cov)
             self.particles = mean + self.rng.standard_normal((self.n, 4)) @ L.T
@@ -243,12 +307,47 @@ class SSPF:
         self.scheduler.reset()
         self.estimate = None
 
+    def split_for(self, cov: np.ndarray) -> float:
+        """The share b of a prior covariance each 'rb' particle carries: ``split`` when given, else
+        min(DEFAULT_SPLIT, (COMPONENT_STD / σ)²) with σ² the largest position variance of ``cov``."""
+        if self.split is not None:
+            return self.split
+        var = float(np.linalg.eigvalsh(np.asarray(cov, float)[np.ix_([0, 2], [0, 2])])[-1])
+        return min(DEFAULT_SPLIT, COMPONENT_STD**2 / var) if var > 0 else DEFAULT_SPLIT
+
+    def initialize_mixture(self, means: np.ndarray, covs: np.ndarray, weights: np.ndarray | None = None) -> None:
+        """'rb' only: start from the Gaussian mixture Σ wʲ N(mʲ, Pʲ) (e.g. a two-mode prior).
+
+        Each of the N particles picks a component by systematic resampling of ``weights`` and is a
+        Gaussian N(m, bP) with m ~ N(mʲ, (1−b)Pʲ), b = ``split_for(Pʲ)``, like ``initialize`` per
+        component but with equal weights (no prior inflation).
+        """
+        if self.proposal != 'rb':
+            raise ValueError(f"initialize_mixture needs proposal='rb', got proposal={self.proposal!r}")
+        means = np.atleast_2d(np.asarray(means, dtype=float))
+        covs = np.broadcast_to(np.asarray(covs, dtype=float), (means.shape[0], 4, 4))
+        if means.shape[1:] != (4,) or not np.all(np.isfinite(means)):
+            raise ValueError(f'mixture means must be (J, 4) finite numbers, got shape {means.shape}')
+        for c in covs:
+            check_covariance(c, 'mixture covariance')
+        w = np.full(means.shape[0], 1.0 / means.shape[0]) if weights is None else np.asarray(weights, float)
+        if w.shape != (means.shape[0],) or not np.all(w >= 0) or not w.sum() > 0:
+            raise ValueError(f'mixture weights must be {means.shape[0]} numbers >= 0 with a positive sum, got {w!r}')
+        self.initialize(means[0], covs[0])
+        j = systematic_resample(w / w.sum(), self.rng, self.n)
+        b = np.array([self.split_for(c) for c in covs])[:, None, None]
+        L = cholesky_jitter((1.0 - b) * covs)[j]
+        self.particles = means[j] + np.einsum('nij,nj->ni', L, self.rng.standard_normal((self.n, 4)))
+        self.P = (b * covs)[j]
+        self.weights = None
+        self._cruise = np.hypot(self.particles[:, 1], self.particles[:, 3])
+
     def step(self, z: np.ndarray, mode: SensorMode | str, observer_xy: np.ndarray) -> SonarEstimate:
         """One iteration of Algorithm 3 with the reading ``z`` taken by sensor ``mode`` from ``observer_xy``.
 
         ``z`` is [bearing] (passive) or [bearing, range] (active), bearing from north in rad.
         """
-        if self.particles is None or self.P is None:
+        if self.particles is None:
             raise RuntimeError('SSPF.step called before initialize()')
         mode = SensorMode.parse(mode)
         z = np.atleast_1d(np.asarray(z, dtype=float))
@@ -258,6 +357,8 @@ class SSPF:
         obs = np.asarray(observer_xy, dtype=float)[:2]
         if self.proposal == 'rb':
             return self._step_rb(z, mode, obs)
+        if self.proposal == 'bootstrap':
+            return self._step_bootstrap(z, mode, obs)
 
         x_new, P_tilde, e, L, log_trans = self._propose(z, mode, obs)
 
@@ -321,27 +422,105 @@ class SSPF:
         x_post, P_post, nu, S = rb_ukf_innovation(self.particles, self.P, z, mode, obs, self.params, self._w,
                                                   mu_p=mu_p)
         self._prev = (obs.copy(), mode is SensorMode.ACTIVE)
-        prev_w = np.full(self.n, 1.0 / self.n) if self.weights is None else self.weights
+        n = x_post.shape[0]  # N, or 1 while the mixture is merged
+        if n == 1 and self.target_model is None:  # merged: one UKF step, no weights
+            self.particles, self.P, self.weights = x_post, P_post, None
+            mean, cov = x_post[0], P_post[0]
+            if self.merge:
+                self._merge_or_split(mean, cov, obs)
+            self.k += 1
+            self.estimate = SonarEstimate(self.k, mean, cov, mode, self.scheduler.decide(cov), 1.0)
+            return self.estimate
+        prev_w = np.full(n, 1.0 / n) if self.weights is None else self.weights
         w, _ = normalize_log_weights(np.log(prev_w) + gaussian_logpdf(nu, S))
         ess = effective_sample_size(w)
-        if ess < self.resample_threshold * self.n:
+        self.moved = False
+        if n > 1 and ess < self.resample_threshold * n:
             idx = systematic_resample(w, self.rng)
             m, P = x_post[idx], P_post[idx]
             self._last_heard, self._cruise = self._last_heard[idx], self._cruise[idx]
             self.weights = None
-            if self.regularize:
-                h = (4.0 / (self.n * (4 + 2))) ** (1.0 / (4 + 4))
+            if self.regularize and ess < self.move_threshold * n:
+                # Only a degenerate selection needs the move: it shrinks every mean towards the centre.
+                h = (4.0 / (n * (4 + 2))) ** (1.0 / (4 + 4))
                 a = np.sqrt(1.0 - h**2)
                 m_bar, B = weighted_mean_cov(m)
-                m = a * m + (1 - a) * m_bar + h * self.rng.standard_normal((self.n, 4)) @ cholesky_jitter(B).T
+                m = a * m + (1 - a) * m_bar + h * self.rng.standard_normal((n, 4)) @ cholesky_jitter(B).T
+                self.moved = True
+                self.moves += 1
             self.particles, self.P = m, P
         else:
-            self.particles, self.P, self.weights = x_post, P_post, w
+            self.particles, self.P, self.weights = x_post, P_post, (None if n == 1 else w)
         mean, cov = mixture_mean_cov(self.particles, self.P, self.weights)
+        if self.merge and self.target_model is None:
+            self._merge_or_split(mean, cov, obs)
         self.k += 1
         next_mode = self.scheduler.decide(cov)
         self.estimate = SonarEstimate(self.k, mean, cov, mode, next_mode, ess)
         log.debug('k=%d mode=%s ess=%.1f next=%s', self.k, mode.value, ess, next_mode.value)
+        return self.estimate
+
+    @property
+    def components(self) -> int:
+        """Gaussians the 'rb' filter carries now: N, or 1 while the mixture is merged."""
+        return 0 if self.particles is None else self.particles.shape[0]
+
+    def _merge_or_split(self, mean: np.ndarray, cov: np.ndarray, obs: np.ndarray) -> None:
+        """Pay for the mixture only while it exists (CV model, 'rb').
+
+        Merge: when the between-component share of the covariance is below ``MERGE_SHARE`` in every
+        direction, λmax(Cov⁻¹ B) < MERGE_SHARE with B = Σ wⁱ (mⁱ − m̄)(mⁱ − m̄)ᵀ, the N Gaussians
+        are (nearly) one: they are replaced by their moment match N(m̄, Cov), exactly the mixture's
+        two moments, and the filter continues as one UKF. Split: a single Gaussian whose position
+        spread is wide against its range from the observer, σ/r > ``SPLIT_RATIO`` (σ² the largest
+        position variance), is where one UKF linearises badly (a wide bearings-only prior, a long
+        passive stretch); it is split again as the prior is, N means from N(m̄, (1−b)Cov), each with
+        bCov, b = ``split_for(Cov)``. The merge asks for σ/r below the same ratio, so a merged filter
+        does not split at the next step.
+        """
+        a, c, b = cov[0, 0], cov[2, 2], cov[0, 2]
+        var = 0.5 * (a + c) + math.sqrt(0.25 * (a - c) ** 2 + b * b)  # λmax of the position block
+        wide = var > SPLIT_RATIO**2 * ((mean[0] - obs[0]) ** 2 + (mean[2] - obs[1]) ** 2)
+        if self.components > 1:
+            _, B = weighted_mean_cov(self.particles, self.weights)
+            share = float(np.max(np.linalg.eigvals(np.linalg.solve(cov, B)).real))
+            if share < MERGE_SHARE and not wide:
+                self.particles, self.P, self.weights = mean[None].copy(), cov[None].copy(), None
+                self._last_heard, self._cruise = self._last_heard[:1], self._cruise[:1]
+                self.merges += 1
+        elif wide and self.n > 1:
+            b = self.split_for(cov)
+            self.particles = mean + self.rng.standard_normal((self.n, 4)) @ cholesky_jitter((1.0 - b) * cov).T
+            self.P = np.broadcast_to(b * cov, (self.n, 4, 4)).copy()
+            self.weights = None
+            self._last_heard = np.full(self.n, self._last_heard[0])
+            self._cruise = np.hypot(self.particles[:, 1], self.particles[:, 3])
+            self.splits += 1
+
+    def _step_bootstrap(self, z: np.ndarray, mode: SensorMode, obs: np.ndarray) -> SonarEstimate:
+        """Bootstrap step: point particles drawn from eq. 1's transition, x ~ N(F x_prev, Q), weighted by
+        wⁱ ∝ wⁱ_prev p(z | xⁱ) (eqs. 5–6); systematic resampling when ESS < threshold·N; no move.
+
+        O(N) arrays of (N, 4) and (N, m) only (no per-particle covariance or sigma points), so a step
+        at N = 10⁶ is a few vectorised passes over 32 MB.
+        """
+        n = self.particles.shape[0]
+        x = self.particles @ self._F.T
+        x += self.rng.standard_normal((n, 4)) @ self._L_Q.T
+        nu = residual(z, measure(x, obs, mode))
+        log_w = -0.5 * (nu * nu) @ (1.0 / np.diag(self.params.R(mode)))
+        if self.weights is not None:
+            log_w += np.log(self.weights)
+        w, _ = normalize_log_weights(log_w)
+        ess = effective_sample_size(w)
+        if ess < self.resample_threshold * n:
+            self.particles, self.weights = x[systematic_resample(w, self.rng)], None
+        else:
+            self.particles, self.weights = x, w
+        mean, cov = weighted_mean_cov(self.particles, self.weights)
+        self.k += 1
+        next_mode = self.scheduler.decide(cov)
+        self.estimate = SonarEstimate(self.k, mean, cov, mode, next_mode, ess)
         return self.estimate
 
     def _smart_prediction(self, obs: np.ndarray) -> np.ndarray:
@@ -394,13 +573,6 @@ class SSPF:
         return x_new, P_tilde, e, L, log_trans
 
 
-def mixture_mean_cov(m: np.ndarray, P: np.ndarray, weights: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Mean and covariance of the Gaussian mixture Σ wⁱ N(mⁱ, Pⁱ) (uniform weights when None)."""
-    w = np.full(m.shape[0], 1.0 / m.shape[0]) if weights is None else weights
-    mean, between = weighted_mean_cov(m, w)
-    return mean, symmetrize(between + np.einsum('n,nij->ij', w, P))
-
-
 def collapsed(cov: np.ndarray, Q: np.ndarray | None = None) -> bool:
     """True when a cloud covariance is (numerically) singular or not finite.
 
@@ -424,10 +596,13 @@ def make_tracker(
     proposal: str = 'rb',
     resample_threshold: float = 1.0,
     regularize: bool = True,
-    split: float = DEFAULT_SPLIT,
+    split: float | None = None,
     block: str = 'full',
     cov_kind: str = 'posterior',
     target_model: SmartTargetParams | None = None,
+    move_threshold: float = MOVE_THRESHOLD,
+    merge: bool = True,
+    prior_inflation: float = PRIOR_INFLATION,
 ) -> SSPF:
     """'ss-pf' (eq. 7 scheduling), 'papf' (passive only) or 'acpf' (active only)."""
     if kind == 'ss-pf':
@@ -440,4 +615,5 @@ def make_tracker(
     else:
         raise ValueError(f'tracker must be one of {TRACKERS}, got {kind!r}')
     return SSPF(params, sched, rng, proposal=proposal, resample_threshold=resample_threshold,
-                regularize=regularize, split=split, target_model=target_model)
+                regularize=regularize, split=split, target_model=target_model, move_threshold=move_threshold,
+                merge=merge, prior_inflation=prior_inflation)

@@ -7,6 +7,15 @@ transform (``filters.unscented_update`` with the wrapped bearing residual): it i
 one particle carrying the whole prior: the SS-PF's ``proposal='rb'`` with ``split=1`` (every particle
 the whole prior) equals it to 1e-5 (tested).
 
+Smart-target model (``target_model=SmartTargetParams(...)``, the same model the SS-PF is given).
+A single Gaussian carries the continuous state; the discrete part, the time the target last heard a
+ping, is a distribution over the recent ping times (after a ping at range r, the target heard it with
+P_det(r), averaged over the sigma points of the estimate). The target evades while the last ping it
+heard is younger than ``quiet_period``, so the distribution gives two hypotheses, evade and cruise,
+each predicted by ``smart_target.evasive_transition`` with F P Fᵀ + Q (as each SS-PF particle is),
+updated by the UKF, weighted by its predictive likelihood N(ν; 0, S) and merged by moment matching
+(a GPB1 filter; ``filters.mixture_mean_cov``). Both hypotheses cost one batched unscented update.
+
 ``StoneSoupUKF`` wraps Stone Soup's ``UnscentedKalmanPredictor``/``UnscentedKalmanUpdater`` (the
 peer the issue compares against) behind the same interface; ``stonesoup_available()`` says whether
 it imports (it is an optional bench peer, ``requirements-bench.txt``). Stone Soup measures
@@ -21,13 +30,18 @@ import numpy as np
 
 from track_core.filters import (
     check_covariance,
+    gaussian_logpdf,
     kf_predict,
+    mixture_mean_cov,
+    normalize_log_weights,
+    sigma_points,
     unscented_update,
     unscented_weights,
     wrap_angle,
 )
 from track_core.sonar.models import SensorMode, SonarParams, measure, residual
 from track_core.sonar.scheduler import DELTA, CovarianceScheduler, FixedScheduler
+from track_core.sonar.smart_target import SmartTargetParams, evasive_transition
 from track_core.sonar.sspf import TRACKERS, SonarEstimate
 
 
@@ -42,15 +56,22 @@ def _scheduler(kind: str, params: SonarParams, P_D, delta: float, metric: str, b
 
 
 class UKFTracker:
-    """One UKF (ours, from ``track_core.filters``) with a scheduler; ESS is reported as 1."""
+    """One UKF (ours, from ``track_core.filters``) with a scheduler; ESS is reported as 1.
 
-    def __init__(self, params: SonarParams | None = None, scheduler=None) -> None:
+    ``target_model``: the smart-target model as two merged hypotheses (module docstring);
+    ``p_evade`` is the posterior probability that the target is evading after the last step.
+    """
+
+    def __init__(self, params: SonarParams | None = None, scheduler=None, *,
+                 target_model: SmartTargetParams | None = None) -> None:
         self.params = params or SonarParams()
         self.scheduler = scheduler if scheduler is not None else CovarianceScheduler(params=self.params)
+        self.target_model = target_model
         self._w = unscented_weights(4, self.params.ukf_alpha, self.params.ukf_beta, self.params.ukf_kappa)
         self.x: np.ndarray | None = None
         self.P: np.ndarray | None = None
         self.k = 0
+        self.p_evade = 0.0
         self.estimate: SonarEstimate | None = None
 
     @property
@@ -61,6 +82,11 @@ class UKFTracker:
         self.x = np.asarray(mean, dtype=float).copy()
         self.P = check_covariance(cov, 'prior covariance').copy()
         self.k = 0
+        self.p_evade = 0.0
+        self._cruise = float(np.hypot(self.x[1], self.x[3]))
+        self._heard_t = np.empty(0)  # recent ping times ...
+        self._heard_p = np.empty(0)  # ... and P(the last ping the target heard was that one)
+        self._prev: tuple[np.ndarray, bool] | None = None  # (observer xy, pinged) of the last step
         self.scheduler.reset()
         self.estimate = None
 
@@ -70,13 +96,44 @@ class UKFTracker:
         mode = SensorMode.parse(mode)
         z = np.atleast_1d(np.asarray(z, dtype=float))
         obs = np.asarray(observer_xy, dtype=float)[:2]
-        x_p, P_p = kf_predict(self.x, self.P, self.params.F, self.params.Q)
-        self.x, self.P, _, _ = unscented_update(x_p, P_p, z, lambda chi: measure(chi, obs, mode),
-                                                self.params.R(mode), self._w, residual)
+        if self.target_model is None:
+            x_p, P_p = kf_predict(self.x, self.P, self.params.F, self.params.Q)
+            self.x, self.P, _, _ = unscented_update(x_p, P_p, z, lambda chi: measure(chi, obs, mode),
+                                                    self.params.R(mode), self._w, residual)
+        else:
+            self._step_smart(z, mode, obs)
         self.k += 1
         next_mode = self.scheduler.decide(self.P)
         self.estimate = SonarEstimate(self.k, self.x.copy(), self.P.copy(), mode, next_mode, 1.0)
         return self.estimate
+
+    def _step_smart(self, z: np.ndarray, mode: SensorMode, obs: np.ndarray) -> None:
+        """Evade/cruise hypotheses from the last-heard distribution, UKF-updated, weighted, merged."""
+        tm, T = self.target_model, self.params.T
+        t_prev = self.k * T
+        prev_obs, pinged = self._prev if self._prev is not None else (obs, False)
+        if pinged:
+            chi = sigma_points(self.x, self.P, self._w)
+            p_det = tm.detection_probability(np.hypot(chi[:, 0] - prev_obs[0], chi[:, 2] - prev_obs[1]))
+            pd = float(np.clip(self._w.wm @ p_det, 0.0, tm.p_max))
+            self._heard_t = np.r_[self._heard_t, t_prev]
+            self._heard_p = np.r_[self._heard_p * (1.0 - pd), pd]
+        recent = (t_prev - self._heard_t) < tm.quiet_period
+        self._heard_t, self._heard_p = self._heard_t[recent], self._heard_p[recent]
+        p_ev = float(np.clip(self._heard_p.sum(), 0.0, 1.0))
+        hyp = np.array([e for e, p in ((True, p_ev), (False, 1.0 - p_ev)) if p > 0.0])
+        prior = np.where(hyp, p_ev, 1.0 - p_ev)
+        x2 = np.broadcast_to(self.x, (hyp.size, 4))
+        mu_p = evasive_transition(x2, hyp, prev_obs, np.full(hyp.size, self._cruise), tm, T)
+        P_p = np.broadcast_to(self.params.F @ self.P @ self.params.F.T + self.params.Q, (hyp.size, 4, 4))
+        x_post, P_post, nu, S = unscented_update(mu_p, P_p, z, lambda chi: measure(chi, obs, mode),
+                                                 self.params.R(mode), self._w, residual)
+        w, _ = normalize_log_weights(np.log(prior) + gaussian_logpdf(nu, S))
+        self.p_evade = float(w[hyp].sum())
+        if p_ev > 0.0:
+            self._heard_p = self._heard_p * (self.p_evade / p_ev)
+        self.x, self.P = mixture_mean_cov(x_post, P_post, w)
+        self._prev = (obs.copy(), mode is SensorMode.ACTIVE)
 
 
 def stonesoup_available() -> bool:
@@ -155,12 +212,19 @@ FILTERS = ('pf', 'ukf', 'stonesoup-ukf')
 
 
 def make_ukf(kind: str, params: SonarParams | None = None, *, peer: str = 'ukf', P_D=None, delta: float = DELTA,
-             metric: str = 'spectral', block: str = 'full', cov_kind: str = 'posterior'):
-    """'ss-pf'/'papf'/'acpf' scheduling on a UKF: ``peer='ukf'`` (ours) or 'stonesoup-ukf'."""
+             metric: str = 'spectral', block: str = 'full', cov_kind: str = 'posterior',
+             target_model: SmartTargetParams | None = None):
+    """'ss-pf'/'papf'/'acpf' scheduling on a UKF: ``peer='ukf'`` (ours) or 'stonesoup-ukf'.
+
+    ``target_model`` gives our UKF the smart-target model (evade/cruise hypotheses, merged);
+    Stone Soup's UKF has only eq. 1's CV model.
+    """
     p = params or SonarParams()
     sched = _scheduler(kind, p, P_D, delta, metric, block, cov_kind)
     if peer == 'ukf':
-        return UKFTracker(p, sched)
+        return UKFTracker(p, sched, target_model=target_model)
+    if target_model is not None:
+        raise ValueError(f"target_model needs peer='ukf' (ours), got peer={peer!r}")
     if peer == 'stonesoup-ukf':
         return StoneSoupUKF(p, sched)
     raise ValueError(f"peer must be 'ukf' or 'stonesoup-ukf', got {peer!r}")

@@ -1,11 +1,17 @@
 """``track-bench sonar``: time of one SS-PF step (Algorithm 3) at N = 200 and N = 2000, against
-what a user would otherwise write, in the same run:
+what a user would otherwise write, in the same run, and against the UKF given the same model (the
+CV model, and the smart-target model: ``smart_pf_over_ukf`` is the PF's cost in UKF steps):
 
 - FilterPy: one ``UnscentedKalmanFilter`` per particle in a Python loop (predict from the particle
   with a near-zero covariance, i.e. our 'transition' proposal, then update), followed by the
   same numpy sampling, weighting and resampling;
 - Stone Soup: ``ParticlePredictor`` with ``KalmanProposal`` (unscented predictor/updater) and
   ``ParticleUpdater`` with systematic resampling, bearing-range measurement model.
+
+Scaling (``data['scaling']``): CPU time of one step of the point-particle 'bootstrap' proposal at
+N = 10⁵ … 10⁶ and of the 'rb' proposal at 10⁴ … 10⁵ (quick: smaller N), the peak memory traced by
+``tracemalloc`` (numpy's buffers: the particles and one step's temporaries) and the least-squares
+slope of log time against log N (1 = linear).
 
 Peers are optional (``requirements-bench.txt``); a peer that does not import is reported as
 unavailable (null in the JSON). Timings use ``best_time`` on an active-sensor step.
@@ -15,11 +21,14 @@ from __future__ import annotations
 
 import logging
 import math
+import time
+import tracemalloc
 
 import numpy as np
 
 from track_core.filters import cholesky_jitter, normalize_log_weights, systematic_resample
 from track_core.sonar.models import SensorMode, SonarParams, measure, residual
+from track_core.sonar.smart_target import SmartTargetParams
 from track_core.sonar.sspf import SSPF, make_tracker
 from track_experiments.cli import Outcome, RunConfig, best_time, format_table
 
@@ -31,8 +40,10 @@ Z = np.array([math.atan2(300.0, 300.0), math.hypot(300.0, 300.0)])
 OBS = np.zeros(2)
 
 
-def _ours(n: int, seed: int, proposal: str = 'rb') -> SSPF:
-    trk = make_tracker('acpf', SonarParams(n_particles=n), np.random.default_rng(seed), proposal=proposal)
+def _ours(n: int, seed: int, proposal: str = 'rb', target_model: SmartTargetParams | None = None) -> SSPF:
+    # merge=False: these rows time the mixture itself (repeating one reading would let it merge)
+    trk = make_tracker('acpf', SonarParams(n_particles=n), np.random.default_rng(seed), proposal=proposal,
+                       target_model=target_model, merge=False)
     trk.initialize(X0, P0)
     trk.step(Z, SensorMode.ACTIVE, OBS)
     return trk
@@ -147,6 +158,92 @@ def _ukf_step_fn(peer: str):
     return step
 
 
+def _smart_ukf_step_fn():
+    """One active step of our UKF with the smart-target model after a ping (both hypotheses live)."""
+    from track_core.sonar.ukf import make_ukf
+
+    trk = make_ukf('acpf', SonarParams(), target_model=SmartTargetParams())
+    trk.initialize(X0, P0)
+    trk.step(Z, SensorMode.ACTIVE, OBS)
+    return lambda: trk.step(Z, SensorMode.ACTIVE, OBS)
+
+
+def _track_stream(trk):
+    """A step function feeding ``trk`` the noise-free active readings of a CV target from X0 (eq. 1),
+    one new time step per call, so a tracker can be timed over as many steps as the timer needs."""
+    F = SonarParams().F
+    state = {'x': X0.copy()}
+
+    def step():
+        state['x'] = F @ state['x']
+        trk.step(measure(state['x'], OBS, SensorMode.ACTIVE), SensorMode.ACTIVE, OBS)
+
+    return step
+
+
+def merged_cost(seed: int, repeat: int) -> dict:
+    """Cost of the default SS-PF once its mixture has merged into one Gaussian, against one UKF step,
+    both stepping through the same stream of readings (no re-initialisation); CPU time, interleaved."""
+    from track_core.sonar.ukf import make_ukf
+
+    pf = make_tracker('acpf', SonarParams(), np.random.default_rng(seed))
+    pf.initialize(X0, P0)
+    pf_step = _track_stream(pf)
+    k = 0
+    while pf.components > 1 and k < 200:
+        pf_step()
+        k += 1
+    ukf = make_ukf('acpf', SonarParams())
+    ukf.initialize(X0, P0)
+    ukf_step = _track_stream(ukf)
+    # interleaved batches of CPU time, best of each: a busy machine slows both alike
+    t_pf = t_ukf = float('inf')
+    for _ in range(2 * repeat):
+        for fn, which in ((pf_step, 'pf'), (ukf_step, 'ukf')):
+            t0 = time.process_time()
+            for _ in range(200):
+                fn()
+            dt = (time.process_time() - t0) / 200
+            if which == 'pf':
+                t_pf = min(t_pf, dt)
+            else:
+                t_ukf = min(t_ukf, dt)
+    return {'steps_to_merge': k if pf.components == 1 else None, 'merged_ms': t_pf * 1e3, 'ukf_ms': t_ukf * 1e3,
+            'merged_over_ukf': t_pf / t_ukf}
+
+
+# Particle counts of the scaling rows (full run, quick run).
+SCALE_N = {'bootstrap': ((100_000, 200_000, 500_000, 1_000_000), (10_000, 30_000, 100_000)),
+           'rb': ((10_000, 30_000, 100_000), (2_000, 10_000))}
+
+
+def _cpu_time(fn, repeat: int) -> float:
+    """CPU seconds of one call (all threads of the process), best of ``repeat`` after a warm-up."""
+    fn()
+    best = float('inf')
+    for _ in range(repeat):
+        t0 = time.process_time()
+        fn()
+        best = min(best, time.process_time() - t0)
+    return best
+
+
+def scaling(proposal: str, ns: tuple[int, ...], seed: int, repeat: int = 3) -> dict:
+    """CPU s per active step, peak traced memory (MB, state + one step) and the log-log slope of time in N."""
+    rows = []
+    for n in ns:
+        tracemalloc.start()
+        trk = _ours(n, seed, proposal)
+        trk.step(Z, SensorMode.ACTIVE, OBS)
+        peak_mb = tracemalloc.get_traced_memory()[1] / 1e6
+        tracemalloc.stop()
+        rows.append({'n': n, 'cpu_s': _cpu_time(lambda trk=trk: trk.step(Z, SensorMode.ACTIVE, OBS), repeat),
+                     'peak_mb': peak_mb})
+        del trk
+    logn, logt = np.log([r['n'] for r in rows]), np.log([r['cpu_s'] for r in rows])
+    return {'rows': rows, 'loglog_slope': float(np.polyfit(logn, logt, 1)[0])}
+
+
 def sonar_benchmark(cfg: RunConfig) -> Outcome:
     """Times per active step: our SS-PF ('rb', the default, and 'transition'), the UKF peers, FilterPy, Stone Soup."""
     repeat = 3 if cfg.quick else 5
@@ -157,6 +254,9 @@ def sonar_benchmark(cfg: RunConfig) -> Outcome:
     trk_t = _ours(200, cfg.seed, 'transition')
     t_transition = best_time(lambda: trk_t.step(Z, SensorMode.ACTIVE, OBS), repeat=repeat)
     t_ukf = best_time(_ukf_step_fn('ukf'), repeat=repeat)
+    trk_s = _ours(200, cfg.seed, target_model=SmartTargetParams())
+    t_pf_smart = best_time(lambda: trk_s.step(Z, SensorMode.ACTIVE, OBS), repeat=repeat)
+    t_ukf_smart = best_time(_smart_ukf_step_fn(), repeat=repeat)
     ss_ukf = _ukf_step_fn('stonesoup-ukf')
     t_ss_ukf = None
     if ss_ukf is not None:
@@ -178,12 +278,20 @@ def sonar_benchmark(cfg: RunConfig) -> Outcome:
         'n2000_ms': t_ours[2000] * 1e3,
         'transition_n200_ms': t_transition * 1e3,
         'ukf_ms': t_ukf * 1e3,
+        'smart_n200_ms': t_pf_smart * 1e3,
+        'ukf_smart_ms': t_ukf_smart * 1e3,
+        'smart_pf_over_ukf': t_pf_smart / t_ukf_smart,
         'stonesoup_ukf_ms': None if t_ss_ukf is None else t_ss_ukf * 1e3,
         'filterpy_loop_n200_ms': None if t_fp is None else t_fp * 1e3,
         'stonesoup_n200_ms': None if t_ss is None else t_ss * 1e3,
         'speedup_vs_filterpy': None if t_fp is None else t_fp / t_ours[200],
         'speedup_vs_stonesoup': None if t_ss is None else t_ss / t_ours[200],
     }
+
+    data['merged'] = merged_cost(cfg.seed, repeat)
+    pick = 1 if cfg.quick else 0
+    scale = {prop: scaling(prop, SCALE_N[prop][pick], cfg.seed) for prop in ('bootstrap', 'rb')}
+    data['scaling'] = scale
 
     def fmt(v):
         return 'unavailable' if v is None else v
@@ -192,9 +300,18 @@ def sonar_benchmark(cfg: RunConfig) -> Outcome:
             ['SS-PF step, rb (ours, vectorised)', 2000, data['n2000_ms'], '-'],
             ['SS-PF step, transition (ours)', 200, data['transition_n200_ms'], '-'],
             ['UKF peer step (ours, filters/)', 1, data['ukf_ms'], '-'],
+            ['SS-PF step, rb, smart-target model', 200, data['smart_n200_ms'], '-'],
+            ['UKF step, smart-target model (same model)', 1, data['ukf_smart_ms'], '-'],
             ['Stone Soup UKF step', 1, fmt(data['stonesoup_ukf_ms']), '-'],
             ['FilterPy UKF per particle (loop)', 200, fmt(data['filterpy_loop_n200_ms']),
              fmt(data['speedup_vs_filterpy'])],
             ['Stone Soup ParticleUpdater + KalmanProposal(UKF)', 200, fmt(data['stonesoup_n200_ms']),
              fmt(data['speedup_vs_stonesoup'])]]
-    return Outcome(format_table(['implementation', 'N', 'ms/step', 'ours faster by'], rows), data)
+    mg = data['merged']
+    rows.append([f'SS-PF step after its mixture merged (step {mg["steps_to_merge"]}), per UKF step', 200,
+                 mg['merged_ms'], f'{mg["merged_over_ukf"]:.2f}× UKF ({mg["ukf_ms"]:.3f} ms)'])
+    srows = [[prop, r['n'], r['cpu_s'], r['peak_mb'], scale[prop]['loglog_slope']] for prop in scale
+             for r in scale[prop]['rows']]
+    return Outcome(format_table(['implementation', 'N', 'ms/step', 'ours faster by'], rows)
+                   + '\n\nScaling, one active step (CPU s of the process; peak traced memory, state and one step)\n'
+                   + format_table(['proposal', 'N', 'CPU s/step', 'peak MB', 'log-log slope'], srows), data)

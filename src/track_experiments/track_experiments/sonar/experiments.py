@@ -1,4 +1,4 @@
-"""``track-experiment`` entries of the sonar system: ``sonar-table2`` and ``smart-target``.
+"""``track-experiment`` entries of the sonar system: ``sonar-table2``, ``smart-target`` and ``sonar-wide-prior``.
 
 sonar-table2: Table 2 (M runs of 40 steps) over a δ sweep (``CURVE_DELTAS``; ``--quick``: Table 2's
 δ), plus the PaPF and AcPF baselines, for our SS-PF and the UKF peers (ours from ``filters``,
@@ -14,9 +14,15 @@ PCRLB floors of eq. 7 (``pcrlb_floor``), which is why δ = 5 and 10 keep the act
 
 smart-target: the closed loop with a ``SmartTarget`` that evades when it hears pings. First each
 tracker schedules itself (SS-PF δ = ``CLOSED_LOOP_DELTA``); then, for each schedule source of
-``PAIRED_SCHEDULES``, the UKF peer's eq. 7 decisions drive all trackers (identical pings, target
-reaction, truth and noise), comparing the UKF, our SS-PF with eq. 1's CV model and our SS-PF with
-the smart-target model (``SSPF(target_model=...)``) paired run by run.
+``PAIRED_SCHEDULES``, the CV UKF's eq. 7 decisions drive all trackers (identical pings, target
+reaction, truth and noise), comparing the UKF and our SS-PF each with eq. 1's CV model and each with
+the smart-target model (``UKFTracker``/``SSPF(target_model=...)``) paired run by run, so the gain of
+the model and the gain of the filter are measured apart.
+
+sonar-wide-prior: the particle filter's own ground, bearings-only runs from a wide prior (150 and 300 m,
+and 300 m with an observer that never turns), where one UKF linearises over hundreds of metres: our
+SS-PF, the UKF with the same (CV) model and a 20 000-particle bootstrap reference on identical inputs,
+paired, with the ANEES of each.
 """
 
 from __future__ import annotations
@@ -224,7 +230,8 @@ def table2(cfg: RunConfig) -> Outcome:
                                      'band_95_pos': [plo, phi],
                                      'band_kind': 'per-step average NEES over the runs, chi2(dof*M)/M',
                                      'trackers': cons, 'pcrlb_all_active': floor}, indent=2) + '\n')
-    table = (f'reading: {reading.label}; {n_runs} runs; PF, UKF peers on the same truths, noise and prior\n'
+    table = (f'reading: {reading.label}; {n_runs} runs; PF, UKF peers on the same truths, noise and prior, '
+             'with the same target model (eq. 1 CV, which is also the truth)\n'
              + format_table(['δ / tracker', 'SS-PF act', 'SS-PF RTAMS m', 'UKF act', 'UKF RTAMS m',
                              'PF − UKF run RMS m (± SE)', 'Stone Soup act', 'Stone Soup RTAMS m',
                              'paper act', 'paper RTAMS m'], table_rows)
@@ -322,13 +329,13 @@ def _fig13(res: dict, path: Path) -> Path:
 def closed_loop_tracker(kind: str, params, rng: np.random.Generator, *, filt: str = 'pf',
                         delta: float = CLOSED_LOOP_DELTA, target_params: SmartTargetParams | None = None,
                         target_aware: bool = False):
-    """One closed-loop tracker: our SS-PF ('pf'; ``target_aware`` gives it the smart-target model) or a UKF peer."""
+    """One closed-loop tracker: our SS-PF ('pf') or a UKF peer; ``target_aware`` gives either the smart-target model."""
+    model = (target_params or SmartTargetParams()) if target_aware else None
     if filt == 'pf':
-        return make_tracker(kind, params, rng, delta=delta,
-                            target_model=(target_params or SmartTargetParams()) if target_aware else None)
+        return make_tracker(kind, params, rng, delta=delta, target_model=model)
     from track_core.sonar.ukf import make_ukf
 
-    return make_ukf(kind, params, peer=filt, delta=delta)
+    return make_ukf(kind, params, peer=filt, delta=delta, target_model=model)
 
 
 def run_closed_loop_paired(n_runs: int, seed: int, factories: dict, leader: str, *,
@@ -401,19 +408,22 @@ PAIRED_SCHEDULES = (('papf', 0.0), ('ss-pf', 100.0), ('ss-pf', 50.0), ('ss-pf', 
 
 
 def smart_target(cfg: RunConfig) -> Outcome:
-    """Closed loop against the evading target: own-schedule trackers, then a paired PF-vs-UKF comparison.
+    """Closed loop against the evading target: own-schedule trackers, then paired comparisons per schedule.
 
     Own schedule: each tracker decides its pings (SS-PF δ = ``CLOSED_LOOP_DELTA``). Paired: for each
-    schedule source in ``PAIRED_SCHEDULES`` the UKF peer's eq. 7 decision (or a fixed sensor) drives
+    schedule source in ``PAIRED_SCHEDULES`` the CV UKF's eq. 7 decision (or a fixed sensor) drives
     all trackers, so pings, truth and noise are identical, and the per-run RMS differences have a
-    standard error. 'pf-smart' is our SS-PF with the smart-target model (``SSPF(target_model=...)``),
-    'pf-cv' the same filter with eq. 1's CV model, as the UKF uses.
+    standard error. Four filters, two models: 'ukf' and 'pf-cv' with eq. 1's CV model, 'ukf-smart'
+    (``UKFTracker(target_model=...)``: evade/cruise hypotheses merged) and 'pf-smart'
+    (``SSPF(target_model=...)``) with the smart-target model. The gain of the model is
+    ukf-smart − ukf; the gain of the particle filter is pf-smart − ukf-smart (same model) and
+    pf-cv − ukf (same CV model).
     """
     n_runs = cfg.n_runs(full=50, quick=4)
     sc = Scenario()
     p = sc.params
-    own = [('ss-pf', 'pf', True), ('ss-pf cv', 'pf', False), ('ukf ss-pf', 'ukf', False), ('acpf', 'pf', True),
-           ('papf', 'pf', True)]
+    own = [('ss-pf', 'pf', True), ('ukf-smart ss-pf', 'ukf', True), ('ss-pf cv', 'pf', False),
+           ('ukf ss-pf', 'ukf', False), ('acpf', 'pf', True), ('papf', 'pf', True)]
     if not cfg.quick and 'stonesoup-ukf' in available_peers():
         own.append(('stonesoup-ukf ss-pf', 'stonesoup-ukf', False))
     trackers, rows = {}, []
@@ -433,31 +443,34 @@ def smart_target(cfg: RunConfig) -> Outcome:
                           'ANEES'], rows) + f'\n(own schedules; SS-PF δ = {CLOSED_LOOP_DELTA:g}; {n_runs} runs of 40 s)'
     paired, prow = [], []
     for kind, delta in PAIRED_SCHEDULES:
-        factories = {
-            'ukf': lambda rng, kind=kind, delta=delta: closed_loop_tracker(kind, p, rng, filt='ukf', delta=delta),
-            'pf-cv': lambda rng, kind=kind, delta=delta: closed_loop_tracker(kind, p, rng, delta=delta),
-            'pf-smart': lambda rng, kind=kind, delta=delta: closed_loop_tracker(kind, p, rng, delta=delta,
-                                                                                target_aware=True),
-        }
+        def make(filt, aware, kind=kind, delta=delta):
+            return lambda rng: closed_loop_tracker(kind, p, rng, filt=filt, delta=delta, target_aware=aware)
+
+        factories = {'ukf': make('ukf', False), 'ukf-smart': make('ukf', True), 'pf-cv': make('pf', False),
+                     'pf-smart': make('pf', True)}
         res = run_closed_loop_paired(n_runs, cfg.seed, factories, 'ukf')
         e = res['err2']
         entry = {'schedule': f'{kind} d={delta:g}' if kind == 'ss-pf' else kind, 'pings': float(res['pings'].mean()),
                  'detections': float(res['detections'].mean())}
         for n in factories:
             entry[n] = {'rtams_m': _rtams(e[n]), 'anees': float(np.nanmean(res['nees'][n]))}
-        for n in ('pf-cv', 'pf-smart'):
+        for n in ('ukf-smart', 'pf-cv', 'pf-smart'):
             entry[n]['minus_ukf_rms_m'], entry[n]['se_m'] = paired_difference(e[n], e['ukf'])
+        entry['pf-smart']['minus_ukf_smart_rms_m'], entry['pf-smart']['se_vs_ukf_smart_m'] = paired_difference(
+            e['pf-smart'], e['ukf-smart'])
         paired.append(entry)
+        ps = entry['pf-smart']
         prow.append([entry['schedule'], entry['pings'], entry['detections'], entry['ukf']['rtams_m'],
-                     entry['pf-cv']['rtams_m'],
-                     f'{entry["pf-cv"]["minus_ukf_rms_m"]:+.2f} ± {entry["pf-cv"]["se_m"]:.2f}',
-                     entry['pf-smart']['rtams_m'],
-                     f'{entry["pf-smart"]["minus_ukf_rms_m"]:+.2f} ± {entry["pf-smart"]["se_m"]:.2f}',
-                     entry['ukf']['anees'], entry['pf-smart']['anees']])
-    table += ('\n\nPaired (same truth, pings and noise; schedule from the UKF peer): RTAMS m, and per-run RMS '
-              'difference to the UKF (mean ± SE)\n'
-              + format_table(['schedule', 'pings/run', 'detected/run', 'UKF', 'PF cv', 'PF cv − UKF', 'PF smart',
-                              'PF smart − UKF', 'UKF ANEES', 'PF smart ANEES'], prow))
+                     entry['ukf-smart']['rtams_m'], entry['pf-cv']['rtams_m'], ps['rtams_m'],
+                     f'{entry["ukf-smart"]["minus_ukf_rms_m"]:+.2f} ± {entry["ukf-smart"]["se_m"]:.2f}',
+                     f'{entry["pf-cv"]["minus_ukf_rms_m"]:+.3f} ± {entry["pf-cv"]["se_m"]:.3f}',
+                     f'{ps["minus_ukf_smart_rms_m"]:+.3f} ± {ps["se_vs_ukf_smart_m"]:.3f}',
+                     entry['ukf']['anees'], entry['ukf-smart']['anees'], ps['anees']])
+    table += ('\n\nPaired (same truth, pings and noise; schedule from the CV UKF): RTAMS m, and per-run RMS '
+              'differences (mean ± SE): model = UKF smart − UKF, filter = PF − UKF with the same model\n'
+              + format_table(['schedule', 'pings/run', 'detected/run', 'UKF cv', 'UKF smart', 'PF cv', 'PF smart',
+                              'model gain', 'filter gain (cv)', 'filter gain (smart)', 'UKF cv ANEES',
+                              'UKF smart ANEES', 'PF smart ANEES'], prow))
     fig = _fig_closed_loop(cfg.out / 'smart-target.png', trackers)
     return Outcome(table, {'trackers': trackers, 'paired': paired}, [fig])
 
@@ -474,6 +487,103 @@ def _fig_closed_loop(path: Path, trackers: dict) -> Path:
     axes[1].bar(names, [trackers[n]['rtams_m'] for n in names])
     axes[1].set_yscale('log')
     axes[1].set_ylabel('RTAMS (m)')
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+# The particle filter's own ground: (label, prior position std m, observer legs; None = Section 5's).
+WIDE_PRIOR_CASES = (('prior 150 m, bearings only', 150.0, None),
+                    ('prior 300 m, bearings only', 300.0, None),
+                    ('prior 300 m, bearings only, straight observer', 300.0, ((40.0, 0.0),)))
+WIDE_PRIOR_REFERENCE_N = 20_000
+
+
+def run_wide_prior(n_runs: int, seed: int, cases=WIDE_PRIOR_CASES, *, n_ref: int = WIDE_PRIOR_REFERENCE_N,
+                   progress=iter) -> dict:
+    """PF (our default SS-PF), the UKF and a bootstrap reference of ``n_ref`` particles, all with eq. 1's
+    CV model (the truth's), on the same truths, prior means and bearing noise, passive at every step.
+
+    Per case and filter: 'err2' and 'nees' (M, K). The prior N(m₀, diag(σ², 2², σ², 2²)) has m₀ a draw
+    around the truth, so the truth is a draw from the prior each filter is given.
+    """
+    from track_core.sonar.scenario import ObserverTrajectory
+    from track_core.sonar.sspf import SonarParams
+    from track_core.sonar.ukf import make_ukf
+
+    out = {}
+    for label, std, legs in cases:
+        observer = ObserverTrajectory() if legs is None else ObserverTrajectory(legs=legs)
+        sc = Scenario(prior_pos_std=std, observer=observer)
+        K, p = sc.n_steps, sc.params
+        res = {n: {'err2': np.empty((n_runs, K)), 'nees': np.empty((n_runs, K))} for n in ('pf', 'ukf', 'reference')}
+        for i, child in enumerate(progress(np.random.SeedSequence(seed).spawn(n_runs))):
+            st = child.spawn(4)
+            r_truth = np.random.default_rng(st[0])
+            truth = sc.simulate_truth(r_truth)
+            prior_mean = sc.draw_prior_mean(r_truth, truth[0])
+            noise = np.random.default_rng(st[1]).standard_normal((K, 2))
+            trackers = {'pf': make_tracker('papf', p, np.random.default_rng(st[2])),
+                        'ukf': make_ukf('papf', p),
+                        'reference': make_tracker('papf', SonarParams(n_particles=n_ref), np.random.default_rng(st[3]),
+                                                  proposal='bootstrap')}
+            for name, trk in trackers.items():
+                r = run_once(sc, trk, truth, prior_mean, noise)
+                res[name]['err2'][i], res[name]['nees'][i] = r.pos_err_sq, r.nees
+        out[label] = res
+    return out
+
+
+def wide_prior(cfg: RunConfig) -> Outcome:
+    """Wide priors on bearings-only runs: PF against the same-model UKF and a large bootstrap reference.
+
+    Cases ``WIDE_PRIOR_CASES`` (prior position std 150 and 300 m with Section 5's manoeuvring observer,
+    and 300 m with an observer that never turns, so the range stays ambiguous). Paired per-run RMS
+    differences (mean ± SE) on identical inputs; ANEES (per-step average NEES over the runs, mean over
+    steps) against its 95 % band χ²(4M)/M. Quick: 4 runs and a 2000-particle reference.
+    """
+    n_runs = cfg.n_runs(full=100, quick=4)
+    n_ref = 2_000 if cfg.quick else WIDE_PRIOR_REFERENCE_N
+    res = run_wide_prior(n_runs, cfg.seed, n_ref=n_ref,
+                         progress=lambda it: cfg.progress(it, desc='sonar-wide-prior', total=n_runs))
+    lo, hi = (float(v) for v in chi2.ppf([0.025, 0.975], 4 * n_runs) / n_runs)
+    rows, data = [], {'runs': n_runs, 'reference_particles': n_ref, 'band_95': [lo, hi], 'cases': {}}
+    for label, r in res.items():
+        case = {}
+        for name, v in r.items():
+            anees, inside = _anees(v['nees'], lo, hi)
+            case[name] = {'rtams_m': _rtams(v['err2']), 'anees': float(np.nanmean(anees)), 'fraction_inside': inside,
+                          'in_band': bool(lo <= np.nanmean(anees) <= hi)}
+        for a, b in (('pf', 'ukf'), ('pf', 'reference'), ('ukf', 'reference')):
+            d, se = paired_difference(r[a]['err2'], r[b]['err2'])
+            case[f'{a}_minus_{b}_rms_m'], case[f'{a}_minus_{b}_se_m'] = d, se
+        case['pf_beats_ukf_by_2se'] = bool(case['pf_minus_ukf_rms_m'] + 2 * case['pf_minus_ukf_se_m'] < 0)
+        data['cases'][label] = case
+        rows.append([label, case['pf']['rtams_m'], case['ukf']['rtams_m'], case['reference']['rtams_m'],
+                     f'{case["pf_minus_ukf_rms_m"]:+.1f} ± {case["pf_minus_ukf_se_m"]:.1f}',
+                     f'{case["pf_minus_reference_rms_m"]:+.1f} ± {case["pf_minus_reference_se_m"]:.1f}',
+                     case['pf']['anees'], case['ukf']['anees'], case['reference']['anees']])
+    table = (f'{n_runs} runs of 40 passive steps; PF (SS-PF, 200 particles), UKF and a {n_ref}-particle bootstrap '
+             'reference, all with the CV model of the truth, on identical inputs; ANEES band '
+             f'[{lo:.2f}, {hi:.2f}]\n'
+             + format_table(['case', 'PF RTAMS m', 'UKF RTAMS m', 'reference RTAMS m', 'PF − UKF m (± SE)',
+                             'PF − reference m (± SE)', 'PF ANEES', 'UKF ANEES', 'reference ANEES'], rows))
+    return Outcome(table, data, [_fig_wide_prior(res, cfg.out / 'sonar-wide-prior.png')])
+
+
+def _fig_wide_prior(res: dict, path: Path) -> Path:
+    plt = pyplot()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig, axes = plt.subplots(1, len(res), figsize=(4.2 * len(res), 3.4), sharey=True)
+    for ax, (label, r) in zip(np.atleast_1d(axes), res.items(), strict=True):
+        for name in ('pf', 'ukf', 'reference'):
+            ax.plot(np.arange(1, r[name]['err2'].shape[1] + 1), np.sqrt(r[name]['err2'].mean(0)), label=name)
+        ax.set_title(label, fontsize=9)
+        ax.set_xlabel('step')
+        ax.set_yscale('log')
+    np.atleast_1d(axes)[0].set_ylabel('RMS position error (m)')
+    np.atleast_1d(axes)[0].legend()
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)

@@ -14,7 +14,8 @@ For every target truth (``/sonar/target/truth``), in step order, the observer
      ``track_id``; position–velocity cross-covariances are dropped, see track_msgs_py.odometry);
    - ``/sonar/particles`` (geometry_msgs/PoseArray, one pose per selected particle, identity
      orientation like our Odometry tracks: particles carry no heading; weights are equal after
-     the selection step, so no weight field is needed);
+     the selection step, so no weight field is needed; one pose, the mean, while the filter's
+     mixture is merged into one Gaussian (``track_core.sonar.sspf``), when ``ess`` is 1 too);
    - ``/sonar/mode`` (diagnostic_msgs/DiagnosticArray, one status ``<node name>/sensor_mode``;
      message = the mode used at t_k; values ``mode``, ``next_mode`` (the scheduler's choice for
      t_{k+1}), ``step``, ``ess``, and for ss-pf ``distance`` = ‖P_D − Cov‖ of eq. 7: ``records.sonar.SonarMode``);

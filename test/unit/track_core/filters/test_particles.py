@@ -15,3 +15,35 @@ def test_weights_select_particles():
     m, P = weighted_mean_cov(x, np.array([1.0, 1.0, 0.0]))
     np.testing.assert_allclose(m, [1.0, 2.0])
     np.testing.assert_allclose(P, [[1.0, 2.0], [2.0, 4.0]])
+
+
+def test_mixture_moments_are_within_plus_between():
+    from track_core.filters import mixture_mean_cov
+
+    m = np.array([[0.0, 0.0], [4.0, 0.0]])
+    P = np.stack([np.eye(2), 3 * np.eye(2)])
+    mean, cov = mixture_mean_cov(m, P, np.array([3.0, 1.0]))
+    np.testing.assert_allclose(mean, [1.0, 0.0])
+    # within: 0.75·I + 0.25·3I = 1.5 I; between: 0.75·1 + 0.25·9 = 3 on x
+    np.testing.assert_allclose(cov, [[4.5, 0.0], [0.0, 1.5]])
+    # a sampled check: draws from the mixture have these moments
+    rng = np.random.default_rng(0)
+    k = rng.random(200_000) < 0.25
+    x = np.where(k[:, None], m[1] + np.sqrt(3) * rng.standard_normal((k.size, 2)), rng.standard_normal((k.size, 2)))
+    np.testing.assert_allclose(np.cov(x.T), cov, atol=0.05)
+
+
+def test_bimodality_coefficient_gaussian_uniform_two_modes():
+    from track_core.filters import bimodality_coefficient
+
+    rng = np.random.default_rng(1)
+    g = rng.standard_normal((20_000, 4)) * [30.0, 1.0, 10.0, 1.0]
+    assert abs(bimodality_coefficient(g) - 1 / 3) < 0.02
+    u = np.column_stack([rng.uniform(-1, 1, 20_000), 0.01 * rng.standard_normal(20_000)])
+    assert abs(bimodality_coefficient(u) - 5 / 9) < 0.02
+    two = np.concatenate([g[:10_000] * 0.1 + [100, 0, 0, 0], g[10_000:] * 0.1 - [100, 0, 0, 0]])
+    assert bimodality_coefficient(two) > 0.95
+    # weights select one of the two modes: Gaussian again
+    w = np.r_[np.ones(10_000), np.zeros(10_000)]
+    assert abs(bimodality_coefficient(two, w) - 1 / 3) < 0.03
+    assert np.isnan(bimodality_coefficient(np.ones((5, 2))))

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 from scipy.stats import multivariate_normal
 
-from track_core.filters import kf_predict, kf_update
+from track_core.filters import kf_predict, kf_update, mixture_mean_cov
 from track_core.sonar import (
     SSPF,
     FixedScheduler,
@@ -141,3 +141,149 @@ def test_importance_weights_equal_brute_force_densities(proposal):
     check(np.zeros(64), None, None, np.array([0.80, 420.0]), 'active')
     w1, x1, P1 = np.log(f.weights), f.particles.copy(), f.P.copy()
     check(w1, x1, P1, np.array([0.81]), 'passive')
+
+
+def _two_mode_run(seed, **kw):
+    """Two modes on one bearing line (300 m and 600 m, moving along it): bearings cannot tell them apart."""
+    from track_core.filters import bimodality_coefficient
+
+    p = SonarParams()
+    rng = np.random.default_rng(seed)
+    f = make_tracker('papf', p, rng, **kw)
+    u = np.array([np.sin(np.pi / 4), np.cos(np.pi / 4)])
+    m = np.array([[300 * u[0], 3 * u[0], 300 * u[1], 3 * u[1]], [600 * u[0], 3 * u[0], 600 * u[1], 3 * u[1]]])
+    f.initialize_mixture(m, np.diag([100.0, 1, 100, 1]))
+    bc = []
+    for _ in range(20):
+        f.step(np.array([np.pi / 4 + p.sigma_b * rng.standard_normal()]), 'passive', np.zeros(2))
+        bc.append(bimodality_coefficient(f.particles, f.weights))
+    return np.array(bc), f
+
+
+@pytest.mark.parametrize('seed', [10, 11, 12])
+def test_a_two_mode_prior_keeps_two_modes(seed):
+    # Sarle's coefficient of the component means: 1/3 Gaussian, 5/9 uniform, 1 two point masses.
+    bc, f = _two_mode_run(seed)
+    assert f.moves == 0 and bc.min() > 5 / 9
+    # both modes keep particles and weight (their shares drift with the bearing noise)
+    w = np.full(f.n, 1 / f.n) if f.weights is None else f.weights
+    near = np.hypot(f.particles[:, 0], f.particles[:, 2]) < 450
+    assert 0.05 < w[near].sum() < 0.95
+    # the old rule (a Liu–West move after every selection) Gaussianises the mixture: the test can fail
+    bc_old, f_old = _two_mode_run(seed, move_threshold=1.0)
+    assert f_old.moves == 20 and bc_old[-5:].mean() < 0.45
+
+
+def test_degenerate_selection_still_moves():
+    # an active fix on a wide prior leaves few heavy particles: ESS < N/2, so the move runs
+    f = make_tracker('acpf', SonarParams(), np.random.default_rng(0))
+    f.initialize(np.array([300.0, 12.25, 300.0, -12.25]), np.diag([150.0**2, 4, 150.0**2, 4]))
+    est = f.step(np.array([np.pi / 4, 424.0]), 'active', np.zeros(2))
+    assert est.ess < 0.5 * f.n and f.moved and f.moves == 1
+
+
+def test_initialize_mixture_errors():
+    f = SSPF(rng=np.random.default_rng(0), proposal='transition')
+    with pytest.raises(ValueError, match="needs proposal='rb'"):
+        f.initialize_mixture(np.zeros((2, 4)), np.eye(4))
+    f = SSPF(rng=np.random.default_rng(0))
+    with pytest.raises(ValueError, match='mixture weights'):
+        f.initialize_mixture(np.zeros((2, 4)), np.eye(4), np.array([1.0, -1.0]))
+    with pytest.raises(ValueError, match=r'^move_threshold must be'):
+        SSPF(move_threshold=0.0)
+
+
+def test_bootstrap_weights_are_the_likelihood_of_transition_draws():
+    p = SonarParams(n_particles=500)
+    f = SSPF(p, FixedScheduler('active'), np.random.default_rng(3), proposal='bootstrap', resample_threshold=1e-9)
+    m0 = np.array([300.0, 12.25, 300.0, -12.25])
+    f.initialize(m0, np.diag([400.0, 4, 400, 4]))
+    x0 = f.particles.copy()
+    z, obs = np.array([0.80, 420.0]), np.array([10.0, -20.0])
+    f.step(z, 'active', obs)
+    # the draws are F x0 + Q noise: their residuals have the covariance Q
+    d = f.particles - x0 @ p.F.T
+    np.testing.assert_allclose(np.cov(d.T), p.Q, atol=0.25)
+    lw = multivariate_normal.logpdf(residual(z, measure(f.particles, obs, 'active')), np.zeros(2), p.R('active'))
+    w = np.exp(lw - lw.max())
+    np.testing.assert_allclose(f.weights, w / w.sum(), rtol=1e-8, atol=1e-14)
+    assert f.P is None  # no per-particle covariance: O(N) memory
+
+
+def test_large_bootstrap_agrees_with_the_ukf_on_the_papers_scenario():
+    # near-Gaussian posterior (AcPF): 20 000 bootstrap particles and one UKF give the same track
+    from track_core.sonar import make_ukf
+
+    sc = Scenario(n_steps=20)
+    rng = np.random.default_rng(8)
+    truth = sc.simulate_truth(rng)
+    prior = sc.draw_prior_mean(rng, truth[0])
+    noise = rng.standard_normal((20, 2))
+    boot = run_once(sc, make_tracker('acpf', SonarParams(n_particles=20_000), np.random.default_rng(9),
+                                     proposal='bootstrap'), truth, prior, noise)
+    ukf = run_once(sc, make_ukf('acpf', sc.params), truth, prior, noise)
+    gap = np.hypot(*(boot.mean - ukf.mean)[:, [0, 2]].T)
+    assert gap.max() < 2.0, gap  # metres, against a position std of about 4 m
+    np.testing.assert_allclose(np.sqrt(boot.cov[:, 0, 0]), np.sqrt(ukf.cov[:, 0, 0]), rtol=0.25)
+
+
+def _cv_readings(n_steps, mode, start=None):
+    p = SonarParams()
+    x = np.array([300.0, 12.25, 300.0, -12.25]) if start is None else start
+    out = []
+    for _ in range(n_steps):
+        x = p.F @ x
+        out.append((x.copy(), measure(x, np.zeros(2), mode)))
+    return out
+
+
+def test_mixture_merges_when_identical_and_splits_when_spread_returns():
+    p = SonarParams()
+    fs = {m: SSPF(p, FixedScheduler('active'), np.random.default_rng(4), merge=m) for m in (True, False)}
+    for f in fs.values():
+        f.initialize(np.array([310.0, 12.0, 290.0, -12.5]), np.diag([400.0, 4, 400, 4]))
+    active = _cv_readings(30, 'active')
+    for _, z in active:
+        est = {m: f.step(z, 'active', np.zeros(2)) for m, f in fs.items()}
+        # merging keeps the estimate: the components it replaces are (nearly) identical
+        np.testing.assert_allclose(est[True].mean, est[False].mean, atol=0.05)
+        np.testing.assert_allclose(est[True].cov, est[False].cov, rtol=0.02, atol=1e-3)
+    f = fs[True]
+    assert f.components == 1 and f.merges == 1 and f.splits == 0 and fs[False].components == p.n_particles
+    # bearings only from a fixed observer: the range spreads again, so the Gaussian is split into N
+    comps = []
+    for _, z in _cv_readings(40, 'passive', start=active[-1][0]):
+        f.step(z[:1], 'passive', np.zeros(2))
+        comps.append(f.components)
+    assert f.splits >= 1 and p.n_particles in comps
+    assert comps[-1] == p.n_particles  # it stays split while the range is spread
+
+
+def test_no_merge_without_the_option_or_with_the_smart_model():
+    from track_core.sonar import SmartTargetParams
+
+    p = SonarParams()
+    for kw in ({'merge': False}, {'target_model': SmartTargetParams()}):
+        f = SSPF(p, FixedScheduler('active'), np.random.default_rng(4), **kw)
+        f.initialize(np.array([310.0, 12.0, 290.0, -12.5]), np.diag([400.0, 4, 400, 4]))
+        for _, z in _cv_readings(30, 'active'):
+            f.step(z, 'active', np.zeros(2))
+        assert f.components == p.n_particles and f.merges == 0
+
+
+def test_wide_prior_is_split_finer_and_its_tails_weighted_back():
+    f = SSPF(SonarParams(n_particles=4000), rng=np.random.default_rng(2))
+    m0, P0 = np.array([300.0, 12.25, 300.0, -12.25]), np.diag([300.0**2, 4, 300.0**2, 4])
+    f.initialize(m0, P0)
+    assert f.split_for(P0) == pytest.approx((50.0 / 300.0) ** 2)
+    np.testing.assert_allclose(f.P[0], f.split_for(P0) * P0)
+    # means drawn wider, weighted back: the weighted mixture still has the prior's moments
+    mean, cov = mixture_mean_cov(f.particles, f.P, f.weights)
+    np.testing.assert_allclose(mean[[0, 2]], m0[[0, 2]], atol=25.0)
+    np.testing.assert_allclose(np.sqrt(np.diag(cov)), np.sqrt(np.diag(P0)), rtol=0.1)
+    assert np.std(f.particles[:, 0]) > 1.2 * 300.0  # the draws reach further than the prior
+    # the paper's 20 m prior: b = 0.25 and equal weights, as before
+    f.initialize(m0, np.diag([400.0, 4, 400, 4]))
+    assert f.split_for(np.diag([400.0, 4, 400, 4])) == 0.25 and f.weights is None
+    with pytest.raises(ValueError, match=r'^prior_inflation must be'):
+        SSPF(prior_inflation=0.5)
