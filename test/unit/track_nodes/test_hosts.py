@@ -7,10 +7,12 @@ from __future__ import annotations
 
 import ipaddress
 import subprocess
+from pathlib import Path
+from xml.etree import ElementTree
 
 import pytest
 
-from track_nodes.launch.hosts import Hosts, round_robin, unavailable
+from track_nodes.launch.hosts import DISCOVERY_PORT, SERVER_PREFIX, Hosts, remove_leftovers, round_robin, unavailable
 
 REASON = unavailable()
 needs_netns = pytest.mark.skipif(REASON is not None, reason=f'no simulated hosts here: {REASON}')
@@ -31,6 +33,29 @@ def test_names_subnet_and_env_are_per_run():
     assert env['ROS_STATIC_PEERS'].split(';') == [*a.addresses, a.launcher_address]
     assert a.prefix(2) == ['ip', 'netns', 'exec', a.names[2]]
     assert round_robin(range(7), 3) == [0, 1, 2, 0, 1, 2, 0]
+
+
+def test_nodes_are_clients_of_the_launchers_discovery_server_over_udp_only():
+    a = Hosts(3)
+    env = a.env({'ROS_DOMAIN_ID': '42', 'ROS_SUPER_CLIENT': 'TRUE'})
+    assert env['ROS_DISCOVERY_SERVER'] == f'{a.launcher_address}:{DISCOVERY_PORT}'
+    assert env['FASTDDS_BUILTIN_TRANSPORTS'] == 'UDPv4'  # the hosts share /dev/shm: no shared-memory ports
+    assert 'ROS_SUPER_CLIENT' not in env and 'FASTRTPS_DEFAULT_PROFILES_FILE' not in env
+    assert a.env({}, super_client=True)['ROS_SUPER_CLIENT'] == 'TRUE'  # the recorder: every endpoint
+    server = a.server_env({'ROS_DOMAIN_ID': '42'})
+    xml = Path(server['FASTRTPS_DEFAULT_PROFILES_FILE'])
+    try:
+        assert 'ROS_DISCOVERY_SERVER' not in server and 'ROS_STATIC_PEERS' not in server
+        assert server['ROS_AUTOMATIC_DISCOVERY_RANGE'] == 'SUBNET' and server['ROS_DOMAIN_ID'] == '42'
+        root = ElementTree.parse(xml).getroot()
+        text = {el.tag.split('}')[1]: (el.text or '').strip() for el in root.iter()}
+        assert text['discoveryProtocol'] == 'SERVER' and text['prefix'] == SERVER_PREFIX
+        assert text['address'] == a.launcher_address and text['port'] == str(DISCOVERY_PORT)
+        # a child started from the launcher's environment is a client again, not a second server
+        assert 'FASTRTPS_DEFAULT_PROFILES_FILE' not in a.env(server)
+    finally:
+        a.remove()
+    assert not xml.exists()  # removed with the hosts
 
 
 @needs_netns
@@ -55,3 +80,17 @@ def test_hosts_are_removed_when_the_body_raises():
 def test_not_root_is_a_reason(monkeypatch):
     monkeypatch.setattr('os.geteuid', lambda: 1000)
     assert unavailable() == 'simulated hosts need root (ip netns add)'
+
+
+@needs_netns
+def test_leftovers_of_a_killed_run_are_removed_by_tag():
+    hosts = Hosts(2)
+    hosts.__enter__()
+    hosts._up = False  # as if its launcher was killed: nobody removes them ...
+    try:
+        assert sorted(remove_leftovers(hosts.tag)) == sorted([*hosts.names, hosts.hub])  # ... but this
+        assert hosts.leftovers() == [] and remove_leftovers(hosts.tag) == []
+        assert hosts.root_veth not in subprocess.run(['ip', 'link'], capture_output=True, text=True).stdout
+    finally:
+        hosts._up = True
+        hosts.remove()

@@ -7,8 +7,18 @@ one more veth into the bridge, address ``.254``: the launcher (/clock, graph wat
 recorder stay where they are and see every host over one hop, as the hosts see each other.
 
 Names and subnet are unique per run (pid plus a random byte); everything is removed on leaving the
-context, at exit and on SIGTERM/SIGHUP. Discovery is real Fast DDS: unicast to the static peers
-(every host and the launcher) with ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``.
+context, at exit and on SIGTERM/SIGHUP.
+
+Discovery is real Fast DDS, through a discovery server: the launcher's own participant is the
+SERVER (``server_env``: an XML profile that listens on ``.254:DISCOVERY_PORT``), every node is a
+CLIENT of it (``ROS_DISCOVERY_SERVER``) and the recorder a SUPER_CLIENT (``ROS_SUPER_CLIENT``: it
+must see every topic to record by regex). With simple discovery every participant announces every
+endpoint to every other one, so each process's discovery work grows as N² with the field (100
+sensors over 10 hosts did not come up in 8 min on 2 cores, the sensors busy in Fast DDS's event
+threads); a client is told only of the endpoints on its own topics. Transport is UDPv4 only
+(``FASTDDS_BUILTIN_TRANSPORTS``): ``ip netns exec`` shares ``/dev/shm``, so the shared-memory
+ports that Fast DDS derives from the participant id (picked per network stack, hence the same in
+every host) collide across hosts, and data sent there went to the wrong process or nowhere.
 """
 
 from __future__ import annotations
@@ -22,10 +32,14 @@ import secrets
 import shutil
 import signal
 import subprocess
+import tempfile
 import time
 from collections.abc import Sequence
+from pathlib import Path
 
 LAUNCHER_HOST = 254  # last octet of the launcher's own address on the bridge
+DISCOVERY_PORT = 11811  # the discovery server's UDP port on the launcher's address (Fast DDS's default)
+SERVER_PREFIX = '44.53.00.5f.45.50.52.4f.53.49.4d.41'  # what a ROS_DISCOVERY_SERVER client expects of server 0
 
 
 def unavailable() -> str | None:
@@ -77,6 +91,8 @@ class Hosts:
         self.launcher_address = str(self.subnet[LAUNCHER_HOST])
         self.setup_s = 0.0
         self._up = False
+        self._server_dir: tempfile.TemporaryDirectory | None = None
+        self._server_xml: Path | None = None
         self._old_handlers: dict[int, object] = {}
 
     # -- environment and commands for a process in host i --------------------------------
@@ -84,15 +100,47 @@ class Hosts:
     def static_peers(self) -> str:
         return ';'.join([*self.addresses, self.launcher_address])
 
-    def env(self, base: dict[str, str] | None = None) -> dict[str, str]:
-        """The environment of any participant of the run: unicast discovery to every host.
+    @property
+    def discovery_server(self) -> str:
+        return f'{self.launcher_address}:{DISCOVERY_PORT}'
 
-        The domain id is the caller's (``ROS_DOMAIN_ID`` of ``base``): one per concurrent run.
+    def env(self, base: dict[str, str] | None = None, *, super_client: bool = False) -> dict[str, str]:
+        """The environment of a node of the run: a client of the launcher's discovery server, UDPv4 only.
+
+        ``super_client``: told of every endpoint (the recorder). The domain id is the caller's
+        (``ROS_DOMAIN_ID`` of ``base``): one per concurrent run. The static peers stay for a participant
+        that ignores the server variable.
         """
         env = dict(os.environ if base is None else base)
         env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
         env['ROS_STATIC_PEERS'] = self.static_peers
+        env['ROS_DISCOVERY_SERVER'] = self.discovery_server
+        env['FASTDDS_BUILTIN_TRANSPORTS'] = 'UDPv4'
         env.pop('ROS_LOCALHOST_ONLY', None)
+        env.pop('ROS_SUPER_CLIENT', None)
+        if super_client:
+            env['ROS_SUPER_CLIENT'] = 'TRUE'
+        if self._server_xml is not None and env.get('FASTRTPS_DEFAULT_PROFILES_FILE') == str(self._server_xml):
+            env.pop('FASTRTPS_DEFAULT_PROFILES_FILE')  # the server's profile is the launcher's alone
+        return env
+
+    def server_env(self, base: dict[str, str] | None = None) -> dict[str, str]:
+        """The environment of the launcher's process: its participant is the run's discovery server.
+
+        Written as a default XML profile (a temporary file, removed with the hosts); a participant
+        with a SERVER profile is also told of every endpoint, which the launcher's graph watching needs.
+        """
+        if self._server_xml is None:
+            self._server_dir = tempfile.TemporaryDirectory(prefix=f'{self.tag}-dds-')
+            self._server_xml = Path(self._server_dir.name) / 'discovery_server.xml'
+            self._server_xml.write_text(server_profile(self.launcher_address, DISCOVERY_PORT))
+        env = self.env(base)
+        for key in ('ROS_DISCOVERY_SERVER', 'ROS_SUPER_CLIENT', 'ROS_STATIC_PEERS'):
+            env.pop(key, None)
+        # rmw_fastrtps's LOCALHOST range makes the server's participant fail to be created (its listening
+        # locator is on the bridge); a server sends nothing by multicast, and listens only there.
+        env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'SUBNET'
+        env['FASTRTPS_DEFAULT_PROFILES_FILE'] = str(self._server_xml)
         return env
 
     def prefix(self, i: int) -> list[str]:
@@ -140,7 +188,10 @@ class Hosts:
                 raise RuntimeError(f'ip {" ".join(cmd)}: {res.stderr.strip()}')
 
     def remove(self) -> None:
-        """Delete every namespace and device of this run (idempotent; never raises)."""
+        """Delete every namespace and device of this run, and the server's profile (idempotent; never raises)."""
+        if self._server_dir is not None:
+            self._server_dir.cleanup()
+            self._server_dir = self._server_xml = None
         if not self._up:
             return
         self._up = False
@@ -162,6 +213,49 @@ class Hosts:
         """Plug (``up``) or unplug host ``i``: its port on the bridge goes up or down."""
         subprocess.run(['ip', '-n', self.hub, 'link', 'set', f'{self.tag}b{i}', 'up' if up else 'down'],
                        check=True, capture_output=True)
+
+
+def remove_leftovers(tag: str) -> list[str]:
+    """Belt and braces after a launcher that did not exit cleanly (killed): kill what still runs in the
+    namespaces of run ``tag`` (by pid) and delete them; the names that were left."""
+    listed = subprocess.run(['ip', 'netns', 'list'], capture_output=True, text=True).stdout.split()
+    left = [n for n in listed if n.startswith(f'{tag}-')]
+    for name in left:
+        pids = subprocess.run(['ip', 'netns', 'pids', name], capture_output=True, text=True).stdout.split()
+        for pid in pids:
+            with contextlib.suppress(ProcessLookupError, ValueError):
+                os.kill(int(pid), signal.SIGKILL)
+        subprocess.run(['ip', 'netns', 'del', name], capture_output=True)
+    if left:
+        subprocess.run(['ip', 'link', 'del', f'{tag}r'], capture_output=True)
+    return left
+
+
+def server_profile(address: str, port: int) -> str:
+    """A Fast DDS 2.14 XML profile: the default participant is discovery server 0 on ``address:port``
+    (its GUID prefix is the one ``ROS_DISCOVERY_SERVER`` clients expect at position 0), UDPv4 only."""
+    return f'''<?xml version="1.0" encoding="UTF-8" ?>
+<dds xmlns="http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles">
+  <profiles>
+    <transport_descriptors>
+      <transport_descriptor><transport_id>udp</transport_id><type>UDPv4</type></transport_descriptor>
+    </transport_descriptors>
+    <participant profile_name="track_nodes_discovery_server" is_default_profile="true">
+      <rtps>
+        <prefix>{SERVER_PREFIX}</prefix>
+        <useBuiltinTransports>false</useBuiltinTransports>
+        <userTransports><transport_id>udp</transport_id></userTransports>
+        <builtin>
+          <discovery_config><discoveryProtocol>SERVER</discoveryProtocol></discovery_config>
+          <metatrafficUnicastLocatorList>
+            <locator><udpv4><address>{address}</address><port>{port}</port></udpv4></locator>
+          </metatrafficUnicastLocatorList>
+        </builtin>
+      </rtps>
+    </participant>
+  </profiles>
+</dds>
+'''
 
 
 def _raise_exit(signum: int, _frame) -> None:
