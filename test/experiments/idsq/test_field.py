@@ -42,6 +42,7 @@ def test_fit_is_least_squares_and_end_to_end_slope():
     f = fit(rows)
     assert np.isclose(f['intercept_s'], 0.05) and np.isclose(f['per_sensor_s'], 0.002)
     assert np.isclose(f['loglog_slope'], np.log(0.25 / 0.098) / np.log(100 / 24))
+    assert f['sensors'] == [24, 64, 100]
     assert fit(rows[:1])['per_sensor_s'] is None  # one size: nothing to fit
     assert fit([*rows[:1], {'sensors': 64, 'cpu_per_step_s': None}])['per_sensor_s'] is None  # a failed run
 

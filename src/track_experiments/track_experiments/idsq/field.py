@@ -111,7 +111,7 @@ def run_field(out: Path, seed: int, k: int, n_hosts: int, steps: int) -> dict:
     try:
         got_steps, means, covs = recorded_track(bag, DT)
     except (OSError, ValueError) as exc:
-        row['problem'] = f'no track recorded ({exc}); log: {proc.tail(3)}'
+        row['problem'] = f'no track recorded ({exc}); log: {_last_line(text)}'
         return row
     row['estimates'] = len(got_steps)
     if got_steps != list(range(steps)):
@@ -123,7 +123,7 @@ def run_field(out: Path, seed: int, k: int, n_hosts: int, steps: int) -> dict:
         if not row['bit_for_bit']:
             row['problem'] = f'track differs from the in-process one (max abs diff {diff:g})'
     if code != 0 and not row['problem']:
-        row['problem'] = f'launcher exit {code}: {proc.tail(3)}'
+        row['problem'] = f'launcher exit {code}: {_last_line(text)}'
     if row['cpu_s'] is None and not row['problem']:
         row['problem'] = 'no cpu line from the launcher'
     if left:
@@ -131,15 +131,22 @@ def run_field(out: Path, seed: int, k: int, n_hosts: int, steps: int) -> dict:
     return row
 
 
+def _last_line(text: str, width: int = 300) -> str:
+    """The log's last line that says something (the launcher's reason, usually), cut to ``width``."""
+    lines = [ln for ln in text.splitlines() if ln.strip() and 'recorder]: record' not in ln]
+    return (lines[-1] if lines else '(no output)')[:width]
+
+
 def fit(rows: list[dict]) -> dict:
     """Least squares CPU per step = a + b·K over the rows that have it, and the log-log slope end to end."""
     pts = [(r['sensors'], r['cpu_per_step_s']) for r in rows if r['cpu_per_step_s']]
     if len(pts) < 2:
-        return {'intercept_s': None, 'per_sensor_s': None, 'loglog_slope': None}
+        return {'intercept_s': None, 'per_sensor_s': None, 'loglog_slope': None, 'sensors': []}
     k, c = np.array(pts, dtype=float).T
     b, a = np.polyfit(k, c, 1)
     slope = float(np.log(c[-1] / c[0]) / np.log(k[-1] / k[0])) if k[-1] != k[0] else None
-    return {'intercept_s': float(a), 'per_sensor_s': float(b), 'loglog_slope': slope}
+    return {'intercept_s': float(a), 'per_sensor_s': float(b), 'loglog_slope': slope,
+            'sensors': [int(v) for v in k]}
 
 
 @set_keys(sensors='field sizes, comma-separated (full: 24,64,100; quick: 8,16)',
@@ -163,7 +170,8 @@ def field(cfg: RunConfig) -> Outcome:
           'yes' if r['bit_for_bit'] else 'NO', r['problem'] or '-'] for r in rows])
     if f['per_sensor_s'] is not None:
         table += (f'\nCPU per step = {f["intercept_s"]:.4f} s + {f["per_sensor_s"]:.5f} s x sensors '
-                  f'(least squares); log-log slope {sizes[0]}..{sizes[-1]}: {f["loglog_slope"]:.2f}')
+                  f'(least squares over K = {", ".join(map(str, f["sensors"]))}); log-log slope '
+                  f'{f["sensors"][0]}..{f["sensors"][-1]}: {f["loglog_slope"]:.2f}')
     table += (f'\n{steps} steps of {DT} s per run, seed {cfg.seed}, one process per sensor; CPU of every '
               'process of the run from the clock\'s start to the end of the work.')
     figs = [_figure(cfg.out / 'idsq-field-cpu.png', rows, f)] if f['per_sensor_s'] is not None else []

@@ -91,8 +91,7 @@ class Hosts:
         self.launcher_address = str(self.subnet[LAUNCHER_HOST])
         self.setup_s = 0.0
         self._up = False
-        self._server_dir: tempfile.TemporaryDirectory | None = None
-        self._server_xml: Path | None = None
+        self._server_dir: tempfile.TemporaryDirectory | None = None  # the launcher's and recorder's profiles
         self._old_handlers: dict[int, object] = {}
 
     # -- environment and commands for a process in host i --------------------------------
@@ -107,41 +106,57 @@ class Hosts:
     def env(self, base: dict[str, str] | None = None, *, super_client: bool = False) -> dict[str, str]:
         """The environment of a node of the run: a client of the launcher's discovery server, UDPv4 only.
 
-        ``super_client``: told of every endpoint (the recorder). The domain id is the caller's
-        (``ROS_DOMAIN_ID`` of ``base``): one per concurrent run. The static peers stay for a participant
-        that ignores the server variable.
+        ``super_client``: for a participant in the launcher's namespace that must be told of every
+        endpoint (the recorder records by regex). The domain id is the caller's (``ROS_DOMAIN_ID`` of
+        ``base``): one per concurrent run. The static peers stay for a participant that ignores the
+        server variable.
         """
         env = dict(os.environ if base is None else base)
+        if self._server_dir is not None and env.get('FASTRTPS_DEFAULT_PROFILES_FILE', '').startswith(
+                self._server_dir.name):
+            env.pop('FASTRTPS_DEFAULT_PROFILES_FILE')  # the launcher's own profile is not its children's
         env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
         env['ROS_STATIC_PEERS'] = self.static_peers
         env['ROS_DISCOVERY_SERVER'] = self.discovery_server
         env['FASTDDS_BUILTIN_TRANSPORTS'] = 'UDPv4'
         env.pop('ROS_LOCALHOST_ONLY', None)
         env.pop('ROS_SUPER_CLIENT', None)
-        if super_client:
-            env['ROS_SUPER_CLIENT'] = 'TRUE'
-        if self._server_xml is not None and env.get('FASTRTPS_DEFAULT_PROFILES_FILE') == str(self._server_xml):
-            env.pop('FASTRTPS_DEFAULT_PROFILES_FILE')  # the server's profile is the launcher's alone
-        return env
+        return self._on_bridge(env, 'SUPER_CLIENT') if super_client else env
 
     def server_env(self, base: dict[str, str] | None = None) -> dict[str, str]:
         """The environment of the launcher's process: its participant is the run's discovery server.
 
-        Written as a default XML profile (a temporary file, removed with the hosts); a participant
-        with a SERVER profile is also told of every endpoint, which the launcher's graph watching needs.
+        A participant with a SERVER profile is also told of every endpoint, which the launcher's graph
+        watching needs.
         """
-        if self._server_xml is None:
-            self._server_dir = tempfile.TemporaryDirectory(prefix=f'{self.tag}-dds-')
-            self._server_xml = Path(self._server_dir.name) / 'discovery_server.xml'
-            self._server_xml.write_text(server_profile(self.launcher_address, DISCOVERY_PORT))
-        env = self.env(base)
-        for key in ('ROS_DISCOVERY_SERVER', 'ROS_SUPER_CLIENT', 'ROS_STATIC_PEERS'):
-            env.pop(key, None)
-        # rmw_fastrtps's LOCALHOST range makes the server's participant fail to be created (its listening
-        # locator is on the bridge); a server sends nothing by multicast, and listens only there.
+        return self._on_bridge(self.env(base), 'SERVER')
+
+    def _on_bridge(self, env: dict[str, str], role: str) -> dict[str, str]:
+        """``env`` for a participant of the launcher's namespace: an XML profile (``participant_profile``,
+        a temporary file removed with the hosts) that pins it to the bridge address, instead of the
+        discovery variables.
+
+        The launcher's namespace has more interfaces than a host (the machine's own, other runs'
+        bridges), and its participants announced locators on all of them; in one run of 24 sensors over
+        3 hosts no node's /track/ready announcement reached the launcher in 164 s while a super client
+        started by hand in the same namespace heard all 26 (the cause inside Fast DDS was not pinned
+        down; it bounds the remote locators it keeps per participant). Pinned to the bridge, a host
+        reaches every locator they announce. rmw_fastrtps's LOCALHOST range makes a participant with a
+        listening locator on the bridge fail to be created; with discovery servers nothing is multicast.
+        """
+        path = Path(self._profile_dir()) / f'{role.lower()}.xml'
+        if not path.exists():
+            path.write_text(participant_profile(role, self.launcher_address, DISCOVERY_PORT))
+        env['FASTRTPS_DEFAULT_PROFILES_FILE'] = str(path)
         env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'SUBNET'
-        env['FASTRTPS_DEFAULT_PROFILES_FILE'] = str(self._server_xml)
+        for key in ('ROS_DISCOVERY_SERVER', 'ROS_STATIC_PEERS'):
+            env.pop(key, None)
         return env
+
+    def _profile_dir(self) -> str:
+        if self._server_dir is None:
+            self._server_dir = tempfile.TemporaryDirectory(prefix=f'{self.tag}-dds-')
+        return self._server_dir.name
 
     def prefix(self, i: int) -> list[str]:
         """Command prefix that runs a program in host ``i``."""
@@ -191,7 +206,7 @@ class Hosts:
         """Delete every namespace and device of this run, and the server's profile (idempotent; never raises)."""
         if self._server_dir is not None:
             self._server_dir.cleanup()
-            self._server_dir = self._server_xml = None
+            self._server_dir = None
         if not self._up:
             return
         self._up = False
@@ -231,25 +246,47 @@ def remove_leftovers(tag: str) -> list[str]:
     return left
 
 
-def server_profile(address: str, port: int) -> str:
+def participant_profile(role: str, address: str, port: int) -> str:
     """A Fast DDS 2.14 XML profile: the default participant is discovery server 0 on ``address:port``
-    (its GUID prefix is the one ``ROS_DISCOVERY_SERVER`` clients expect at position 0), UDPv4 only."""
+    (``role`` SERVER; its GUID prefix is the one ``ROS_DISCOVERY_SERVER`` clients expect at position 0)
+    or a SUPER_CLIENT of it; UDPv4 only, on the interface of ``address`` only."""
+    if role == 'SERVER':
+        discovery = f'''<discoveryProtocol>SERVER</discoveryProtocol>
+          </discovery_config>
+          <metatrafficUnicastLocatorList>
+            <locator><udpv4><address>{address}</address><port>{port}</port></udpv4></locator>
+          </metatrafficUnicastLocatorList>'''
+        prefix = f'<prefix>{SERVER_PREFIX}</prefix>'
+    elif role == 'SUPER_CLIENT':
+        discovery = f'''<discoveryProtocol>SUPER_CLIENT</discoveryProtocol>
+            <discoveryServersList>
+              <RemoteServer prefix="{SERVER_PREFIX}">
+                <metatrafficUnicastLocatorList>
+                  <locator><udpv4><address>{address}</address><port>{port}</port></udpv4></locator>
+                </metatrafficUnicastLocatorList>
+              </RemoteServer>
+            </discoveryServersList>
+          </discovery_config>'''
+        prefix = ''
+    else:
+        raise ValueError(f'role {role!r}: allowed SERVER, SUPER_CLIENT')
     return f'''<?xml version="1.0" encoding="UTF-8" ?>
 <dds xmlns="http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles">
   <profiles>
     <transport_descriptors>
-      <transport_descriptor><transport_id>udp</transport_id><type>UDPv4</type></transport_descriptor>
+      <transport_descriptor>
+        <transport_id>udp</transport_id><type>UDPv4</type>
+        <interfaceWhiteList><address>{address}</address></interfaceWhiteList>
+      </transport_descriptor>
     </transport_descriptors>
-    <participant profile_name="track_nodes_discovery_server" is_default_profile="true">
+    <participant profile_name="track_nodes_{role.lower()}" is_default_profile="true">
       <rtps>
-        <prefix>{SERVER_PREFIX}</prefix>
+        {prefix}
         <useBuiltinTransports>false</useBuiltinTransports>
         <userTransports><transport_id>udp</transport_id></userTransports>
         <builtin>
-          <discovery_config><discoveryProtocol>SERVER</discoveryProtocol></discovery_config>
-          <metatrafficUnicastLocatorList>
-            <locator><udpv4><address>{address}</address><port>{port}</port></udpv4></locator>
-          </metatrafficUnicastLocatorList>
+          <discovery_config>
+            {discovery}
         </builtin>
       </rtps>
     </participant>
