@@ -88,6 +88,9 @@ def test_hosts_get_their_addresses_and_are_removed():
     with Hosts(3) as hosts:
         assert hosts.setup_s < 10
         assert sorted(hosts.leftovers()) == sorted([*hosts.names, hosts.hub])
+        # every link has its carrier when the context is entered: a participant made now sees its address
+        assert 'LOWER_UP' in subprocess.run(['ip', '-o', 'link', 'show', hosts.root_veth], capture_output=True,
+                                            text=True).stdout
         for i in range(3):
             out = subprocess.run([*hosts.prefix(i), 'ip', '-4', 'addr'], capture_output=True, text=True).stdout
             assert f'{hosts.addresses[i]}/24' in out and 'inet 127.0.0.1' in out

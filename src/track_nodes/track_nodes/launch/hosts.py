@@ -39,6 +39,7 @@ from pathlib import Path
 
 LAUNCHER_HOST = 254  # last octet of the launcher's own address on the bridge
 DISCOVERY_PORT = 11811  # the discovery server's UDP port on the launcher's address (Fast DDS's default)
+LINK_UP_MAX = 10.0  # [s] at most this long for every veth of a new run to report its carrier
 SERVER_PREFIX = '44.53.00.5f.45.50.52.4f.53.49.4d.41'  # what a ROS_DISCOVERY_SERVER client expects of server 0
 
 
@@ -201,6 +202,23 @@ class Hosts:
             res = subprocess.run(['ip', *cmd], capture_output=True, text=True)
             if res.returncode != 0:
                 raise RuntimeError(f'ip {" ".join(cmd)}: {res.stderr.strip()}')
+        self._wait_running()
+
+    def _wait_running(self, timeout: float = LINK_UP_MAX) -> None:
+        """Until every veth of the run reports its carrier (``LOWER_UP``): the kernel signals a new
+        carrier with a delay of up to a second, and a participant created before lists no address on
+        that interface (seen: the launcher's profile, pinned to its address, then failed with "All
+        whitelist interfaces were filtered out")."""
+        links = [([], self.root_veth)] + [(['-n', name], f'{self.tag}h{i}') for i, name in enumerate(self.names)]
+        deadline = time.monotonic() + timeout
+        while links:
+            links = [(ns, dev) for ns, dev in links if 'LOWER_UP' not in subprocess.run(
+                ['ip', *ns, '-o', 'link', 'show', dev], capture_output=True, text=True).stdout]
+            if links and time.monotonic() > deadline:
+                raise RuntimeError(f'simulated hosts: no carrier on {", ".join(dev for _, dev in links)} after '
+                                   f'{timeout:g} s')
+            if links:
+                time.sleep(0.02)
 
     def remove(self) -> None:
         """Delete every namespace and device of this run, and the server's profile (idempotent; never raises)."""
