@@ -10,15 +10,22 @@ Names and subnet are unique per run (pid plus a random byte); everything is remo
 context, at exit and on SIGTERM/SIGHUP.
 
 Discovery is real Fast DDS, through a discovery server: the launcher's own participant is the
-SERVER (``server_env``: an XML profile that listens on ``.254:DISCOVERY_PORT``), every node is a
-CLIENT of it (``ROS_DISCOVERY_SERVER``) and the recorder a SUPER_CLIENT (``ROS_SUPER_CLIENT``: it
-must see every topic to record by regex). With simple discovery every participant announces every
-endpoint to every other one, so each process's discovery work grows as N² with the field (100
-sensors over 10 hosts did not come up in 8 min on 2 cores, the sensors busy in Fast DDS's event
-threads); a client is told only of the endpoints on its own topics. Transport is UDPv4 only
-(``FASTDDS_BUILTIN_TRANSPORTS``): ``ip netns exec`` shares ``/dev/shm``, so the shared-memory
-ports that Fast DDS derives from the participant id (picked per network stack, hence the same in
-every host) collide across hosts, and data sent there went to the wrong process or nowhere.
+SERVER (``server_env``), every node is a CLIENT of it (``ROS_DISCOVERY_SERVER``) and the recorder a
+SUPER_CLIENT (it must see every topic to record by regex); the two in the launcher's namespace get
+XML profiles pinned to the bridge address (``participant_profile``). With simple discovery every
+participant announces every endpoint to every other one, so each process's discovery work grows as
+N² with the field (100 sensors over 10 hosts did not come up in 8 min on 2 cores, the sensors busy
+in Fast DDS's event threads); a client is told only of the endpoints on its own topics, and needs
+only the server's address. Transport is UDPv4 only (``FASTDDS_BUILTIN_TRANSPORTS``): ``ip netns
+exec`` shares ``/dev/shm``, and the shared-memory ports, which Fast DDS derives from a participant
+id picked per network stack, collided across hosts (``RTPS_TRANSPORT_SHM Error ...
+open_and_lock_file failed`` at 100 sensors over 10 hosts).
+
+A new veth gets its carrier after a delay, and a participant created before lists no address on
+it: a participant pinned to it fails ("All whitelist interfaces were filtered out", checked on a
+veth without carrier), and an unpinned one would announce no locator there (our reading of runs in
+which discovery worked but no node's /track/ready reached the launcher). Entering the context waits
+for every carrier (``LINK_UP_MAX``).
 """
 
 from __future__ import annotations
@@ -138,12 +145,9 @@ class Hosts:
         discovery variables.
 
         The launcher's namespace has more interfaces than a host (the machine's own, other runs'
-        bridges), and its participants announced locators on all of them; in one run of 24 sensors over
-        3 hosts no node's /track/ready announcement reached the launcher in 164 s while a super client
-        started by hand in the same namespace heard all 26 (the cause inside Fast DDS was not pinned
-        down; it bounds the remote locators it keeps per participant). Pinned to the bridge, a host
-        reaches every locator they announce. rmw_fastrtps's LOCALHOST range makes a participant with a
-        listening locator on the bridge fail to be created; with discovery servers nothing is multicast.
+        bridges); pinned, its participants announce only the address every host reaches. rmw_fastrtps's
+        LOCALHOST range makes a participant with a listening locator on the bridge fail to be created;
+        with a discovery server nothing is multicast.
         """
         path = Path(self._profile_dir()) / f'{role.lower()}.xml'
         if not path.exists():
