@@ -103,3 +103,19 @@ def test_entry_help_lists_its_set_keys():
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0 and '--set keys of ais-association:' in proc.stdout, proc.stdout
     assert '  max_gap: ' in proc.stdout and '  file: ' in proc.stdout
+
+
+def test_options_lists_every_key_with_its_meaning(capsys):
+    from track_experiments.cli import experiment_main
+
+    assert experiment_main(['ais-association', '--options']) == 0
+    out = capsys.readouterr().out
+    assert out.startswith('--set keys of ais-association:')
+    for key in ('file', 'columns', 'max_distance_km', 'max_gap', 'radar_site', 'duration', 'sweep', 'prior_weight',
+                'max_pairs'):
+        line = next(x for x in out.splitlines() if x.startswith(f'  {key}: '))
+        assert len(line) > len(key) + 12, line                             # a meaning, not just the name
+    assert experiment_main(['--options']) == 0                             # every entry
+    every = capsys.readouterr().out
+    assert '--set keys of maritime-seeds:' in every and '--set keys of demo-kf:\n  (none' in every
+    assert experiment_main(['no-such', '--options']) == 2

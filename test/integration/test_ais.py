@@ -116,6 +116,7 @@ def _node_scores(got, radar, patrol):
 
 def test_sources_and_fusion_in_process(ais_run):
     """One run (it takes ~15 s), three checks: the core's numbers, local ids only, the recorded summary."""
+    from track_core.ais.association import SHORT_PAIR_RATE, SHORT_PAIR_WEIGHT
     from track_nodes.report.read import read_topics
     from track_nodes.report.summary import SCENARIO_METRICS, summarize
 
@@ -133,7 +134,8 @@ def test_sources_and_fusion_in_process(ais_run):
     assert all(node[k][1] == (core[k] >= 0.5) for k in core)      # window 1: the instant verdict
     assert not fusion.dropped
     # the same ship is associated across the sources (the core's decisions on these scores)
-    m = evaluate(a, b, table.decide(g, window=1, threshold=0.5, one_to_one=True))
+    m = evaluate(a, b, table.decide(g, window=1, threshold=0.5, one_to_one=True, prior_weight=SHORT_PAIR_WEIGHT,
+                                    prior_rate=SHORT_PAIR_RATE))  # the short-pair rule, as the summary
     print(f'{len(a.ids)} radar / {len(b.ids)} patrol tracks: precision {m.precision:.3f} recall {m.recall:.3f} '
           f'F1 {m.f1:.3f}')
     assert m.recall >= 0.85 and m.precision >= 0.85

@@ -58,3 +58,24 @@ def test_a_bad_command_line_gets_one_line_and_exit_code_2(tmp_path, prefix, env_
     lines = proc.stderr.strip().splitlines()
     assert proc.returncode == 2 and len(lines) == 1 and 'Traceback' not in proc.stderr, proc.stderr
     assert lines[0].startswith('demo_target: ') and all(w in lines[0] for w in words), lines[0]
+
+
+def test_qos_of_every_endpoint_can_be_overridden_and_is_read_only(ros):
+    """rclpy's QoS overrides (``qos_overrides.<topic>.<publisher|subscription>.<policy>``) reach our endpoints."""
+    from rclpy.parameter import Parameter
+    from rclpy.qos import ReliabilityPolicy
+
+    from track_msgs_py.topics import DEMO_REPORTS, DEMO_TRUTH
+    from track_nodes.demo.demo_target import DemoTargetNode
+    from track_nodes.demo.demo_tracker import DemoTrackerNode
+
+    target = ros.add(DemoTargetNode(context=ros.context, node_name='qos_target', parameter_overrides=[
+        Parameter(f'qos_overrides.{DEMO_TRUTH}.publisher.depth', value=50),
+        Parameter(f'qos_overrides.{DEMO_REPORTS}.publisher.reliability', value='best_effort')]))
+    assert target.pub_truth.qos_profile.depth == 50
+    assert target.pub_report.qos_profile.reliability is ReliabilityPolicy.BEST_EFFORT
+    tracker = ros.add(DemoTrackerNode(context=ros.context, node_name='qos_tracker', parameter_overrides=[
+        Parameter(f'qos_overrides.{DEMO_REPORTS}.subscription.depth', value=7)]))
+    assert tracker.get_parameter(f'qos_overrides.{DEMO_REPORTS}.subscription.depth').value == 7
+    result = target.set_parameters([Parameter(f'qos_overrides.{DEMO_TRUTH}.publisher.depth', value=3)])[0]
+    assert not result.successful                                   # read-only once the endpoint exists

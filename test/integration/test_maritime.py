@@ -197,3 +197,24 @@ def test_fusion_holds_a_track_whose_velocity_is_not_estimated(ros):
     assert fusion.next_k == 4  # instants 1..3 scored, each once a report of the next instant arrived
     _, mu, R = fusion.core.table.at(10.0)
     assert np.allclose(R, 4.0 * np.eye(2)) and np.allclose(mu[:, 0], 30.0)  # held, not predicted
+
+
+def test_the_sources_simulated_without_ros_are_the_recorded_ones(maritime_run):
+    """``report.maritime_sim`` (what ``track-experiment maritime-seeds`` replays) gives the launcher's
+    truths, sonar track and radar reports of the same scenario, at the same instants from the network's origin."""
+    from track_nodes.report import maritime_sim
+
+    cfg, bag, _ = maritime_run
+    d = maritime.load(bag)
+    sim = maritime_sim.simulate(cfg)
+    origin = d['origin']
+    for group, key in (('truth', maritime.NETWORK_TRACK), ('truth', maritime.RADAR_DECOY),
+                       ('tracks', maritime.SONAR_TRACK), ('tracks', maritime.RADAR_DECOY)):
+        t, x = d[group][key][:2]
+        ts, xs = sim[group][key][:2]
+        n = t.size
+        assert n >= DURATION - 2, (group, key, n)
+        np.testing.assert_allclose(t - origin, ts[:n], rtol=0, atol=1e-6, err_msg=f'{group} {key}')
+        np.testing.assert_allclose(x, xs[:n], rtol=0, atol=1e-6, err_msg=f'{group} {key}')
+    P, Ps = d['tracks'][maritime.SONAR_TRACK][2], sim['tracks'][maritime.SONAR_TRACK][2]
+    np.testing.assert_allclose(P, Ps[:len(P)], rtol=1e-9, atol=1e-9)

@@ -8,7 +8,9 @@ Entries are imported lazily, so ``--help`` never imports rclpy (``NAME --help`` 
 
 An entry declares the ``--set`` keys it reads once, with ``@set_keys(key='what it sets', ...)``:
 the runner refuses any other key in one line with the closest declared ones (exit code 2), and
-``track-experiment NAME --help`` lists them. An entry without the decorator takes no ``--set``.
+``track-experiment NAME --options`` (or ``NAME --help``) lists them with their meaning;
+``--options`` without a name lists the keys of every entry. An entry without the decorator takes
+no ``--set``.
 """
 
 from __future__ import annotations
@@ -83,6 +85,13 @@ def unknown_keys_problem(fn: Callable, options: dict[str, str]) -> str | None:
                                                  entry_keys(fn))
 
 
+def options_text(name: str, fn: Callable) -> str:
+    """The ``--set`` keys of entry ``name`` with their meaning, one per line (``--options``)."""
+    keys = entry_keys(fn)
+    lines = [f'  {k}: {v}' for k, v in sorted(keys.items())] or ['  (none: this entry takes no --set)']
+    return '\n'.join([f'--set keys of {name}:', *lines])
+
+
 def _keys_help(entries: dict[str, Any], argv: list[str] | None) -> str:
     """For ``NAME --help``: the ``--set`` keys of NAME (importing that entry only)."""
     args = sys.argv[1:] if argv is None else argv
@@ -91,9 +100,7 @@ def _keys_help(entries: dict[str, Any], argv: list[str] | None) -> str:
     name = next((a for a in args if not a.startswith('-')), None)
     if name not in entries:
         return ''
-    keys = entry_keys(entries[name].load())
-    lines = [f'  {k}: {v}' for k, v in sorted(keys.items())] or ['  (none)']
-    return '\n'.join([f'--set keys of {name}:', *lines])
+    return options_text(name, entries[name].load())
 
 
 def registry(kind: str) -> dict[str, Any]:
@@ -130,6 +137,15 @@ def best_time(fn: Callable[[], Any], repeat: int = 5, min_time: float = 0.05) ->
     return best
 
 
+def _print_options(prog: str, entries: dict[str, Any], name: str | None) -> int:
+    """``--options``: the ``--set`` keys of ``name`` (of every entry when None); exit code."""
+    if name is not None and name not in entries:
+        print(f'{prog}: unknown entry {name!r}; registered: {", ".join(sorted(entries))}', file=sys.stderr)
+        return 2
+    print('\n'.join(options_text(n, entries[n].load()) for n in ([name] if name else sorted(entries))))
+    return 0
+
+
 def _key_value(text: str) -> tuple[str, str]:
     key, sep, value = text.partition('=')
     if not sep or not key.strip():
@@ -158,20 +174,23 @@ def _main(kind: str, argv: list[str] | None) -> int:
     parser.add_argument('--out', type=Path, default=Path('out') / kind, help='directory for PNG/JSON output')
     parser.add_argument('--no-progress', action='store_true', help='hide the progress bar')
     parser.add_argument('--set', action='append', default=[], metavar='KEY=VALUE', type=_key_value,
-                        help='an entry-specific option (repeatable; the entry documents its keys)')
+                        help='an entry-specific option (repeatable; NAME --options lists its keys)')
+    parser.add_argument('--options', action='store_true',
+                        help="list the entry's --set keys with their meaning and exit (every entry's without NAME)")
     parser.add_argument('--reading', default=None, metavar='WORDS',
                         help='interpretation of the paper for entries that have several (e.g. sonar-table2: '
                              'comma-separated variance|std, spectral|excess, full|position, posterior|predicted)')
     args = parser.parse_args(argv)
 
+    if args.options:
+        return _print_options(prog, entries, args.name)
     if args.list or not args.name:
         print('\n'.join(sorted(entries)) if entries else '(no entries registered)')
         return 0 if args.list else 2
-    if args.name not in entries:
-        print(f'{prog}: unknown entry {args.name!r}; registered: {", ".join(sorted(entries))}', file=sys.stderr)
-        return 2
-    if args.runs is not None and args.runs < 1:
-        print(f'{prog}: --runs must be >= 1, got {args.runs}', file=sys.stderr)
+    problem = (f'unknown entry {args.name!r}; registered: {", ".join(sorted(entries))}' if args.name not in entries
+               else f'--runs must be >= 1, got {args.runs}' if args.runs is not None and args.runs < 1 else None)
+    if problem is not None:
+        print(f'{prog}: {problem}', file=sys.stderr)
         return 2
 
     options = dict(args.set)

@@ -3,12 +3,16 @@
 import contextlib
 import sys
 
-from track_nodes.base.usage import wants_help
-from track_nodes.registry import MAINS, NODES, UnknownExecutableError, executables, main_of, node_class
-
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the executable named first in ``argv``; its exit code (130: Ctrl-C before rclpy took SIGINT)."""
     args = list(sys.argv[1:] if argv is None else argv)
+    try:
+        # Imported here, inside the guard: on a busy machine they take seconds, and a Ctrl-C then is a stop.
+        from track_nodes.base.usage import wants_help
+        from track_nodes.registry import MAINS, NODES, UnknownExecutableError, executables, main_of, node_class
+    except KeyboardInterrupt:
+        return 130
     if not args or args[0].startswith('-'):
         print(f'usage: python -m track_nodes EXECUTABLE [args]; executables: {", ".join(executables())}',
               file=sys.stderr)

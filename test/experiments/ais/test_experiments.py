@@ -90,3 +90,14 @@ def test_any_csv_through_the_runner(tmp_path):
     lat, lon = d['radar_site']['lat_lon']
     assert abs(lat - 56.0) < 1.5 and abs(lon - 11.0) < 2.0                  # on this traffic, not at Calshot
     assert data['pairs_scored'] > 0 and data['methods']['exact']['tp'] > 0
+
+
+def test_a_continent_wide_file_is_refused_in_one_line(tmp_path, capsys):
+    """One report per ship across the Pacific: refused before any scoring, with the extent and what to do."""
+    src = tmp_path / 'pacific.csv'
+    src.write_text('BaseDateTime,MMSI,LAT,LON,COG,SOG\n' + ''.join(
+        f'2023-01-01T00:{i:02d}:00,{367000000 + i},{20.0 + 2.0 * i},{-160.0 + 5.0 * i},90,10\n' for i in range(20)))
+    code = experiment_main(['ais-association', '--quick', '--no-progress', '--out', str(tmp_path / 'o'),
+                            '--set', f'file={src}', '--set', 'max_distance_km=off'])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and 'pacific.csv' in err[0] and 'split the file by region' in err[0], err

@@ -18,7 +18,8 @@ def test_table4_quick(tmp_path):
     per_prediction = {f'{v}_{k}' for v in ('drift', 'bank') for k in (
         'mmse_error_m', 'belief_spread_m2', 'belief_size', 'bytes_per_step', 'minus_diffusion_m',
         'minus_diffusion_2se_m')}
-    assert all(set(r) == {'sensors', 'mmse_error_m', 'belief_spread_m2', 'belief_size', 'neighborhood_size',
+    assert all(set(r) == {'sensors', 'mmse_error_m', 'belief_spread_m2', 'block_spread_m2', 'belief_size',
+                          'neighborhood_size',
                           'bytes_per_step', *per_prediction} for r in out.data['rows'])
     assert 'paper' in out.table and 'drift err m' in out.table and 'bank err m' in out.table
     assert all(f.exists() for f in out.figures)
@@ -26,6 +27,8 @@ def test_table4_quick(tmp_path):
         assert r['bytes_per_step'] == 46 + 8 * r['belief_size']
         assert np.isclose(r['drift_bytes_per_step'], 56 + 8 * r['drift_belief_size'])
         assert r['bank_bytes_per_step'] > 52 + 8 * r['bank_belief_size']
+    for r in out.data['rows']:  # the plain mean over the cells weighs the tails as much as the core: larger
+        assert r['block_spread_m2'] > r['belief_spread_m2'] > 0
     json.dumps(out.data)
 
 

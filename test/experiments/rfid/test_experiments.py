@@ -45,7 +45,8 @@ def test_table1_quick(tmp_path):
     assert 'paper' in out.table and '473.9' in out.table and '28.5' in out.table
     assert all(f.exists() and f.stat().st_size > 10_000 for f in out.figures)
     assert json.loads((tmp_path / 'rfid-table1-obstacles.json').read_text())['particles'] == 100
-    assert len(json.loads((tmp_path / 'rfid-table1-variants.json').read_text())) == 4
+    variants = json.loads((tmp_path / 'rfid-table1-variants.json').read_text())
+    assert len(variants) == 5 and 'N=10 prior boosting (init_boost=10)' in variants
     json.dumps(out.data)
 
 

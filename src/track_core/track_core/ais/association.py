@@ -164,6 +164,12 @@ def _check_rule(window: int | None, mean: str) -> None:
         raise ValueError(f'window must be >= 1 instant or None (all), got {window}')
 
 
+SHORT_PAIR_WEIGHT = 2.0
+"""ν of the short-pair rule used by the experiment and the ``ais`` scenario's summary (step 3)."""
+SHORT_PAIR_RATE = 0.8
+"""r̄ of the short-pair rule (step 3)."""
+
+
 def declare(n: np.ndarray, k: np.ndarray, prior_weight: float = 0.0, prior_rate: float = 0.8) -> np.ndarray:
     """Same-ship verdict of pairs with ``k`` of ``n`` instants associated (module docstring, step 3)."""
     if not prior_weight >= 0 or not 0.0 <= prior_rate <= 1.0:

@@ -26,6 +26,14 @@ simulated sources' errors are tens of metres, so the projection error is negligi
 equirectangular projection x = N(φ0) cos φ0 Δλ, y = M(φ0) Δφ would be off by ~0.4 % in
 scale at ±0.2° of latitude from the origin, i.e. ~100 m at 30 km.)
 
+**Extent.** One plane holds a region, not a continent: the radial scale error 1 − cos(ρ/R)
+reaches ``MAX_SCALE_ERROR`` (0.1 %, 1 m per km) at ρ = 285 km, and beyond a quarter of the globe
+the projection folds back. :func:`extent_problem` names a set of points that reaches further than
+that from the origin (e.g. a continent-wide file with one report per ship: 6,740 km): the reader's
+users split such a file by region, or cut it with ``max_distance_km``. We refuse rather than
+split: ships near a split line would be scored in two planes, and the association of two
+sources only makes sense among ships that are near each other anyway.
+
 The origin is the data centroid: by default the median latitude and longitude of the valid
 reports (:func:`track_core.ais.reader.read_ais`), robust to stray positions.
 """
@@ -55,6 +63,29 @@ def ecef_surface_to_geodetic(p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     lat = np.degrees(np.arctan2(p[..., 2], (1.0 - WGS84_E2) * horiz))
     lon = np.degrees(np.arctan2(p[..., 1], p[..., 0]))
     return lat, lon
+
+
+MAX_SCALE_ERROR = 1e-3   # radial scale error 1 − cos(ρ/R) allowed over the data (ρ = 285 km)
+EARTH_MEAN_R = 6_371_000.0
+
+
+def extent_problem(lat_deg, lon_deg, lat0: float, lon0: float, max_scale_error: float = MAX_SCALE_ERROR) -> str | None:
+    """Why one tangent plane at (lat0, lon0) cannot hold the points (one line), or None (module docstring)."""
+    lat, lon = np.radians(np.asarray(lat_deg, float)), np.radians(np.asarray(lon_deg, float))
+    if lat.size == 0:
+        return None
+    p0, l0 = np.radians(lat0), np.radians(lon0)
+    h = np.sin((lat - p0) / 2) ** 2 + np.cos(lat) * np.cos(p0) * np.sin((lon - l0) / 2) ** 2
+    rho = 2 * EARTH_MEAN_R * np.arcsin(np.sqrt(np.clip(h, 0.0, 1.0)))   # great-circle distance [m]
+    far = float(rho.max())
+    limit = EARTH_MEAN_R * np.arccos(1.0 - max_scale_error)
+    if far <= limit:
+        return None
+    share = float(np.mean(rho > limit))
+    return (f'the positions reach {far / 1e3:,.0f} km from the projection origin ({lat0:.3f}°, {lon0:.3f}°), '
+            f'{100 * share:.1f} % of them beyond {limit / 1e3:.0f} km, where one flat (tangent-plane) projection '
+            f'distorts distances by more than {100 * max_scale_error:g} %: split the file by region or keep one '
+            'region with max_distance_km')
 
 
 class LocalTangentPlane:

@@ -32,8 +32,10 @@ Present COG/SOG columns keep their values; their "not available" codes (COG ≥ 
 - ``malformed row``: a different number of fields from the header;
 - ``bad time``: missing, unparsable or not finite;
 - ``bad MMSI``: not a positive integer;
-- ``bad position``: latitude/longitude missing, unparsable, NaN/inf, or outside [−90, 90] /
-  [−180, 180] (this includes AIS's "not available" values 91 and 181);
+- ``no position``: latitude or longitude empty, or AIS's "not available" values 91 / 181: a
+  message that carries no position (static and voyage data, types 5 and 24, in an all-messages
+  export), not a fault of the column mapping;
+- ``bad position``: latitude/longitude unparsable, NaN/inf, or outside [−90, 90] / [−180, 180];
 - ``outside region``: further from the median position of the file than the region radius:
   a corrupted position that is still a valid coordinate (the Solent file has one: longitude
   54.83° for a ship moored at −1.092°). ``max_distance_km='auto'`` (default) derives the radius
@@ -45,7 +47,10 @@ Present COG/SOG columns keep their values; their "not available" codes (COG ≥ 
   the rows stays, however far. Solent: the traffic reaches 33.6 km from the median, the
   corrupt row is 3,835 km off: radius 33.6 km, one row outside. A number fixes the radius
   (the former default was 100 km); ``None`` switches the rule off;
-- ``duplicate``: same MMSI and time as a row already kept;
+- ``duplicate``: same MMSI, time **and position** as a row already kept. Reports of one ship
+  with the same time and *different* positions (stamps truncated to the minute: a ship reports
+  every 2-10 s) are kept: ordered along the track and their times spread over the stamp's
+  resolution (:func:`refine_same_time`; ``derived['time_refined']`` counts them);
 - ``implied speed``: the jump from the ship's previous kept report needs more than
   ``max_speed_kn`` (100 kn).
 
@@ -74,7 +79,8 @@ log = logging.getLogger(__name__)
 COLUMNS = ('Time', 'MMSI', 'Latitude_degrees', 'Longitude_degrees', 'COG_degrees', 'SOG_knots')
 DEFAULT_FILE = 'SolentAIS_20160112_130211.csv'
 KNOT = 1852.0 / 3600.0  # m/s
-REASONS = ('malformed row', 'bad time', 'bad MMSI', 'bad position', 'outside region', 'duplicate', 'implied speed')
+REASONS = ('malformed row', 'bad time', 'bad MMSI', 'no position', 'bad position', 'outside region', 'duplicate',
+           'implied speed')
 REGION_FACTOR = 3.0
 REGION_TAIL = 0.01
 REGION_FLOOR_KM = 10.0
@@ -83,9 +89,10 @@ CONTROLLED_BY = {
     'malformed row': 'the column mapping (columns=..., delimiter)',
     'bad time': 'the column mapping (time, time_format)',
     'bad MMSI': 'the column mapping (mmsi)',
+    'no position': 'none (messages that carry no position, e.g. AIS static and voyage data, types 5 and 24)',
     'bad position': 'the column mapping (lat, lon)',
     'outside region': "max_distance_km ('auto': derived, None: off)",
-    'duplicate': 'none (a defect of the data: the same ship and time twice)',
+    'duplicate': 'none (the same ship, time and position twice)',
     'implied speed': 'max_speed_kn',
 }
 TIME_FORMATS = ('auto', 'iso', 'epoch_ms', 'epoch_s')
@@ -189,6 +196,10 @@ class AisData:
         region = 'region gate off' if r is None else f'region radius {r:.1f} km'
         if self.derived.get('region_rule') == 'auto':
             region += ' (derived)'
+        refined = self.derived.get('time_refined') or 0
+        if refined:
+            why += (f'; {refined} same-time reports of a ship at another position kept, their times spread over '
+                    f'{self.derived.get("time_resolution_s"):g} s')
         return (f'{self.rows} rows, {self.t.size} kept, {self.n_skipped} skipped ({why}); '
                 f'{self.ships.size} ships, {self.t[-1] if self.t.size else 0.0:.0f} s from {self.start_utc}; '
                 f'{region}; COG/SOG {self.derived.get("cog_sog", "from the file")}')
@@ -262,15 +273,30 @@ class _RowParser:
         mmsi = int(m) if m.isdigit() else 0
         if mmsi <= 0:
             return 'bad MMSI'
-        try:
-            lat, lon = float(row[self.ila]), float(row[self.ilo])
-        except ValueError:
-            return 'bad position'
-        if not (math.isfinite(lat) and math.isfinite(lon) and -90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
-            return 'bad position'
+        pos = _position(row[self.ila], row[self.ilo])
+        if isinstance(pos, str):
+            return pos
+        lat, lon = pos
         cog = _angle(row[self.ic], 360.0) if self.ic is not None else math.nan
         sog = _angle(row[self.iv], 102.3) if self.iv is not None else math.nan
         return t, mmsi, lat, lon, cog, sog
+
+
+def _position(la: str, lo: str) -> tuple[float, float] | str:
+    """(lat, lon) of a row, or why it has none ('no position': empty or AIS "not available" 91/181;
+    'bad position': unparsable or outside the globe)."""
+    la, lo = la.strip(), lo.strip()
+    if not la or not lo:
+        return 'no position'
+    try:
+        lat, lon = float(la), float(lo)
+    except ValueError:
+        return 'bad position'
+    if lat == 91.0 or lon == 181.0:  # AIS "not available"
+        return 'no position'
+    if not (math.isfinite(lat) and math.isfinite(lon) and -90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
+        return 'bad position'
+    return lat, lon
 
 
 def _detect(header: list[str], p: Path) -> ColumnMap:
@@ -280,6 +306,55 @@ def _detect(header: list[str], p: Path) -> ColumnMap:
             return cols
     raise ValueError(f'{p}: header {header} matches no preset ({", ".join(PRESETS)}); give a column mapping '
                      f'"time=...;mmsi=...;lat=...;lon=...[;cog=...;sog=...;time_format=...]"')
+
+
+def time_resolution(t: np.ndarray) -> float:
+    """The coarsest of 60 s and 1 s that every time [s] is a multiple of (0.0: finer stamps)."""
+    for res in (60.0, 1.0):
+        if t.size and np.all(np.abs(t - res * np.round(t / res)) < 1e-6):
+            return res
+    return 0.0
+
+
+def refine_same_time(t, mmsi, lat, lon, keep, skipped) -> tuple[int, float]:
+    """Reports of one ship at one time (stamps truncated to the minute or second), among the kept rows.
+
+    The same position again is a ``duplicate`` (dropped). Different positions are different
+    reports of a ship that moved within the stamp's resolution: they are kept, ordered along the
+    track (by their distance from the ship's report before them, or else decreasing distance to
+    the one after them, or else in file order) and their times spread evenly over the resolution
+    (``time_resolution``; 1 s for finer stamps): the k-th of n gets t + k·res/n. Changes ``t`` and
+    ``keep`` in place; returns (reports whose time was refined, the resolution used).
+    """
+    idx = np.flatnonzero(keep)
+    o = idx[np.lexsort((t[idx], mmsi[idx]))]
+    same = (mmsi[o][1:] == mmsi[o][:-1]) & (t[o][1:] == t[o][:-1])
+    if not same.any():
+        return 0, 0.0
+    res = time_resolution(t[idx]) or 1.0
+    starts = np.flatnonzero(np.r_[True, ~same])
+    ends = np.r_[starts[1:], o.size]
+    refined = 0
+    for a, b in zip(starts[ends - starts > 1].tolist(), ends[ends - starts > 1].tolist(), strict=True):
+        g = o[a:b]  # one ship, one time (a group: a loop over the data's collisions, not over rows)
+        _, first = np.unique(np.c_[lat[g], lon[g]], axis=0, return_index=True)
+        dup = np.setdiff1d(np.arange(g.size), first)
+        keep[g[dup]] = False
+        skipped['duplicate'] += int(dup.size)
+        g = g[np.sort(first)]
+        if g.size < 2:
+            continue
+        ship = mmsi[g[0]]
+        if a > 0 and mmsi[o[a - 1]] == ship:
+            key = _distance_m(lat[o[a - 1]], lon[o[a - 1]], lat[g], lon[g])
+        elif b < o.size and mmsi[o[b]] == ship:
+            key = -_distance_m(lat[o[b]], lon[o[b]], lat[g], lon[g])
+        else:
+            key = np.arange(g.size, dtype=float)
+        g = g[np.argsort(key, kind='stable')]
+        t[g] = t[g[0]] + res / g.size * np.arange(g.size)
+        refined += int(g.size - 1)
+    return refined, res
 
 
 def _sequential_gate(t, mmsi, lat, lon, keep, skipped, max_speed_kn: float) -> None:
@@ -341,7 +416,7 @@ def _read_rows(p: Path, cols: ColumnMap | None, skipped: dict[str, int]):
     """(rows, parsed tuples, the row parser, the column mapping used); skipped rows are counted."""
     parsed = []
     rows = 0
-    with p.open(newline='') as fh:
+    with p.open(newline='', encoding='utf-8-sig') as fh:  # a byte-order mark (common in exports) is not a name
         reader = csv.reader(fh, delimiter=cols.delimiter if cols is not None else ',')
         header = next(reader, None)
         if header is None:
@@ -392,13 +467,15 @@ def read_ais(path: str | Path | None = None, *, columns: str | ColumnMap | None 
         far = _distance_m(np.median(lat), np.median(lon), lat, lon) > radius * 1000.0
         skipped['outside region'] += int(far.sum())
         keep &= ~far
+    refined, res = refine_same_time(t, mmsi, lat, lon, keep, skipped)
     _sequential_gate(t, mmsi, lat, lon, keep, skipped, max_speed_kn)
     idx = np.flatnonzero(keep)
     idx = idx[np.argsort(t[idx], kind='stable')]
     t0 = float(t[idx[0]]) if idx.size else 0.0
     derived = {'columns': {f.name: getattr(cols, f.name) for f in fields(cols)},
                'region_rule': 'auto' if max_distance_km == 'auto' else ('off' if max_distance_km is None else 'fixed'),
-               'max_distance_km': radius, 'cog_sog': 'from the file'}
+               'max_distance_km': radius, 'cog_sog': 'from the file', 'time_refined': refined,
+               'time_resolution_s': res}
     data = AisData(t[idx] - t0, mmsi[idx], lat[idx], lon[idx], cog[idx], sog[idx], t0, rows, skipped, p, derived)
     if parse.ic is None or parse.iv is None:
         c, v = course_speed(data.t, data.mmsi, data.lat, data.lon)

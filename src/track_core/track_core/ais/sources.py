@@ -34,8 +34,12 @@ three digits, in an order shuffled by the source's generator); the MMSI is kept 
 (the data's median position), or ``'hull:<bearing>'``: the point where the ray from the mean
 report position at that bearing (degrees clockwise from north) leaves the **convex hull of the
 traffic** (``scipy.spatial.ConvexHull`` of every projected AIS report): a coastal sensor at
-the edge of the traffic, wherever the data are. :func:`resolve_site` gives the east/north
-position.
+the edge of the traffic, wherever the data are. A hull edge may span open sea where no ship
+sails (sparse traffic along two coasts): when the hull point is more than ``SITE_SNAP_M`` (10 km)
+from every report, the site is the report nearest to it instead, so the radar stands where the
+traffic is. A coastal radar stands within a few km of the water it watches (the Solent's hull:280
+point is on the western shore, 2.8 km from the nearest report, and stays there).
+:func:`resolve_site` gives the east/north position.
 
 Defaults (:data:`RADAR`, :data:`PATROL`): a coastal radar at ``'hull:280'`` (in the Solent: on
 the traffic's western edge at 50.8071° N, 1.3385° W, 2.5 km from Calshot at the mouth of
@@ -53,7 +57,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from track_core.ais.projection import LocalTangentPlane
+from track_core.ais.projection import LocalTangentPlane, extent_problem
 from track_core.ais.reader import AisData
 from track_core.geofeasibility.ellipse import ellipse_to_gaussian
 
@@ -85,6 +89,10 @@ class ShipTruth:
         if not gap_factor > 0 or not gap_cap > 0:
             raise ValueError(f'gap_factor and gap_cap must be > 0, got {gap_factor}, {gap_cap}')
         self.plane = plane if plane is not None else LocalTangentPlane(*data.centroid())
+        far = extent_problem(data.lat, data.lon, self.plane.lat0, self.plane.lon0)
+        if far is not None:
+            name = data.path.name if data.path is not None else 'AIS data'
+            raise ValueError(f'{name}: {far}')
         self.mmsi = data.ships
         self.xy_all = xy = self.plane.forward(data.lat, data.lon)
         order = np.lexsort((data.t, data.mmsi))
@@ -225,12 +233,23 @@ def hull_point(xy: np.ndarray, bearing_deg: float) -> np.ndarray:
     return c + u * float(np.max(s[ok])) if ok.any() else c
 
 
+SITE_SNAP_M = 10_000.0  # a hull point farther than this from every report moves to the nearest report
+
+
+def traffic_point(xy: np.ndarray, bearing_deg: float, snap: float = SITE_SNAP_M) -> np.ndarray:
+    """``hull_point``, or the report of ``xy`` nearest to it when none is within ``snap`` metres (module docstring)."""
+    p = hull_point(xy, bearing_deg)
+    d = np.hypot(*(xy - p).T)
+    k = int(np.argmin(d))
+    return p if d[k] <= snap else xy[k].astype(float)
+
+
 def resolve_site(truth: ShipTruth, site) -> np.ndarray:
     """East/north metres of a ``SourceModel.site`` (see the module docstring) in ``truth``'s plane."""
     if site is None:
         return np.zeros(2)
     if isinstance(site, str):
-        return hull_point(truth.xy_all, _hull_bearing(site)) if len(truth.xy_all) else np.zeros(2)
+        return traffic_point(truth.xy_all, _hull_bearing(site)) if len(truth.xy_all) else np.zeros(2)
     return truth.plane.forward(*site)
 
 

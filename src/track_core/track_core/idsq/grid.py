@@ -20,7 +20,9 @@ Interpretations (the paper is terse here):
   spread hardly depends on the threshold), so calibrating the threshold on the cell-count column
   would only compensate for that other, unexplained difference.
 - MMSE estimate (eq. 2) = belief-weighted centroid of the cell centres; spread = weighted
-  variance ‖x̂ − x̂_MMSE‖² (Table 4), i.e. the trace of the weighted covariance.
+  variance ‖x̂ − x̂_MMSE‖² (Table 4), i.e. the trace of the weighted covariance. The paper calls x̂
+  "the blocks in the belief state", which could also mean the plain mean over the stored blocks;
+  ``Estimate.block_spread`` is that reading (``idsq-table4`` prints both; docs/results/idsq.md).
 - Prediction: the dynamics pdf p(x⁽ᵗ⁺¹⁾|x⁽ᵗ⁾) is a uniform disk of radius v_max·Δt (§2.1;
   "speed" there is distance per sample interval). On a 5 m grid a 7.5 m disk covers only
   fractions of the outer cells, so the kernel weight of a cell is the fraction of its area
@@ -126,6 +128,7 @@ class Estimate:
     cov: np.ndarray
     spread: float
     size: int
+    block_spread: float = float('nan')  # plain mean of ‖x̂ − x̂_MMSE‖² over the stored cells (Table 4's other reading)
 
 
 def sparsify(grid: GridSpec, idx: np.ndarray, mass: np.ndarray,
@@ -162,8 +165,10 @@ def from_dense(grid: GridSpec, dense: np.ndarray, threshold: float = SPARSITY_TH
 
 def estimate(belief: SparseBelief) -> Estimate:
     """MMSE centroid (eq. 2) and weighted covariance of the cell centres; spread = its trace."""
-    mean, cov = weighted_mean_cov(belief.centers(), belief.mass)
-    return Estimate(mean, cov, float(np.trace(cov)), belief.size)
+    xy = belief.centers()
+    mean, cov = weighted_mean_cov(xy, belief.mass)
+    blocks = float(np.mean(np.sum((xy - mean) ** 2, axis=1))) if belief.size else float('nan')
+    return Estimate(mean, cov, float(np.trace(cov)), belief.size, blocks)
 
 
 @lru_cache(maxsize=32)

@@ -123,6 +123,7 @@ class TrackResult:
     error: np.ndarray
     spread: np.ndarray
     size: np.ndarray
+    block_spread: np.ndarray
     neighbourhood: np.ndarray
     bytes: np.ndarray
     leaders: np.ndarray
@@ -131,7 +132,7 @@ class TrackResult:
 
 
 def _empty(T: int) -> TrackResult:
-    return TrackResult(np.empty(T), np.empty(T), np.empty(T), np.zeros(T), np.empty(T),
+    return TrackResult(np.empty(T), np.empty(T), np.empty(T), np.empty(T), np.zeros(T), np.empty(T),
                        np.full(T, -1), np.empty((T, 2)))
 
 
@@ -160,7 +161,7 @@ def run_idsq(sc: Scenario, d: RunDraws, selection: str = 'mi', snapshot_steps: t
                           selection=selection, rng=rng)
         e = out.estimate
         res.error[t] = np.linalg.norm(e.mean - d.truth[t])
-        res.spread[t], res.size[t], res.estimates[t] = e.spread, e.size, e.mean
+        res.spread[t], res.size[t], res.estimates[t], res.block_spread[t] = e.spread, e.size, e.mean, e.block_spread
         res.neighbourhood[t], res.bytes[t], res.leaders[t] = out.neighbourhood_size, len(out.payload), leader
         if t in snapshot_steps:
             res.snapshots[t] = (out.belief, leader, out.candidates)
@@ -176,7 +177,7 @@ def run_centralized(sc: Scenario, d: RunDraws) -> TrackResult:
     for t in range(sc.n_steps):
         belief, e = centralized_step(belief, d.measurements(sc, t), d.layout, sc.tracker)
         res.error[t] = np.linalg.norm(e.mean - d.truth[t])
-        res.spread[t], res.size[t], res.estimates[t] = e.spread, e.size, e.mean
+        res.spread[t], res.size[t], res.estimates[t], res.block_spread[t] = e.spread, e.size, e.mean, e.block_spread
         res.bytes[t] = sc.n_sensors * MEAS_MSG_BYTES
     return res
 
@@ -184,8 +185,9 @@ def run_centralized(sc: Scenario, d: RunDraws) -> TrackResult:
 def summary(results: list[TrackResult]) -> dict[str, float]:
     """Averages over all steps and runs (Table 4)."""
     cat = {k: np.concatenate([getattr(r, k) for r in results]) for k in ('error', 'spread', 'size',
-                                                                         'neighbourhood', 'bytes')}
+                                                                         'neighbourhood', 'bytes', 'block_spread')}
     return {'mmse_error_m': float(cat['error'].mean()), 'belief_spread_m2': float(cat['spread'].mean()),
+            'block_spread_m2': float(cat['block_spread'].mean()),
             'belief_size': float(cat['size'].mean()), 'neighborhood_size': float(cat['neighbourhood'].mean()),
             'bytes_per_step': float(cat['bytes'].mean())}
 

@@ -17,6 +17,13 @@ Interpretations:
   belief) is handed off, and the receiver diffuses it (Table 1 steps 0-1).
 - A measurement whose likelihood is 0 on the whole support (an outlier outside every
   crater) would empty the belief; the update is then skipped (prior kept) with a warning.
+- Amplitude above the grid's reach: eq. 6 at a cell centre r away allows z up to a_hi/r (plus
+  noise), and the grid holds no centre nearer the sensor than its own cell's, so a target within a
+  metre or two of an acoustic leader (z = A/r large) would have zero likelihood on every cell and
+  the update would be skipped (the uniform start belief kept: an error of ~140 m). Such a z is
+  clipped to a_hi/r_min, r_min the range of the nearest cell of the support: "nearer than any
+  cell centre" puts the mass on the cells nearest the sensor. Every z the grid can explain is
+  unchanged.
 - Candidates are the leader's neighbourhood after the triplet rule (``network.candidates``:
   within 40 m or else the two nearest, among the sensors other than the previous leader);
   ``neighbourhood_size`` is their number, Table 4's "avg. neigh. size".
@@ -37,7 +44,7 @@ import numpy as np
 from track_core.idsq.grid import Estimate, SparseBelief, diffuse, estimate, sparsify
 from track_core.idsq.handoff import Handoff, encode_handoff
 from track_core.idsq.mi import DZ_PER_SIGMA, neighbour_mi
-from track_core.idsq.models import TrackerParams, likelihood
+from track_core.idsq.models import TrackerParams, likelihood, ranges
 from track_core.idsq.network import SensorLayout, candidates
 from track_core.idsq.prediction import Bank, predict, reweight_bank, update_motion
 
@@ -65,7 +72,10 @@ def update(belief: SparseBelief, z: float, sensor: np.ndarray, is_doa: bool,
     """Eq. 3 / Table 1 step 3: posterior ∝ p(z|x)·prior on the support, re-sparsified; (belief, applied)."""
     if not np.isfinite(z):
         raise ValueError(f'measurement z={z} must be finite')
-    lik = likelihood(z, belief.centers(), sensor, is_doa, p)
+    xy = belief.centers()
+    if not is_doa and xy.size:  # amplitude above the grid's reach (module docstring)
+        z = min(z, p.a_hi / max(float(ranges(xy, sensor).min()), 1e-9))
+    lik = likelihood(z, xy, sensor, is_doa, p)
     post = belief.mass * lik
     if not (np.all(np.isfinite(post)) and post.max() > 0.0):
         log.warning('measurement z=%.4g has zero likelihood on the whole belief; update skipped', z)

@@ -7,7 +7,8 @@ origin facing +x) and the measured dφ of each MOVE. The tag T minimises
 
     J(T) = Σⱼ (dφⱼ − (4π/λ)(|Eⱼ − T| − |Sⱼ − T|))²       (eq. 6 with the tag at T)
 
-with Sⱼ, Eⱼ the start and end of MOVE j. J is evaluated on a grid (vectorised over the cells,
+with Sⱼ, Eⱼ the start and end of MOVE j. A MOVE whose dφ is NaN (the reader could not measure it)
+still moves the path and adds no term to J. J is evaluated on a grid (vectorised over the cells,
 ``cell`` metres, ``extent`` metres around the path), and the best cell is refined by Gauss–Newton
 (``scipy.optimize.least_squares``, Levenberg–Marquardt), kept when it stays on the grid's square (a
 tag far ahead of a short straight path is barely observable and the refinement may run off). A
@@ -70,19 +71,23 @@ def fit_tag(positions: np.ndarray, dphi: np.ndarray, k: float, *, extent: float 
     positions, dphi = np.asarray(positions, dtype=float), np.asarray(dphi, dtype=float)
     if positions.ndim != 2 or positions.shape[1] != 2 or positions.shape[0] != dphi.size + 1 or dphi.size < 2:
         raise ValueError(f'need positions (M + 1, 2) and M >= 2 dφ, got {positions.shape} and {dphi.shape}')
+    j = np.flatnonzero(np.isfinite(dphi))       # unmeasured MOVEs move the path, add no term
+    if j.size < 2:
+        raise ValueError(f'need at least 2 finite dφ, got {j.size} of {dphi.size}')
+    dphi = dphi[j]
     c = positions.mean(axis=0)
     g = np.arange(-extent, extent + 0.5 * cell, cell)
     best, best_cost = None, math.inf
     for gx in np.array_split(g, max(1, g.size // 100)):      # blocks of grid columns bound the memory
         tags = np.stack(np.meshgrid(c[0] + gx, c[1] + g, indexing='ij'), axis=-1)   # (nx, ny, 2)
-        cost = np.sum(np.square(_predicted(positions, tags, k) - dphi), axis=-1)
+        cost = np.sum(np.square(_predicted(positions, tags, k)[..., j] - dphi), axis=-1)
         i = np.unravel_index(int(np.argmin(cost)), cost.shape)
         if cost[i] < best_cost:
             best, best_cost = tags[i], float(cost[i])
-    sol = least_squares(lambda tag: _predicted(positions, tag, k) - dphi, best, method='lm')
+    sol = least_squares(lambda tag: _predicted(positions, tag, k)[j] - dphi, best, method='lm')
     inside = bool(np.all(np.abs(sol.x - c) <= extent))      # an ill-posed fit may run off to infinity
     xy = sol.x if inside and 2.0 * sol.cost <= best_cost else best
-    cost = float(np.sum(np.square(_predicted(positions, xy, k) - dphi)))
+    cost = float(np.sum(np.square(_predicted(positions, xy, k)[j] - dphi)))
     mirror, dev = _line_mirror(positions, xy)
     return BatchFit(np.asarray(xy, dtype=float), mirror, cost, dev <= straight_tol)
 

@@ -21,6 +21,18 @@ place fails the same way. After ``max_repeats`` consecutive unusable MOVE result
 for a half turn instead (TURN by π, reason given), still without touching the filter. That is the
 paper's "the user rotates to a different direction and informs the reader", and the turn the user
 reports is summed into eq. 19 as usual.
+
+Sign convention check (an addition, ``sign_check`` MOVEs, 4 by default; 0 = off). A reader whose
+phase convention is set wrong (``PhaseModel.convention``: an LLRP reader's phase rises with distance,
+the paper's falls) hands the filter −dφ. The commanded motion contradicts that: a MOVE is walked in
+the facing direction, and the tag is read in the beam, in front, so a usable MOVE from farther than
+the back lobe takes the user closer (dφ < 0 in eq. 6). With the sign wrong, almost every one reads as
+walking away, and the filter then sends the user away from the tag (so the walk never ends: 0 of 200
+searches found in ``rfid-reader`` part 2). Over the first ``sign_check`` usable MOVEs, when at least
+``sign_share`` (3/4) of them have dφ > 0, ``sign_warning`` says so in one line naming the ``convention``
+parameter, and it is logged once. The filter is not changed: the check warns rather than refuses,
+since a user who walked elsewhere than commanded makes the same signature. Measured in ``rfid-reader``
+part 2 (warned in the searches with the sign wrong and with it right).
 """
 
 from __future__ import annotations
@@ -53,9 +65,12 @@ class RfidGuidance:
     """Step-by-step guidance; one object per search."""
 
     def __init__(self, params: PFParams | None = None, phase: PhaseModel | None = None,
-                 rng: np.random.Generator | None = None, log_warnings: bool = True, max_repeats: int = 2) -> None:
+                 rng: np.random.Generator | None = None, log_warnings: bool = True, max_repeats: int = 2,
+                 sign_check: int = 4, sign_share: float = 0.75) -> None:
         if max_repeats < 1:
             raise ValueError(f'max_repeats must be >= 1, got {max_repeats}')
+        if sign_check < 0 or not 0.5 < sign_share <= 1.0:
+            raise ValueError(f'sign_check must be >= 0 and sign_share in (0.5, 1], got {sign_check}, {sign_share}')
         self.log_warnings = log_warnings
         self.max_repeats = max_repeats
         self.failed_in_a_row = 0
@@ -66,6 +81,22 @@ class RfidGuidance:
         self.found = False
         self._seq = 0
         self.last_update_s: float | None = None
+        self.sign_check, self.sign_share = sign_check, sign_share
+        self.sign_warning = ''                   # set once when the first MOVEs contradict the motion
+        self._away: list[bool] = []              # dφ > 0 (walking away) per usable MOVE, the first sign_check
+
+    def _check_sign(self, dphi: float) -> None:
+        """After ``sign_check`` usable MOVEs: mostly "walking away" contradicts the motion (module doc)."""
+        self._away.append(dphi > 0.0)
+        if len(self._away) != self.sign_check or sum(self._away) < self.sign_share * self.sign_check:
+            return
+        conv = self.pf.phase.convention
+        other = 'llrp' if conv == 'paper' else 'paper'
+        self.sign_warning = (f"phase sign contradicts the commanded motion: {sum(self._away)} of the first "
+                             f"{self.sign_check} MOVEs towards the read tag measured walking away; check the "
+                             f"reader's 'convention' parameter (now {conv!r}; {other!r} fits the motion)")
+        if self.log_warnings:
+            log.warning('%s', self.sign_warning)
 
     def _issue(self, kind: CommandKind, angle: float = 0.0, repeat: bool = False, reason: str = '') -> Command:
         self._seq += 1
@@ -104,6 +135,8 @@ class RfidGuidance:
             a_sug = self.pf.suggested_turn()
             upd = time.perf_counter() - t0
             self.last_update_s = upd
+            if len(self._away) < self.sign_check:
+                self._check_sign(result.dphi)
             self.pending_turn = 0.0
         elif result.kind is CommandKind.TURN:
             self.pending_turn += result.turn

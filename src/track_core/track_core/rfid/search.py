@@ -29,6 +29,7 @@ class SearchOutcome:
     route: np.ndarray          # (steps + 1, 2) positions after each MOVE
     start_pose: np.ndarray
     final_distance_m: float
+    sign_warning: str = ''     # the guidance's convention check (``guidance`` module doc); '' = none
 
 
 def run_search(world: WorldParams, pf: PFParams, rng: np.random.Generator, max_steps: int = 200,
@@ -60,4 +61,4 @@ def run_search(world: WorldParams, pf: PFParams, rng: np.random.Generator, max_s
         cmd = reply.command
     return SearchOutcome(success, reader.steps, reader.turns, reader.distance,
                          1e3 * float(np.mean(upd)) if upd else float('nan'), reader.repeats,
-                         np.array(reader.route), start_pose, reader.distance_to_tag())
+                         np.array(reader.route), start_pose, reader.distance_to_tag(), guide.sign_warning)

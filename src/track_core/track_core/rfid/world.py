@@ -46,6 +46,10 @@ made, so the paper's runs are unchanged bit for bit):
   included), each of size ±U[``phase_step_size``] (random sign). A step is added to every read after
   it and stays for the rest of the run (a fade that moves the phase and "stays there").
 - Low per-read noise: ``phase.s_theta`` (a real reader: ≈ 0.015 rad).
+- Heavy-tailed per-read noise: ``noise_dof`` ν > 0 makes the noise Student-t with ν degrees of
+  freedom and scale ``phase.s_theta``, as a Gaussian scale mixture s_θ·z/√(g/ν), g ~ χ²_ν, whose
+  scale g is held over ``noise_burst_s`` of reader time (a fade lasts several reads: the large
+  errors come in runs, as on a real reader, not one read at a time). One χ² draw per burst.
 - ``ReaderOutput.truth_dphi``: the step's geometric dφ (eq. 6, reference carrier), for evaluation.
 
 Found: the user is within ``found_radius`` (0.2 m, Fig. 8) of the tag at the end of a MOVE. A
@@ -155,6 +159,8 @@ class WorldParams:
     hop_dwell_s: float = 0.0               # dwell per channel when hopping (s)
     phase_step_rate: float = 0.0           # lasting multipath phase steps per second of reads
     phase_step_size: tuple[float, float] = (0.0, 0.0)   # step magnitude uniform in [lo, hi] (rad), random sign
+    noise_dof: float = 0.0                 # > 0: Student-t read noise with this ν (0 = Gaussian)
+    noise_burst_s: float = 0.03            # time over which the t noise keeps its scale (s)
 
     def __post_init__(self) -> None:
         if not (0.0 < self.beam_width <= 2.0 * math.pi):
@@ -175,6 +181,8 @@ class WorldParams:
         a, b = self.phase_step_size
         if self.phase_step_rate < 0.0 or not (0.0 <= a <= b):
             raise ValueError('phase_step_rate must be >= 0 and phase_step_size 0 <= lo <= hi')
+        if not (self.noise_dof >= 0.0 and self.noise_burst_s > 0.0):
+            raise ValueError('noise_dof must be >= 0 and noise_burst_s > 0')
 
     @property
     def hopping(self) -> bool:
@@ -289,6 +297,8 @@ class SimReader:
         times, xy = times[keep], xy[keep]
         d = np.hypot(xy[:, 0], xy[:, 1])
         noise = rng.normal(0.0, p.phase.s_theta, d.size)
+        if p.noise_dof > 0.0:
+            noise = noise * self._noise_scale(t0 + times)
         out = rng.random(d.size) < p.outlier_prob
         wild = rng.uniform(0.0, p.phase.wrap_period, int(out.sum()))
         rssi = p.rssi_1m - 40.0 * np.log10(np.maximum(d, 0.05)) + rng.normal(0.0, 2.0, d.size)
@@ -316,6 +326,14 @@ class SimReader:
                 self._dwell = (int(k), c + int(c >= self._dwell[1]))
             chans[j] = self._dwell[1]
         return chans[np.searchsorted(keys, dwell)]
+
+    def _noise_scale(self, times: np.ndarray) -> np.ndarray:
+        """1/√(g/ν) per read, g ~ χ²_ν drawn once per burst of ``noise_burst_s`` reader time (module doc)."""
+        p = self.params
+        burst = np.floor(times / p.noise_burst_s).astype(np.int64)
+        keys, inv = np.unique(burst, return_inverse=True)
+        g = self.rng.chisquare(p.noise_dof, keys.size) / p.noise_dof
+        return 1.0 / np.sqrt(np.maximum(g, 1e-12))[inv]
 
     def _phase_steps(self, times: np.ndarray, duration: float) -> np.ndarray:
         """The lasting phase step offset of each read (rad): earlier steps plus those during this action."""

@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from track_core.metrics import SINGULAR_ATOL, SINGULAR_RTOL, nees_or_nan  # noqa: F401 (re-exported)
 from track_core.sonar.models import SensorMode, SonarParams, measure, residual
 
 # (duration s, turn rate deg/s); the last leg extends past its duration.
@@ -149,35 +150,6 @@ class RunResult:
     def nees_reasons(self) -> list[str | None]:
         """Per step, why the full-state NEES is NaN (None where it is defined)."""
         return nees_or_nan(self.truth[1:] - self.mean, self.cov)[1]
-
-
-# A covariance whose smallest eigenvalue is below this share of its largest, or below SINGULAR_ATOL
-# (m², (m/s)²: a collapsed cloud has all eigenvalues ~1e-30), is treated as singular.
-SINGULAR_RTOL = 1e-12
-SINGULAR_ATOL = 1e-12
-
-
-def nees_or_nan(d: np.ndarray, S: np.ndarray) -> tuple[np.ndarray, list[str | None]]:
-    """dᵀ S⁻¹ d per step for d (K, n), S (K, n, n), never raising.
-
-    A step whose S is not finite or singular (λmin ≤ max(SINGULAR_RTOL·λmax, SINGULAR_ATOL), e.g. a
-    collapsed particle cloud) gets NaN and a reason string; the others are solved in one batch.
-    """
-    d, S = np.asarray(d, dtype=float), np.asarray(S, dtype=float)
-    out = np.full(d.shape[:-1], np.nan)
-    reasons: list[str | None] = [None] * out.size
-    finite = np.all(np.isfinite(S), axis=(-2, -1)) & np.all(np.isfinite(d), axis=-1)
-    lam = np.zeros(d.shape)
-    lam[finite] = np.linalg.eigvalsh(0.5 * (S[finite] + np.swapaxes(S[finite], -1, -2)))
-    ok = finite & (lam[..., 0] > np.maximum(SINGULAR_RTOL * lam[..., -1], SINGULAR_ATOL))
-    if ok.any():
-        sol = np.linalg.solve(S[ok], d[ok][..., None])[..., 0]
-        out[ok] = np.einsum('...i,...i->...', d[ok], sol)
-    for i in np.flatnonzero(~ok.ravel()):
-        reasons[i] = ('covariance or error not finite' if not finite.ravel()[i] else
-                      f'covariance singular (smallest eigenvalue {lam.reshape(-1, d.shape[-1])[i, 0]:.3g}, '
-                      f'largest {lam.reshape(-1, d.shape[-1])[i, -1]:.3g})')
-    return out, reasons
 
 
 def measurement_jacobian(x: np.ndarray, observer_xy: np.ndarray, mode: SensorMode | str) -> np.ndarray:

@@ -95,7 +95,16 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from track_core.ais.association import Metrics, PairDecisions, StreamingDecisions, evaluate, evaluate_mmsi, pair_tables
+from track_core.ais.association import (
+    SHORT_PAIR_RATE,
+    SHORT_PAIR_WEIGHT,
+    Metrics,
+    PairDecisions,
+    StreamingDecisions,
+    evaluate,
+    evaluate_mmsi,
+    pair_tables,
+)
 from track_core.ais.reader import AisData, read_ais
 from track_core.ais.sources import (
     PATROL,
@@ -114,15 +123,18 @@ from track_experiments.plotting import pyplot
 PAPER_EVALS_PER_HOUR = 100_000
 #: The ``--set`` keys (module docstring): key → what it sets.
 OPTIONS = {
-    'file': 'an AIS CSV (default: the Solent file)',
-    'columns': 'a reader preset or "time=...;mmsi=...;lat=...;lon=..." (default: from the header)',
-    'max_distance_km': 'auto | off | km: the region kept',
-    'max_gap': 'auto | s: the longest gap a ship track bridges',
-    'radar_site': 'hull:<bearing> | origin | lat,lon',
-    'duration': 's of data',
-    'sweep': 'noise scales, e.g. 1,4',
-    'prior_weight': 'ν of the short-pair rule (0: plain majority)',
-    'max_pairs': 'pair-instants per scored chunk',
+    'file': 'path of an AIS CSV export (default: the Solent file of the data folder)',
+    'columns': ('the column mapping: a preset (solent, marinecadastre, dma) or "time=NAME;mmsi=NAME;lat=NAME;'
+                'lon=NAME[;cog=NAME;sog=NAME;time_format=auto|iso|epoch_ms|epoch_s|strptime;delimiter=,]" '
+                '(an empty value means absent: cog=;sog= computes them from positions; default: the preset '
+                'the header matches)'),
+    'max_distance_km': 'region kept around the median position: auto (derived from the data), off, or km (auto)',
+    'max_gap': 'longest gap [s] a ship track is interpolated over: auto (per ship) or s (auto)',
+    'radar_site': 'coastal radar site: hull:<bearing deg> (edge of the traffic), origin, or lat,lon (hull:280)',
+    'duration': 's of data used from the start (the whole file; --quick: 900)',
+    'sweep': 'noise scales k of the noise sweep, comma-separated (0.5,1,2,4,8; --quick: 1,4)',
+    'prior_weight': 'ν of the short-pair rule; 0 = plain majority (2)',
+    'max_pairs': 'pair-instants scored per chunk: bounds the memory (1000000)',
 }
 ORDER = ('exact', 'glr', 'glr_thresholded', 'mc')
 assert set(ORDER) == set(METHODS)
@@ -138,8 +150,8 @@ class Settings:
     n_samples: int = 500
     tol: float = 1e-3
     gate: bool = True
-    prior_weight: float = 2.0            # short-pair rule (association module docstring); 0: plain majority
-    prior_rate: float = 0.8
+    prior_weight: float = SHORT_PAIR_WEIGHT  # short-pair rule (association module docstring); 0: plain majority
+    prior_rate: float = SHORT_PAIR_RATE
     max_pairs: int = 1_000_000           # pair-instants per scored chunk (bounds the memory)
 
 

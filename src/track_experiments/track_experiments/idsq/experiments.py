@@ -25,7 +25,8 @@ mean ≈ 0): the disk prediction has no drift, the vehicle does (the velocity-aw
 its core; neither the sparsity threshold (grid.py) nor the Fig. 6 slopes (models.py) account for
 it, and Table 5 points the same way: our DOA sensors help more (all-DOA 5.8 m vs the paper's
 10.8 m, all-amplitude 23.3 vs 18.5 m). We found no statement in the paper that would explain it
-and did not fit any parameter to close it.
+and did not fit any parameter to close it: docs/results/idsq.md ("Why our belief is tighter") measures
+each candidate (likelihood width, prediction disk, pruning threshold, the unweighted "blocks" reading).
 """
 
 from __future__ import annotations
@@ -143,11 +144,11 @@ def table4(cfg: RunConfig) -> Outcome:
         s = summary(res)
         per_run.append(np.array([r.error.mean() for r in res]))
         row = {'sensors': k, 'mmse_error_m': s['mmse_error_m'], 'belief_spread_m2': s['belief_spread_m2'],
-               'belief_size': s['belief_size'], 'neighborhood_size': s['neighborhood_size'],
-               'bytes_per_step': s['bytes_per_step']}
+               'block_spread_m2': s['block_spread_m2'], 'belief_size': s['belief_size'],
+               'neighborhood_size': s['neighborhood_size'], 'bytes_per_step': s['bytes_per_step']}
         pe, ps, pb, pn = PAPER_TABLE4[k]
         trow = [k, s['mmse_error_m'], pe, f'{100 * (s["mmse_error_m"] / pe - 1):+.0f}%', s['belief_spread_m2'],
-                ps, s['belief_size'], pb, s['neighborhood_size'], pn, s['bytes_per_step']]
+                s['block_spread_m2'], ps, s['belief_size'], pb, s['neighborhood_size'], pn, s['bytes_per_step']]
         for v in VELOCITY_PREDICTIONS:
             sc = Scenario(n_sensors=k, doa_fraction=0.3, tracker=TrackerParams(prediction=v))
             rv = run_config(sc, n_runs, cfg.seed)['mi']
@@ -163,13 +164,16 @@ def table4(cfg: RunConfig) -> Outcome:
         trows.append(trow)
     ratio = rows[0]['mmse_error_m'] / rows[-1]['mmse_error_m']
     paper_ratio = PAPER_TABLE4[ks[0]][0] / PAPER_TABLE4[ks[-1]][0]
-    heads = ['K', 'err m', 'paper', 'Δ', 'spread m²', 'paper', 'cells', 'paper', '|N|', 'paper', 'bytes/step']
+    heads = ['K', 'err m', 'paper', 'Δ', 'spread m²', 'blocks m²', 'paper', 'cells', 'paper', '|N|', 'paper',
+             'bytes/step']
     for v in VELOCITY_PREDICTIONS:
         heads += [f'{v} err m', f'{v} − diff. (±2 SE)', f'{v} bytes']
     table = (format_table(heads, trows)
              + f'\n{n_runs} runs per K, 30% DOA. error ratio K={ks[0]}/K={ks[-1]}: {ratio:.2f} '
              f'(paper {paper_ratio:.2f}). Columns up to "bytes/step": the paper\'s diffusion prediction; then the '
-             'velocity-aware predictions (ours, beyond the paper: prediction.py) on the same runs.')
+             'velocity-aware predictions (ours, beyond the paper: prediction.py) on the same runs. "spread": the '
+             'belief-weighted variance about the MMSE estimate; "blocks": the plain mean of ‖x̂ − x̂_MMSE‖² over the '
+             'stored cells (the other reading of Table 4\'s column; docs/results/idsq.md).')
     cfg.out.mkdir(parents=True, exist_ok=True)
     figs = [_error_figure(cfg.out / 'idsq-fig9-error-vs-k.png', ks, per_run, [PAPER_TABLE4[k][0] for k in ks],
                           'number of sensors K', f'Fig. 9: error vs K ({n_runs} runs, 30% DOA)',

@@ -14,7 +14,8 @@ Written beside the figures:
 - ``rfid-table1-obstacles.json``: the obstacle variant at N = 100 over the same M seeds.
 - ``rfid-table1-variants.json``: N = 10 and 100 with the paper's plain circular mean
   (``suggestion='mean'``) and without the lost-filter re-initialisation, to show what those two
-  additions (``pf`` module doc) do.
+  additions (``pf`` module doc) do, and N = 10 with prior boosting (``init_boost`` 10: the first update
+  and a re-initialisation weigh 10·N prior samples and keep N).
 
 ``--json`` holds exactly ``{"rows": [{particles, steps, turns, distance_m, update_ms, success_rate}]}``.
 
@@ -29,19 +30,22 @@ Three parts, all seeded from ``--seed`` (one ``SeedSequence`` spawned per part a
    The reader is a commercial one (``READER``: LLRP sign, (0, 2π], 920.625 MHz, 0.015 rad per read)
    unless the row says otherwise; the effects (lasting phase steps: size and rate; hopping over
    ``CHANNELS`` with a dwell; per-read noise) are switched on one or a few at a time. Every MOVE's
-   stream is processed four ways: *ours* (``UnwrapConfig.real_reader(reader)``: re-lock, online noise, learning
-   its noise over the trial's MOVEs), *join* (the same with ``step_bridge='join'``), *old* (the
+   stream is processed five ways: *ours* (``UnwrapConfig.real_reader(reader)``: re-lock, robust noise, learning
+   its noise over the trial's MOVEs), *online* (the same with the earlier ``noise='online'``: a 6σ̂ gate and
+   dφ std from σ̂), *join* (the same with ``step_bridge='join'``), *old* (the
    processing without the real-reader additions: fixed noise, no re-lock, the carriers ignored; given the
    right sign, so that only the unwrapping differs) and *naive* (``signal.naive_dphi``: ``np.unwrap``
    of all reads, last minus first; it always gives a number). Reported: the share of MOVEs kept and
    the median, 95th percentile and RMS of |dφ − dφ_true| over the MOVEs each method kept (dφ_true is
    the geometric one of the step walked, ``ReaderOutput.truth_dphi``), and for ours against naive on
-   the same MOVEs (those ours kept).
+   the same MOVEs (those ours kept); cov90: the share of kept MOVEs whose error is within ±1.645·``dphi_std``
+   (ours and online). The last three rows are the heavy-tailed mode (``WorldParams.noise_dof`` 2, scale
+   0.03 rad), alone, with hopping, and with hopping and lasting steps.
 2. **Sign convention and guidance.** ``runs`` searches of Table I's setting (N = 100, the paper's
    worst-case errors) with the paper's reader, with an LLRP reader processed with its sign set, and
    with the LLRP reader's stream fed as-is (processed with the paper's sign). The same run seeds, and
    so the same starts, for all three (each search gets a fresh copy of its ``SeedSequence``). Success
-   rate and mean steps.
+   rate, mean steps, and how often the guidance's convention check warned (``guidance`` module doc).
 3. **Filter against the batch fit.** ``trials`` walks of 5 straight MOVEs of 0.2 m with small motion
    errors (s_r 2 mm, s_a 0.5°) past a tag beside the track (0.5–2 m to the side, 0–1.5 m ahead at the
    start, like the issue's bench with tags at known positions along a 1 m track), read by the
@@ -86,6 +90,7 @@ PARTICLES = (10, 20, 50, 100, 300, 1000)
 PAPER_TABLE1 = {10: (30.0, 35.9, 15.4, 10.4), 20: (29.4, 35.0, 15.0, 11.8), 50: (29.2, 34.5, 15.0, 17.8),
                 100: (28.5, 33.2, 14.6, 29.2), 300: (28.3, 33.0, 14.5, 90.7), 1000: (28.0, 32.2, 14.3, 473.9)}
 MAX_STEPS = 200
+BOOST = 10        # the variant with prior boosting (pf: init_boost) at small N
 
 
 def run_batch(world: WorldParams, pf: PFParams, seeds: list[np.random.SeedSequence],
@@ -134,7 +139,9 @@ def table1(cfg: RunConfig) -> Outcome:
     for n in (10, 100):
         base = replace(pf100, n_particles=n)
         for name, pf in ((f'N={n} paper circular mean (suggestion=mean)', replace(base, suggestion='mean')),
-                         (f'N={n} no re-initialisation (reinit_factor=None)', replace(base, reinit_factor=None))):
+                         (f'N={n} no re-initialisation (reinit_factor=None)', replace(base, reinit_factor=None)),
+                         *(((f'N={n} prior boosting (init_boost={BOOST})', replace(base, init_boost=BOOST)),)
+                           if n == 10 else ())):
             variants[name] = {'particles': n, 'runs': n_runs,
                               **summarize(run_batch(world, pf, seeds, progress=lambda it, name=name: cfg.progress(
                                   it, desc=f'rfid {name[:16]}', total=n_runs)))}
@@ -193,13 +200,22 @@ def plot_route(run: SearchOutcome, world: WorldParams, path: Path, title: str) -
 CHANNELS = tuple(920.625e6 + 0.5e6 * j for j in range(8))   # 920.625 MHz and 7 others, 0.5 MHz apart
 READER = PhaseModel(carrier_hz=920.625e6, wrap_period=2.0 * math.pi, s_theta=0.015, convention='llrp')
 MOVES_PER_TRIAL = 6
+HEAVY_DOF, HEAVY_SCALE = 2.0, 0.03  # the heavy-tailed mode: t₂ read noise of scale 0.03 rad in 30 ms bursts
+HEAVY_ROW = f'heavy tails (t{HEAVY_DOF:g}, {HEAVY_SCALE:g} rad)'
 PF_PARTICLES = 20_000
 PF_INIT_RANGE = (0.3, 5.0)          # prior distance: the read range of a bench set-up (m)
+PF_INIT_BOOST = 10                  # the first update weighs 10·N prior samples (pf: init_boost)
 
 
 # part 3: (name, f_w, the filter gets the reader's dφ std); the last one keeps the paper's s_θ = 5.5°
-PF_VARIANTS = (('gaussian', 'gaussian', True), ('inverse_square', 'inverse_square', True),
+PF_VARIANTS = (('student_t', 'student_t', True), ('gaussian', 'gaussian', True),
+               ('inverse_square', 'inverse_square', True),
                ('inverse_square, fixed s_θ 5.5°', 'inverse_square', False))
+# part 3's real-reader modes on top of the hopping reader (WorldParams fields; 'phase': its s_θ)
+PF_MODES = {'hop': {},
+            'hop + heavy tails': {'phase': HEAVY_SCALE, 'noise_dof': HEAVY_DOF},
+            'hop + heavy tails + steps': {'phase': HEAVY_SCALE, 'noise_dof': HEAVY_DOF, 'phase_step_rate': 1.0,
+                                          'phase_step_size': (0.8, 2.5)}}
 
 
 @dataclass(frozen=True)
@@ -224,6 +240,10 @@ def sweep_rows() -> list[SweepRow]:
                       replace(both, phase=replace(READER, wrap_period=math.pi)))]
     rows += [SweepRow(f'hop 0.2 s, noise {s:g} rad', replace(base, hop_dwell_s=0.2, phase=replace(READER, s_theta=s),
                                                               **hop)) for s in (0.005, 0.05, 0.15)]
+    heavy = replace(base, phase=replace(READER, s_theta=HEAVY_SCALE), noise_dof=HEAVY_DOF)
+    rows += [SweepRow(HEAVY_ROW, heavy), SweepRow(f'{HEAVY_ROW} + hop 0.2 s', replace(heavy, hop_dwell_s=0.2, **hop)),
+             SweepRow(f'{HEAVY_ROW} + hop 0.2 s + steps 0.8-2.5 rad 1/s',
+                      replace(heavy, hop_dwell_s=0.2, phase_step_rate=1.0, phase_step_size=(0.8, 2.5), **hop))]
     return rows
 
 
@@ -249,18 +269,25 @@ def move_trials(world: WorldParams, seeds: list[np.random.SeedSequence], moves: 
     ours_cfg = UnwrapConfig.real_reader(ph)
     join_cfg = replace(ours_cfg, step_bridge='join')
     old_cfg = UnwrapConfig.for_model(ph, relock_reads=0)
-    out = {k: [] for k in ('truth', 'ours', 'join', 'old', 'naive', 'relocks', 'hops')}
+    online_cfg = replace(ours_cfg, noise='online')
+    out = {k: [] for k in ('truth', 'ours', 'join', 'old', 'naive', 'online', 'relocks', 'hops', 'ours_std',
+                           'online_std')}
     for ss in seeds:
         rng = np.random.default_rng(ss)
         start = _start(rng, 4.0, 10.0, math.radians(35.0))
         sim = SimReader(world, rng, start=start, unwrap=ours_cfg)
         join = PhaseProcessor(join_cfg)             # its own noise estimate, on the same streams
+        online = PhaseProcessor(online_cfg)
         for j in range(moves):
             o = sim.execute(Command(CommandKind.MOVE, seq=j + 1))
             s = o.stream
             bare = PhaseStream(s.t, s.phase, s.rssi, s.t_start, s.t_end)
             out['truth'].append(o.truth_dphi)
             out['ours'].append(o.result.dphi)
+            out['ours_std'].append(o.result.dphi_std)
+            on = online.process(s)
+            out['online'].append(on.dphi)
+            out['online_std'].append(on.dphi_std)
             out['join'].append(join.process(s).dphi)
             out['old'].append(process_move(bare, old_cfg).dphi)
             out['naive'].append(naive_dphi(s, ours_cfg))
@@ -278,13 +305,21 @@ def _err_stats(x: np.ndarray, truth: np.ndarray, mask: np.ndarray | None = None)
             'p95': float(np.percentile(e, 95)), 'rms': float(np.sqrt(np.mean(e * e)))}
 
 
+def coverage90(x: np.ndarray, std: np.ndarray, truth: np.ndarray) -> float:
+    """Share of the kept MOVEs whose |dφ error| is within the 90 % interval ±1.645·dphi_std."""
+    ok = np.isfinite(x) & np.isfinite(std)
+    return float(np.mean(np.abs(x[ok] - truth[ok]) <= 1.645 * std[ok])) if ok.any() else math.nan
+
+
 def summarize_moves(r: dict) -> dict:
     t = r['truth']
     kept = np.isfinite(r['ours'])
     return {'moves': int(t.size), 'relocks_per_move': float(np.mean(r['relocks'])),
             'hops_per_move': float(np.mean(r['hops'])),
-            **{m: _err_stats(r[m], t) for m in ('ours', 'join', 'old', 'naive')},
-            'naive_on_ours_kept': _err_stats(r['naive'], t, kept)}
+            **{m: _err_stats(r[m], t) for m in ('ours', 'join', 'old', 'naive', 'online')},
+            'naive_on_ours_kept': _err_stats(r['naive'], t, kept),
+            'ours_cov90': coverage90(r['ours'], r['ours_std'], t),
+            'online_cov90': coverage90(r['online'], r['online_std'], t)}
 
 
 def sign_runs(seeds: list[np.random.SeedSequence], n_particles: int = 100) -> dict:
@@ -298,37 +333,47 @@ def sign_runs(seeds: list[np.random.SeedSequence], n_particles: int = 100) -> di
     for name, (world, unwrap) in variants.items():
         runs = [run_search(world, pf, np.random.default_rng(_fresh(s)), unwrap=unwrap) for s in seeds]
         out[name] = {'runs': len(runs), 'success_rate': float(np.mean([r.success for r in runs])),
-                     'steps': float(np.mean([r.steps for r in runs]))}
+                     'steps': float(np.mean([r.steps for r in runs])),
+                     'sign_warned': float(np.mean([bool(r.sign_warning) for r in runs]))}
     return out
 
 
-def pf_batch_trial(ss: np.random.SeedSequence, n_particles: int = PF_PARTICLES, weighting: str = 'gaussian',
+def pf_batch_trial(ss: np.random.SeedSequence, n_particles: int = PF_PARTICLES, weighting: str = 'student_t',
                    n_moves: int = 5, step: float = 0.2, s_r: float = 0.002, s_a: float = math.radians(0.5),
                    reader: PhaseModel = READER, hop_dwell_s: float = 0.2,
-                   init_range: tuple[float, float] = PF_INIT_RANGE, reader_noise: bool = True
+                   init_range: tuple[float, float] = PF_INIT_RANGE, reader_noise: bool = True, mode: str = 'hop'
                    ) -> tuple[float, float, bool] | None:
     """Part 3, one walk: (filter error, batch error, filter says bimodal), errors mirror-folded (m).
 
     The tag is beside the track, as in a bench set-up: 0.5–2 m to the left or right of the walking
-    line, 0–1.5 m along it from the start (so it is in front at the start). None when a MOVE was
-    unusable (the walk is then skipped).
+    line, 0–1.5 m along it from the start (so it is in front at the start). ``mode`` adds the
+    real-reader effects of ``PF_MODES`` to the hopping reader. A MOVE the reader could not measure
+    costs that step: the filter only moves its particles (``predict``) and the batch fit leaves its
+    term out. None when fewer than 2 MOVEs were usable.
     """
     rw, rp = (np.random.default_rng(s) for s in _children(ss, 2))
     along, side = rw.uniform(0.0, 1.5), rw.uniform(0.5, 2.0) * rw.choice([-1.0, 1.0])
     start = np.array([-along, -side, 0.0])            # the tag at the origin, the user walking along +x
     world = WorldParams(phase=reader, s_step=step, s_r=s_r, s_a=s_a, beam_width=2.0 * math.pi,
                         channels_hz=CHANNELS if hop_dwell_s > 0 else (), hop_dwell_s=hop_dwell_s)
+    world = replace(world, **{k: (replace(reader, s_theta=v) if k == 'phase' else v)
+                              for k, v in PF_MODES[mode].items()})
     sim = SimReader(world, rw, start=start, unwrap=UnwrapConfig.real_reader(reader))
     pf_phase = reader if reader_noise else replace(reader, s_theta=PhaseModel().s_theta)
     pf = RfidParticleFilter(PFParams(n_particles=n_particles, s_step=step, s_r=s_r, s_a=s_a, weighting=weighting,
-                                     reinit_factor=None, init_range=init_range), pf_phase, rp)
+                                     reinit_factor=None, init_range=init_range, init_boost=PF_INIT_BOOST),
+                            pf_phase, rp)
     dphi = []
     for j in range(n_moves):
         res = sim.execute(Command(CommandKind.MOVE, seq=j + 1)).result
-        if not res.ok:
-            return None
+        if not res.ok:                # the walk goes on: this step moves the particles, weighs nothing
+            dphi.append(math.nan)
+            pf.predict(0.0)
+            continue
         dphi.append(res.dphi)
         pf.update(res.dphi, 0.0, dphi_std=res.dphi_std if reader_noise else None)
+    if np.isfinite(dphi).sum() < 2:
+        return None
     x, y, a = sim.pose
     truth = tag_in_user_frame(np.zeros(2), np.array([x, y]), a)
     est = pf.tag_posterior()
@@ -342,15 +387,18 @@ def pf_batch_trial(ss: np.random.SeedSequence, n_particles: int = PF_PARTICLES, 
     return folded(np.array([est.x, est.y])), folded(b), est.bimodal
 
 
-def pf_batch(seeds: list[np.random.SeedSequence], n_particles: int = PF_PARTICLES) -> dict:
+def pf_batch(seeds: list[np.random.SeedSequence], n_particles: int = PF_PARTICLES, modes=tuple(PF_MODES),
+             variants=PF_VARIANTS) -> dict:
+    """Part 3: per mode and filter variant, the medians over the walks (the same walks for every variant)."""
     out = {}
-    for name, weighting, reader_noise in PF_VARIANTS:
-        r = [pf_batch_trial(s, n_particles, weighting, reader_noise=reader_noise) for s in seeds]
-        r = np.array([x for x in r if x is not None], dtype=float)
-        out[name] = {'trials': int(r.shape[0]), 'particles': n_particles,
-                          'pf_median_m': float(np.median(r[:, 0])), 'batch_median_m': float(np.median(r[:, 1])),
-                          'ratio': float(np.median(r[:, 0]) / np.median(r[:, 1])),
-                          'bimodal_rate': float(np.mean(r[:, 2]))}
+    for mode in modes:
+        for name, weighting, reader_noise in variants:
+            r = [pf_batch_trial(s, n_particles, weighting, reader_noise=reader_noise, mode=mode) for s in seeds]
+            r = np.array([x for x in r if x is not None], dtype=float).reshape(-1, 3)
+            out[f'{mode}: {name}'] = {
+                'mode': mode, 'weighting': name, 'trials': int(r.shape[0]), 'particles': n_particles,
+                'pf_median_m': float(np.median(r[:, 0])), 'batch_median_m': float(np.median(r[:, 1])),
+                'ratio': float(np.median(r[:, 0]) / np.median(r[:, 1])), 'bimodal_rate': float(np.mean(r[:, 2]))}
     return out
 
 
@@ -372,22 +420,26 @@ def reader_experiment(cfg: RunConfig) -> Outcome:
     for row in cfg.progress(sweep_rows(), desc='rfid-reader moves'):
         s = {'config': row.name, **summarize_moves(move_trials(row.world, move_seeds))}
         moves.append(s)
-        o, j, od, nv = s['ours'], s['join'], s['old'], s['naive_on_ours_kept']
-        rows.append([row.name, f"{100 * o['kept']:.1f}", f"{100 * od['kept']:.1f}", f"{o['median']:.3f}",
-                     f"{o['rms']:.3f}", f"{nv['median']:.3f}", f"{nv['rms']:.3f}", f"{j['median']:.3f}",
+        o, j, od, nv, on = s['ours'], s['join'], s['old'], s['naive_on_ours_kept'], s['online']
+        rows.append([row.name, f"{100 * o['kept']:.1f}", f"{100 * on['kept']:.1f}", f"{100 * od['kept']:.1f}",
+                     f"{o['median']:.3f}", f"{o['rms']:.3f}", f"{100 * s['ours_cov90']:.1f}",
+                     f"{100 * s['online_cov90']:.1f}", f"{nv['median']:.3f}", f"{nv['rms']:.3f}", f"{j['median']:.3f}",
                      f"{j['rms']:.3f}", f"{od['median']:.3f}", f"{s['relocks_per_move']:.2f}"])
     table = (f'MOVEs ({n_trials} walks x {MOVES_PER_TRIAL} MOVEs of 0.5 m per row); |dφ error| in rad, median and '
-             'RMS over the MOVEs kept; naive on the MOVEs ours kept\n'
-             + format_table(['config', 'kept %', 'old kept %', 'ours med', 'ours rms', 'naive med', 'naive rms',
-                             'join med', 'join rms', 'old med', 'relocks/move'], rows))
+             'RMS over the MOVEs kept; naive on the MOVEs ours kept; cov90: share of kept MOVEs within ±1.645 '
+             'dphi_std\n'
+             + format_table(['config', 'kept %', 'online kept %', 'old kept %', 'ours med', 'ours rms', 'cov90 %',
+                             'online cov90 %', 'naive med', 'naive rms', 'join med', 'join rms', 'old med',
+                             'relocks/move'], rows))
     sign = sign_runs(ss_sign.spawn(n_search))
     table += (f'\n\nGuidance, Table I setting, N = 100, {n_search} searches each (same seeds)\n'
-              + format_table(['reader', 'success %', 'steps'],
-                             [[k, f"{100 * v['success_rate']:.1f}", f"{v['steps']:.1f}"] for k, v in sign.items()]))
+              + format_table(['reader', 'success %', 'steps', 'convention warned %'],
+                             [[k, f"{100 * v['success_rate']:.1f}", f"{v['steps']:.1f}",
+                               f"{100 * v['sign_warned']:.1f}"] for k, v in sign.items()]))
     pfb = pf_batch(ss_pf.spawn(n_pf))
     table += (f'\n\nTag error after 5 MOVEs of 0.2 m (hopping reader, small motion errors), median over the walks, '
               f'mirror folded; filter N = {PF_PARTICLES}\n'
-              + format_table(['filter weights', 'walks', 'filter m', 'batch LS m', 'ratio', 'bimodal %'],
+              + format_table(['mode: filter weights', 'walks', 'filter m', 'batch LS m', 'ratio', 'bimodal %'],
                              [[k, v['trials'], f"{v['pf_median_m']:.3f}", f"{v['batch_median_m']:.3f}",
                                f"{v['ratio']:.2f}", f"{100 * v['bimodal_rate']:.0f}"] for k, v in pfb.items()]))
     return Outcome(table, {'moves': moves, 'sign': sign, 'pf_batch': pfb}, [])

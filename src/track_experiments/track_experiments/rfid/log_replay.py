@@ -3,13 +3,13 @@
 The log (layout: ``track_core.rfid.log``) replaces the simulation. Its MOVEs are processed four ways,
 as in part 1 of ``rfid-reader`` (*ours*: ``UnwrapConfig.real_reader``, learning its noise over the
 log's MOVEs; *join*; *old*: no re-lock, fixed noise, carriers ignored; *naive*: ``np.unwrap``), and the
-usable MOVEs feed the filter and ``batch.fit_tag`` as in part 3 (the filter with part 3's settings: its
-motion errors s_r 2 mm and s_a 0.5°, Gaussian weights, the reader's dφ std; the batch on the commanded
-path: the logged step lengths and turns). A MOVE ours cannot use is left out of both, as if it had not
-moved the user: our simulator undoes such a step; on a real walk where it was not undone the path is
-off by that step. With truth in the log (our simulator writes it), every dφ is compared with the
-geometric one and the tag errors are given (mirror folded, in the final user frame); without it the
-estimates only.
+MOVEs feed the filter and ``batch.fit_tag`` as in part 3 (the filter with part 3's settings: its
+motion errors s_r 2 mm and s_a 0.5°, Student-t weights, the reader's dφ std, init_boost 10; the batch on
+the commanded path: the logged step lengths and turns). A MOVE ours cannot use still moved the user (a
+logged walk is not undone): the filter only moves its particles (``predict``) and the batch leaves its
+term out, so it costs that step, not the walk. With truth in the log (our simulator writes it), every
+dφ is compared with the geometric one and the tag errors are given (mirror folded, in the final user
+frame); without it the estimates only.
 """
 
 from __future__ import annotations
@@ -45,7 +45,8 @@ def log_experiment(cfg: RunConfig, particles: int = 20_000, init_range: tuple[fl
     lengths = [a.value for a in log.moves if math.isfinite(a.value)]
     step = float(np.median(lengths)) if lengths else 0.5
     pf = RfidParticleFilter(PFParams(n_particles=particles, s_step=step, s_r=0.002, s_a=math.radians(0.5),
-                                     weighting='gaussian', reinit_factor=None, init_range=init_range), ph, rng)
+                                     weighting='student_t', reinit_factor=None, init_range=init_range,
+                                     init_boost=10), ph, rng)
     for a in log.actions:
         if a.kind is CommandKind.TURN:
             turn += a.value
@@ -61,10 +62,12 @@ def log_experiment(cfg: RunConfig, particles: int = 20_000, init_range: tuple[fl
                                                ('truth', *METHODS)), est.reason or 'ok'])
         if est.ok:
             pf.update(est.dphi, turn, dphi_std=est.dphi_std)
-            turns.append(turn)
-            steps.append(a.value if math.isfinite(a.value) else step)
-            dphi.append(est.dphi)
-            turn = 0.0
+        else:                         # an unmeasured MOVE still moves the user: it costs this step only
+            pf.predict(turn)
+        turns.append(turn)
+        steps.append(a.value if math.isfinite(a.value) else step)
+        dphi.append(est.dphi)
+        turn = 0.0
     table = (log.describe() + '\nMOVEs: dφ (rad, eq. 6 sign) from the truth and four processings\n'
              + format_table(['seq', 'line', 'reads', 'truth', *METHODS, 'ours says'], rows))
     kept = {m: float(np.mean([math.isfinite(r[m]) for r in moves])) if moves else math.nan for m in METHODS}
@@ -73,19 +76,21 @@ def log_experiment(cfg: RunConfig, particles: int = 20_000, init_range: tuple[fl
     table += '\n\n' + format_table(['method', 'kept %', 'median |dφ error| rad'],
                                    [[m, f'{100 * kept[m]:.1f}', f'{err[m]:.3f}'] for m in METHODS])
     pfb = None
-    if len(dphi) >= 2:
+    if np.isfinite(dphi).sum() >= 2:
         est = pf.tag_posterior()
         pos, head = path_from_moves(np.array(steps), np.array(turns))
         fit = fit_tag(pos, np.array(dphi), ph.k)
         b = tag_in_user_frame(fit.xy, pos[-1], float(head[-1]))
-        pfb = {'moves': len(dphi), 'particles': particles, 'pf_xy': [est.x, est.y], 'batch_xy': [float(b[0]),
-               float(b[1])], 'pf_error_m': math.nan, 'batch_error_m': math.nan}
+        pfb = {'moves': len(dphi), 'usable': int(np.isfinite(dphi).sum()), 'particles': particles,
+               'pf_xy': [est.x, est.y], 'batch_xy': [float(b[0]), float(b[1])], 'pf_error_m': math.nan,
+               'batch_error_m': math.nan}
         last = log.actions[-1].pose
         if log.has_truth and last is not None:
             truth = tag_in_user_frame(np.zeros(2), last[:2], float(last[2]))
             pfb['pf_error_m'] = _folded(np.array([est.x, est.y]), truth)
             pfb['batch_error_m'] = _folded(b, truth)
-        table += (f'\n\nTag in the final user frame (x forward, y left) from {len(dphi)} usable MOVEs; filter N = '
+        table += (f'\n\nTag in the final user frame (x forward, y left) from {int(np.isfinite(dphi).sum())} of '
+                  f'{len(dphi)} MOVEs usable; filter N = '
                   f'{particles}\n' + format_table(['estimator', 'x m', 'y m', 'error m (mirror folded)'], [
                       ['filter', f'{est.x:.3f}', f'{est.y:.3f}', f"{pfb['pf_error_m']:.3f}"],
                       ['batch LS', f'{b[0]:.3f}', f'{b[1]:.3f}', f"{pfb['batch_error_m']:.3f}"]]))

@@ -341,7 +341,7 @@ def run_closed_loop_paired(n_runs: int, seed: int, factories: dict, leader: str,
     truth and the noise are common and the errors are paired. Returns per-run pings, detections,
     first detection time, and per tracker 'err2' and 'nees' (M, K; NaN where singular).
     """
-    from track_core.sonar.scenario import nees_or_nan
+    from track_core.metrics import nees_or_nan
 
     sc = scenario or Scenario()
     tp = target_params or SmartTargetParams()

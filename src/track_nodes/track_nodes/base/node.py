@@ -7,7 +7,7 @@ A node subclass names itself (``DEFAULT_NAME``), names its parameter dataclass (
 - the standard constructor (``node_name``, ``context``, ``parameter_overrides``, ``cli_args``,
   as the launcher and the tests call it), then every field of ``Params`` declared, the checked values
   in ``self.p`` (an instance of ``Params``);
-- ``main(argv)``: ``rclpy.init`` → build the node → spin until SIGINT, SIGTERM or SIGHUP (alike:
+- ``main(argv)`` (``base/run.py``): ``rclpy.init`` → build the node → spin until SIGINT, SIGTERM or SIGHUP (alike:
   ``base.signals``) or shutdown → destroy (which closes files) → exit code. A bad parameter or bad input at start
   (``ValueError``, ``OSError``) prints one line on stderr and exits 2, without a traceback.
 
@@ -20,7 +20,9 @@ Topics: the names of ``track_msgs_py.topics`` are given as they resolve in the r
 ``create_publisher``/``create_subscription``/``count_publishers`` make them relative
 (``topics.relative``), so ``__ns`` and remapping apply. A name from a user's parameter (fusion's
 track topics) is taken as given (``as_given=True``): a leading '/' keeps it absolute. Log lines
-and ``/diagnostics`` keys name the resolved topic (``resolved``).
+and ``/diagnostics`` keys name the resolved topic (``resolved``). Every endpoint takes rclpy's QoS
+overrides (``QoSOverridingOptions.with_default_policies``: history, depth, reliability, durability),
+read-only parameters such as ``-p qos_overrides./demo/track.publisher.depth:=50``.
 
 Transforms (``track_msgs_py.tf``): ``send_transforms(*ts)`` publishes dynamic transforms on ``/tf``;
 ``add_static_transforms(*ts)`` adds fixed ones (a later one with the same child frame replaces the
@@ -36,39 +38,34 @@ recorder's subscriptions before it starts the clock) sees /tf before the first t
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
-import faulthandler
-import signal
-import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from typing import Any, ClassVar
 
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
-from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from rclpy.qos_overriding_options import QoSOverridingOptions
 
 from track_msgs_py.diagnostics import diagnostic_array, diagnostic_status
 from track_msgs_py.records import DIAG_OK, DIAG_WARN
 from track_msgs_py.tf import TF, TF_QOS, TF_STATIC, TF_STATIC_QOS, tf_message
 from track_msgs_py.topics import DIAGNOSTICS, relative
 from track_nodes.base import ready
-from track_nodes.base.cli import params_file_problem
-from track_nodes.base.names import CheckedNames, remember_args
+from track_nodes.base.names import CheckedNames
 from track_nodes.base.params import NoParams, Param, ParameterError, declare
 from track_nodes.base.refusals import RefusalCounter
-from track_nodes.base.signals import STOP_SIGNALS, hold_stops, spin, stop_on
-from track_nodes.base.teardown import TEARDOWN, dds_alarm
+from track_nodes.base.teardown import dds_alarm
 from track_nodes.base.timejump import watch_time_jumps
 
-EXIT_BAD_INPUT = 2
 
+def _overridable(node: Node, kwargs: dict) -> None:
+    """Our endpoints take QoS overrides; rclpy's own (made inside ``Node.__init__``) are left alone."""
+    if '_specs' in node.__dict__:
+        kwargs.setdefault('qos_overriding_options', QoSOverridingOptions.with_default_policies())
 
 
 class TrackNode(Node, metaclass=CheckedNames):
@@ -109,12 +106,14 @@ class TrackNode(Node, metaclass=CheckedNames):
 
     # -- topics: relative names (topics.relative) --------------------------------------------------
     def create_publisher(self, msg_type, topic: str, qos_profile, *, as_given: bool = False, **kwargs):
+        _overridable(self, kwargs)
         pub = super().create_publisher(msg_type, topic if as_given else relative(topic), qos_profile, **kwargs)
         self._names()[topic] = pub.topic_name
         return pub
 
     def create_subscription(self, msg_type, topic: str, callback, qos_profile, *, as_given: bool = False,
                             **kwargs):
+        _overridable(self, kwargs)
         sub = super().create_subscription(msg_type, topic if as_given else relative(topic), callback, qos_profile,
                                           **kwargs)
         self._names()[topic] = sub.topic_name
@@ -233,67 +232,6 @@ class TrackNode(Node, metaclass=CheckedNames):
 
     @classmethod
     def main(cls, argv: Sequence[str] | None = None, **kwargs: Any) -> int:
+        from track_nodes.base.run import run_node
+
         return run_node(cls, argv, **kwargs)
-
-
-def run_node(factory: Callable[..., Node], argv: Sequence[str] | None = None, **kwargs: Any) -> int:
-    """Run one node until shutdown; return the process exit code (0, or 2 for bad input)."""
-    name = getattr(factory, 'DEFAULT_NAME', getattr(factory, '__name__', 'node'))
-    return run_nodes([(name, lambda: factory(**kwargs))], argv, program=name)
-
-
-def run_nodes(makers: Sequence[tuple[str, Callable[[], Node]]], argv: Sequence[str] | None = None,
-              program: str = 'node') -> int:
-    """Build every ``(name, maker)`` in one process and spin them on one executor until shutdown.
-
-    Exit code 0, or 2 for bad input: a bad command line, params file or parameter of any node is one
-    line on stderr (``<name>: <problem>``) and nothing runs.
-    """
-    args = list(sys.argv if argv is None else argv)
-    # A process that does not stop gets SIGUSR1 from the launcher before the kill (launch/processes.py):
-    # every thread's Python stack goes to stderr (a C-level handler: it fires with the main thread in C too).
-    with contextlib.suppress(AttributeError, ValueError, RuntimeError):
-        faulthandler.register(signal.SIGUSR1, all_threads=True)
-    stop_on(*STOP_SIGNALS)  # SIGTERM and SIGHUP stop the nodes as SIGINT does (base/signals.py)
-    problem = params_file_problem(args)
-    if problem is None:
-        try:
-            rclpy.init(args=args)
-            remember_args(rclpy.get_default_context(), args)  # its params files, for base/names.py
-        except _rclpy.UnknownROSArgsError as exc:
-            problem = f'unknown ROS arguments {exc}'
-        except _rclpy.RCLError as exc:  # other arguments rcl refuses: the first line of its message
-            problem = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-    if problem is not None:
-        print(f'{program}: {problem}', file=sys.stderr)
-        return EXIT_BAD_INPUT
-    nodes: list[Node] = []
-    TEARDOWN.alarm = True  # a node process: a DDS deletion that hangs ends it (base/teardown.py)
-    ready.HOLD.held = True  # the nodes announce themselves once no older twin was heard (base/ready.py)
-    twins = None
-    try:
-        for name, make in makers:
-            try:
-                nodes.append(make())
-            except (ValueError, OSError) as exc:
-                if not rclpy.ok():
-                    raise  # Ctrl-C while starting, handled below
-                print(f'{name}: {exc}', file=sys.stderr)
-                return EXIT_BAD_INPUT
-        twins = ready.settle(nodes, program, EXIT_BAD_INPUT)  # no older twin heard: announced (base/ready.py)
-        executor = rclpy.get_global_executor() if len(nodes) == 1 else SingleThreadedExecutor()
-        for node in [*nodes, twins.node]:
-            executor.add_node(node)
-        with contextlib.suppress(KeyboardInterrupt, ExternalShutdownException):
-            spin(executor)  # wakes up for stop signals (base/signals.py)
-    except (Exception, KeyboardInterrupt) as exc:  # a clean stop: Ctrl-C (raised before rclpy's signal thread
-        if rclpy.ok() and not isinstance(exc, KeyboardInterrupt):  # shut the context), or a context shut down
-            raise                                       # under the nodes being built or a callback; else a bug
-    finally:
-        hold_stops()  # a second Ctrl-C (ros2 launch sends one) must not cut teardown short (base/signals.py)
-        for node in [*nodes, *([twins.node] if twins else [])]:
-            node.destroy_node()  # the last node of the context takes the DDS participant with it (rmw_fastrtps)
-        with dds_alarm():
-            rclpy.try_shutdown()
-        TEARDOWN.done = True
-    return max((getattr(node, 'exit_code', 0) for node in nodes), default=0)

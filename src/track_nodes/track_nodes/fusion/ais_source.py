@@ -119,7 +119,10 @@ class AisSourceNode(TrackNode):
         for line in data.warnings:
             self.get_logger().warning(line)
         origin = data.centroid() if list(p.origin) == [0.0] else _latlon('origin', p.origin)
-        truth = ShipTruth(data, LocalTangentPlane(*origin), max_gap=p.max_gap or None)
+        try:
+            truth = ShipTruth(data, LocalTangentPlane(*origin), max_gap=p.max_gap or None)
+        except ValueError as exc:  # a file reaching further than one flat projection holds (projection.py)
+            raise ParameterError(f'parameter file={p.file!r}: {exc}') from None
         if p.start >= truth.t_end:
             raise ParameterError(f'parameter start={p.start} is after the end of the data ({truth.t_end:.0f} s)')
         model = SourceModel(name=self.get_name(), id_prefix=p.id_prefix, period=p.period, offset=p.offset,

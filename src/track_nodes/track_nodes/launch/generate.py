@@ -172,7 +172,7 @@ track_launch:
     method: exact
     threshold: 0.5
     combine: geometric
-    window: 5
+    window: 10                 # the fusion default: a true pair's instant scores dip below 0.5 now and then
     stale_after: 2.5
     max_prediction: 3.0
     q_s: 1.0

@@ -19,7 +19,7 @@ import sys
 from collections.abc import Sequence
 
 from track_nodes.base.cli import OneLineParser
-from track_nodes.base.node import EXIT_BAD_INPUT, run_nodes
+from track_nodes.base.run import EXIT_BAD_INPUT, run_nodes
 from track_nodes.registry import NODES, node_class
 
 

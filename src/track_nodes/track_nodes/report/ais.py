@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from track_core.ais import Metrics, match_one_to_one
+from track_core.ais.association import SHORT_PAIR_RATE, SHORT_PAIR_WEIGHT, declare
 from track_msgs_py.records.fusion import AisTruthEntry, FusionPairs
 from track_msgs_py.topics import FUSION_SCORES
 from track_nodes.report.read import read_topics, topics_matching
@@ -17,8 +18,9 @@ def ais_metrics(bag: Path) -> list[str]:
     """AIS scenario: the recorded same-ship verdicts against the MMSI, for the fusion's method.
 
     Truth: the ``/ais/<source>/truth`` tables (local track → MMSI, evaluation only). Verdicts:
-    every pair of ``/fusion/scores``; a pair is declared the same ship when it was associated at
-    at least half of its scored instants (as ``track-experiment ais-association``), then made
+    every pair of ``/fusion/scores``; a pair with k of its n scored instants associated is declared the
+    same ship by the short-pair rule (``association.declare`` with ν = ``SHORT_PAIR_WEIGHT``, r̄ =
+    ``SHORT_PAIR_RATE``: k ≥ 1 and (k + ν·r̄)/(n + ν) ≥ 1/2, as ``track-experiment ais-association``), then made
     one-to-one (Hungarian on the pair's mean score, ``track_core.ais.match_one_to_one``). Precision =
     right / declared, recall = right / same-ship pairs that were scored at least once.
     """
@@ -49,7 +51,8 @@ def ais_metrics(bag: Path) -> list[str]:
         return ['ais: no scored pair has a truth entry (were /ais/*/truth recorded?)']
     same = np.array([mmsi[a] == mmsi[b] for a, b in keys])
     mean = np.array([pairs[p][0] / pairs[p][2] for p in keys])
-    declared = np.array([pairs[p][1] >= 0.5 * pairs[p][2] for p in keys])
+    declared = declare(np.array([pairs[p][2] for p in keys], float), np.array([pairs[p][1] for p in keys], float),
+                       SHORT_PAIR_WEIGHT, SHORT_PAIR_RATE)
     ids = {name: k for k, name in enumerate(sorted({x for p in keys for x in p}))}
     pa = np.array([ids[a] for a, _ in keys])
     pb = np.array([ids[b] for _, b in keys])
@@ -70,7 +73,8 @@ def ais_metrics(bag: Path) -> list[str]:
              + ', '.join(f'{t.split("/")[2]} {len(ships_by_source[t])} tracks' for t in sources)
              + f'; {len(both)} ships seen by both; {evaluations} pair evaluations, {len(keys)} track pairs, '
              f'{int(same.sum())} of them the same ship']
-    for label, d in (('threshold (associated at ≥ half of its instants)', declared), ('one-to-one', matched)):
+    rule = f'short-pair rule (k ≥ 1, (k + {SHORT_PAIR_WEIGHT:g}·{SHORT_PAIR_RATE:g})/(n + {SHORT_PAIR_WEIGHT:g}) ≥ 1/2)'
+    for label, d in ((rule, declared), ('one-to-one', matched)):
         m = metrics(d)
         lines.append(f'  {label:<50} precision {m.precision:.3f}  recall {m.recall:.3f}  F1 {m.f1:.3f}  '
                      f'(TP {m.tp}, FP {m.fp}, FN {m.fn})')

@@ -26,9 +26,10 @@ def demo_metrics(bag: Path) -> list[str]:
     P_est = np.array([s[2] for s in track])[ie]
     err = x_true - x_est
     settled = slice(min(10, len(err) // 2), None)  # after the velocity prior is forgotten
+    nees, undefined = mean_nees(err[settled], P_est[settled])
     return [
         f'demo tracker: {len(ie)} estimates matched to truth',
         f'  position RMSE {rms(err[:, [0, 2]]):.3f} m, velocity RMSE {rms(err[:, [1, 3]]):.3f} m/s',
-        f'  mean NEES {mean_nees(err[settled], P_est[settled]):.2f} (4 states; ≈4 when consistent, '
-        'pos–vel cross-covariance not carried by Odometry)',
+        f'  mean NEES {nees:.2f} (4 states; ≈4 when consistent, pos–vel cross-covariance not carried by '
+        'Odometry)' + (f'; left out: {undefined} estimate(s) with a singular covariance' if undefined else ''),
     ]

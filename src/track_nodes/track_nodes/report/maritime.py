@@ -293,7 +293,7 @@ def _map(ax, d: dict, every: float) -> None:
     ax.set_xlabel('east [m]')
     ax.set_ylabel('north [m]')
     ax.set_title(f'map (2σ ellipses every {every:g} s)')
-    ax.legend(fontsize=7, loc='best')
+    ax.legend(fontsize=7, **LEGEND_BELOW)  # the map's tracks fill it: 'best' still covered some
     ax.grid(alpha=0.3)
 
 
@@ -303,6 +303,7 @@ def _map(ax, d: dict, every: float) -> None:
 LINE_STYLES = (('-', 3.0), ((0, (6, 2)), 2.0), ((0, (1, 2.5)), 1.4), ((0, (4, 1.5, 1, 1.5)), 1.0))
 DOT_MARKERS = ('o', 'x', '+', '.')
 LEGEND_OUTSIDE = {'loc': 'upper left', 'bbox_to_anchor': (1.01, 1.0), 'borderaxespad': 0.0}  # never over data
+LEGEND_BELOW = {'loc': 'upper center', 'bbox_to_anchor': (0.5, -0.08), 'ncols': 3, 'borderaxespad': 0.0}
 
 
 def line_style(k: int) -> dict:

@@ -19,7 +19,7 @@ target, error, belief σ (major/minor), NEES, stored entries, handoff bytes, fus
 combined score and verdict of the true pair. Times are seconds from the run's start
 (``maritime.run_start``), whose UTC date is printed once before the trace and the summary.
 
-NEES uses the sonar core's ``nees_or_nan``: a belief that collapsed to one cell has an all-zero
+NEES uses ``track_core.metrics.nees_or_nan`` (as the sonar core): a belief that collapsed to one cell has an all-zero
 (singular) covariance, so its NEES is undefined. Such steps get NaN, are left out of the NEES mean
 and share, and are counted (with the first one's time and reason) in the summary line.
 """
@@ -40,7 +40,7 @@ from track_core.idsq.leader_protocol import loudest, measurement_normal, stamp_o
 from track_core.idsq.models import simulate_measurement
 from track_core.idsq.network import SensorLayout
 from track_core.idsq.tracker import leader_step
-from track_core.sonar.scenario import nees_or_nan
+from track_core.metrics import nees_or_nan
 from track_nodes.idsq.params import SENSOR_PARAMS, sensor_setup
 from track_nodes.launch.scenario import section_node
 from track_nodes.report import maritime as mar
@@ -48,9 +48,10 @@ from track_nodes.report import maritime as mar
 FUSION_SOURCE = {mar.SONAR_TRACK: '/sonar/estimate', mar.NETWORK_TRACK: '/idsq/estimate', mar.RADAR_DECOY: '/radar'}
 
 
-def sensors_of(scenario: Path, comm_range: float | None = None, **tracker):
-    """(SensorSetup of sensor 0 with ``tracker`` overrides, SensorLayout) of a maritime scenario file."""
-    cfg = yaml.safe_load(Path(scenario).read_text())
+def sensors_of(scenario: Path | dict, comm_range: float | None = None, **tracker):
+    """(SensorSetup of sensor 0 with ``tracker`` overrides, SensorLayout) of a maritime scenario file
+    (its path, or its parsed dict)."""
+    cfg = scenario if isinstance(scenario, dict) else yaml.safe_load(Path(scenario).read_text())
     entries = sorted((v['ros__parameters'] for k, v in cfg.items() if section_node(k).startswith('sensor_')),
                      key=lambda e: e['id'])
     first = entries[0]
@@ -90,10 +91,24 @@ def replay(d: dict, setup, layout: SensorLayout) -> list[dict]:
     return rows
 
 
-def fuse(d: dict, rows: list[dict]) -> dict[tuple[str, str], np.ndarray]:
-    """Scores per pair (sorted ids → rows t, score, combined, associated), as ``maritime.load`` reads a bag."""
-    fa = PairAssociator('exact', 0.5, 'geometric', 5, stale_after=2.5, max_prediction=3.0, q_s=1.0,
-                        stamp_rate=1.0)  # config/maritime.yaml's fusion
+FUSION_KEYS = ('method', 'threshold', 'combine', 'window', 'stale_after', 'max_prediction', 'q_s')
+
+
+def fusion_of(scenario: Path | dict) -> dict:
+    """The fusion node's association settings (``FUSION_KEYS``) in a maritime scenario file (path or dict)."""
+    cfg = scenario if isinstance(scenario, dict) else yaml.safe_load(Path(scenario).read_text())
+    sec = next((v['ros__parameters'] for k, v in cfg.items() if section_node(k) == 'fusion'), {})
+    return {k: sec[k] for k in FUSION_KEYS if k in sec}
+
+
+def fuse(d: dict, rows: list[dict], **fusion) -> dict[tuple[str, str], np.ndarray]:
+    """Scores per pair (sorted ids → rows t, score, combined, associated), as ``maritime.load`` reads a bag;
+    ``fusion``: the fusion node's settings (``fusion_of``; default config/maritime.yaml's)."""
+    f = {'method': 'exact', 'threshold': 0.5, 'combine': 'geometric', 'window': 10, 'stale_after': 2.5,
+         'max_prediction': 3.0, 'q_s': 1.0, **fusion}
+    fa = PairAssociator(f['method'], float(f['threshold']), f['combine'], int(f['window']),
+                        stale_after=float(f['stale_after']), max_prediction=float(f['max_prediction']),
+                        q_s=float(f['q_s']), stamp_rate=1.0)  # schedule: stamps at 1 Hz, as config/maritime.yaml
     tracks = dict(d['tracks'])
     tracks[mar.NETWORK_TRACK] = (np.array([r['t'] for r in rows]), np.array([r['mean'] for r in rows]),
                                np.array([r['cov'] for r in rows]))
@@ -176,7 +191,7 @@ def main(argv: list[str] | None = None) -> None:
     setup, layout = sensors_of(a.scenario, a.comm_range, **over)
     d = mar.load(a.bag)
     rows = replay(d, setup, layout)
-    scores = fuse(d, rows)
+    scores = fuse(d, rows, **fusion_of(a.scenario))
     start = mar.run_start(d)
     print(mar.start_note(start))
     if a.trace:

@@ -195,7 +195,11 @@ class RfidGuidanceNode(TrackNode):
             self.refuse(RFID_STEP, f'seq: result #{seq} is ahead of the pending command #{self.loop.cmd.seq}')
         if use is not Use.USE:
             return  # a replayed answer already used, unsolicited, or after DONE
+        warned = bool(self.guide.sign_warning)
         reply = self.guide.on_step(res)
+        if self.guide.sign_warning and not warned:   # once per search: the convention check (guidance doc)
+            self.get_logger().warning(self.guide.sign_warning)
+            self.warnings.append(self.guide.sign_warning)
         if reply.warning is not None:
             self.warnings.append(f'{self.resolved(RFID_STEP)} #{res.seq}: {reply.warning}; filter state unchanged, '
                                  f'asking for {reply.command}')

@@ -69,8 +69,8 @@ class RfidLlrpReaderParams(PhaseParams):
                              10.0, live=True)
     relock_reads: int = param(5, 'signal processing: agreeing reads that re-lock after a phase step; 0 = never',
                               0, 1000)
-    noise: str = param('online', 'signal processing: online (noise from the data) or fixed (the paper)',
-                       choices=('fixed', 'online'))
+    noise: str = param('online', 'signal processing: robust (heavy-tailed noise learnt from the data), online '
+                       '(Gaussian noise from the data) or fixed (the paper)', choices=('fixed', 'online', 'robust'))
     retry_s: float = param(2.0, 'seconds between connection attempts while the reader is away', 0.05, 3600.0)
     tick: float = param(0.02, 'period of the timer that takes reads and publishes due answers [s]', 1e-3, 1.0)
 

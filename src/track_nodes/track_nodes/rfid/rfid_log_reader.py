@@ -38,8 +38,8 @@ class RfidLogReaderParams:
     rate: float = param(1.0, 'replay speed: log seconds per node second', 1e-3, 1e3, live=True)
     relock_reads: int = param(5, 'signal processing: agreeing reads that re-lock after a phase step; 0 = never',
                               0, 1000)
-    noise: str = param('online', 'signal processing: online (noise from the data) or fixed (the paper)',
-                       choices=('fixed', 'online'))
+    noise: str = param('robust', 'signal processing: robust (heavy-tailed noise learnt from the data), online '
+                       '(Gaussian noise from the data) or fixed (the paper)', choices=('fixed', 'online', 'robust'))
     found_radius: float = param(0.2, 'with truth: found within this distance of the tag at the end of a MOVE [m]',
                                 1e-3, 100.0)
     wait_for_subscribers: int = param(0, 'begin once each reader topic has this many subscribers (0: at once)', 0,

@@ -118,8 +118,8 @@ class RfidReaderParams(PhaseParams):
     phase_step_size: list[float] = param([0.8, 2.5], 'their size, uniform in [lo, hi], random sign [rad]')
     relock_reads: int = param(0, 'signal processing: agreeing reads that re-lock after a lasting phase step; 0 = never',
                               0, 1000)
-    noise: str = param('fixed', 'signal processing: fixed (the paper) or online (per-read noise from the data)',
-                       choices=('fixed', 'online'))
+    noise: str = param('fixed', 'signal processing: fixed (the paper), online (per-read noise from the data) or '
+                       'robust (heavy-tailed, learnt)', choices=('fixed', 'online', 'robust'))
     time_scale: float = param(1.0, 'node seconds per second of the simulated action before answering; 0 = at once',
                               0.0, 1e3, live=True)
     tick: float = param(0.05, 'period of the timer that publishes due answers [node s]', 1e-3, 10.0, live=True)

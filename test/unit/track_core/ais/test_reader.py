@@ -24,12 +24,13 @@ BAD = {
     'bad time': ['2016-13-45 99:00:00.000,235070762,50.77,-1.09,157.8,5.9',
                  ',235070762,50.77,-1.09,157.8,5.9', 'nan,235070762,50.77,-1.09,157.8,5.9'],
     'bad MMSI': ['2016-01-12 13:02:31.000,abc,50.77,-1.09,157.8,5.9', '2016-01-12 13:02:31.000,-5,50.77,-1.09,1,1'],
-    'bad position': ['2016-01-12 13:02:32.000,235070762,91,-1.09,157.8,5.9',          # AIS "not available"
-                     '2016-01-12 13:02:32.000,235070762,50.77,181,157.8,5.9',
-                     '2016-01-12 13:02:32.000,235070762,NaN,-1.09,157.8,5.9',
+    'no position': ['2016-01-12 13:02:32.000,235070762,91,-1.09,157.8,5.9',           # AIS "not available"
+                    '2016-01-12 13:02:32.000,235070762,50.77,181,157.8,5.9',
+                    '2016-01-12 13:02:32.000,235070762,,-1.09,157.8,5.9'],              # a message without one
+    'bad position': ['2016-01-12 13:02:32.000,235070762,NaN,-1.09,157.8,5.9',
                      '2016-01-12 13:02:32.000,235070762,50.77,inf,157.8,5.9',
-                     '2016-01-12 13:02:32.000,235070762,,-1.09,157.8,5.9',
-                     '2016-01-12 13:02:32.000,235070762,north,-1.09,157.8,5.9'],
+                     '2016-01-12 13:02:32.000,235070762,north,-1.09,157.8,5.9',
+                     '2016-01-12 13:02:32.000,235070762,95.0,-1.09,157.8,5.9'],
     'outside region': ['2016-01-12 13:41:20.973,245188000,50.8141,54.83172,87.8,0'],  # the real file's row
     'duplicate': ['2016-01-12 13:02:21.218,235070762,50.7725,-1.0925,158.0,5.9'],
     'implied speed': ['2016-01-12 13:02:26.218,235070762,50.80,-1.0925,158.0,5.9'],  # 3 km in 5 s
@@ -45,7 +46,8 @@ def test_each_bad_row_is_skipped_and_counted(write_csv):
     assert d.derived['region_rule'] == 'auto' and d.derived['max_distance_km'] < 5.0     # the good rows' spread
     assert d.n_skipped == len(rows) - len(GOOD)
     text = d.describe()
-    assert f'{d.n_skipped} skipped' in text and 'outside region: 1' in text and 'bad position: 6' in text
+    assert f'{d.n_skipped} skipped' in text and 'outside region: 1' in text and 'bad position: 4' in text
+    assert 'no position: 3' in text
     assert np.all(np.diff(d.t) >= 0) and d.t[0] == 0.0
     assert d.start_utc == '2016-01-12 13:02:11 UTC'
     k = int(np.flatnonzero(d.mmsi == 232002939)[0])
@@ -128,7 +130,7 @@ def test_column_map_text_and_errors():
 
 def test_time_formats(write_csv):
     h = 'MMSI,T,LA,LO\n'
-    rows = ['211000001,1700000000,54.0,10.0', '211000001,1700000000000,54.001,10.0']  # auto: s, then ms
+    rows = ['211000001,1700000000,54.0,10.0', '211000001,1700000000000,54.0,10.0']  # auto: s, then ms
     d = read_ais(write_csv(rows, header=h), columns='time=T;lat=LA;lon=LO;cog=;sog=')
     assert d.skipped['duplicate'] == 1                          # both are the same instant
     d = read_ais(write_csv(['211000001,1700000000500,54.0,10.0'], header=h),
@@ -190,3 +192,45 @@ def test_a_rule_dropping_more_than_a_few_percent_warns_with_its_parameter(write_
     assert quiet.warnings == []
     with pytest.raises(ValueError, match='max_distance_km'):
         read_ais(p, max_distance_km=-1.0)
+
+
+def test_a_byte_order_mark_is_not_part_of_the_first_column_name(tmp_path):
+    """Exports often start with a UTF-8 BOM: the preset is still detected, and an explicit mapping still finds it."""
+    p = tmp_path / 'bom.csv'
+    p.write_bytes(('\ufeffID,When,Lat,Lon\n' + '235070762,2016-01-12 13:02:11,50.7730,-1.0929\n'
+                   '235070762,2016-01-12 13:02:21,50.7725,-1.0925\n').encode('utf-8'))
+    d = read_ais(p, columns='time=When;mmsi=ID;lat=Lat;lon=Lon;cog=;sog=')
+    assert d.t.size == 2 and d.mmsi.tolist() == [235070762] * 2 and d.n_skipped == 0
+    q = tmp_path / 'bom-solent.csv'
+    q.write_bytes(('\ufeff' + 'Time,MMSI,Latitude_degrees,Longitude_degrees,COG_degrees,SOG_knots\n'
+                   + GOOD[0] + '\n' + GOOD[1] + '\n').encode('utf-8'))
+    assert read_ais(q).t.size == 2  # the solent preset, detected from the header
+
+
+def test_an_all_messages_export_names_rows_without_a_position(write_csv, caplog):
+    """A raw decoded export holds static messages (types 5/24) without a position: counted as such, and the
+    warning names that cause, not the column mapping."""
+    rows = [f'2016-01-12 13:{m:02d}:00.000,235070762,50.77{m:02d},-1.09,157.8,5.9' for m in range(10, 30)]
+    rows += [f'2016-01-12 13:{m:02d}:30.000,235070762,,,,' for m in range(10, 14)]  # 4 of 24: 17 %
+    with caplog.at_level(logging.WARNING, logger='track_core.ais.reader'):
+        d = read_ais(write_csv(rows))
+    assert d.t.size == 20 and d.skipped['no position'] == 4 and d.skipped['bad position'] == 0
+    assert len(d.warnings) == 1 and 'rule "no position" dropped 4 of 24 rows' in d.warnings[0]
+    assert 'no position' in d.warnings[0] and 'column mapping' not in d.warnings[0]
+
+
+def test_same_minute_reports_at_other_positions_are_kept_in_track_order(write_csv):
+    """Stamps truncated to the minute: one ship's three reports of 13:03 at different positions are kept,
+    ordered along the track from its 13:02 report, 20 s apart; the same position again is a duplicate."""
+    rows = ['2016-01-12 13:02:00,235070762,50.7700,-1.0900,0,6',
+            '2016-01-12 13:03:00,235070762,50.7730,-1.0900,0,6',   # third along the track
+            '2016-01-12 13:03:00,235070762,50.7710,-1.0900,0,6',   # first
+            '2016-01-12 13:03:00,235070762,50.7720,-1.0900,0,6',   # second
+            '2016-01-12 13:03:00,235070762,50.7720,-1.0900,0,6',   # the same report twice
+            '2016-01-12 13:04:00,235070762,50.7740,-1.0900,0,6']
+    d = read_ais(write_csv(rows))
+    assert d.skipped['duplicate'] == 1 and d.t.size == 5 and d.n_skipped == 1
+    assert d.t.tolist() == [0.0, 60.0, 80.0, 100.0, 120.0]
+    np.testing.assert_allclose(d.lat, [50.77, 50.771, 50.772, 50.773, 50.774])
+    assert d.derived['time_refined'] == 2 and d.derived['time_resolution_s'] == 60.0
+    assert '2 same-time reports' in d.describe()

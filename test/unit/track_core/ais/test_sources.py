@@ -174,6 +174,35 @@ def test_default_radar_site_follows_the_data(solent, synthetic):
     assert np.linalg.norm(resolve_site(tf, RADAR.site)) < 30e3                # within the other traffic's extent
 
 
+def test_a_hull_point_far_from_every_report_moves_to_the_nearest_report():
+    """Traffic along two coasts 80 km apart: the hull edge between their ends spans open sea; the radar goes to
+    the traffic nearest that point instead. A hull point near traffic stays where it is."""
+    from track_core.ais.sources import SITE_SNAP_M, hull_point, traffic_point
+
+    x = np.linspace(0.0, 50e3, 26)
+    xy = np.r_[np.c_[x, np.zeros_like(x)], np.c_[x + 30e3, np.full_like(x, 80e3)]]  # two sea lanes
+    p = hull_point(xy, 270.0)
+    assert np.hypot(*(xy - p).T).min() > SITE_SNAP_M                          # in the empty middle
+    q = traffic_point(xy, 270.0)
+    assert np.hypot(*(xy - q).T).min() == 0.0 and np.linalg.norm(q - p) == pytest.approx(np.hypot(*(xy - p).T).min())
+    sq = np.array([[0.0, 0.0], [1000.0, 0.0], [1000.0, 1000.0], [0.0, 1000.0]])
+    np.testing.assert_allclose(traffic_point(sq, 90.0), hull_point(sq, 90.0))
+
+
+def test_a_continent_wide_file_is_refused_with_the_reason(synthetic):
+    """One report per ship across an ocean: no flat projection holds it; the one-line reason names the extent."""
+    from track_core.ais.projection import extent_problem
+
+    ships = {i: [(0.0, 10.0 + 4.0 * i, -120.0 + 9.0 * i)] for i in range(1, 12)}
+    data = synthetic(ships)
+    with pytest.raises(ValueError, match='split the file by region') as err:
+        ShipTruth(data)
+    assert 'km from the projection origin' in str(err.value) and '\n' not in str(err.value)
+    lat0, lon0 = 50.77, -1.09
+    assert extent_problem([lat0, lat0 + 2.0], [lon0, lon0], lat0, lon0) is None     # 222 km: one plane holds it
+    assert extent_problem([lat0, lat0 + 3.0], [lon0, lon0], lat0, lon0) is not None  # 334 km: > 0.1 % scale error
+
+
 # ---- simulation in blocks (bounded memory) ----
 
 def test_blocked_simulation_reports_the_same_ships_and_times(solent):

@@ -26,7 +26,7 @@ def test_every_preset_round_trips_with_only_the_defects_discarded(tmp_path, smal
     p = write_csv(tmp_path / f'{preset}.csv', small, preset)
     d = read_ais(p)                                                    # the preset is detected from the header
     assert d.derived['columns']['time'] == PRESETS[preset].time
-    assert d.skipped == {'malformed row': 0, 'bad time': 2, 'bad MMSI': 0, 'bad position': 0,
+    assert d.skipped == {'malformed row': 0, 'bad time': 2, 'bad MMSI': 0, 'no position': 0, 'bad position': 0,
                          'outside region': 3, 'duplicate': 6, 'implied speed': 0}
     assert d.rows == len(small) and d.t.size == len(small) - 11 and d.warnings == []
     assert d.ships.size == 25

@@ -11,9 +11,10 @@ now split (``canonical``): a digest of everything discrete (replies, handoff hea
 timers cancelled, led steps with their next leader and candidates, leader events, log lines,
 revokes, voids) and, per event, the float content (measurement, estimate, spread, scores, and the
 moments of every belief and handoff mass) compared to 1e-9 relative. They were regenerated from the
-ledger (``python test/unit/track_core/idsq/test_ledger.py --regenerate``, 2026-12-02, X86_V3), so
+ledger (``python test/unit/track_core/idsq/test_leader_protocol.py --regenerate``, 2026-12-02, X86_V3), so
 this is now a regression fixture of the ledger; the replay asserts it does exactly the same, event
-by event.
+by event. Regenerated 2026-12-05 when an acoustic reading above the grid's reach became clipped
+instead of skipped (``tracker.update``): exactly the 3 cases with such a reading changed.
 """
 
 from __future__ import annotations

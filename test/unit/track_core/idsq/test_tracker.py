@@ -1,9 +1,9 @@
 import numpy as np
 import pytest
 
-from track_core.idsq.grid import GridSpec, estimate, uniform_belief
+from track_core.idsq.grid import GridSpec, estimate, sparsify, uniform_belief
 from track_core.idsq.handoff import receive_handoff
-from track_core.idsq.models import DEG, TrackerParams, bearings
+from track_core.idsq.models import DEG, TrackerParams, bearings, likelihood
 from track_core.idsq.network import SensorLayout
 from track_core.idsq.tracker import centralized_step, leader_step, select_next, update
 
@@ -30,10 +30,26 @@ def test_doa_update_concentrates_on_the_bearing_line():
 
 def test_zero_likelihood_update_is_skipped():
     b = uniform_belief(GRID)
-    post, ok = update(b, 1e6, POS[0], False, P)  # amplitude far above a_hi / r everywhere
+    post, ok = update(b, -1e3, POS[0], False, P)  # a negative amplitude far below a_lo / r everywhere
     assert not ok and post is b
     with pytest.raises(ValueError, match='finite'):
         update(b, float('nan'), POS[0], False, P)
+
+
+def test_an_amplitude_above_the_grids_reach_puts_the_belief_at_the_sensor():
+    """A target 0.8 m from an acoustic sensor between cell centres: z = A/r = 50 needs r <= a_hi/z = 1.6 m,
+    nearer than any centre (2.5 m and more), so eq. 6 is 0 on every cell; z is clipped to a_hi/r_min."""
+    sensor = np.array([75.0, 120.0])  # a cell corner: the nearest centres are 3.5 m away
+    z = 40.0 / 0.8
+    post, ok = update(uniform_belief(GRID), z, sensor, False, P)
+    assert ok
+    e = estimate(post)
+    assert np.linalg.norm(e.mean - sensor) < 2.0 and post.size == 4  # the four cells round the sensor
+    b = uniform_belief(GRID)
+    same, _ = update(b, 40.0 / 20.0, sensor, False, P)  # z the grid can explain: eq. 6 as it is
+    want = sparsify(GRID, b.idx, b.mass * likelihood(2.0, b.centers(), sensor, False, P), P.sparsity)
+    np.testing.assert_array_equal(same.idx, want.idx)
+    np.testing.assert_array_equal(same.mass, want.mass)
 
 
 def test_leader_step_chooses_a_candidate_and_hands_off_the_posterior():

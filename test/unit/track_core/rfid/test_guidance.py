@@ -133,3 +133,27 @@ def test_user_pose_is_the_weighted_particle_mean_plus_pending_turns():
     tag_in_user = invert_pose(pose)[:2]
     np.testing.assert_allclose(np.hypot(*tag_in_user), 3.0)
     assert math.isclose(math.atan2(tag_in_user[1], tag_in_user[0]), math.pi - 0.5)
+
+
+def _walk(g, dphis):
+    cmd = g.start()
+    for d in dphis:
+        r = g.on_step(move(cmd, dphi=d))
+        r = g.on_step(StepResult(CommandKind.TURN, r.command.seq, turn=0.0))
+        cmd = r.command
+
+
+def test_sign_check_warns_once_naming_the_convention_when_the_first_moves_walk_away(caplog):
+    g = guidance()
+    with caplog.at_level(logging.WARNING, logger='track_core.rfid.guidance'):
+        _walk(g, [12.0, 14.0, -3.0, 15.0, 16.0, 11.0])      # 3 of the first 4 "walking away"
+    assert "'convention'" in g.sign_warning and "'paper'" in g.sign_warning and "'llrp'" in g.sign_warning
+    assert sum("'convention'" in r.getMessage() for r in caplog.records) == 1
+    ok = guidance()
+    _walk(ok, [-12.0, 14.0, -3.0, -15.0, 16.0, 11.0])       # 2 of 4: the motion agrees well enough
+    assert ok.sign_warning == ''
+    off = guidance(sign_check=0)
+    _walk(off, [12.0, 14.0, 13.0, 15.0])
+    assert off.sign_warning == ''
+    with pytest.raises(ValueError):
+        guidance(sign_share=0.5)

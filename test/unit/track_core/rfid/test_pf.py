@@ -203,3 +203,22 @@ def test_student_t_weights_have_heavier_tails_than_gaussian():
     assert np.isfinite(pf.weights).all() and pf.weights.sum() == pytest.approx(1.0)
     with pytest.raises(ValueError, match='t_dof'):
         PFParams(t_dof=0.0)
+
+
+def test_predict_moves_the_particles_without_weighting_them():
+    """An unusable MOVE: the particles follow the commanded step, the weights stay."""
+    pf = RfidParticleFilter(PFParams(n_particles=500, s_r=0.0, s_a=0.0, jitter_std=0.0), PhaseModel(),
+                            np.random.default_rng(0))
+    pf.update(-5.0, 0.0)
+    w, before = pf.weights.copy(), pf.particles.copy()
+    pf.predict(math.pi / 2)
+    after = pf.particles
+    assert np.array_equal(pf.weights, w)
+    step = after[:, :2] - before[:, :2]
+    assert np.allclose(np.hypot(step[:, 0], step[:, 1]), 0.5)
+    assert np.allclose(np.cos(after[:, 2] - before[:, 2]), 0.0, atol=1e-9)    # turned by π/2
+    with pytest.raises(ValueError):
+        pf.predict(math.nan)
+    fresh = RfidParticleFilter(PFParams(n_particles=50), PhaseModel(), np.random.default_rng(1))
+    fresh.predict(0.0)                  # the first MOVE unusable: created at its start, then moved
+    assert fresh.initialized and fresh.particles.shape == (50, 3)

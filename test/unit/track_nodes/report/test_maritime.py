@@ -73,7 +73,7 @@ def test_the_legends_sit_outside_the_data_axes_and_inside_the_figure():
     try:
         fig.canvas.draw()
         r = fig.canvas.get_renderer()
-        for ax in fig.axes[1:]:  # scores, errors
+        for ax in fig.axes:  # map (legend below it), scores, errors (legends right of them)
             lg, box = ax.get_legend().get_window_extent(r), ax.get_window_extent(r)
             assert lg.x0 >= box.x1 or lg.x1 <= box.x0 or lg.y0 >= box.y1 or lg.y1 <= box.y0, (ax.get_title(), lg, box)
             assert fig.bbox.contains(lg.x0, lg.y0) and fig.bbox.contains(lg.x1, lg.y1), (ax.get_title(), lg)
