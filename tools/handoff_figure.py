@@ -35,6 +35,8 @@ from pathlib import Path
 import numpy as np
 from watched_launch import WatchedLaunch
 
+from track_nodes.launch.hosts import DISCOVERY_PORT, LAUNCHER_HOST
+
 N_SENSORS = 24
 DT = 0.5
 
@@ -117,7 +119,9 @@ def run_mode(scenario: Path, hosts: int, rate: float, record: str) -> dict:
         run.hosts_known.wait(30)
         import ipaddress
         sub = ipaddress.ip_network(run.subnet)
-        env['ROS_STATIC_PEERS'] = ';'.join(str(sub[i]) for i in [*range(1, hosts + 1), 254])
+        env['ROS_DISCOVERY_SERVER'] = f'{sub[LAUNCHER_HOST]}:{DISCOVERY_PORT}'  # the launcher's server
+        env['ROS_SUPER_CLIENT'] = 'TRUE'
+        env['FASTDDS_BUILTIN_TRANSPORTS'] = 'UDPv4'
     probe_file = Path(f'{record}-probe.json')
     probe_proc = subprocess.Popen([sys.executable, __file__, '--probe', str(probe_file)], stdin=subprocess.PIPE,
                                   env=env, text=True)

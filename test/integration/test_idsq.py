@@ -15,7 +15,6 @@
 
 from __future__ import annotations
 
-import contextlib
 import math
 import os
 import re
@@ -32,24 +31,16 @@ from rcl_interfaces.msg import Log
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile, ReliabilityPolicy
-from rclpy.serialization import deserialize_message
 from rosbags.rosbag2 import Reader
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import PointCloud2
 
 from track_core.idsq import (
     GridSpec,
     Handoff,
-    SimNoise,
-    TrackerParams,
-    decode_handoff,
     encode_handoff,
-    leader_step,
-    simulate_measurement,
-    uniform_belief,
 )
-from track_core.idsq.leader_protocol import measurement_normal, start_leader_of, step_of_stamp
+from track_core.idsq.leader_protocol import protocol_track, step_of_stamp
 from track_core.idsq.simulation import scenario_of
 from track_msgs import msg as tm
 from track_msgs_py.covariance import xy_block
@@ -73,8 +64,9 @@ from track_msgs_py.topics import (
 from track_nodes.bag.check import check_bag
 from track_nodes.bag.frames import check_frames
 from track_nodes.launch.generate import idsq_yaml as scenario_yaml
-from track_nodes.launch.hosts import unavailable
+from track_nodes.launch.hosts import remove_leftovers, unavailable
 from track_nodes.launch.scenario import load_scenario, node_params
+from track_nodes.report.idsq import recorded_track
 
 DT = 0.5
 EPOCH = 1000  # the in-process network's /clock starts here (the launcher's at --epoch, by default now)
@@ -85,20 +77,7 @@ K8_STEPS = 20  # 10 s of the K = 8 scenario
 
 def reference_track(seed: int, n_sensors: int, n_steps: int) -> tuple[np.ndarray, np.ndarray, list[int]]:
     """The network's track with the core only: (means (T, 2), covariances (T, 2, 2), leaders)."""
-    _, layout, truth = scenario_of(seed, n_sensors, 0.3)
-    tp, noise, grid = TrackerParams(), SimNoise(), GridSpec.for_field(150.0, 250.0, 5.0)
-    belief, leader, prev = uniform_belief(grid), start_leader_of(layout, truth[0], noise, seed), None
-    means, covs, leaders = [], [], []
-    for s in range(n_steps):
-        z = simulate_measurement(truth[s], layout.positions[leader], bool(layout.is_doa[leader]), noise,
-                                 measurement_normal(seed, leader, s))
-        out = leader_step(belief, z, leader, layout, tp, step=s, previous=prev)
-        means.append(out.estimate.mean)
-        covs.append(out.estimate.cov)
-        leaders.append(leader)
-        belief = decode_handoff(out.payload).belief()  # what the next node receives (float32 body)
-        prev, leader = leader, out.next_leader
-    return np.array(means), np.array(covs), leaders
+    return protocol_track(seed, n_sensors, n_steps)
 
 
 class Network:
@@ -235,19 +214,10 @@ def test_network_tracks_the_vehicle_and_equals_the_core_loop(ros, repo):
 
 def _assert_recorded_track(bag, n_steps: int, in_means, in_covs, log: str) -> None:
     """The bag's /idsq/estimate: one per step 0..n-1, means and x/y covariances equal bit for bit."""
-    est, origin = [], None
-    with Reader(bag) as reader:
-        conns = [c for c in reader.connections if c.topic in (IDSQ_ESTIMATE, IDSQ_LAYOUT)]
-        for conn, _, raw in reader.messages(connections=conns):
-            if conn.topic == IDSQ_LAYOUT:  # the last, stamped, layout carries the step origin
-                origin = stamp_to_sec(deserialize_message(raw, PointCloud2).header.stamp)
-            else:
-                est.append(deserialize_message(raw, Odometry))
-    assert origin, 'no stamped layout in the bag'
-    steps = [step_of_stamp(stamp_to_sec(m.header.stamp), DT, origin) for m in est]
+    steps, means, covs = recorded_track(bag, DT)
     assert steps == list(range(n_steps)), (steps, log[-6000:])
-    np.testing.assert_array_equal(np.array([odometry_to_cv_state(m)[1][[0, 2]] for m in est]), in_means)
-    np.testing.assert_array_equal(np.array([xy_block(m.pose.covariance) for m in est]), in_covs)
+    np.testing.assert_array_equal(means, in_means)
+    np.testing.assert_array_equal(covs, in_covs)
 
 
 def _assert_protocol_decodes_with_rosbags(bag, n_steps: int) -> None:
@@ -317,20 +287,6 @@ HOSTS_REASON = ('opted out: TRACK_TEST_HOSTS=0' if os.environ.get('TRACK_TEST_HO
 HOST_STEPS = 20  # 10 s of config/idsq.yaml (K = 24, 25 processes)
 
 
-def _stop_leftovers(tag: str) -> list[str]:
-    """Belt and braces after a launcher that did not exit cleanly: kill what still runs in the
-    run's namespaces (by pid) and delete them; return the names that were left."""
-    listed = subprocess.run(['ip', 'netns', 'list'], capture_output=True, text=True).stdout.split()
-    left = [n for n in listed if n.startswith(f'{tag}-')]
-    for name in left:
-        pids = subprocess.run(['ip', 'netns', 'pids', name], capture_output=True, text=True).stdout.split()
-        for pid in pids:
-            with contextlib.suppress(ProcessLookupError, ValueError):
-                os.kill(int(pid), signal.SIGKILL)
-        subprocess.run(['ip', 'netns', 'del', name], capture_output=True)
-    return left
-
-
 @pytest.mark.skipif(HOSTS_REASON is not None, reason=f'no simulated hosts: {HOSTS_REASON}')
 def test_idsq_over_three_hosts_gives_the_in_process_track(ros, repo, tmp_path, env_factory):
     """config/idsq.yaml, 20 steps, 25 processes over 3 network namespaces (--hosts 3): the recorded
@@ -354,7 +310,7 @@ def test_idsq_over_three_hosts_gives_the_in_process_track(ros, repo, tmp_path, e
             out, err = proc.communicate()
     finally:
         tag = re.search(r'hosts: 3 namespaces (\S+)-\*', out or '')
-        left = _stop_leftovers(tag.group(1)) if tag else []
+        left = remove_leftovers(tag.group(1)) if tag else []
     assert tag, (out[-2000:], err[-3000:])
     assert left == [], f'namespaces left behind: {left}'
     assert proc.returncode == 0, err[-3000:]

@@ -7,10 +7,20 @@ from __future__ import annotations
 
 import ipaddress
 import subprocess
+from pathlib import Path
+from xml.etree import ElementTree
 
 import pytest
 
-from track_nodes.launch.hosts import Hosts, round_robin, unavailable
+from track_nodes.launch.hosts import (
+    DISCOVERY_PORT,
+    SERVER_PREFIX,
+    Hosts,
+    participant_profile,
+    remove_leftovers,
+    round_robin,
+    unavailable,
+)
 
 REASON = unavailable()
 needs_netns = pytest.mark.skipif(REASON is not None, reason=f'no simulated hosts here: {REASON}')
@@ -33,11 +43,54 @@ def test_names_subnet_and_env_are_per_run():
     assert round_robin(range(7), 3) == [0, 1, 2, 0, 1, 2, 0]
 
 
+def _profile(env: dict[str, str]) -> dict[str, str]:
+    """Tag -> text of the XML profile ``env`` names (attributes as '@name')."""
+    root = ElementTree.parse(env['FASTRTPS_DEFAULT_PROFILES_FILE']).getroot()
+    out = {}
+    for el in root.iter():
+        tag = el.tag.split('}')[1]
+        out[tag] = (el.text or '').strip()
+        out.update({f'@{k}': v for k, v in el.attrib.items()})
+    return out
+
+
+def test_nodes_are_clients_of_the_launchers_discovery_server_over_udp_only():
+    a = Hosts(3)
+    env = a.env({'ROS_DOMAIN_ID': '42', 'ROS_SUPER_CLIENT': 'TRUE'})
+    assert env['ROS_DISCOVERY_SERVER'] == f'{a.launcher_address}:{DISCOVERY_PORT}'
+    assert env['FASTDDS_BUILTIN_TRANSPORTS'] == 'UDPv4'  # the hosts share /dev/shm: no shared-memory ports
+    assert 'ROS_SUPER_CLIENT' not in env and 'FASTRTPS_DEFAULT_PROFILES_FILE' not in env
+    try:
+        server = a.server_env({'ROS_DOMAIN_ID': '42'})
+        recorder = a.env({'ROS_DOMAIN_ID': '42'}, super_client=True)
+        for e in (server, recorder):  # the launcher's namespace: XML profiles pinned to the bridge address
+            assert 'ROS_DISCOVERY_SERVER' not in e and 'ROS_STATIC_PEERS' not in e
+            assert e['ROS_AUTOMATIC_DISCOVERY_RANGE'] == 'SUBNET' and e['ROS_DOMAIN_ID'] == '42'
+            xml = _profile(e)
+            assert xml['interfaceWhiteList'] == '' and xml['address'] == a.launcher_address
+            assert xml['port'] == str(DISCOVERY_PORT) and xml['useBuiltinTransports'] == 'false'
+        assert _profile(server)['discoveryProtocol'] == 'SERVER' and _profile(server)['prefix'] == SERVER_PREFIX
+        assert _profile(recorder)['discoveryProtocol'] == 'SUPER_CLIENT'
+        assert _profile(recorder)['@prefix'] == SERVER_PREFIX  # the server it asks
+        # a child started from the launcher's environment is a client again, not a second server
+        assert 'FASTRTPS_DEFAULT_PROFILES_FILE' not in a.env(server)
+        files = [Path(e['FASTRTPS_DEFAULT_PROFILES_FILE']) for e in (server, recorder)]
+        assert all(f.exists() for f in files)
+    finally:
+        a.remove()
+    assert not any(f.exists() for f in files)  # removed with the hosts
+    with pytest.raises(ValueError, match='role'):
+        participant_profile('CLIENT', '10.0.0.1', 1)
+
+
 @needs_netns
 def test_hosts_get_their_addresses_and_are_removed():
     with Hosts(3) as hosts:
         assert hosts.setup_s < 10
         assert sorted(hosts.leftovers()) == sorted([*hosts.names, hosts.hub])
+        # every link has its carrier when the context is entered: a participant made now sees its address
+        assert 'LOWER_UP' in subprocess.run(['ip', '-o', 'link', 'show', hosts.root_veth], capture_output=True,
+                                            text=True).stdout
         for i in range(3):
             out = subprocess.run([*hosts.prefix(i), 'ip', '-4', 'addr'], capture_output=True, text=True).stdout
             assert f'{hosts.addresses[i]}/24' in out and 'inet 127.0.0.1' in out
@@ -55,3 +108,17 @@ def test_hosts_are_removed_when_the_body_raises():
 def test_not_root_is_a_reason(monkeypatch):
     monkeypatch.setattr('os.geteuid', lambda: 1000)
     assert unavailable() == 'simulated hosts need root (ip netns add)'
+
+
+@needs_netns
+def test_leftovers_of_a_killed_run_are_removed_by_tag():
+    hosts = Hosts(2)
+    hosts.__enter__()
+    hosts._up = False  # as if its launcher was killed: nobody removes them ...
+    try:
+        assert sorted(remove_leftovers(hosts.tag)) == sorted([*hosts.names, hosts.hub])  # ... but this
+        assert hosts.leftovers() == [] and remove_leftovers(hosts.tag) == []
+        assert hosts.root_veth not in subprocess.run(['ip', 'link'], capture_output=True, text=True).stdout
+    finally:
+        hosts._up = True
+        hosts.remove()

@@ -89,6 +89,7 @@ from track_core.idsq.handoff import (
     Handoff,
     Revocation,
     Unusable,
+    decode_handoff,
     encode_handoff,
     encode_revoke,
     read_package,
@@ -97,7 +98,7 @@ from track_core.idsq.handoff import (
 from track_core.idsq.models import SimNoise, TrackerParams, loudest_source, simulate_measurement
 from track_core.idsq.network import SensorLayout
 from track_core.idsq.network import handoff_targets as core_handoff_targets
-from track_core.idsq.simulation import start_leader_at
+from track_core.idsq.simulation import scenario_of, start_leader_at
 from track_core.idsq.tracker import LeaderStepResult, leader_step
 
 MEASUREMENT_KEY, SELECTION_KEY = 3, 4
@@ -143,6 +144,31 @@ def start_leader_of(layout: SensorLayout, truth0: np.ndarray, noise: SimNoise, s
     ``measurement_normal``. ``truth0``: one source (2,) or several (M, 2), each sensor hears its loudest."""
     normals = [measurement_normal(seed, k, 0) for k in range(layout.n)]  # one seeded draw per sensor
     return start_leader_at(layout, truth0, noise, np.array(normals))
+
+
+def protocol_track(seed: int, n_sensors: int, n_steps: int, doa_fraction: float = 0.3, cell: float = 5.0,
+                   tracker: TrackerParams | None = None,
+                   noise: SimNoise | None = None) -> tuple[np.ndarray, np.ndarray, list[int]]:
+    """The track a network of nodes must publish, computed with the core alone: (means (T, 2),
+    covariances (T, 2, 2), leader of each step) of the ``scenario_of(seed, n_sensors, doa_fraction)``
+    field, each step led by ``leader_step`` with this module's per-(sensor, step) draws and handed on
+    as the float32 body a node receives (``decode_handoff``). No ack is lost and no leader fails:
+    what a network with one process per sensor, on any number of hosts, records bit for bit."""
+    sc, layout, truth = scenario_of(seed, n_sensors, doa_fraction)
+    tp, noise = tracker or TrackerParams(), noise or SimNoise()
+    belief = uniform_belief(GridSpec.for_field(sc.width, sc.height, cell))
+    leader, prev = start_leader_of(layout, truth[0], noise, seed), None
+    means, covs, leaders = [], [], []
+    for s in range(n_steps):
+        z = simulate_measurement(truth[s], layout.positions[leader], bool(layout.is_doa[leader]), noise,
+                                 measurement_normal(seed, leader, s))
+        out = leader_step(belief, z, leader, layout, tp, step=s, previous=prev)
+        means.append(out.estimate.mean)
+        covs.append(out.estimate.cov)
+        leaders.append(leader)
+        belief = decode_handoff(out.payload).belief()
+        prev, leader = leader, out.next_leader
+    return np.array(means), np.array(covs), leaders
 
 
 def handoff_targets(layout: SensorLayout, k: int) -> set[int]:

@@ -21,11 +21,12 @@ RECORDED = re.compile(r'recorded (\d+) messages .*?; (?:lost|LOST) (\d+)')
 class Proc:
     """A child process whose stdout and stderr go to ``log`` (read back while it runs)."""
 
-    def __init__(self, label: str, cmd: Sequence[str], log: Path, env: dict[str, str] | None = None) -> None:
+    def __init__(self, label: str, cmd: Sequence[str], log: Path, env: dict[str, str] | None = None,
+                 cwd: Path | None = None) -> None:
         self.label, self.log = label, log
         self.t_start = time.monotonic()
         with open(log, 'wb') as out:
-            self.popen = subprocess.Popen(list(cmd), stdout=out, stderr=subprocess.STDOUT, env=env,
+            self.popen = subprocess.Popen(list(cmd), stdout=out, stderr=subprocess.STDOUT, env=env, cwd=cwd,
                                           start_new_session=True)
         self.stop_s: float | None = None
         self.killed = False

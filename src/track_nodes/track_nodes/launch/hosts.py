@@ -7,8 +7,25 @@ one more veth into the bridge, address ``.254``: the launcher (/clock, graph wat
 recorder stay where they are and see every host over one hop, as the hosts see each other.
 
 Names and subnet are unique per run (pid plus a random byte); everything is removed on leaving the
-context, at exit and on SIGTERM/SIGHUP. Discovery is real Fast DDS: unicast to the static peers
-(every host and the launcher) with ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``.
+context, at exit and on SIGTERM/SIGHUP.
+
+Discovery is real Fast DDS, through a discovery server: the launcher's own participant is the
+SERVER (``server_env``), every node is a CLIENT of it (``ROS_DISCOVERY_SERVER``) and the recorder a
+SUPER_CLIENT (it must see every topic to record by regex); the two in the launcher's namespace get
+XML profiles pinned to the bridge address (``participant_profile``). With simple discovery every
+participant announces every endpoint to every other one, so each process's discovery work grows as
+N² with the field (100 sensors over 10 hosts did not come up in 8 min on 2 cores, the sensors busy
+in Fast DDS's event threads); a client is told only of the endpoints on its own topics, and needs
+only the server's address. Transport is UDPv4 only (``FASTDDS_BUILTIN_TRANSPORTS``): ``ip netns
+exec`` shares ``/dev/shm``, and the shared-memory ports, which Fast DDS derives from a participant
+id picked per network stack, collided across hosts (``RTPS_TRANSPORT_SHM Error ...
+open_and_lock_file failed`` at 100 sensors over 10 hosts).
+
+A new veth gets its carrier after a delay, and a participant created before lists no address on
+it: a participant pinned to it fails ("All whitelist interfaces were filtered out", checked on a
+veth without carrier), and an unpinned one would announce no locator there (our reading of runs in
+which discovery worked but no node's /track/ready reached the launcher). Entering the context waits
+for every carrier (``LINK_UP_MAX``).
 """
 
 from __future__ import annotations
@@ -22,10 +39,15 @@ import secrets
 import shutil
 import signal
 import subprocess
+import tempfile
 import time
 from collections.abc import Sequence
+from pathlib import Path
 
 LAUNCHER_HOST = 254  # last octet of the launcher's own address on the bridge
+DISCOVERY_PORT = 11811  # the discovery server's UDP port on the launcher's address (Fast DDS's default)
+LINK_UP_MAX = 10.0  # [s] at most this long for every veth of a new run to report its carrier
+SERVER_PREFIX = '44.53.00.5f.45.50.52.4f.53.49.4d.41'  # what a ROS_DISCOVERY_SERVER client expects of server 0
 
 
 def unavailable() -> str | None:
@@ -77,6 +99,7 @@ class Hosts:
         self.launcher_address = str(self.subnet[LAUNCHER_HOST])
         self.setup_s = 0.0
         self._up = False
+        self._server_dir: tempfile.TemporaryDirectory | None = None  # the launcher's and recorder's profiles
         self._old_handlers: dict[int, object] = {}
 
     # -- environment and commands for a process in host i --------------------------------
@@ -84,16 +107,61 @@ class Hosts:
     def static_peers(self) -> str:
         return ';'.join([*self.addresses, self.launcher_address])
 
-    def env(self, base: dict[str, str] | None = None) -> dict[str, str]:
-        """The environment of any participant of the run: unicast discovery to every host.
+    @property
+    def discovery_server(self) -> str:
+        return f'{self.launcher_address}:{DISCOVERY_PORT}'
 
-        The domain id is the caller's (``ROS_DOMAIN_ID`` of ``base``): one per concurrent run.
+    def env(self, base: dict[str, str] | None = None, *, super_client: bool = False) -> dict[str, str]:
+        """The environment of a node of the run: a client of the launcher's discovery server, UDPv4 only.
+
+        ``super_client``: for a participant in the launcher's namespace that must be told of every
+        endpoint (the recorder records by regex). The domain id is the caller's (``ROS_DOMAIN_ID`` of
+        ``base``): one per concurrent run. The static peers stay for a participant that ignores the
+        server variable.
         """
         env = dict(os.environ if base is None else base)
+        if self._server_dir is not None and env.get('FASTRTPS_DEFAULT_PROFILES_FILE', '').startswith(
+                self._server_dir.name):
+            env.pop('FASTRTPS_DEFAULT_PROFILES_FILE')  # the launcher's own profile is not its children's
         env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
         env['ROS_STATIC_PEERS'] = self.static_peers
+        env['ROS_DISCOVERY_SERVER'] = self.discovery_server
+        env['FASTDDS_BUILTIN_TRANSPORTS'] = 'UDPv4'
         env.pop('ROS_LOCALHOST_ONLY', None)
+        env.pop('ROS_SUPER_CLIENT', None)
+        return self._on_bridge(env, 'SUPER_CLIENT') if super_client else env
+
+    def server_env(self, base: dict[str, str] | None = None) -> dict[str, str]:
+        """The environment of the launcher's process: its participant is the run's discovery server.
+
+        A participant with a SERVER profile is also told of every endpoint, which the launcher's graph
+        watching needs.
+        """
+        return self._on_bridge(self.env(base), 'SERVER')
+
+    def _on_bridge(self, env: dict[str, str], role: str) -> dict[str, str]:
+        """``env`` for a participant of the launcher's namespace: an XML profile (``participant_profile``,
+        a temporary file removed with the hosts) that pins it to the bridge address, instead of the
+        discovery variables.
+
+        The launcher's namespace has more interfaces than a host (the machine's own, other runs'
+        bridges); pinned, its participants announce only the address every host reaches. rmw_fastrtps's
+        LOCALHOST range makes a participant with a listening locator on the bridge fail to be created;
+        with a discovery server nothing is multicast.
+        """
+        path = Path(self._profile_dir()) / f'{role.lower()}.xml'
+        if not path.exists():
+            path.write_text(participant_profile(role, self.launcher_address, DISCOVERY_PORT))
+        env['FASTRTPS_DEFAULT_PROFILES_FILE'] = str(path)
+        env['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'SUBNET'
+        for key in ('ROS_DISCOVERY_SERVER', 'ROS_STATIC_PEERS'):
+            env.pop(key, None)
         return env
+
+    def _profile_dir(self) -> str:
+        if self._server_dir is None:
+            self._server_dir = tempfile.TemporaryDirectory(prefix=f'{self.tag}-dds-')
+        return self._server_dir.name
 
     def prefix(self, i: int) -> list[str]:
         """Command prefix that runs a program in host ``i``."""
@@ -138,9 +206,29 @@ class Hosts:
             res = subprocess.run(['ip', *cmd], capture_output=True, text=True)
             if res.returncode != 0:
                 raise RuntimeError(f'ip {" ".join(cmd)}: {res.stderr.strip()}')
+        self._wait_running()
+
+    def _wait_running(self, timeout: float = LINK_UP_MAX) -> None:
+        """Until every veth of the run reports its carrier (``LOWER_UP``): the kernel signals a new
+        carrier with a delay of up to a second, and a participant created before lists no address on
+        that interface (seen: the launcher's profile, pinned to its address, then failed with "All
+        whitelist interfaces were filtered out")."""
+        links = [([], self.root_veth)] + [(['-n', name], f'{self.tag}h{i}') for i, name in enumerate(self.names)]
+        deadline = time.monotonic() + timeout
+        while links:
+            links = [(ns, dev) for ns, dev in links if 'LOWER_UP' not in subprocess.run(
+                ['ip', *ns, '-o', 'link', 'show', dev], capture_output=True, text=True).stdout]
+            if links and time.monotonic() > deadline:
+                raise RuntimeError(f'simulated hosts: no carrier on {", ".join(dev for _, dev in links)} after '
+                                   f'{timeout:g} s')
+            if links:
+                time.sleep(0.02)
 
     def remove(self) -> None:
-        """Delete every namespace and device of this run (idempotent; never raises)."""
+        """Delete every namespace and device of this run, and the server's profile (idempotent; never raises)."""
+        if self._server_dir is not None:
+            self._server_dir.cleanup()
+            self._server_dir = None
         if not self._up:
             return
         self._up = False
@@ -162,6 +250,71 @@ class Hosts:
         """Plug (``up``) or unplug host ``i``: its port on the bridge goes up or down."""
         subprocess.run(['ip', '-n', self.hub, 'link', 'set', f'{self.tag}b{i}', 'up' if up else 'down'],
                        check=True, capture_output=True)
+
+
+def remove_leftovers(tag: str) -> list[str]:
+    """Belt and braces after a launcher that did not exit cleanly (killed): kill what still runs in the
+    namespaces of run ``tag`` (by pid) and delete them; the names that were left."""
+    listed = subprocess.run(['ip', 'netns', 'list'], capture_output=True, text=True).stdout.split()
+    left = [n for n in listed if n.startswith(f'{tag}-')]
+    for name in left:
+        pids = subprocess.run(['ip', 'netns', 'pids', name], capture_output=True, text=True).stdout.split()
+        for pid in pids:
+            with contextlib.suppress(ProcessLookupError, ValueError):
+                os.kill(int(pid), signal.SIGKILL)
+        subprocess.run(['ip', 'netns', 'del', name], capture_output=True)
+    if left:
+        subprocess.run(['ip', 'link', 'del', f'{tag}r'], capture_output=True)
+    return left
+
+
+def participant_profile(role: str, address: str, port: int) -> str:
+    """A Fast DDS 2.14 XML profile: the default participant is discovery server 0 on ``address:port``
+    (``role`` SERVER; its GUID prefix is the one ``ROS_DISCOVERY_SERVER`` clients expect at position 0)
+    or a SUPER_CLIENT of it; UDPv4 only, on the interface of ``address`` only."""
+    if role == 'SERVER':
+        discovery = f'''<discoveryProtocol>SERVER</discoveryProtocol>
+          </discovery_config>
+          <metatrafficUnicastLocatorList>
+            <locator><udpv4><address>{address}</address><port>{port}</port></udpv4></locator>
+          </metatrafficUnicastLocatorList>'''
+        prefix = f'<prefix>{SERVER_PREFIX}</prefix>'
+    elif role == 'SUPER_CLIENT':
+        discovery = f'''<discoveryProtocol>SUPER_CLIENT</discoveryProtocol>
+            <discoveryServersList>
+              <RemoteServer prefix="{SERVER_PREFIX}">
+                <metatrafficUnicastLocatorList>
+                  <locator><udpv4><address>{address}</address><port>{port}</port></udpv4></locator>
+                </metatrafficUnicastLocatorList>
+              </RemoteServer>
+            </discoveryServersList>
+          </discovery_config>'''
+        prefix = ''
+    else:
+        raise ValueError(f'role {role!r}: allowed SERVER, SUPER_CLIENT')
+    return f'''<?xml version="1.0" encoding="UTF-8" ?>
+<dds xmlns="http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles">
+  <profiles>
+    <transport_descriptors>
+      <transport_descriptor>
+        <transport_id>udp</transport_id><type>UDPv4</type>
+        <interfaceWhiteList><address>{address}</address></interfaceWhiteList>
+      </transport_descriptor>
+    </transport_descriptors>
+    <participant profile_name="track_nodes_{role.lower()}" is_default_profile="true">
+      <rtps>
+        {prefix}
+        <useBuiltinTransports>false</useBuiltinTransports>
+        <userTransports><transport_id>udp</transport_id></userTransports>
+        <builtin>
+          <discovery_config>
+            {discovery}
+        </builtin>
+      </rtps>
+    </participant>
+  </profiles>
+</dds>
+'''
 
 
 def _raise_exit(signum: int, _frame) -> None:

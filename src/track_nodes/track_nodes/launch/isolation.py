@@ -6,7 +6,7 @@ Two runs on one machine share nothing by default:
   and every child): a run never reaches another machine, and nobody on the network receives its
   ``/clock``. ``--network`` keeps the discovery range of the environment (Jazzy's default: the
   subnet), for runs that are meant to be watched from elsewhere. ``--hosts`` sets its own
-  (localhost plus static peers, see ``hosts``).
+  (a discovery server on the bridge, see ``hosts``).
 - **A domain of its own** when the user set no ``ROS_DOMAIN_ID``: the lowest id of
   ``DOMAIN_FIRST..DOMAIN_LAST`` that no other launcher on this machine holds (an advisory lock
   on a file per id, released by the kernel when the process ends, however it ends). Localhost

@@ -63,7 +63,7 @@ from track_nodes.launch.graph import LauncherNode, listing, ready_deadline
 from track_nodes.launch.hosts import Hosts, unavailable
 from track_nodes.launch.isolation import ForeignCheck, Isolation
 from track_nodes.launch.lockstep import Watchdog, run_ready
-from track_nodes.launch.processes import failed_children, spawn_nodes, stop_processes
+from track_nodes.launch.processes import failed_children, processes_cpu, spawn_nodes, stop_processes
 from track_nodes.launch.scenario import Scenario, ScenarioError, load_scenario, params_file_sections
 
 CLOCK_TICK = 0.01  # wall seconds per /clock step at the nominal rate ...
@@ -135,6 +135,7 @@ class Launch:
         if self.watchdog_s is not None and not self.watchdog_s > 0:
             raise LaunchError(f'--watchdog must be > 0 s, got {self.watchdog_s}')
         self.dog: Watchdog | None = None
+        self.clock_cpu: tuple[float, float] | None = None  # (wall, CPU s) at the clock's start, --processes
         self.lockstep = False
         self.nodes: list[Node] = []
 
@@ -163,7 +164,7 @@ class Launch:
         with Hosts(n_hosts) as hosts:
             print(f'hosts: {n_hosts} namespaces {hosts.tag}-*, {hosts.subnet}, set up in {hosts.setup_s:.2f} s',
                   flush=True)
-            os.environ.update(hosts.env())  # the launcher's own participant reaches every host
+            os.environ.update(hosts.server_env())  # the launcher's own participant: the run's discovery server
             return self._run(processes, hosts)
 
     def _run(self, processes: bool, hosts: Hosts | None) -> int:
@@ -194,6 +195,7 @@ class Launch:
             with contextlib.suppress(KeyboardInterrupt):
                 if children:
                     self._drain(launcher, executor)
+                    self._say_cpu(children)
                 self._pump(executor, time.monotonic() + GRACE)  # messages in flight reach the recorder
             stop_processes(children)
             # The main thread is the only one that hands work to the pool; drain the pool before
@@ -210,6 +212,15 @@ class Launch:
                 self.dog.stop()
         own = max((getattr(node, 'exit_code', 0) for node in nodes), default=0)  # e.g. the recorder's full disk
         return EXIT_BAD_INPUT if failed_children(children) else own
+
+    def _say_cpu(self, children: list[subprocess.Popen]) -> None:
+        """--processes: the CPU time of the run's processes from the clock's start to the end of the
+        drain (bring-up and teardown excluded), one line."""
+        if self.clock_cpu is None:
+            return
+        t0, cpu0 = self.clock_cpu
+        print(f'cpu: {processes_cpu(children) - cpu0:.2f} s in {len(children)} processes and the launcher '
+              f'from the clock\'s start to the end of the work ({time.monotonic() - t0:.1f} s wall)', flush=True)
 
     def _drain(self, launcher: LauncherNode, executor: MultiThreadedExecutor) -> None:
         """--processes: after the clock stopped, wait until the other processes' work is done.
@@ -323,6 +334,7 @@ class Launch:
             elif self.sim and (unmatched := launcher.clock_unmatched()):
                 missing = [f'{unmatched} /clock subscription(s) to match']
             if not missing:
+                print(f'ready: {len(names)} nodes in {time.monotonic() - deadline + timeout:.1f} s', flush=True)
                 break
             if time.monotonic() > deadline or not self.context.ok():
                 raise LaunchError(f'not ready after {timeout:.0f} s ({why}): waiting for {missing[0]}')
@@ -357,6 +369,7 @@ class Launch:
         step = min(self.rate * CLOCK_TICK, MAX_CLOCK_STEP)
         wall_step = step / self.rate if self.sim else CLOCK_TICK
         t0, k = time.monotonic(), 0
+        self.clock_cpu = (t0, processes_cpu(children)) if children else None
         epoch_ns = self._epoch_ns() if self.sim else 0
         self.dog = Watchdog(len(self.sc.nodes) + 1, self.watchdog_s).start() if self.sim else None
         names = [s.name for s in self.sc.nodes] + ['recorder'] * (self.bag is not None) + [launcher.get_name()]

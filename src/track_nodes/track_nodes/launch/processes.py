@@ -1,7 +1,8 @@
 """``--processes`` mode: one OS process per node, each in its own process group.
 
 With ``hosts`` (``--hosts N``) node k runs in simulated host k mod N (``ip netns exec``); the
-recorder stays in the launcher's namespace, which reaches every host (see ``hosts``).
+recorder stays in the launcher's namespace, which reaches every host, and discovers as a super
+client of the launcher's discovery server (see ``hosts``).
 
 A terminal Ctrl-C then reaches only the launcher, which stops the children (SIGINT, then a kill
 of those that do not stop: ``stop_processes``) so the recorder closes its bag. A child that is
@@ -11,6 +12,7 @@ killed is asked for its Python stacks first (SIGUSR1), so a real hang says where
 from __future__ import annotations
 
 import contextlib
+import os
 import signal
 import subprocess
 import sys
@@ -34,10 +36,10 @@ def spawn_nodes(specs: Sequence[NodeSpec], params_files: Sequence[str], sim: boo
         cmds.append([sys.executable, '-m', 'track_nodes', 'recorder', '--ros-args', '-p', use_sim,
                      '-p', f'bag:={bag}', '-p', f'regex:={record_regex}'])
     labels = [spec.name for spec in specs] + ['recorder']
-    env = None if hosts is None else hosts.env()
     children = []
     for k, cmd in enumerate(cmds):
         in_host = hosts is not None and k < len(specs)
+        env = None if hosts is None else hosts.env(super_client=not in_host)  # the recorder sees every topic
         child = subprocess.Popen([*hosts.prefix(k % hosts.n), *cmd] if in_host else cmd, env=env,
                                  start_new_session=True)
         child.label = labels[k]  # type: ignore[attr-defined]
@@ -84,6 +86,24 @@ def stop_processes(children: Sequence[subprocess.Popen]) -> None:
                 child.kill()
                 child.wait()
         time.sleep(0.1)
+
+
+def processes_cpu(children: Sequence[subprocess.Popen]) -> float:
+    """CPU time [s] used so far by the running ``children`` (every thread; Linux /proc) and this process.
+
+    The launcher reads it when its clock starts and when it stops: the difference is the run's CPU
+    for the clock's steps, bring-up and teardown excluded. A child that has already ended counts 0.
+    """
+    total = sum(os.times()[:2])
+    tick = os.sysconf('SC_CLK_TCK')
+    for child in children:
+        try:
+            with open(f'/proc/{child.pid}/stat') as f:
+                fields = f.read().rsplit(')', 1)[1].split()
+        except (OSError, IndexError):
+            continue
+        total += (float(fields[11]) + float(fields[12])) / tick  # utime, stime of every thread
+    return total
 
 
 def _main_thread_cpu(pid: int) -> float | None:

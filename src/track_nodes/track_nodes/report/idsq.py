@@ -8,11 +8,31 @@ from pathlib import Path
 
 import numpy as np
 
+from track_core.idsq.leader_protocol import step_of_stamp
 from track_core.metrics import match_stamps, rms
+from track_msgs_py.covariance import xy_block
 from track_msgs_py.odometry import odometry_to_cv_state
 from track_msgs_py.records.idsq import IdsqHandoff, IdsqLeaderEvent
-from track_msgs_py.topics import IDSQ_ESTIMATE, IDSQ_HANDOFF_REGEX, IDSQ_LEADER, IDSQ_TRUTH
+from track_msgs_py.stamps import stamp_to_sec
+from track_msgs_py.topics import IDSQ_ESTIMATE, IDSQ_HANDOFF_REGEX, IDSQ_LAYOUT, IDSQ_LEADER, IDSQ_TRUTH
 from track_nodes.report.read import read_topics, topics_matching
+
+
+def recorded_track(bag: Path, dt: float) -> tuple[list[int | None], np.ndarray, np.ndarray]:
+    """The bag's ``/idsq/estimate`` in bag order: (step of each, means (T, 2), x/y covariances (T, 2, 2)).
+
+    Steps count from the step origin, the stamp of the last (stamped) ``/idsq/layout``; a bag with no
+    stamped layout raises ValueError.
+    """
+    msgs = read_topics(bag, {IDSQ_ESTIMATE, IDSQ_LAYOUT})
+    stamps = [stamp_to_sec(m.header.stamp) for m in msgs.get(IDSQ_LAYOUT, [])]
+    if not stamps or not stamps[-1]:
+        raise ValueError(f'{bag}: no stamped {IDSQ_LAYOUT}: the step origin is unknown')
+    est = msgs.get(IDSQ_ESTIMATE, [])
+    steps = [step_of_stamp(stamp_to_sec(m.header.stamp), dt, stamps[-1]) for m in est]
+    means = np.array([odometry_to_cv_state(m)[1][[0, 2]] for m in est]).reshape(-1, 2)
+    covs = np.array([xy_block(m.pose.covariance) for m in est]).reshape(-1, 2, 2)
+    return steps, means, covs
 
 
 def idsq_metrics(bag: Path) -> list[str]:
