@@ -142,6 +142,39 @@ def test_a_topic_that_appears_later_is_advertised_served_and_withdrawn(ros, live
     assert FRAME_BASE in {t.child_frame_id for t in second.decode(TF_STATIC).transforms}
 
 
+def test_under_sim_time_log_times_are_clock_s_and_the_time_is_broadcast(ros):
+    from rosgraph_msgs.msg import Clock
+
+    from track_msgs_py.qos import CLOCK_QOS
+
+    bridge = ros.add(FoxgloveBridgeNode(context=ros.context, parameter_overrides=[
+        Parameter('port', value=0), Parameter('discovery_period', value=0.1), Parameter('use_sim_time', value=True)]))
+    clock = ros.add(Node('clock', context=ros.context))
+    pub = clock.create_publisher(Clock, '/clock', CLOCK_QOS)
+    client = FoxgloveClient(f'ws://127.0.0.1:{bridge.port}')
+    try:
+        assert ros.spin_until(lambda: client.advertised('/clock'), timeout=WAIT)
+        assert 'time' in client.server_info['capabilities']
+        client.subscribe('/clock')
+        t = [1_700_000_000]
+
+        def tick() -> bool:
+            t[0] += 1
+            msg = Clock()
+            msg.clock.sec = t[0]
+            pub.publish(msg)
+            return client.received('/clock', n=3) and len(client.times) >= 3
+
+        assert ros.spin_until(tick, timeout=WAIT)
+        first = 1_700_000_001 * 10**9
+        assert all(first <= ns <= t[0] * 10**9 for ns in client.times), client.times  # the broadcast time is /clock's
+        log = [lt for lt, _ in client.messages['/clock']]
+        # /clock's time (not the wall time, years later); 0 while the node's clock has had no /clock yet
+        assert max(log) >= first and all(lt == 0 or first <= lt <= t[0] * 10**9 for lt in log), log
+    finally:
+        client.close()
+
+
 def _start(args: list[str], env: dict) -> tuple[subprocess.Popen, int]:
     """The bridge as its own process on a free port; → the process and the port it logged."""
     proc = subprocess.Popen([sys.executable, '-m', 'track_nodes', 'foxglove_bridge', '--port', '0', *args],
