@@ -62,6 +62,31 @@ def test_every_3d_entry_of_the_shipped_layouts_is_of_a_type_the_panel_draws(repo
     assert undrawn({'configById': {'3D!main': {'topics': {'/nowhere': {}}}}}, published) == ['/nowhere: not published']
 
 
+# The Foxglove SDK's own model of a 3D panel's topic settings, per type we draw (foxglove.layouts)
+_SDK_SETTINGS = {
+    'visualization_msgs/msg/MarkerArray': 'BaseRendererRosMarkerTopicSettings',
+    'sensor_msgs/msg/PointCloud2': 'BaseRendererPointCloudTopicSettings',
+    'geometry_msgs/msg/PoseStamped': 'BaseRendererPoseTopicSettings',
+    'geometry_msgs/msg/PoseWithCovarianceStamped': 'BaseRendererPoseTopicSettings',
+    'geometry_msgs/msg/PoseArray': 'BaseRendererPosesTopicSettings',
+}
+
+
+def test_every_topic_setting_is_one_foxglove_knows_for_its_type(repo):
+    """Each 3D entry's keys are fields of the SDK's settings model of its type (an unknown key is ignored by the
+    app, silently: a misspelt colour would draw in the default one)."""
+    import re
+
+    from foxglove import layouts
+
+    for name in SCENES:
+        layout = json.loads((repo / SRC / f'{name}.json').read_text())
+        for topic, settings in layout['configById']['3D!main']['topics'].items():
+            model = getattr(layouts, _SDK_SETTINGS[TOPICS[topic].msgtype])
+            kwargs = {re.sub('([A-Z])', r'_\1', k).lower(): v for k, v in settings.items()}
+            assert model(**kwargs)._to_dict().keys() >= settings.keys(), (name, topic)  # TypeError on an unknown key
+
+
 def test_the_maritime_layout_shows_every_track_its_truth_the_observer_and_the_pings(repo):
     topics = set(three_d_topics(json.loads((repo / SRC / 'maritime.json').read_text())))
     tracks = {'/sonar/estimate/pose', '/idsq/estimate/pose', '/radar/t0'}  # observer, network, radar (the decoy)

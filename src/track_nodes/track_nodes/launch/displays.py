@@ -153,7 +153,7 @@ def foxglove_layout(scene: Scene) -> dict:
             if msgtype.endswith('CovarianceStamped'):
                 t.update({'showCovariance': True, 'covarianceColor': color + '66'})
         elif msgtype == 'geometry_msgs/msg/PoseArray':
-            t.update({'type': 'arrow', 'arrowColor': color, 'arrowScale': arrow})
+            t.update({'type': 'arrow', 'gradient': [color, color], 'arrowScale': arrow})
         topics[topic] = t
     three_d = {'followTf': 'map', 'followMode': 'follow-none', 'topics': topics,
                'layers': {'grid': {'layerId': 'foxglove.Grid', 'visible': True, 'frameId': 'map', 'size': 1000,
