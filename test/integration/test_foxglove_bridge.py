@@ -99,8 +99,12 @@ def test_every_topic_is_served_with_its_schema_and_decodes_as_foxglove_decodes_i
     scan = client.decode(SLAM_SCAN)
     assert [f.name for f in scan.fields[:3]] == ['x', 'y', 'z'] and scan.header.frame_id == FRAME_LASER
     assert bytes(scan.data) == bytes(deserialize_message(client.payload(SLAM_SCAN), PointCloud2).data)
-    tf = client.decode(TF)
-    assert [(t.header.frame_id, t.child_frame_id) for t in tf.transforms] == [('map', FRAME_LASER_TRUTH)]
+    # /tf: slam_sim places laser_truth, slam places laser (once it has a pose): every message decodes
+    assert ros.spin_until(lambda: any(t.child_frame_id == FRAME_LASER_TRUTH for i in range(len(client.messages[TF]))
+                                      for t in client.decode(TF, i).transforms), timeout=WAIT)
+    pairs = {(t.header.frame_id, t.child_frame_id) for i in range(len(client.messages[TF]))
+             for t in client.decode(TF, i).transforms}
+    assert ('map', FRAME_LASER_TRUTH) in pairs and pairs <= {('map', FRAME_LASER_TRUTH), ('map', FRAME_LASER)}, pairs
     static = client.decode(TF_STATIC)
     assert (FRAME_LASER, FRAME_BASE) in {(t.header.frame_id, t.child_frame_id) for t in static.transforms}
     assert deserialize_message(client.payload(TF_STATIC), TFMessage).transforms[0].child_frame_id == FRAME_BASE
