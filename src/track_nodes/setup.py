@@ -23,7 +23,8 @@ setup(
         (f'share/{PKG}/displays', sorted(str(p.relative_to(HERE)) for p in (HERE / 'displays').glob('*.*'))),
         (f'lib/{PKG}', SHIMS),
     ],
-    install_requires=['track_core', 'track_msgs_py', 'PyYAML', 'rosbags', 'mcap', 'mcap-ros2-support', 'sllurp'],
+    install_requires=['track_core', 'track_msgs_py', 'PyYAML', 'rosbags', 'mcap', 'mcap-ros2-support', 'sllurp',
+                      'foxglove-sdk'],
     extras_require={'test': ['pytest']},  # colcon test runs pytest (the suite's part in pytest.ini)
     zip_safe=False,
     description='rclpy nodes of the tracking package set',
@@ -36,6 +37,7 @@ setup(
             'track-bag-recover = track_nodes.bag.recover:main',
             'track-bag-check = track_nodes.bag.check:main',
             'track-dataset = track_nodes.bag.dataset:main',
+            'track-foxglove = track_nodes.foxglove.bridge:main',
         ],
     },
 )

@@ -27,6 +27,7 @@ from track_msgs_py.topics import FUSION_FUSED, FUSION_SCORES, IDSQ_ESTIMATE, SON
 from track_nodes.bag.api import mcap_problem
 from track_nodes.bag.frames import check_frames
 from track_nodes.fusion.fusion import FusionNode
+from track_nodes.launch.displays import undrawn_in_bag
 from track_nodes.launch.generate import maritime_yaml
 from track_nodes.report import maritime
 from track_nodes.report.read import read_topics
@@ -97,6 +98,11 @@ def test_every_frame_of_the_recording_is_placed_in_map(maritime_run):
     assert mcap_problem(bag, _messages(bag)) is None   # Foxglove's mcap reader decodes every message
     fused = read_topics(bag, {FUSION_FUSED})[FUSION_FUSED]
     assert fused and all(m.header.frame_id == 'map' for m in fused) and any(m.tracks for m in fused)
+
+
+def test_every_3d_entry_of_the_foxglove_layout_is_recorded_with_a_drawable_type(maritime_run):
+    """maritime.json draws what the run published: the four tracks' and truths' twins, the observer, the pings."""
+    assert undrawn_in_bag('maritime', maritime_run[1]) == []
 
 
 def test_replay_into_a_fresh_fusion_node_gives_the_same_scores(maritime_run, ros):

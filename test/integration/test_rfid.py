@@ -52,18 +52,21 @@ from track_msgs_py.topics import (
     RFID_TAG_ESTIMATE,
     RFID_USER_POSE,
     RFID_USER_STATUS,
+    display_twin,
 )
 from track_nodes.bag.api import mcap_problem
 from track_nodes.bag.check import check_bag
 from track_nodes.bag.frames import check_frames
 from track_nodes.base import ParameterError
+from track_nodes.launch.displays import undrawn_in_bag
 from track_nodes.launch.scenario import node_params
 from track_nodes.rfid.rfid_guidance import RfidGuidanceNode
 from track_nodes.rfid.rfid_reader import RfidReaderNode
 
 TYPES = {RFID_COMMAND: tm.RfidCommand, RFID_STEP: tm.RfidStep, RFID_PHASE: PointCloud2,
          RFID_USER_POSE: PoseStamped, RFID_USER_STATUS: tm.RfidUserStatus, RFID_PARTICLES: PoseArray,
-         RFID_TAG_ESTIMATE: PointStamped, RFID_FOUND: tm.RfidFound, TF: TFMessage, TF_STATIC: TFMessage}
+         RFID_TAG_ESTIMATE: PointStamped, RFID_FOUND: tm.RfidFound, TF: TFMessage, TF_STATIC: TFMessage,
+         display_twin(RFID_TAG_ESTIMATE): PoseStamped}  # the estimate as Foxglove's 3D panel draws it
 MOVE, TURN, DONE = CommandKind.MOVE, CommandKind.TURN, CommandKind.DONE
 RECORD_S = 15.0  # node time of the launcher run: seed 4 is found after ~5 s (time_scale 0.25)
 
@@ -359,6 +362,7 @@ def test_launcher_records_the_search_and_the_summary_says_found(tmp_path, env_fa
     assert f'final distance to the tag {ref.final_distance_m:.3f} m' in out, out
     res = check_bag(bag)  # issue 19: every phase cloud drawable (float32 x, y, z first)
     assert res.ok and res.checked[RFID_PHASE] == ref.steps, res.problems
+    assert undrawn_in_bag('rfid', bag) == []  # every 3D entry of the Foxglove layout recorded, of a drawable type
 
 
 # --- a commercial reader (issue 14) ----------------------------------------------------------------

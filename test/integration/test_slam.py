@@ -48,6 +48,7 @@ from track_nodes.bag.check import check_bag
 from track_nodes.bag.frames import check_frames
 from track_nodes.bag.player import PlayerNode
 from track_nodes.base import ParameterError
+from track_nodes.launch.displays import undrawn_in_bag
 from track_nodes.slam.slam import SlamNode
 from track_nodes.slam.slam_sim import SlamSimNode
 
@@ -253,6 +254,7 @@ def test_slam_sim_scenario_short_run(tmp_path, repo, env_factory):
     res = check_bag(tmp_path / 'bags/sim')  # issue 19: clouds with x, y, z and planar covariances
     assert res.ok and res.checked[SLAM_POSE] == counts[SLAM_POSE] and res.checked[SLAM_SCAN] > 0, res.problems
     assert check_frames(tmp_path / 'bags/sim') == []  # laser, base_link (slam) and laser_truth (slam_sim)
+    assert undrawn_in_bag('slam', tmp_path / 'bags/sim') == []  # every 3D entry of slam.json recorded, drawable
     # one per truth and per pose, none lost, and the first input's (it comes before the first scan)
     assert counts['/tf'] == counts['/slam/truth'] + counts[SLAM_POSE] + 1
     # not stamps=True: the run may stop with inputs after the last scan the filter has released

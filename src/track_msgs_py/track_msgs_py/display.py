@@ -12,6 +12,13 @@ our own output follows the display conventions of ``track_msgs_py.clouds``,
   TwistWithCovariance[Stamped]) has no z variance larger than its x or y variance, so the
   position ellipse is drawn flat, not as a column (``planar_covariance_problem``). The former
   1e6 on z fails it; the planar 0 passes with any x/y block, truth's zeros included.
+
+Display twins (``display_twin``; the topics: ``topics.DISPLAY_TWINS``): Foxglove's 3D panel draws
+neither ``nav_msgs/Odometry`` nor ``geometry_msgs/PointStamped`` (``FOXGLOVE_3D_TYPES``), so a
+node publishing one of the topics the layouts draw also publishes its twin on ``<topic>/pose``: an Odometry's
+``PoseWithCovarianceStamped`` (same header, pose and covariance: the 2σ ellipse draws), a
+PointStamped's ``PoseStamped`` (the point, identity orientation). ``TrackNode.create_publisher``
+makes the twin publisher; RViz draws the originals.
 """
 
 from __future__ import annotations
@@ -20,6 +27,23 @@ import numpy as np
 from sensor_msgs.msg import PointField
 
 from track_msgs_py.clouds import XYZ
+
+#: The ROS 2 message types Foxglove's 3D panel draws. From the 3D panel's documentation ("Supported
+#: messages": docs.foxglove.dev/docs/visualization/panels/3d) and its source, the last open release of
+#: Foxglove Studio (packages/studio-base/src/panels/ThreeDeeRender/ros.ts: the *_DATATYPES sets its scene
+#: extensions subscribe with; each ROS 1 name also in its ``pkg/msg/Type`` form). Neither
+#: ``nav_msgs/msg/Odometry`` nor ``geometry_msgs/msg/PointStamped`` is among them: a 3D entry of those
+#: types draws nothing, hence the display twins below. (Foxglove's own ``foxglove_msgs`` schemas,
+#: SceneUpdate, PoseInFrame and the like, draw too; we publish none.)
+FOXGLOVE_3D_TYPES = frozenset({
+    'tf2_msgs/msg/TFMessage', 'geometry_msgs/msg/TransformStamped',
+    'visualization_msgs/msg/Marker', 'visualization_msgs/msg/MarkerArray',
+    'nav_msgs/msg/OccupancyGrid', 'nav_msgs/msg/Path',
+    'sensor_msgs/msg/PointCloud2', 'sensor_msgs/msg/LaserScan',
+    'geometry_msgs/msg/PoseStamped', 'geometry_msgs/msg/PoseWithCovarianceStamped', 'geometry_msgs/msg/PoseArray',
+    'geometry_msgs/msg/PolygonStamped',
+    'sensor_msgs/msg/CameraInfo', 'sensor_msgs/msg/Image', 'sensor_msgs/msg/CompressedImage',
+})
 
 _XYZ_OFFSETS = (0, 4, 8)
 
@@ -58,6 +82,18 @@ def _covariances(msg) -> list[tuple[str, object]]:
         if inner is not None and hasattr(inner, 'covariance'):
             out.append((f'{holder}.covariance', inner.covariance))
     return out
+
+
+def display_twin(msg):
+    """The drawable twin of an ``Odometry`` (→ ``PoseWithCovarianceStamped``) or a ``PointStamped``
+    (→ ``PoseStamped``)."""
+    from geometry_msgs.msg import PoseStamped, PoseWithCovarianceStamped
+
+    if hasattr(msg, 'child_frame_id'):  # Odometry
+        return PoseWithCovarianceStamped(header=msg.header, pose=msg.pose)
+    twin = PoseStamped(header=msg.header)
+    twin.pose.position = msg.point
+    return twin
 
 
 def display_problems(msg) -> list[str]:

@@ -377,3 +377,40 @@ for _prefix, _what in ((AIS_RADAR, 'coastal radar'), (AIS_PATROL, 'patrol')):
             'id>" (the fusion track id), values mmsi, reports'),
     })
 del _prefix, _what
+
+# Maritime scenario's coastal radar: a report_source with prefix /radar (config/maritime.yaml) that reports
+# the decoy (ship 0) and publishes its truth (track_nodes.report.maritime reads both).
+MARITIME_RADAR_TRACK = '/radar/t0'
+MARITIME_RADAR_TRUTH = '/radar/truth'
+TOPICS.update({
+    MARITIME_RADAR_TRACK: TopicSpec('geometry_msgs/msg/PoseWithCovarianceStamped', 'estimate',
+                                    f'maritime: the coastal radar\'s track of the decoy, position + 2σ ellipse '
+                                    f'({COV_PLANAR}: yaw)'),
+    MARITIME_RADAR_TRUTH: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
+                                    'maritime: the decoy\'s true state (zero covariance), child_frame_id t0; '
+                                    'evaluation only'),
+})
+
+# Display twins (track_msgs_py.display.display_twin): Foxglove's 3D panel draws neither Odometry nor
+# PointStamped, so each topic of DISPLAY_TWINS (those the shipped layouts draw: track_nodes.launch.displays)
+# has a drawable twin on <topic>/pose, published beside it by the same node with the same QoS
+# (TrackNode.create_publisher). Names as they resolve in the root namespace, like every name here.
+TWIN_TYPES = {'nav_msgs/msg/Odometry': 'geometry_msgs/msg/PoseWithCovarianceStamped',
+              'geometry_msgs/msg/PointStamped': 'geometry_msgs/msg/PoseStamped'}
+DISPLAY_TWIN_SUFFIX = '/pose'
+DISPLAY_TWINS = frozenset({SONAR_ESTIMATE, IDSQ_ESTIMATE, SONAR_TRUTH, SONAR_OBSERVER, SONAR_PING, MARITIME_RADAR_TRUTH,
+                           SLAM_POSE, SLAM_TRUTH, RFID_TAG_ESTIMATE})
+
+
+def display_twin(topic: str) -> str:
+    """The topic of ``topic``'s drawable twin: ``/sonar/estimate`` → ``/sonar/estimate/pose``."""
+    return topic.rstrip('/') + DISPLAY_TWIN_SUFFIX
+
+
+for _topic in sorted(DISPLAY_TWINS):
+    _type = TOPICS[_topic].msgtype
+    TOPICS[display_twin(_topic)] = TopicSpec(
+        TWIN_TYPES[_type], TOPICS[_topic].qos,
+        f'display twin of {_topic} for Foxglove\'s 3D panel: same header, '
+        + ('pose and covariance (the 2σ ellipse)' if _type.endswith('Odometry') else 'the point, identity orientation'))
+del _topic, _type

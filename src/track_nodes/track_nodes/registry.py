@@ -30,6 +30,8 @@ NODES = {
     # bag tools that are nodes
     'recorder': 'track_nodes.bag.recorder:RecorderNode',
     'player': 'track_nodes.bag.player:PlayerNode',
+    # the live view
+    'foxglove_bridge': 'track_nodes.foxglove.bridge:FoxgloveBridgeNode',
 }
 
 # Executables whose main is not TrackNode.main (they parse their own command line first). All take
@@ -37,6 +39,7 @@ NODES = {
 MAINS = {
     'recorder': 'track_nodes.bag.recorder:main',
     'player': 'track_nodes.bag.player:main',
+    'foxglove_bridge': 'track_nodes.foxglove.bridge:main',
     'bag_recover': 'track_nodes.bag.recover:main',
     'node_group': 'track_nodes.launch.group:main',
 }

@@ -102,3 +102,28 @@ def test_planar_covariance_problem_edges():
     assert planar_covariance_problem('c', c) is not None
     assert 'expected 36' in planar_covariance_problem('c', np.zeros(9))
     assert display_problems(PoseWithCovarianceStamped()) == []
+
+
+def test_display_twins_keep_header_pose_and_covariance():
+    """Foxglove's 3D panel draws neither Odometry nor PointStamped: their twins carry what it needs."""
+    from geometry_msgs.msg import PointStamped, PoseStamped
+
+    from track_msgs_py.display import FOXGLOVE_3D_TYPES, display_twin
+    from track_msgs_py.topics import DISPLAY_TWINS, TOPICS, TWIN_TYPES
+    from track_msgs_py.topics import display_twin as twin_topic
+
+    odom = cv_state_to_odometry(12.5, X, P, child_frame_id='sonar_track')
+    twin = display_twin(odom)
+    assert isinstance(twin, PoseWithCovarianceStamped)
+    assert twin.header == odom.header and twin.pose == odom.pose  # the 2σ ellipse comes with the covariance
+    assert list(twin.pose.covariance) == list(odom.pose.covariance) and twin.pose.covariance[0] == 4.0
+    point = PointStamped()
+    point.header.frame_id, point.point.x, point.point.y = 'rfid_user', 1.5, -0.5
+    pose = display_twin(point)
+    assert isinstance(pose, PoseStamped) and pose.header.frame_id == 'rfid_user'
+    assert (pose.pose.position.x, pose.pose.position.y, pose.pose.orientation.w) == (1.5, -0.5, 1.0)
+    for topic in DISPLAY_TWINS:  # every twin is in the table, of a type the panel draws, with the original's QoS
+        spec = TOPICS[twin_topic(topic)]
+        assert spec.msgtype == TWIN_TYPES[TOPICS[topic].msgtype] and spec.msgtype in FOXGLOVE_3D_TYPES
+        assert spec.qos == TOPICS[topic].qos
+    assert twin_topic('/sonar/estimate') == '/sonar/estimate/pose' and twin_topic('a/b') == 'a/b/pose'

@@ -68,7 +68,8 @@ KEYS = {
     'catkin_pkg': 'python3-catkin-pkg', 'colcon_core': 'python3-colcon-common-extensions',
     'colcon_python_setup_py': 'python3-colcon-common-extensions',
 }
-NO_KEY = {'mcap', 'sllurp', 'llrpkit'}  # pip only: a comment in package.xml, the pip step in README
+# pip only: a comment in package.xml, the pip step in README
+NO_KEY = {'mcap', 'sllurp', 'llrpkit', 'foxglove', 'websockets'}
 OPTIONAL = {'stonesoup', 'filterpy'}  # track-bench's peers, requirements-bench.txt
 NOT_IMPORTED = {'python3-pytest-timeout',  # the pytest plugin of pytest.ini's timeout
                 'ros2launch'}  # what runs launch/*.launch.py

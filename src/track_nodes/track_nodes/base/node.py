@@ -24,6 +24,10 @@ and ``/diagnostics`` keys name the resolved topic (``resolved``). Every endpoint
 overrides (``QoSOverridingOptions.with_default_policies``: history, depth, reliability, durability),
 read-only parameters such as ``-p qos_overrides./demo/track.publisher.depth:=50``.
 
+Display twins: a publisher of one of ``topics.DISPLAY_TWINS`` (Odometry or PointStamped, which Foxglove's 3D
+panel does not draw) publishes each message's drawable twin on ``<topic>/pose`` too (``base/twins.py``),
+unless the name is taken as given (a player's replay, whose recording holds the twins).
+
 Transforms (``track_msgs_py.tf``): ``send_transforms(*ts)`` publishes dynamic transforms on ``/tf``;
 ``add_static_transforms(*ts)`` adds fixed ones (a later one with the same child frame replaces the
 earlier) and republishes ALL of the node's static transforms as one message on the latched
@@ -53,13 +57,14 @@ from rclpy.qos_overriding_options import QoSOverridingOptions
 from track_msgs_py.diagnostics import diagnostic_array, diagnostic_status
 from track_msgs_py.records import DIAG_OK, DIAG_WARN
 from track_msgs_py.tf import TF, TF_QOS, TF_STATIC, TF_STATIC_QOS, tf_message
-from track_msgs_py.topics import DIAGNOSTICS, relative
+from track_msgs_py.topics import DIAGNOSTICS, display_twin, relative
 from track_nodes.base import ready
 from track_nodes.base.names import CheckedNames
 from track_nodes.base.params import NoParams, Param, ParameterError, declare
 from track_nodes.base.refusals import RefusalCounter
 from track_nodes.base.teardown import dds_alarm
 from track_nodes.base.timejump import watch_time_jumps
+from track_nodes.base.twins import TwinnedPublisher, twin_class
 
 
 def _overridable(node: Node, kwargs: dict) -> None:
@@ -109,6 +114,10 @@ class TrackNode(Node, metaclass=CheckedNames):
         _overridable(self, kwargs)
         pub = super().create_publisher(msg_type, topic if as_given else relative(topic), qos_profile, **kwargs)
         self._names()[topic] = pub.topic_name
+        twin = None if as_given else twin_class(topic, msg_type)
+        if twin is not None:  # Odometry, PointStamped: a drawable twin on <topic>/pose (base/twins.py)
+            twin_pub = super().create_publisher(twin, relative(display_twin(topic)), qos_profile, **kwargs)
+            return TwinnedPublisher(pub, twin_pub)
         return pub
 
     def create_subscription(self, msg_type, topic: str, callback, qos_profile, *, as_given: bool = False,

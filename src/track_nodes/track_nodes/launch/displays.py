@@ -4,8 +4,12 @@
 ``topics.TOPICS``; the drawing from the type: markers, clouds coloured by a field, odometry with its
 2σ covariance, pose arrays). ``rviz_config`` and ``foxglove_layout`` turn one scene into an RViz 2
 ``.rviz`` file and a Foxglove layout (``.json``: a 3D panel following ``map`` plus a raw-message
-panel). The files in ``src/track_nodes/displays/`` (installed to ``share/track_nodes/displays/``)
-are written by ``python -m track_nodes.launch.displays DIR``; a test keeps them equal to this.
+panel). RViz draws every type of a scene; Foxglove's 3D panel draws neither Odometry nor
+PointStamped (``display.FOXGLOVE_3D_TYPES``), so its layout names their display twins
+(``<topic>/pose``, published beside them: ``base/twins.py``) instead; ``undrawn`` checks a layout
+against the topics and types a run published. The files in ``src/track_nodes/displays/`` (installed
+to ``share/track_nodes/displays/``) are written by ``python -m track_nodes.launch.displays DIR``; a test
+keeps them equal to this.
 
     rviz2 -d $(ros2 pkg prefix track_nodes)/share/track_nodes/displays/maritime.rviz
     Foxglove: Layouts → Import from file… → share/track_nodes/displays/maritime.json
@@ -20,7 +24,8 @@ from pathlib import Path
 
 import yaml
 
-from track_msgs_py.topics import TOPICS
+from track_msgs_py.display import FOXGLOVE_3D_TYPES
+from track_msgs_py.topics import DISPLAY_TWINS, TOPICS, TWIN_TYPES, display_twin
 
 
 @dataclass(frozen=True)
@@ -33,6 +38,12 @@ class Layer:
 
     def type_name(self) -> str:
         return self.msgtype or TOPICS[self.topic].msgtype
+
+    def foxglove(self) -> tuple[str, str]:
+        """(topic, type) of what Foxglove's 3D panel draws for this layer: the topic, or its display twin."""
+        if self.type_name() in FOXGLOVE_3D_TYPES or self.topic not in DISPLAY_TWINS:
+            return self.topic, self.type_name()  # drawable, or undrawn for lack of a twin (a test says so)
+        return display_twin(self.topic), TWIN_TYPES[self.type_name()]
 
 
 @dataclass(frozen=True)
@@ -49,9 +60,14 @@ SCENES = {
         Layer('/idsq/belief', color_field='p', size=5.0),
         Layer('/idsq/layout', color_field='type', size=3.0),
         Layer('/idsq/markers'), Layer('/sonar/markers'), Layer('/fusion/markers'),
-        Layer('/sonar/estimate', rgb=(80, 160, 255)), Layer('/idsq/estimate', rgb=(255, 160, 0)),
-        Layer('/sonar/target/truth', rgb=(255, 255, 255)),
-        Layer('/sonar/particles', rgb=(80, 160, 255)),
+        # the tracks: the observer's (SS-PF), the network's (IDSQ), the radar's of the decoy; their truths
+        Layer('/sonar/estimate', rgb=(80, 160, 255), size=10.0), Layer('/idsq/estimate', rgb=(255, 160, 0), size=10.0),
+        Layer('/radar/t0', rgb=(255, 80, 200), size=10.0),
+        Layer('/sonar/target/truth', rgb=(255, 255, 255), size=10.0),
+        Layer('/radar/truth', rgb=(200, 200, 200), size=10.0),
+        Layer('/sonar/observer/odom', rgb=(0, 220, 120), size=10.0),  # the observer AUV
+        Layer('/sonar/ping', rgb=(255, 60, 60), size=15.0),  # where it last pinged
+        Layer('/sonar/particles', rgb=(80, 160, 255), size=3.0),
     ), centre=(150.0, 200.0), scale=2.0, raw_topic='/fusion/scores'),
     'slam': Scene('slam', (
         Layer('/slam/map'), Layer('/slam/scan', color_field='range', size=0.3),
@@ -68,6 +84,7 @@ _RVIZ_CLASS = {
     'visualization_msgs/msg/MarkerArray': 'rviz_default_plugins/MarkerArray',
     'sensor_msgs/msg/PointCloud2': 'rviz_default_plugins/PointCloud2',
     'nav_msgs/msg/Odometry': 'rviz_default_plugins/Odometry',
+    'geometry_msgs/msg/PoseWithCovarianceStamped': 'rviz_default_plugins/PoseWithCovariance',
     'geometry_msgs/msg/PoseArray': 'rviz_default_plugins/PoseArray',
     'geometry_msgs/msg/PoseStamped': 'rviz_default_plugins/Pose',
     'geometry_msgs/msg/PointStamped': 'rviz_default_plugins/PointStamped',
@@ -91,6 +108,9 @@ def _rviz_display(layer: Layer) -> dict:
                   'Channel Name': layer.color_field, 'Autocompute Intensity Bounds': True, 'Decay Time': 0})
     elif cls.endswith('Odometry'):
         d.update({'Keep': 1, 'Shape': {'Value': 'Arrow', 'Color': _rgb(layer.rgb)},
+                  'Covariance': {'Value': True, 'Position': {'Value': True, 'Scale': 2.0}}})
+    elif cls.endswith('PoseWithCovariance'):
+        d.update({'Shape': {'Value': 'Arrow', 'Color': _rgb(layer.rgb)},
                   'Covariance': {'Value': True, 'Position': {'Value': True, 'Scale': 2.0}}})
     elif cls.endswith(('PoseArray', 'Pose', 'PointStamped')):
         d.update({'Color': _rgb(layer.rgb)})
@@ -121,13 +141,20 @@ def foxglove_layout(scene: Scene) -> dict:
     """A Foxglove layout: a 3D panel following ``map`` with the scene's topics, a raw-message panel."""
     topics = {}
     for layer in scene.layers:
+        topic, msgtype = layer.foxglove()
         t: dict = {'visible': True}
-        if layer.type_name() == 'sensor_msgs/msg/PointCloud2':
+        color = '#{:02x}{:02x}{:02x}'.format(*layer.rgb)
+        arrow = [layer.size, round(0.15 * layer.size, 3), round(0.15 * layer.size, 3)]  # length, shaft, head [m]
+        if msgtype == 'sensor_msgs/msg/PointCloud2':
             t.update({'colorField': layer.color_field, 'colorMode': 'colormap', 'colorMap': 'turbo',
                       'pointSize': 4, 'pointShape': 'square'})
-        elif layer.type_name() == 'nav_msgs/msg/Odometry':
-            t.update({'color': '#{:02x}{:02x}{:02x}'.format(*layer.rgb), 'showCovariance': True})
-        topics[layer.topic] = t
+        elif msgtype in ('geometry_msgs/msg/PoseWithCovarianceStamped', 'geometry_msgs/msg/PoseStamped'):
+            t.update({'type': 'arrow', 'color': color, 'arrowScale': arrow})
+            if msgtype.endswith('CovarianceStamped'):
+                t.update({'showCovariance': True, 'covarianceColor': color + '66'})
+        elif msgtype == 'geometry_msgs/msg/PoseArray':
+            t.update({'type': 'arrow', 'gradient': [color, color], 'arrowScale': arrow})
+        topics[topic] = t
     three_d = {'followTf': 'map', 'followMode': 'follow-none', 'topics': topics,
                'layers': {'grid': {'layerId': 'foxglove.Grid', 'visible': True, 'frameId': 'map', 'size': 1000,
                                    'divisions': 100}},
@@ -136,6 +163,31 @@ def foxglove_layout(scene: Scene) -> dict:
     return {'configById': {'3D!main': three_d, 'RawMessages!raw': {'topicPath': scene.raw_topic}},
             'globalVariables': {}, 'userNodes': {}, 'playbackConfig': {'speed': 1},
             'layout': {'first': '3D!main', 'second': 'RawMessages!raw', 'direction': 'row', 'splitPercentage': 72}}
+
+
+def three_d_topics(layout: dict) -> list[str]:
+    """The topics of every 3D panel of a Foxglove layout."""
+    return [t for pid, cfg in layout['configById'].items() if pid.startswith('3D!') for t in cfg.get('topics', {})]
+
+
+def undrawn(layout: dict, published: dict[str, str]) -> list[str]:
+    """Why 3D entries of ``layout`` would draw nothing, given the ``published`` topics and their types; [] if none."""
+    out = []
+    for topic in three_d_topics(layout):
+        if topic not in published:
+            out.append(f'{topic}: not published')
+        elif published[topic] not in FOXGLOVE_3D_TYPES:
+            out.append(f'{topic}: {published[topic]} is not drawn by the 3D panel')
+    return out
+
+
+def undrawn_in_bag(name: str, bag: Path) -> list[str]:
+    """``undrawn`` of scene ``name``'s Foxglove layout against the topics and types recorded in ``bag``."""
+    from rosbags.rosbag2 import Reader
+
+    with Reader(bag) as reader:
+        published = {c.topic: c.msgtype for c in reader.connections}
+    return undrawn(foxglove_layout(SCENES[name]), published)
 
 
 def write(out: Path) -> list[Path]:

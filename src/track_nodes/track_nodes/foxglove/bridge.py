@@ -1,0 +1,272 @@
+"""``foxglove_bridge`` (``track-foxglove``): the live ROS graph served to Foxglove over its WebSocket protocol.
+
+Usage::
+
+    track-foxglove [--port 8765] [--address 127.0.0.1] [-e REGEX] [--ros-args ...]
+    ros2 run track_nodes foxglove_bridge --ros-args -p port:=8765 -p address:=0.0.0.0
+
+then in Foxglove: *Open connection → Foxglove WebSocket → ws://HOST:8765*. Why not the C++
+``foxglove_bridge``: it is not on PyPI, and this package set installs from PyPI only; the server
+here is the Foxglove SDK's own (``foxglove-sdk``), which speaks ``foxglove.websocket.v1``.
+
+- What is served: every topic of the graph that has a publisher (``regex``: only topics matching
+  it, ``re.search``; /tf and /tf_static included like any other), each as one channel with message
+  encoding ``cdr`` and a ``ros2msg`` schema named ``pkg/msg/Type``. The schema text is the full
+  definition with its dependencies concatenated (``MSG: pkg/Type`` sections, the MCAP/Foxglove
+  convention), from the same type store the recorder embeds in its bags (``bag.typestore``), so
+  ``track_msgs`` types decode too. A type the store does not know is left out with one warning.
+- Discovery: the graph is polled every ``discovery_period`` seconds (steady clock, also under
+  ``use_sim_time``); a new topic is advertised as it appears, a topic without publishers any more
+  is unadvertised. A topic with several types is served with its first one (one warning).
+- Data: subscriptions are raw (the CDR bytes are forwarded as received, never deserialised), and
+  made only while a Foxglove client subscribes to the channel (the SDK's listener), so an unwatched
+  topic costs nothing. QoS as the recorder's (``bag.api.recording_qos``: best effort if any
+  publisher is, transient-local if all are) with a live queue (``LIVE_DEPTH``): a client that falls
+  behind loses the oldest, the ROS side never waits for it. A transient-local topic (/tf_static, the
+  sensor layout) is subscribed anew at every client subscription, so each client gets the latched
+  messages. Log time: the node's clock at reception (``/clock`` under ``use_sim_time``, whose time
+  is then also broadcast to the clients: the ``time`` capability).
+- Stop: SIGINT, SIGTERM and SIGHUP (``base.signals``) stop the server and the node cleanly, exit 0;
+  a port already in use is one line and exit 2.
+"""
+
+from __future__ import annotations
+
+import re
+import sys
+import threading
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from rclpy.clock import Clock, ClockType
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+
+from track_msgs_py.topics import CLOCK
+from track_nodes.bag.api import msg_class, recording_qos
+from track_nodes.base import ParameterError, TrackNode, param, run_node
+from track_nodes.base.cli import OneLineParser, cli_overrides
+
+SCHEMA_ENCODING = 'ros2msg'
+MESSAGE_ENCODING = 'cdr'
+LIVE_DEPTH = 100  # queue of a volatile subscription; a live view wants the newest, not a backlog
+LATCHED_DEPTH = 1000  # transient-local: every publisher's latched sample (one per node on /tf_static)
+
+
+@dataclass
+class FoxgloveBridgeParams:
+    """Parameters of ``foxglove_bridge``."""
+
+    port: int = param(8765, 'TCP port of the WebSocket server (0: any free port, logged at start)', 0, 65535)
+    address: str = param('127.0.0.1', 'address to listen on (0.0.0.0: every interface; the default: this machine)')
+    regex: str = param('', 'serve only topics matching this regular expression (re.search); empty: all')
+    discovery_period: float = param(0.5, 'interval between graph polls for new and vanished topics [s]', 0.01, 60.0)
+
+
+def ros2msg_schema(typestore, msgtype: str) -> bytes:
+    """The ``ros2msg`` schema of ``msgtype`` as MCAP and Foxglove expect it: the definition, then every
+    dependency after a ``====`` line and ``MSG: pkg/Type`` (what the recorder embeds in its bags)."""
+    text, _ = typestore.generate_msgdef(msgtype, ros_version=2)
+    return text.encode()
+
+
+class _Listener:
+    """The SDK's ``ServerListener``: which channels clients watch (called from the server's threads)."""
+
+    def __init__(self, bridge: FoxgloveBridgeNode) -> None:
+        self.bridge = bridge
+
+    def on_subscribe(self, client, channel) -> None:
+        self.bridge.client_subscribed(channel.id, +1)
+
+    def on_unsubscribe(self, client, channel) -> None:
+        self.bridge.client_subscribed(channel.id, -1)
+
+
+class FoxgloveBridgeNode(TrackNode):
+    """Serve every topic of the ROS graph to Foxglove over its WebSocket protocol (ros2msg schemas, raw CDR)."""
+
+    DEFAULT_NAME = 'foxglove_bridge'
+    Params = FoxgloveBridgeParams
+    p: FoxgloveBridgeParams  # the declared parameters (base/params.py)
+
+    def setup(self) -> None:
+        import foxglove
+        from foxglove.websocket import Capability
+
+        from track_nodes.bag.typestore import typestore
+
+        p = self.p
+        try:
+            self.regex = re.compile(p.regex) if p.regex else None
+        except re.error as exc:
+            raise ParameterError(f'parameter regex={p.regex!r} is not a valid regular expression: {exc}') from None
+        self.typestore = typestore()  # the Jazzy types and track_msgs (bag/typestore.py)
+        self._lock = threading.Lock()
+        self.channels: dict[str, object] = {}  # topic -> foxglove.Channel
+        self.types: dict[str, str] = {}  # topic -> the type it is served with
+        self._topic_of: dict[int, str] = {}  # channel id -> topic
+        self._watchers: dict[int, int] = {}  # channel id -> clients subscribed (the listener's count)
+        self._fresh: set[int] = set()  # channel ids with a new client since the last reconcile
+        self.subscriptions_by_topic: dict[str, object] = {}
+        self.skipped: set[str] = set()
+        self.forwarded: dict[str, int] = {}  # messages handed to the server, per topic
+        self._sim = bool(self.get_parameter('use_sim_time').value)
+        self._fox = foxglove.Context()  # this node's channels only (not the SDK's global context)
+        try:
+            self.server = foxglove.start_server(
+                name=self.get_fully_qualified_name(), host=p.address, port=p.port, context=self._fox,
+                capabilities=[Capability.Time] if self._sim else [], supported_encodings=[MESSAGE_ENCODING],
+                server_listener=_Listener(self))
+        except Exception as exc:  # the SDK raises its own error type for a bind failure
+            raise OSError(f'cannot serve on {p.address}:{p.port}: {" ".join(str(exc).split())}') from None
+        self.port = self.server.port
+        # The listener only records; subscriptions change on the executor's thread (a guard condition wakes it).
+        self._wake = self.create_guard_condition(self.reconcile)
+        steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self.discovery_timer = self.create_timer(p.discovery_period, self.discover, clock=steady)
+        if self._sim:
+            from rosgraph_msgs.msg import Clock as ClockMsg
+
+            from track_msgs_py.qos import CLOCK_QOS
+            self.create_subscription(ClockMsg, CLOCK, self._on_clock, CLOCK_QOS)
+        what = f'topics matching {p.regex!r}' if self.regex else 'every topic'
+        self.get_logger().info(f'serving {what} to Foxglove on ws://{p.address}:{self.port}')
+        self.discover()
+
+    # -- the graph ---------------------------------------------------------------------------------
+    def wanted(self, topic: str) -> bool:
+        return self.regex is None or self.regex.search(topic) is not None
+
+    def discover(self) -> None:
+        """Advertise the topics that appeared, unadvertise those without publishers any more."""
+        import foxglove
+
+        present = set()
+        for topic, types in self.get_topic_names_and_types():
+            if topic in self.skipped or not self.wanted(topic):
+                continue
+            if not Node.count_publishers(self, topic):  # the graph's name as is (TrackNode's resolves relative)
+                continue  # subscribers only: type and QoS unknown, nothing to show
+            present.add(topic)
+            if topic in self.channels:
+                continue
+            msgtype = types[0]
+            if len(types) > 1:
+                self.get_logger().warning(f'{topic} has several types {types}; serving {msgtype}')
+            try:
+                msg_class(msgtype)  # rclpy needs the class even for a raw subscription
+                schema = ros2msg_schema(self.typestore, msgtype)
+            except (ValueError, KeyError) as exc:
+                self.get_logger().warning(f'not serving {topic}: {exc}')
+                self.skipped.add(topic)
+                continue
+            channel = foxglove.Channel(topic, message_encoding=MESSAGE_ENCODING, context=self._fox,
+                                       schema=foxglove.Schema(name=msgtype, encoding=SCHEMA_ENCODING, data=schema))
+            with self._lock:
+                self.channels[topic] = channel
+                self.types[topic] = msgtype
+                self._topic_of[channel.id()] = topic
+                self.forwarded.setdefault(topic, 0)
+        for topic in [t for t in self.channels if t not in present]:
+            self._unadvertise(topic)
+        self.reconcile()
+
+    def _unadvertise(self, topic: str) -> None:
+        with self._lock:
+            channel = self.channels.pop(topic)
+            self.types.pop(topic, None)
+            self._topic_of.pop(channel.id(), None)
+            self._watchers.pop(channel.id(), None)
+        self._unsubscribe(topic)
+        channel.close()
+
+    # -- clients -----------------------------------------------------------------------------------
+    def client_subscribed(self, channel_id: int, change: int) -> None:
+        """A client subscribed (+1) or unsubscribed (-1) ``channel_id``; any thread."""
+        with self._lock:
+            self._watchers[channel_id] = max(0, self._watchers.get(channel_id, 0) + change)
+            if change > 0:
+                self._fresh.add(channel_id)
+        self._wake.trigger()
+
+    def reconcile(self) -> None:
+        """Subscribe to the watched channels' topics, drop the unwatched ones (executor thread)."""
+        with self._lock:
+            watched = {t for cid, n in self._watchers.items() if n and (t := self._topic_of.get(cid))}
+            fresh = {t for cid in self._fresh if (t := self._topic_of.get(cid))}
+            self._fresh.clear()
+        for topic in list(self.subscriptions_by_topic):
+            if topic not in watched:
+                self._unsubscribe(topic)
+        for topic in sorted(watched):
+            sub = self.subscriptions_by_topic.get(topic)
+            if sub is not None and topic in fresh and self._latched(topic):
+                self._unsubscribe(topic)  # a new reader: DDS delivers the latched samples to the new client
+                sub = None
+            if sub is None:
+                self._subscribe(topic)
+
+    def _latched(self, topic: str) -> bool:
+        return self.subscriptions_by_topic[topic].qos_profile.durability.name == 'TRANSIENT_LOCAL'
+
+    def _subscribe(self, topic: str) -> None:
+        infos = self.get_publishers_info_by_topic(topic)
+        if not infos:
+            return  # gone since the last poll; the next discover unadvertises it
+        qos = recording_qos([i.qos_profile for i in infos])
+        qos.depth = LATCHED_DEPTH if qos.durability.name == 'TRANSIENT_LOCAL' else LIVE_DEPTH
+        channel = self.channels[topic]
+        self.subscriptions_by_topic[topic] = self.create_subscription(
+            msg_class(self.types[topic]), topic, lambda data, t=topic, c=channel: self._forward(t, c, data), qos,
+            raw=True, as_given=True)  # discovered, fully qualified names
+
+    def _unsubscribe(self, topic: str) -> None:
+        sub = self.subscriptions_by_topic.pop(topic, None)
+        if sub is not None:
+            self.destroy_subscription(sub)
+
+    def _forward(self, topic: str, channel, data: bytes) -> None:
+        channel.log(data, log_time=self.get_clock().now().nanoseconds)
+        self.forwarded[topic] += 1
+
+    def _on_clock(self, msg) -> None:
+        self.server.broadcast_time(msg.clock.sec * 1_000_000_000 + msg.clock.nanosec)
+
+    # -- stop ----------------------------------------------------------------------------------------
+    def destroy_node(self) -> None:
+        server = getattr(self, 'server', None)
+        if server is not None:
+            self.server = None
+            server.stop()
+            for channel in list(self.channels.values()):
+                channel.close()
+            line = (f'stopped: forwarded {sum(self.forwarded.values())} messages of '
+                    f'{sum(1 for n in self.forwarded.values() if n)} topics')
+            if self.context.ok():
+                self.get_logger().info(line)
+            else:  # after shutdown the logger can no longer reach /rosout and complains
+                print(f'[INFO] [{self.get_name()}]: {line}', file=sys.stderr)
+        super().destroy_node()
+
+
+def parse_cli(argv: Sequence[str]) -> list[Parameter]:
+    """Non-ROS CLI arguments → parameter overrides (``--ros-args`` are left to rclpy)."""
+    ap = OneLineParser(prog='track-foxglove',
+                       description='Serve every ROS topic to Foxglove (Open connection → Foxglove WebSocket → '
+                                   'ws://ADDRESS:PORT): ros2msg schemas, raw CDR, /tf and /tf_static included.')
+    ap.add_argument('--port', type=int, default=None, help='TCP port (default 8765; 0: any free port)')
+    ap.add_argument('--address', default=None,
+                    help='address to listen on (default 127.0.0.1, this machine only; 0.0.0.0: every interface)')
+    ap.add_argument('-e', '--regex', default=None, help='serve only topics matching REGEX (default: all)')
+    return cli_overrides(ap, argv, {'port': 'port', 'address': 'address', 'regex': 'regex'})
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = list(sys.argv if argv is None else argv)
+    overrides = parse_cli(args)
+    return run_node(FoxgloveBridgeNode, args, parameter_overrides=overrides or None)
+
+
+if __name__ == '__main__':
+    raise SystemExit(main())
