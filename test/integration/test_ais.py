@@ -82,7 +82,7 @@ def ais_run(ros, repo, tmp_path):
     clock = ros.add(Node('test_clock', context=ros.context)).create_publisher(Clock, CLOCK, CLOCK_QOS)
     topics = {radar.topic, patrol.topic, ais_truth_topic('/ais/radar'), ais_truth_topic('/ais/patrol'), FUSION_SCORES}
     assert ros.spin_until(lambda: topics <= set(recorder.subscriptions_by_topic)
-                          and radar.pub.get_subscription_count() >= 2 and len(got['truth']) > 0, timeout=15)
+                          and radar.pub.get_subscription_count() >= 2, timeout=15)
 
     def recorded(topic):
         return recorder.message_counts().get(topic, 0)
@@ -171,6 +171,8 @@ def test_sources_and_fusion_in_process(ais_run):
     assert sorted(m.text for m in first if m.ns == 'r_ids') == sorted(k.id for k in reports[radar.topic][0].tracks)
     names = {f'{s.topic}/{i}' for s in (radar, patrol) for i in s.reports.ids}
     assert set(got['truth']) == names                              # named like the fusion track ids
+    truth = read_topics(bag, {ais_truth_topic('/ais/radar')})[ais_truth_topic('/ais/radar')]
+    assert len(truth) == 1 and stamp_to_sec(truth[0].header.stamp) == radar.steps.origin  # at the origin
     mmsi = {AisTruthEntry.from_status(st).mmsi for st in got['truth'].values()}
     assert mmsi == set(a.mmsi) | set(b.mmsi)
 

@@ -28,7 +28,8 @@ Topics (``prefix`` e.g. ``/ais/radar``, see ``track_msgs_py.topics``):
 - ``<prefix>/markers`` (MarkerArray): the same instant drawn, a 2σ disc and an id label per ship
   (``track_msgs_py.markers.tracks``), living two report periods: what RViz and Foxglove show.
 - ``<prefix>/truth`` (DiagnosticArray, transient-local, evaluation only; with
-  ``publish_truth``): once at start, one status per local track named like the fusion node's
+  ``publish_truth``): once, stamped at the origin (the node clock's first reading: under sim time
+  the first ``/clock``), one status per local track named like the fusion node's
   track id ``<prefix>/reports/<local id>``, values ``mmsi`` and ``reports``
   (``track_msgs_py.records.fusion.AisTruthEntry``).
 
@@ -145,11 +146,17 @@ class AisSourceNode(TrackNode):
                                f'of data on {self.topic}')
         if p.publish_truth:
             self.pub_truth = self.create_publisher(DiagnosticArray, ais_truth_topic(p.prefix), STATIC_QOS)
-            counts = np.bincount(rep.track, minlength=len(rep.ids))
-            self.pub_truth.publish(diagnostic_array(0.0, [
-                AisTruthEntry(int(rep.mmsi[k]), int(counts[k])).truth_status(f'{self.topic}/{tid}', self.get_name())
-                for k, tid in enumerate(rep.ids)]))
-        self.steps = FixedRateSteps(self, p.tick, self._step, max_time=p.duration)
+        self.steps = FixedRateSteps(self, p.tick, self._step, max_time=p.duration, on_origin=self._publish_truth)
+
+    def _publish_truth(self, origin: float) -> None:
+        """The local track → MMSI table, once, stamped at the origin (the whole second of the first clock reading)."""
+        if not self.p.publish_truth:
+            return
+        rep = self.reports
+        counts = np.bincount(rep.track, minlength=len(rep.ids))
+        self.pub_truth.publish(diagnostic_array(origin, [
+            AisTruthEntry(int(rep.mmsi[k]), int(counts[k])).truth_status(f'{self.topic}/{tid}', self.get_name())
+            for k, tid in enumerate(rep.ids)]))
 
     def _step(self, t: float) -> None:
         # node time = origin + (data time − start); the origin is the whole second of node time at the first tick
