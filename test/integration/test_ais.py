@@ -6,9 +6,10 @@ pair gets 15 common instants) with the scenario's parameters otherwise:
 - the fusion node scores exactly the pair-instants of the core (``track_core.ais.PairTable``) with
   the same numbers, and its per-instant verdicts give the core's same-ship decisions;
 - the same ship is associated across the two sources (high recall and precision after one-to-one);
-- reports carry local track ids only (``map#r017``); the MMSI is only on the truth topics;
+- reports are TrackArrays in ``map`` carrying local track ids only (``r017``), drawn on ``<prefix>/markers``
+  (a disc and an id label per ship, every frame placed); the MMSI is only on the truth topics;
 - the recorded bag's summary (``summary.ais_metrics``) reports the core's precision/recall/F1;
-- fusion drops multi-track reports without a track id or with an unknown frame, and keeps going.
+- fusion drops multi-track pose reports (``pose_track_topics``) without a track id or with an unknown frame.
 """
 
 from __future__ import annotations
@@ -29,7 +30,14 @@ from track_msgs_py.odometry import position_to_pose_cov
 from track_msgs_py.qos import CLOCK_QOS, ESTIMATE_QOS, STATIC_QOS
 from track_msgs_py.records.fusion import AisTruthEntry, FusionPairs
 from track_msgs_py.stamps import sec_to_stamp, stamp_to_sec
-from track_msgs_py.topics import CLOCK, FUSION_FUSED, FUSION_SCORES, ais_reports_topic, ais_truth_topic
+from track_msgs_py.topics import (
+    CLOCK,
+    FUSION_FUSED,
+    FUSION_SCORES,
+    ais_markers_topic,
+    ais_reports_topic,
+    ais_truth_topic,
+)
 from track_nodes.fusion.ais_source import AisSourceNode
 from track_nodes.fusion.fusion import FusionNode
 
@@ -52,14 +60,15 @@ def ais_run(ros, repo, tmp_path):
     radar = _node(ros, repo, AisSourceNode, 'radar')
     patrol = _node(ros, repo, AisSourceNode, 'patrol')
     fusion = _node(ros, repo, FusionNode, 'fusion')
-    received = {'n': 0}
-    on_pose_track = fusion._on_pose_track
+    received = {'n': 0, 'arrays': 0}
+    on_track_array = fusion._on_track_array
 
     def counting(topic, msg):
-        received['n'] += 1
-        on_pose_track(topic, msg)
+        received['n'] += len(msg.tracks)
+        received['arrays'] += 1
+        on_track_array(topic, msg)
 
-    fusion._on_pose_track = counting  # the subscriptions look the method up at call time
+    fusion._on_track_array = counting  # the subscriptions look the method up at call time
     sink = ros.add(Node('ais_sink', context=ros.context))
     got = {'scores': [], 'truth': {}}
     sink.create_subscription(PairScoreArray, FUSION_SCORES, got['scores'].append, ESTIMATE_QOS)
@@ -73,7 +82,7 @@ def ais_run(ros, repo, tmp_path):
     clock = ros.add(Node('test_clock', context=ros.context)).create_publisher(Clock, CLOCK, CLOCK_QOS)
     topics = {radar.topic, patrol.topic, ais_truth_topic('/ais/radar'), ais_truth_topic('/ais/patrol'), FUSION_SCORES}
     assert ros.spin_until(lambda: topics <= set(recorder.subscriptions_by_topic)
-                          and radar.pub.get_subscription_count() >= 2 and len(got['truth']) > 0, timeout=15)
+                          and radar.pub.get_subscription_count() >= 2, timeout=15)
 
     def recorded(topic):
         return recorder.message_counts().get(topic, 0)
@@ -92,8 +101,10 @@ def ais_run(ros, repo, tmp_path):
 
         def done(want=want, n_ticks=n_ticks):
             pub = sum(want.values())
+            instants = sum(np.unique(s.stamps[:n]).size for s, n in want.items())   # one array per instant
             return (all(s.next == n and s.steps.origin == 0.0 for s, n in want.items()) and received['n'] == pub
-                    and recorded(radar.topic) + recorded(patrol.topic) == pub and len(got['scores']) == n_ticks
+                    and recorded(radar.topic) + recorded(patrol.topic) == instants
+                    and received['arrays'] == instants and len(got['scores']) == n_ticks
                     and recorded(FUSION_SCORES) == n_ticks)
 
         assert ros.spin_until(done, timeout=20), f'step t={t} not completed'
@@ -140,18 +151,30 @@ def test_sources_and_fusion_in_process(ais_run):
           f'F1 {m.f1:.3f}')
     assert m.recall >= 0.85 and m.precision >= 0.85
 
-    # 2. reports carry local track ids only; the MMSI travels on the evaluation-only truth topics
+    # 2. reports are arrays in map carrying local track ids only; the MMSI travels on the truth topics
     reports = read_topics(bag, {radar.topic, patrol.topic})
-    frames = {m.header.frame_id for msgs in reports.values() for m in msgs}
-    assert sum(map(len, reports.values())) == len(a) + len(b)
+    assert {m.header.frame_id for msgs in reports.values() for m in msgs} == {'map'}
+    ids = {k.id for msgs in reports.values() for m in msgs for k in m.tracks}
+    assert sum(len(m.tracks) for msgs in reports.values() for m in msgs) == len(a) + len(b)
+    for src, msgs in ((radar, reports[radar.topic]), (patrol, reports[patrol.topic])):
+        assert len(msgs) == np.unique(src.stamps).size                 # one array per report instant
+        assert all(len({k.id for k in m.tracks}) == len(m.tracks) for m in msgs)
     from track_nodes.bag.check import check_bag
-    res = check_bag(bag)  # issue 19: every report's covariance planar (drawn as the flat 2σ ellipse)
-    assert res.ok and res.checked[radar.topic] + res.checked[patrol.topic] == len(a) + len(b), res.problems
+    res = check_bag(bag)  # the fusion's markers and arrays pass the bag check
+    assert res.ok, res.problems
     assert any(len(m.tracks) for m in read_topics(bag, {FUSION_FUSED})[FUSION_FUSED])  # the fused pairs
-    assert all(re.fullmatch(r'map#[rp]\d{3}', f) for f in frames)
-    assert len(frames) == len(a.ids) + len(b.ids)
+    assert all(re.fullmatch(r'[rp]\d{3}', i) for i in ids)
+    assert ids == set(a.ids) | set(b.ids)
+    # drawable: one MarkerArray per instant, a disc and a label per reported ship, in map
+    drawn = read_topics(bag, {ais_markers_topic('/ais/radar')})[ais_markers_topic('/ais/radar')]
+    assert len(drawn) == len(reports[radar.topic])
+    first = drawn[0].markers
+    assert {m.header.frame_id for m in first} == {'map'}
+    assert sorted(m.text for m in first if m.ns == 'r_ids') == sorted(k.id for k in reports[radar.topic][0].tracks)
     names = {f'{s.topic}/{i}' for s in (radar, patrol) for i in s.reports.ids}
     assert set(got['truth']) == names                              # named like the fusion track ids
+    truth = read_topics(bag, {ais_truth_topic('/ais/radar')})[ais_truth_topic('/ais/radar')]
+    assert len(truth) == 1 and stamp_to_sec(truth[0].header.stamp) == radar.steps.origin  # at the origin
     mmsi = {AisTruthEntry.from_status(st).mmsi for st in got['truth'].values()}
     assert mmsi == set(a.mmsi) | set(b.mmsi)
 
@@ -162,7 +185,7 @@ def test_sources_and_fusion_in_process(ais_run):
     one = next(line for line in lines if 'one-to-one' in line)
     assert f'F1 {m.f1:.3f}' in one and f'TP {m.tp}, FP {m.fp}, FN {m.fn}' in one
     assert any('/ais/radar/reports' in line for line in summarize(bag, 'ais'))
-    # 4. every frame is placed: the reports' "map#<local id>" name map, the fused ids are valid tf2 ids
+    # 4. every frame is placed (the frame check takes a frame id whole: a "map#r017" would fail here)
     from track_nodes.bag.frames import check_frames
 
     assert check_frames(bag, stamps=True) == []
@@ -172,7 +195,10 @@ def test_reports_without_a_track_id_or_with_a_bad_frame_are_dropped(ros, repo):
     fusion = ros.add(FusionNode(node_name='fusion', context=ros.context,
                                 cli_args=['--ros-args', '--params-file', str(repo / 'config/ais.yaml')],
                                 parameter_overrides=[Parameter('rate', value=20.0),
-                                                     Parameter('stale_after', value=5.0)]))
+                                                     Parameter('stale_after', value=5.0),
+                                                     Parameter('track_array_topics', value=['']),
+                                                     Parameter('pose_track_topics', value=[
+                                                         '/ais/radar/reports', '/ais/patrol/reports'])]))
     node = ros.add(Node('bad_source', context=ros.context))
     pubs = {s: node.create_publisher(PoseWithCovarianceStamped, ais_reports_topic(s), ESTIMATE_QOS)
             for s in ('/ais/radar', '/ais/patrol')}

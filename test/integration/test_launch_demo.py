@@ -221,3 +221,31 @@ def test_tracked_sample_bag_is_readable(repo):
     assert counts == dict.fromkeys(TOPICS, 100)
     res = check_bag(repo / 'bags/sample-demo')
     assert res.ok and sum(res.checked.values()) == 300, res.problems
+
+
+def _layout(bag: Path) -> dict:
+    """What a bag's metadata.yaml says about its shape, not its contents: topics, types, offered QoS, distro."""
+    import yaml
+
+    meta = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    topics = {t['topic_metadata']['name']: (t['topic_metadata']['type'], t['topic_metadata']['serialization_format'],
+                                            t['topic_metadata']['offered_qos_profiles'])
+              for t in meta['topics_with_message_count']}
+    return {'topics': topics, 'ros_distro': meta['ros_distro'], 'version': meta['version'],
+            'storage': meta['storage_identifier'], 'start_ns': meta['starting_time']['nanoseconds_since_epoch']}
+
+
+def test_tracked_sample_bag_has_the_layout_of_a_fresh_recording(repo, demo_bags):
+    """bags/sample-demo was made by today's launcher: same topics, types, QoS and distro as a recording made now,
+    and dated like one (sim time from an epoch, not 1970), header stamps included."""
+    sample, fresh = _layout(repo / 'bags/sample-demo'), _layout(demo_bags[0])
+    assert sample['ros_distro'] == fresh['ros_distro'] == 'jazzy'
+    assert sample['topics'] == fresh['topics']
+    assert (sample['version'], sample['storage']) == (fresh['version'], fresh['storage']) == (9, 'mcap')
+    plausible = (1_767_225_600 * 10**9, time.time_ns() + 86_400 * 10**9)   # 2026-01-01 .. tomorrow
+    assert plausible[0] <= sample['start_ns'] <= plausible[1] and plausible[0] <= fresh['start_ns'] <= plausible[1]
+    with Reader(repo / 'bags/sample-demo') as reader:
+        ts = get_typestore(Stores.ROS2_JAZZY)
+        for conn, t, raw in reader.messages():
+            stamp = ts.deserialize_cdr(raw, conn.msgtype).header.stamp
+            assert stamp.sec * 10**9 + stamp.nanosec == t, (conn.topic, t)  # stamped at its log time, to the ns

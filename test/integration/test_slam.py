@@ -45,6 +45,7 @@ from track_msgs_py.stamps import stamp_to_ns, stamp_to_sec
 from track_msgs_py.topics import SLAM_EVENTS, SLAM_GPS, SLAM_INPUTS, SLAM_MAP, SLAM_MODE, SLAM_POSE, SLAM_SCAN
 from track_nodes.bag.api import msg_class
 from track_nodes.bag.check import check_bag
+from track_nodes.bag.dataset import convert_victoria_park, data_time_origin
 from track_nodes.bag.frames import check_frames
 from track_nodes.bag.player import PlayerNode
 from track_nodes.base import ParameterError
@@ -117,7 +118,7 @@ def _offline_reference(t_max: float):
 
 
 def test_slam_node_on_a_victoria_park_stretch(ros, vp_bag):
-    slam = ros.add(SlamNode(context=ros.context))
+    slam = ros.add(SlamNode(context=ros.context))   # wall time: the converted run ended at the conversion
     sink = Sink(ros)
     n_scans = len(victoria.load(t_max=T_MAX).scans)
     player = ros.add(PlayerNode(context=ros.context, parameter_overrides=[
@@ -131,7 +132,9 @@ def test_slam_node_on_a_victoria_park_stretch(ros, vp_bag):
     assert slam.n_refused == 0 and slam.n_dropped_obs == 0
     # a pose per scan, in order, and the map
     est = [odometry_to_pose(m) for m in sink.msgs[SLAM_POSE]]
-    t_est = np.array([e[0] for e in est])
+    origin = data_time_origin(vp_bag)                     # the bag is dated: data time = stamp - origin
+    assert origin >= 1_700_000_000 * 10**9 and origin % 10**9 == 0
+    t_est = np.array([(stamp_to_ns(m.header.stamp) - origin) / 10**9 for m in sink.msgs[SLAM_POSE]])
     x_est = np.array([e[1] for e in est])
     assert np.all(np.diff(t_est) > 0)
     assert all(np.all(np.linalg.eigvalsh(P) > 0) for _, _, P in est)
@@ -142,7 +145,8 @@ def test_slam_node_on_a_victoria_park_stretch(ros, vp_bag):
     assert len(means.points) == mode.landmarks
     assert sum(m.ns == 'slam_ellipses' for m in last_map) == len(means.points)
     # near the GPS after the rigid alignment (the core reaches ~0.8 m on the first 60 s)
-    gps = np.array([[stamp_to_sec(m.header.stamp), m.point.x, m.point.y] for m in sink.msgs[SLAM_GPS]])
+    gps = np.array([[(stamp_to_ns(m.header.stamp) - origin) / 10**9, m.point.x, m.point.y]
+                    for m in sink.msgs[SLAM_GPS]])
     rmse, _, used = victoria.gps_rmse(t_est, x_est[:, :2], gps)
     print(f'GPS RMSE {rmse:.3f} m over {len(used)} fixes, {mode.landmarks} landmarks')
     assert len(used) > 100 and rmse < 2.0
@@ -291,6 +295,32 @@ def test_converter_wrong_path_is_one_line(tmp_path, env_factory):
     assert len(lines) == 1 and 'Traceback' not in proc.stderr, proc.stderr
     assert str(tmp_path / 'nope') in lines[0] and 'not found' in lines[0]
     assert not out.exists()
+
+
+def test_converted_bag_is_dated_at_its_epoch_to_the_nanosecond(tmp_path):
+    """Data time t is bag time epoch + t in integer ns: header stamps, log times, metadata.yaml and the MCAP
+    summary agree exactly (a float epoch + t is off by up to ~1e-7 s), and the data time is in the metadata."""
+    import yaml
+    from mcap.reader import make_reader
+
+    _data_or_skip()
+    epoch = 1_796_472_000  # 2026-12-05T12:00:00Z
+    out = tmp_path / 'vp'
+    convert_victoria_park(out, t_max=5.0, epoch=epoch)
+    vp = victoria.load(t_max=5.0, add_radius=False)
+    assert data_time_origin(out) == epoch * 10**9
+    meta = yaml.safe_load((out / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    assert meta['custom_data']['data_set'] == 'victoria_park' and meta['ros_distro'] == 'jazzy'
+    with Reader(out) as reader:
+        rows = [(c.topic, t, deserialize_message(raw, msg_class(c.msgtype))) for c, t, raw in reader.messages()]
+    stamps = [stamp_to_ns((m.header if hasattr(m, 'header') else m.transforms[0].header).stamp) for _, _, m in rows]
+    assert [t for _, t, _ in rows] == stamps                          # log time = header stamp, in ns
+    scans = [s for (topic, _, _), s in zip(rows, stamps, strict=True) if topic == SLAM_SCAN]
+    assert scans == [epoch * 10**9 + round(float(t) * 1e9) for t in vp.scan_t]
+    with (out / 'vp.mcap').open('rb') as f:
+        stats = make_reader(f).get_summary().statistics
+    assert meta['starting_time']['nanoseconds_since_epoch'] == stats.message_start_time == min(stamps)
+    assert meta['duration']['nanoseconds'] == stats.message_end_time - stats.message_start_time
 
 
 def test_converted_bag_decodes_by_type_name(vp_bag):

@@ -13,7 +13,7 @@ without a float on the way (``stamp_to_ns``, ``ns_to_stamp``).
 from __future__ import annotations
 
 import math
-from fractions import Fraction
+from decimal import ROUND_HALF_EVEN, Decimal
 
 from builtin_interfaces.msg import Time
 from std_msgs.msg import Header
@@ -23,19 +23,24 @@ _INT32_MAX = 2**31 - 1
 
 
 def sec_to_stamp(t: float) -> Time:
-    """Float seconds → ``builtin_interfaces/Time``, rounded to the nearest nanosecond.
+    """Float seconds → ``builtin_interfaces/Time``: the float's shortest decimal form, rounded to 1 ns.
 
-    Rounds the float's exact value (``Fraction``), so it is exact for integer nanoseconds:
-    ``sec_to_stamp(stamp_to_sec(s)) == s`` for every stamp below 2²² s (≈ 48 days, where a float
-    still resolves 1 ns), and ``stamp_to_sec(sec_to_stamp(t)) == t`` for every ``t`` that is the
-    float nearest to a whole number of nanoseconds there (1.5, 0.1, 12.375), and for every float
-    from 2²³ s on (wall-clock epoch times). Finer fractions are rounded to 1 ns. Negative,
-    non-finite or beyond-int32 seconds raise ``ValueError``.
+    The shortest decimal that reads back as the same float (``repr``) is the time the float stands
+    for. Near an epoch (1.8e9 s) a float resolves only 2.4e-7 s, so its exact binary value is not
+    the time meant: ``1796492640.1`` is stored as …640.0999999046, whose rounding would stamp
+    …640.099999905 (95 ns before the clock's step, and a bag's header stamps would disagree with its
+    log times); its shortest form is …640.1, the step itself. Exact for integer nanoseconds:
+    ``sec_to_stamp(stamp_to_sec(s)) == s`` for every stamp where a float still resolves 1 ns (below
+    2²³ s ≈ 97 days), and ``stamp_to_sec(sec_to_stamp(t)) == t`` for every float that is the nearest
+    to a whole number of nanoseconds (1.5, 0.1, 12.375) and every float from 2²³ s on (epoch times).
+    Finer fractions are rounded to 1 ns (half to even). Negative, non-finite or beyond-int32 seconds
+    raise ``ValueError``.
     """
     t = float(t)
     if not math.isfinite(t) or t < 0.0:
         raise ValueError(f'stamp must be finite and >= 0 s, got {t!r}')
-    sec, nanosec = divmod(round(Fraction(t) * _NS_PER_S), _NS_PER_S)
+    ns = int((Decimal(repr(t)) * _NS_PER_S).to_integral_value(rounding=ROUND_HALF_EVEN))
+    sec, nanosec = divmod(ns, _NS_PER_S)
     if sec > _INT32_MAX:
         raise ValueError(f'stamp {t!r} s does not fit builtin_interfaces/Time.sec (int32)')
     return Time(sec=int(sec), nanosec=int(nanosec))

@@ -332,14 +332,17 @@ TOPICS.update({
 
 # Recognised maritime picture on real AIS ships. Each ``ais_source`` node is one
 # simulated surveillance source with a topic prefix (``/ais/radar``, ``/ais/patrol``):
-#   <prefix>/reports  geometry_msgs/PoseWithCovarianceStamped, one message per ship report, all the
-#                     source's ships on one topic; the local track id travels in header.frame_id as
-#                     "<frame>#<local id>" (``track_frame_id``), e.g. "map#r017". The fusion node lists
-#                     such topics in ``pose_track_topics`` (track id = "<topic>/<local id>").
+#   <prefix>/reports  track_msgs/TrackArray, one message per report instant with every ship reported
+#                     at it, frame map; the local track id in tracks[].id (e.g. "r017"). The fusion
+#                     node lists such topics in ``track_array_topics`` (track id = "<topic>/<local id>").
+#   <prefix>/markers  visualization_msgs/MarkerArray: the same instant drawn (2σ disc + id label per ship).
 #   <prefix>/truth    diagnostic_msgs/DiagnosticArray (static QoS), evaluation only: one status per
 #                     local track, name = the fusion track id "<prefix>/reports/<local id>", value mmsi.
 # One topic per source, not one per ship: a topic per ship (~90 per source) makes every executor
 # wait cost ~100 ms and the lock-step clock unusable.
+# ``track_frame_id`` ("<frame>#<local id>") is the fusion node's older many-tracks input
+# (``pose_track_topics``) only: such a frame_id names no frame, so RViz, Foxglove and
+# ``track_nodes.bag.frames`` cannot place it; sources of many tracks publish a TrackArray instead.
 TRACK_FRAME_SEP = '#'
 AIS_RADAR = '/ais/radar'
 AIS_PATROL = '/ais/patrol'
@@ -364,13 +367,21 @@ def ais_truth_topic(prefix: str) -> str:
     return f'{prefix.rstrip("/")}/truth'
 
 
+def ais_markers_topic(prefix: str) -> str:
+    return f'{prefix.rstrip("/")}/markers'
+
+
 for _prefix, _what in ((AIS_RADAR, 'coastal radar'), (AIS_PATROL, 'patrol')):
     TOPICS.update({
         ais_reports_topic(_prefix): TopicSpec(
-            'geometry_msgs/msg/PoseWithCovarianceStamped', 'estimate',
-            f'{_what} reports of real AIS ships, one message per ship and instant, all ships on this topic: '
-            f'position + 2σ-ellipse covariance ({COV_PLANAR}: yaw); header.frame_id = "map#<local track id>" '
-            '(no MMSI)'),
+            'track_msgs/msg/TrackArray', 'estimate',
+            f'{_what} reports of real AIS ships, one array per report instant with every ship reported at it '
+            '(frame map): tracks[].id = the local track id (no MMSI), position + 2σ-ellipse covariance, velocity '
+            'not estimated'),
+        ais_markers_topic(_prefix): TopicSpec(
+            'visualization_msgs/msg/MarkerArray', 'estimate',
+            f'the {_what} reports of one instant drawn: a 2σ disc (ns <id_prefix>) and an id label (ns '
+            '<id_prefix>_ids) per ship, lifetime two report periods'),
         ais_truth_topic(_prefix): TopicSpec(
             'diagnostic_msgs/msg/DiagnosticArray', 'static',
             f'evaluation only: the {_what}\'s local tracks, one status per track, name "<reports topic>/<local '

@@ -10,7 +10,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         # Imported here, inside the guard: on a busy machine they take seconds, and a Ctrl-C then is a stop.
         from track_nodes.base.usage import wants_help
-        from track_nodes.registry import MAINS, NODES, UnknownExecutableError, executables, main_of, node_class
+        from track_nodes.registry import (LIFECYCLE, MAINS, NODES, UnknownExecutableError, executables, main_of,
+                                           node_class)
     except KeyboardInterrupt:
         return 130
     if not args or args[0].startswith('-'):
@@ -18,7 +19,8 @@ def main(argv: list[str] | None = None) -> int:
               file=sys.stderr)
         return 2
     try:
-        if args[0] in NODES and args[0] not in MAINS and wants_help(args):  # a node asked for help never starts
+        node = (args[0] in NODES or args[0] in LIFECYCLE) and args[0] not in MAINS
+        if node and wants_help(args):  # a node asked for help never starts
             from track_nodes.base.usage import usage
             print(usage(args[0], node_class(args[0])))
             return 0

@@ -34,6 +34,11 @@ NODES = {
     'foxglove_bridge': 'track_nodes.foxglove.bridge:FoxgloveBridgeNode',
 }
 
+# The managed (lifecycle) versions of the estimator nodes: ``lifecycle_<executable>`` is the node of
+# ``<executable>`` run through configure → activate → deactivate → cleanup (track_nodes.base.lifecycle).
+LIFECYCLE = {f'lifecycle_{exe}': NODES[exe] for exe in ('demo_tracker', 'fusion', 'sonar_observer', 'slam',
+                                                        'rfid_guidance')}
+
 # Executables whose main is not TrackNode.main (they parse their own command line first). All take
 # sys.argv-style arguments (program name first) but bag_recover, a plain argparse tool.
 MAINS = {
@@ -56,7 +61,11 @@ def _resolve(target: str):
 
 
 def node_class(executable: str):
-    """The node class of ``executable``."""
+    """The node class of ``executable`` (a ``lifecycle_`` one: the managed version of its node)."""
+    if executable in LIFECYCLE:
+        from track_nodes.base.lifecycle import managed
+
+        return managed(_resolve(LIFECYCLE[executable]))
     try:
         return _resolve(NODES[executable])
     except KeyError:
@@ -74,4 +83,4 @@ def main_of(executable: str):
 
 
 def executables() -> list[str]:
-    return sorted({*NODES, *MAINS})
+    return sorted({*NODES, *LIFECYCLE, *MAINS})

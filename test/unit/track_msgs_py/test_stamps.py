@@ -62,3 +62,13 @@ def test_stamp_float_stamp_is_exact_for_integer_nanoseconds():
 def test_sec_to_stamp_rejects_negative_non_finite_and_overflow(t):
     with pytest.raises(ValueError, match='stamp'):
         sec_to_stamp(t)
+
+
+def test_epoch_times_are_stamped_at_the_time_meant_not_the_floats_binary_value():
+    """Near 1.8e9 s a float resolves 2.4e-7 s: the clock's steps epoch + k·0.1 s, computed in float
+    seconds, are stamped exactly (not up to ~100 ns off, as the exact binary value would give)."""
+    epoch = 1_796_492_640
+    for k in range(2000):
+        t = epoch + k * 0.1
+        assert stamp_to_ns(sec_to_stamp(t)) == epoch * 10**9 + k * 100_000_000, k
+    assert stamp_to_ns(sec_to_stamp(1796492640.973)) == 1796492640_973000000   # a data time in ms, shifted

@@ -4,6 +4,7 @@ errors; and the SLAM message conversions it shares with the ``slam`` and ``slam_
 from __future__ import annotations
 
 import math
+import time
 from pathlib import Path
 
 import numpy as np
@@ -15,7 +16,7 @@ from track_msgs_py.clouds import pointcloud2_to_table
 from track_msgs_py.markers.ellipses import ellipse_points
 from track_msgs_py.markers.slam import map_markers
 from track_msgs_py.odometry import inputs_to_twist, odometry_to_pose, pose_to_odometry, twist_to_inputs
-from track_msgs_py.stamps import stamp_to_ns, stamp_to_sec
+from track_msgs_py.stamps import stamp_to_ns
 from track_msgs_py.topics import FRAME_GPS, FRAME_MAP, SLAM_GPS, SLAM_INPUTS, SLAM_SCAN, TF_STATIC, TOPICS
 from track_nodes.bag import dataset
 from track_nodes.bag.api import msg_class, qos_is_transient_local
@@ -24,6 +25,13 @@ INPUTS = [(0.973, 0.0, -0.0035), (0.998, 1.5, -0.0042), (1.023, 2.0, 0.01), (1.0
 MEAS = [(0.852, 20.46202, 0.88575, 0.35404), (0.852, 29.59859, 1.02102, 0.25717),
         (1.023, 10.5, 3.14159265, 0.2), (2.0, 5.25, 0.0, 0.1)]
 GPS = [(0.0, -2.023, -1.923), (1.001, -2.066, -1.84), (3.0, 1.0, 2.0)]
+EPOCH = 1_796_472_000  # --epoch: the bag time of data time 0 [s since 1970]
+EPOCH_NS = EPOCH * 10**9
+
+
+def _data_time(m) -> float:
+    """A message's data time: its stamp minus the bag's epoch, in integer ns first."""
+    return (stamp_to_ns(m.header.stamp) - EPOCH_NS) / 10**9
 
 
 def _write(folder: Path, name: str, rows) -> None:
@@ -51,7 +59,7 @@ def _read(bag: Path) -> list[tuple[str, int, object]]:
 
 def test_bag_holds_inputs_scans_and_gps_stamped_with_the_data_times(data, tmp_path, capsys):
     out = tmp_path / 'bags' / 'vp'  # the parent folder is created
-    assert dataset.main(['victoria-park', '--data', str(data), '--out', str(out)]) == 0
+    assert dataset.main(['victoria-park', '--data', str(data), '--out', str(out), '--epoch', str(EPOCH)]) == 0
     assert f'{out}: 12 messages' in capsys.readouterr().out
     assert (out / 'metadata.yaml').is_file() and list(out.glob('*.mcap'))
     msgs = _read(out)
@@ -62,7 +70,8 @@ def test_bag_holds_inputs_scans_and_gps_stamped_with_the_data_times(data, tmp_pa
         assert qos_is_transient_local(static.ext.offered_qos_profiles)  # the player latches it
     # first the map -> gps transform: the first fix at the map origin
     topic, t_tf, tf = msgs[0]
-    assert topic == TF_STATIC and t_tf == 0 and len(tf.transforms) == 1
+    assert topic == TF_STATIC and t_tf == EPOCH_NS and len(tf.transforms) == 1
+    assert dataset.data_time_origin(out) == EPOCH_NS           # the data time is kept in the metadata
     tr = tf.transforms[0]
     assert (tr.header.frame_id, tr.child_frame_id) == (FRAME_MAP, FRAME_GPS)
     assert (tr.transform.translation.x, tr.transform.translation.y, tr.transform.rotation.w) == (2.023, 1.923, 1.0)
@@ -70,12 +79,12 @@ def test_bag_holds_inputs_scans_and_gps_stamped_with_the_data_times(data, tmp_pa
     # every log time is its header stamp, and the bag is in time order with the scan before the input at 1.023
     assert all(t == stamp_to_ns(m.header.stamp) for _, t, m in msgs)
     assert [t for _, t, _ in msgs] == sorted(t for _, t, _ in msgs)
-    order = [(round(t * 1e-6), topic) for topic, t, _ in msgs]
+    order = [(round((t - EPOCH_NS) * 1e-6), topic) for topic, t, _ in msgs]
     assert order.index((1023, SLAM_SCAN)) + 1 == order.index((1023, SLAM_INPUTS))
 
-    inputs = [twist_to_inputs(m) for topic, _, m in msgs if topic == SLAM_INPUTS]
+    inputs = [(_data_time(m), *twist_to_inputs(m)[1:]) for topic, _, m in msgs if topic == SLAM_INPUTS]
     np.testing.assert_array_equal(np.array(inputs), np.array(INPUTS))  # exact: float64 fields, ns stamps
-    scans = [(stamp_to_sec(m.header.stamp), pointcloud2_to_table(m)) for topic, _, m in msgs if topic == SLAM_SCAN]
+    scans = [(_data_time(m), pointcloud2_to_table(m)) for topic, _, m in msgs if topic == SLAM_SCAN]
     assert [t for t, _ in scans] == [0.852, 1.023, 2.0]
     first = scans[0][1]
     assert list(first) == ['x', 'y', 'z', 'range', 'bearing', 'diameter']  # x, y, z first (issue 19)
@@ -84,7 +93,7 @@ def test_bag_holds_inputs_scans_and_gps_stamped_with_the_data_times(data, tmp_pa
     np.testing.assert_allclose(first['range'], [20.46202, 29.59859], rtol=1e-7)
     np.testing.assert_allclose(first['bearing'], [0.88575, 1.02102], rtol=1e-7)
     np.testing.assert_allclose(first['diameter'], [0.35404, 0.25717], rtol=1e-6)
-    gps = [(stamp_to_sec(m.header.stamp), m.point.x, m.point.y, m.header.frame_id)
+    gps = [(_data_time(m), m.point.x, m.point.y, m.header.frame_id)
            for topic, _, m in msgs if topic == SLAM_GPS]
     assert gps == [(*row, 'gps') for row in GPS]
 
@@ -94,11 +103,11 @@ def test_bag_decodes_with_the_mcap_reader_too(data, tmp_path):
     from mcap_ros2.decoder import DecoderFactory
 
     out = tmp_path / 'bag'
-    assert dataset.main(['victoria-park', '--data', str(data), '--out', str(out)]) == 0
+    assert dataset.main(['victoria-park', '--data', str(data), '--out', str(out), '--epoch', str(EPOCH)]) == 0
     with open(next(out.glob('*.mcap')), 'rb') as f:
         decoded = [(ch.topic, m) for _, ch, _, m in make_reader(f, decoder_factories=[DecoderFactory()])
                    .iter_decoded_messages()]
-    twist = next(m for topic, m in decoded if topic == SLAM_INPUTS and m.header.stamp.sec == 0
+    twist = next(m for topic, m in decoded if topic == SLAM_INPUTS and m.header.stamp.sec == EPOCH
                  and m.header.stamp.nanosec == 998_000_000)
     assert (twist.twist.linear.x, twist.twist.angular.z) == (1.5, -0.0042)
     assert len(decoded) == 12
@@ -108,7 +117,9 @@ def test_t_max_keeps_a_short_stretch(data, tmp_path):
     out = tmp_path / 'short'
     assert dataset.main(['victoria-park', '--data', str(data), '--out', str(out), '--t-max', '1.01']) == 0
     msgs = _read(out)
-    assert max(t for _, t, _ in msgs) <= 1_010_000_000
+    origin = dataset.data_time_origin(out)    # default epoch: the stretch ends at the conversion's second
+    assert max(t for _, t, _ in msgs) <= origin + 1_010_000_000 and origin % 10**9 == 0
+    assert abs(origin + 2 * 10**9 - time.time_ns()) < 120 * 10**9   # ceil(1.01 s) before a whole second
     assert [topic for topic, _, _ in msgs].count(SLAM_INPUTS) == 2
     assert [topic for topic, _, _ in msgs].count(SLAM_SCAN) == 1
 
@@ -119,6 +130,7 @@ def test_t_max_keeps_a_short_stretch(data, tmp_path):
     ('garbled', ['--data', '{tmp}/vp'], ['cannot read']),
     ('exists', ['--data', '{tmp}/vp'], ['exists already']),
     ('none', ['--data', '{tmp}/vp', '--t-max', '-1'], ['--t-max', 'must be > 0']),
+    ('none', ['--data', '{tmp}/vp', '--epoch', 'yesterday'], ['--epoch', 'yesterday']),
 ])
 def test_errors_are_one_line_with_exit_code_2(data, tmp_path, capsys, setup, args, words):
     out = tmp_path / 'out'

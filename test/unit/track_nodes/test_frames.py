@@ -47,7 +47,7 @@ def _good() -> list:
         (TF_STATIC, tf_message([planar_transform(0.0, 'map', 'gps', 1.0, 2.0, 0.0),
                                 planar_transform(0.0, 'laser', 'base_link', -3.78, -0.5, 0.0)])),
         (TF, tf_message([planar_transform(1.0, 'map', 'laser', 1.0, 2.0, 0.3)])),
-        ('/p', _point('base_link')), ('/p', _point('gps')), ('/p', _point('map#r017')),  # an AIS report's frame
+        ('/p', _point('base_link')), ('/p', _point('gps')),
         (SLAM_POSE, _odom('map', 'laser')),                    # a body frame
         (SONAR_ESTIMATE, _odom('map', 'sonar_track')),         # a track id: not a frame
         ('/tracks', _odom('map', 'radar/t0+patrol/t0')),         # a track id made a valid tf2 id
@@ -69,6 +69,7 @@ def test_a_bag_whose_frames_are_all_placed_has_no_problem(tmp_path, capsys):
 def test_every_kind_of_unplaced_or_invalid_frame_is_reported(tmp_path, capsys):
     bad = [(topic, msg) for topic, msg in _good() if topic != TF]  # laser (and base_link) are not placed now
     bad += [('/p', _point('nowhere')), ('/p', _point('')),
+            ('/p', _point('map#p010')),  # a track id riding in the frame: taken whole, so not placed
             (SONAR_ESTIMATE, _odom('map', '/radar/t0+/patrol/t0')),  # a track id with a leading '/'
             (SLAM_POSE, _odom('map', 'ghost_laser')),
             ('/markers', MarkerArray(markers=[Marker(header=_point('/map').header)])),
@@ -78,6 +79,7 @@ def test_every_kind_of_unplaced_or_invalid_frame_is_reported(tmp_path, capsys):
     text = '\n'.join(lines)
     for words in ("frame 'laser' (used on /markers, /slam/pose) cannot be placed",
                   "frame 'base_link'", "frame 'nowhere' (used on /p)", "frame 'ghost_laser'",
+                  "frame 'map#p010' (used on /p) cannot be placed in 'map'",
                   '/p: header.frame_id: empty frame id',
                   "/sonar/estimate: child_frame_id (track id): frame id '/radar/t0+/patrol/t0' starts with",
                   "/markers: markers[].header.frame_id: frame id '/map' starts with",

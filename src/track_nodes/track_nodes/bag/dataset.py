@@ -2,7 +2,7 @@
 
 Usage::
 
-    track-dataset victoria-park --out DIR [--data DIR] [--t-max SECONDS]
+    track-dataset victoria-park --out DIR [--data DIR] [--t-max SECONDS] [--epoch E]
 
 ``victoria-park`` reads ``inputs.dat``, ``measurements.dat`` and ``gps.dat`` of the ACFR Victoria
 Park run (default folder: ``track_core.slam.victoria.data_dir()``, i.e. ``$TRACK_VICTORIA_PARK`` or
@@ -24,11 +24,17 @@ never overwritten) with
   map start) with rotation 0, so the fixes are drawn near the path, not on it. The ``laser`` and
   ``base_link`` frames of scans and inputs are placed by the ``slam`` node's /tf.
 
-Every header stamp and bag (log) time is the data's own time (seconds from the run's start);
-messages are written in time order (a scan before an input at equal t, as ``victoria.events``).
+Dates: the data's own time (seconds from the run's start) is shifted to the bag's epoch (``--epoch``:
+whole seconds since 1970 or an ISO date in UTC; by default, 'now', the run is dated so that it ends
+at the whole second of the conversion, so no stamp lies ahead of a wall clock that replays it
+later), so a replay, the nodes fed by it and a recording of them are dated like any other run, not
+in 1970. Every header stamp and bag (log) time is ``epoch + t`` in integer nanoseconds (a float
+``epoch + t`` resolves only 2.4e-7 s near 1.8e9 s); the data time is kept in the bag's metadata:
+``custom_data`` ``data_time_origin_ns`` (data time = stamp − origin; ``data_time_origin``).
+Messages are written in time order (a scan before an input at equal t, as ``victoria.events``).
 ``--t-max S`` keeps only the data with t ≤ S (``victoria.load(t_max=S)``), for a short stretch.
-A wrong data path, a missing or malformed file, an existing ``--out`` or a bad ``--t-max`` prints one
-line on stderr and exits with code 2. Do not commit converted bags: they are derived data.
+A wrong data path, a missing or malformed file, an existing ``--out``, a bad ``--t-max`` or ``--epoch``
+prints one line on stderr and exits with code 2. Do not commit converted bags: they are derived data.
 """
 
 from __future__ import annotations
@@ -42,6 +48,7 @@ from track_nodes.bag.api import one_line, set_ros_distro
 from track_nodes.base.cli import OneLineParser
 
 EXIT_BAD_INPUT = 2
+DATA_TIME_ORIGIN = 'data_time_origin_ns'  # metadata.yaml custom_data: data time = stamp - origin [ns]
 
 
 class DatasetError(ValueError):
@@ -68,9 +75,26 @@ def load_victoria(data: Path | None, t_max: float | None):
     return vp
 
 
-def victoria_messages(vp):
+def data_time_origin(bag: Path | str) -> int:
+    """The ``data_time_origin_ns`` of a converted bag (0 when absent: its stamps are the data's own time)."""
+    import yaml
+
+    meta = yaml.safe_load((Path(bag) / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    return int((meta.get('custom_data') or {}).get(DATA_TIME_ORIGIN, 0))
+
+
+def _shifted(msg, t: float, epoch_ns: int):
+    """``msg`` restamped at ``epoch + t`` in integer nanoseconds (its builder took the float data time)."""
+    from track_msgs_py.stamps import ns_to_stamp
+
+    header = msg.header if hasattr(msg, 'header') else msg.transforms[0].header
+    header.stamp = ns_to_stamp(epoch_ns + round(t * 1e9))
+    return msg
+
+
+def victoria_messages(vp, epoch_ns: int = 0):
     """(t, topic, message) of the whole run in time order (scan before input at equal t, then GPS),
-    after the map → gps static transform (when there is GPS)."""
+    after the map → gps static transform (when there is GPS); stamped at ``epoch_ns`` + t."""
     import numpy as np
     from geometry_msgs.msg import PointStamped
     from std_msgs.msg import Header
@@ -86,25 +110,29 @@ def victoria_messages(vp):
     if vp.gps.shape[0]:
         t0 = float(times.min())
         gps0 = -vp.gps[0, 1:]  # the gps frame's origin in map: the first fix at the map origin, rotation 0
-        yield t0, TF_STATIC, tf_message([planar_transform(t0, FRAME_MAP, FRAME_GPS, gps0[0], gps0[1], 0.0)])
+        yield t0, TF_STATIC, _shifted(tf_message([planar_transform(t0, FRAME_MAP, FRAME_GPS, gps0[0], gps0[1], 0.0)]),
+                                      t0, epoch_ns)
     prio = np.concatenate([np.zeros(t_sc.size), np.ones(t_in.size), np.full(t_gps.size, 2)])
     order = np.lexsort((prio, times))  # by time, then scan < input < gps
     k_sc, k_in = t_sc.size, t_sc.size + t_in.size
     for j in order.tolist():
         if j < k_sc:
-            yield float(t_sc[j]), SLAM_SCAN, scan_to_pointcloud2(t_sc[j], vp.scans[j], vp.diameters[j])
+            yield float(t_sc[j]), SLAM_SCAN, _shifted(scan_to_pointcloud2(t_sc[j], vp.scans[j], vp.diameters[j]),
+                                                      t_sc[j], epoch_ns)
         elif j < k_in:
             _, v, a = vp.inputs[j - k_sc]
-            yield float(t_in[j - k_sc]), SLAM_INPUTS, inputs_to_twist(t_in[j - k_sc], v, a)
+            yield float(t_in[j - k_sc]), SLAM_INPUTS, _shifted(inputs_to_twist(t_in[j - k_sc], v, a), t_in[j - k_sc],
+                                                               epoch_ns)
         else:
             t, x, y = vp.gps[j - k_in]
             msg = PointStamped(header=Header(stamp=sec_to_stamp(t), frame_id=FRAME_GPS))
             msg.point.x, msg.point.y = float(x), float(y)
-            yield float(t), SLAM_GPS, msg
+            yield float(t), SLAM_GPS, _shifted(msg, t, epoch_ns)
 
 
-def write_bag(out: Path, messages, topics: dict[str, str]) -> dict[str, int]:
-    """Write (t, topic, msg) to a new rosbag2 v9 MCAP bag at ``out``; → message count per topic."""
+def write_bag(out: Path, messages, topics: dict[str, str], custom: dict[str, str] | None = None) -> dict[str, int]:
+    """Write (t, topic, msg) to a new rosbag2 v9 MCAP bag at ``out``, each at its header stamp (integer ns);
+    ``custom`` goes into the metadata's ``custom_data``; → message count per topic."""
     from rclpy.serialization import serialize_message
     from rosbags.rosbag2 import StoragePlugin, Writer
     from rosbags.typesys import Stores, get_typestore
@@ -116,6 +144,8 @@ def write_bag(out: Path, messages, topics: dict[str, str]) -> dict[str, int]:
     ts = get_typestore(Stores.ROS2_JAZZY)
     counts = dict.fromkeys(topics, 0)
     with Writer(out, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        for key, value in (custom or {}).items():
+            writer.set_custom_data(key, value)
         conns = {topic: writer.add_connection(topic, msgtype, typestore=ts,
                                               offered_qos_profiles=[qos_to_rosbags(qos_for_topic(topic))])
                  for topic, msgtype in topics.items()}
@@ -127,7 +157,12 @@ def write_bag(out: Path, messages, topics: dict[str, str]) -> dict[str, int]:
     return counts
 
 
-def convert_victoria_park(out: Path, data: Path | None = None, t_max: float | None = None) -> dict[str, int]:
+def convert_victoria_park(out: Path, data: Path | None = None, t_max: float | None = None,
+                          epoch: int | None = None) -> dict[str, int]:
+    """Convert; ``epoch`` [whole s since 1970] is the bag time of data time 0 (None: the run ends now)."""
+    import math
+    import time
+
     from track_msgs_py.topics import SLAM_GPS, SLAM_INPUTS, SLAM_SCAN, TF_STATIC, TOPICS
 
     if t_max is not None and not t_max > 0:
@@ -141,26 +176,41 @@ def convert_victoria_park(out: Path, data: Path | None = None, t_max: float | No
     except OSError as exc:
         raise DatasetError(f'{out.parent}: cannot create the folder for --out: {one_line(exc)}') from None
     topics = {t: TOPICS[t].msgtype for t in (SLAM_INPUTS, SLAM_SCAN, SLAM_GPS, TF_STATIC)}
-    return write_bag(out, victoria_messages(vp), topics)
+    if epoch is None:  # the run ends at the conversion's whole second: every stamp is in the past
+        t_end = max(float(vp.inputs[:, 0].max()), float(max(vp.scan_t)), float(vp.gps[:, 0].max(initial=0.0)))
+        epoch = time.time_ns() // 1_000_000_000 - math.ceil(t_end)
+    epoch_ns = int(epoch) * 1_000_000_000
+    return write_bag(out, victoria_messages(vp, epoch_ns), topics,
+                     {DATA_TIME_ORIGIN: str(epoch_ns), 'data_set': 'victoria_park'})
 
 
 def _parser() -> argparse.ArgumentParser:
     ap = OneLineParser(prog='track-dataset', description='Convert a real data set into a rosbag2 MCAP bag.')
     sub = ap.add_subparsers(dest='dataset', required=True, metavar='DATASET', parser_class=OneLineParser)
     vp = sub.add_parser('victoria-park', help='the ACFR Victoria Park run (inputs, laser scans of trees, GPS)',
-                        description='Write /slam/inputs, /slam/scan and /slam/gps, stamped with the data times, '
-                                    'to a new rosbag2 MCAP bag.')
+                        description='Write /slam/inputs, /slam/scan and /slam/gps, stamped with the data times '
+                                    'shifted to --epoch, to a new rosbag2 MCAP bag.')
     vp.add_argument('--out', type=Path, required=True, metavar='DIR', help='new bag directory to write')
     vp.add_argument('--data', type=Path, default=None, metavar='DIR',
                     help='data folder (default: $TRACK_VICTORIA_PARK or victoria_park/ of the data folder)')
     vp.add_argument('--t-max', type=float, default=None, metavar='SECONDS', help='keep only data with t <= SECONDS')
+    vp.add_argument('--epoch', default='now', metavar='E',
+                    help="bag time of the data's time 0: whole seconds since 1970 or an ISO date (UTC); 'now' "
+                         '(default): the run ends at the conversion; the data time stays in the metadata '
+                         '(data_time_origin_ns)')
     return ap
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(list(sys.argv[1:] if argv is None else argv))
+    from track_nodes.launch.launcher import LaunchError, parse_epoch
+
     try:
-        counts = convert_victoria_park(args.out, args.data, args.t_max)
+        try:
+            epoch = parse_epoch(args.epoch)
+        except LaunchError as exc:
+            raise DatasetError(str(exc)) from None
+        counts = convert_victoria_park(args.out, args.data, args.t_max, epoch)
     except DatasetError as exc:
         print(f'track-dataset: {exc}', file=sys.stderr)
         return EXIT_BAD_INPUT

@@ -6,8 +6,9 @@ line each; an empty list means every frame is placed. ``python -m track_nodes.ba
 
 - every ``header.frame_id`` of every message (top-level headers, and the headers of a sequence of
   stamped messages such as ``MarkerArray.markers``), except on /tf and /tf_static themselves, must
-  reach ``root`` by following child → parent edges of the recorded transforms. An AIS report's
-  ``"<frame>#<local track id>"`` (``topics.track_frame_id``) names the frame before the ``#``. An
+  reach ``root`` by following child → parent edges of the recorded transforms. The id is taken
+  whole: ``"map#r017"`` (a track id riding in the frame, ``topics.track_frame_id``) is a frame
+  that no transform names, so it is reported as not placed, as RViz and Foxglove would fail on it. An
   empty frame id is a problem, except in ``DiagnosticArray`` and the RFID and IDSQ protocols' messages
   (no spatial content);
 - ``child_frame_id`` of an Odometry on a body-frame topic (``tf.BODY_FRAME_TOPICS``: the SLAM
@@ -32,7 +33,7 @@ from itertools import pairwise
 from pathlib import Path
 
 from track_msgs_py.tf import BODY_FRAME_TOPICS, frame_id_problem, frame_pair_problem
-from track_msgs_py.topics import FRAME_MAP, TF, TF_STATIC, split_track_frame_id
+from track_msgs_py.topics import FRAME_MAP, TF, TF_STATIC
 
 # No spatial content: the header carries a stamp only (the RFID protocol's angles are turns of the user;
 # the IDSQ ack, revoke and leader event name sensors by id).
@@ -106,8 +107,7 @@ class _Collector:
             self._seen.add(line)
             self.tree.problems.append(line)
 
-    def use(self, frame_id: str, topic: str, msgtype: str, field_name: str, stamp) -> None:
-        frame, _ = split_track_frame_id(frame_id)
+    def use(self, frame: str, topic: str, msgtype: str, field_name: str, stamp) -> None:
         if not frame and msgtype in _NO_FRAME_TYPES:
             return
         reason = frame_id_problem(frame, field_name)

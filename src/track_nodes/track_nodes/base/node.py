@@ -31,10 +31,13 @@ unless the name is taken as given (a player's replay, whose recording holds the 
 Transforms (``track_msgs_py.tf``): ``send_transforms(*ts)`` publishes dynamic transforms on ``/tf``;
 ``add_static_transforms(*ts)`` adds fixed ones (a later one with the same child frame replaces the
 earlier) and republishes ALL of the node's static transforms as one message on the latched
-``/tf_static``, as tf2_ros's StaticTransformBroadcaster does. Both publishers are made at the first
-call, so a node that never broadcasts has no /tf endpoint; a node that will broadcast calls
-``advertise_transforms()`` in ``setup()``, so that a recorder (and the launcher, which waits for the
-recorder's subscriptions before it starts the clock) sees /tf before the first transform is sent.
+``/tf_static``, as tf2_ros's StaticTransformBroadcaster does, stamped with the node clock's now (as
+its users do): under ``use_sim_time`` before the first ``/clock`` (now is 0, no time yet) the
+message waits for the clock's first reading, so no bag holds a 1970 static transform. Both
+publishers are made at the first call, so a node that never broadcasts has no /tf endpoint; a node
+that will broadcast calls ``advertise_transforms()`` in ``setup()``, so that a recorder (and the
+launcher, which waits for the recorder's subscriptions before it starts the clock) sees /tf before
+the first transform is sent.
 
 ``python -m track_nodes <executable>`` (what the ``ros2 run`` shims call) looks the class up in
 ``track_nodes.registry`` and calls ``main``.
@@ -96,6 +99,7 @@ class TrackNode(Node, metaclass=CheckedNames):
         self._diagnostics_dirty = False
         self._tf_pub = self._tf_static_pub = None  # made at the first transform (most nodes never broadcast)
         self._static_transforms: dict[str, Any] = {}  # child frame -> TransformStamped
+        self._static_wait = None  # a timer on the node clock: /tf_static waits for the first /clock
         self.setup()
         self.time_jumps = watch_time_jumps(self)  # a clock jump calls reset_time_state (base/timejump.py)
         self.add_on_set_parameters_callback(self._check_params)
@@ -229,6 +233,23 @@ class TrackNode(Node, metaclass=CheckedNames):
             from tf2_msgs.msg import TFMessage
 
             self._tf_static_pub = self.create_publisher(TFMessage, TF_STATIC, TF_STATIC_QOS)
+        self.publish_static_transforms()
+
+    def publish_static_transforms(self) -> None:
+        """All static transforms on /tf_static, stamped now; before a sim clock's first reading, at that reading."""
+        if self._tf_static_pub is None or not self._static_transforms:
+            return
+        now = self.get_clock().now()
+        if now.nanoseconds == 0:  # a ROS-time timer fires once the clock runs (at the first /clock)
+            if self._static_wait is None:
+                self._static_wait = self.create_timer(1e-3, self.publish_static_transforms)
+            return
+        if self._static_wait is not None:
+            self.destroy_timer(self._static_wait)
+            self._static_wait = None
+        stamp = now.to_msg()
+        for tr in self._static_transforms.values():
+            tr.header.stamp = stamp
         self._tf_static_pub.publish(tf_message(list(self._static_transforms.values())))
 
     def destroy_node(self) -> None:

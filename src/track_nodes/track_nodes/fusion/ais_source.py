@@ -20,11 +20,16 @@ derives each ship's gap limit from its report interval (``track_core.ais.reader`
 
 Topics (``prefix`` e.g. ``/ais/radar``, see ``track_msgs_py.topics``):
 
-- ``<prefix>/reports`` (PoseWithCovarianceStamped): one message per ship report, all ships on
-  this one topic, under the source's own local track ids (``id_prefix`` + 3 digits, shuffled):
-  ``header.frame_id = "map#<local id>"``. The MMSI is never sent.
+- ``<prefix>/reports`` (``track_msgs/TrackArray``): one message per report instant holding every
+  ship reported at it, ``header.frame_id`` ``map``, each track under the source's own local track
+  id (``id_prefix`` + 3 digits, shuffled) in ``tracks[].id``, its position and 2σ-ellipse
+  covariance with the velocity not estimated (``track_arrays.position_tracks``). The MMSI is
+  never sent. The fusion node takes it in ``track_array_topics`` (track id ``<topic>/<local id>``).
+- ``<prefix>/markers`` (MarkerArray): the same instant drawn, a 2σ disc and an id label per ship
+  (``track_msgs_py.markers.tracks``), living two report periods: what RViz and Foxglove show.
 - ``<prefix>/truth`` (DiagnosticArray, transient-local, evaluation only; with
-  ``publish_truth``): once at start, one status per local track named like the fusion node's
+  ``publish_truth``): once, stamped at the origin (the node clock's first reading: under sim time
+  the first ``/clock``), one status per local track named like the fusion node's
   track id ``<prefix>/reports/<local id>``, values ``mmsi`` and ``reports``
   (``track_msgs_py.records.fusion.AisTruthEntry``).
 
@@ -41,21 +46,18 @@ from dataclasses import dataclass
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
-from geometry_msgs.msg import PoseWithCovarianceStamped
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from visualization_msgs.msg import MarkerArray
 
 from track_core.ais import LocalTangentPlane, ShipTruth, SourceModel, read_ais, simulate_source
 from track_core.ais.sources import ORIENTATIONS
+from track_msgs.msg import TrackArray
 from track_msgs_py.diagnostics import diagnostic_array
-from track_msgs_py.odometry import position_to_pose_cov
-from track_msgs_py.qos import STATIC_QOS
+from track_msgs_py.markers.tracks import TrackMarkers
+from track_msgs_py.qos import ESTIMATE_QOS, STATIC_QOS
 from track_msgs_py.records.fusion import AisTruthEntry
-from track_msgs_py.topics import FRAME_MAP, ais_reports_topic, ais_truth_topic, track_frame_id
+from track_msgs_py.topics import FRAME_MAP, ais_markers_topic, ais_reports_topic, ais_truth_topic
+from track_msgs_py.track_arrays import position_tracks, tracks_to_array
 from track_nodes.base import FixedRateSteps, ParameterError, TrackNode, param
-
-# All ships of one instant are published in one burst: keep them all until delivered.
-REPORTS_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1000, reliability=ReliabilityPolicy.RELIABLE,
-                         durability=DurabilityPolicy.VOLATILE)
 
 
 @dataclass
@@ -90,6 +92,7 @@ class AisSourceParams:
     id_prefix: str = param('r', 'local track ids are <id_prefix><3 digits>')
     prefix: str = param('/ais/radar', 'topic prefix: reports on <prefix>/reports, truth on <prefix>/truth')
     publish_truth: bool = param(True, 'publish the local track → MMSI table on <prefix>/truth (evaluation only)')
+    marker_rgba: list[float] = param([0.0, 0.6, 1.0, 0.5], 'colour [r, g, b, a] of the 2σ discs on <prefix>/markers')
 
 
 def _latlon(name: str, value) -> tuple[float, float]:
@@ -134,25 +137,45 @@ class AisSourceNode(TrackNode):
                                              p.start + p.duration)
         self.stamps = rep.t - p.start
         self.next = 0
-        self.frames = [track_frame_id(FRAME_MAP, i) for i in rep.ids]
+        rgba = [float(c) for c in p.marker_rgba]
+        if len(rgba) != 4 or not all(0.0 <= c <= 1.0 for c in rgba):
+            raise ParameterError(f'parameter marker_rgba={list(p.marker_rgba)} is invalid: allowed [r, g, b, a] '
+                                 'in [0, 1]')
+        self.markers = TrackMarkers(p.id_prefix, 2.0 * p.period, rgba)
         self.topic = ais_reports_topic(p.prefix)
-        self.pub = self.create_publisher(PoseWithCovarianceStamped, self.topic, REPORTS_QOS)
+        self.pub = self.create_publisher(TrackArray, self.topic, ESTIMATE_QOS)
+        self.pub_markers = self.create_publisher(MarkerArray, ais_markers_topic(p.prefix), ESTIMATE_QOS)
         self.get_logger().info(f'{len(rep.ids)} ships, {len(rep)} reports in [{p.start:g}, {p.start + p.duration:g}] s '
                                f'of data on {self.topic}')
         if p.publish_truth:
             self.pub_truth = self.create_publisher(DiagnosticArray, ais_truth_topic(p.prefix), STATIC_QOS)
-            counts = np.bincount(rep.track, minlength=len(rep.ids))
-            self.pub_truth.publish(diagnostic_array(0.0, [
-                AisTruthEntry(int(rep.mmsi[k]), int(counts[k])).truth_status(f'{self.topic}/{tid}', self.get_name())
-                for k, tid in enumerate(rep.ids)]))
-        self.steps = FixedRateSteps(self, p.tick, self._step, max_time=p.duration)
+        self.steps = FixedRateSteps(self, p.tick, self._step, max_time=p.duration, on_origin=self._publish_truth)
+
+    def _publish_truth(self, origin: float) -> None:
+        """The local track → MMSI table, once, stamped at the origin (the whole second of the first clock reading)."""
+        if not self.p.publish_truth:
+            return
+        rep = self.reports
+        counts = np.bincount(rep.track, minlength=len(rep.ids))
+        self.pub_truth.publish(diagnostic_array(origin, [
+            AisTruthEntry(int(rep.mmsi[k]), int(counts[k])).truth_status(f'{self.topic}/{tid}', self.get_name())
+            for k, tid in enumerate(rep.ids)]))
 
     def _step(self, t: float) -> None:
         # node time = origin + (data time − start); the origin is the whole second of node time at the first tick
         origin = self.steps.origin or 0.0
         rep, k = self.reports, self.next
         while k < len(rep) and origin + self.stamps[k] <= t + 1e-9:
-            self.pub.publish(position_to_pose_cov(origin + float(self.stamps[k]), rep.mu[k], rep.R[k],
-                                                  self.frames[rep.track[k]]))
-            k += 1
+            end = k + 1
+            while end < len(rep) and self.stamps[end] == self.stamps[k]:   # one array per report instant
+                end += 1
+            self._publish(origin + float(self.stamps[k]), slice(k, end))
+            k = end
         self.next = k
+
+    def _publish(self, stamp: float, sel: slice) -> None:
+        rep = self.reports
+        ids = [rep.ids[i] for i in rep.track[sel].tolist()]
+        x, P = position_tracks(rep.mu[sel], rep.R[sel])
+        self.pub.publish(tracks_to_array(stamp, ids, [self.get_name()] * len(ids), x, P, FRAME_MAP))
+        self.pub_markers.publish(self.markers.build(stamp, ids, rep.mu[sel], rep.R[sel]))

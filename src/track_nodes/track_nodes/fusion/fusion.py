@@ -11,7 +11,9 @@ the node clock; a bad one is refused with one throttled line per reason and coun
 - ``odometry_topics`` (nav_msgs/Odometry, track id ``<topic>/<child_frame_id>``);
 - ``pose_topics`` (PoseWithCovarianceStamped, one track per topic, its namespace the source);
 - ``pose_track_topics`` (PoseWithCovarianceStamped of many tracks of one source, the topic: local
-  id in ``header.frame_id`` as ``"<frame>#<local id>"``, ``topics.track_frame_id``).
+  id in ``header.frame_id`` as ``"<frame>#<local id>"``, ``topics.track_frame_id``): an older input
+  kept for such sources; that frame_id names no frame (no viewer can draw it), so our own sources
+  of many tracks (``ais_source``) publish a TrackArray.
 
 Pairs within one source are not scored unless ``same_source_pairs``. Velocities with
 ``not_estimated`` variance are ignored (the track is held like a position report).

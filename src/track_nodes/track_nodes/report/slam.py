@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from track_core.metrics import match_stamps
+from track_nodes.report.maritime import start_when
 from track_nodes.report.read import read_topics
 
 
@@ -33,7 +34,7 @@ def slam_metrics(bag: Path) -> list[str]:
         return ['slam: no poses recorded']
     t_est = np.array([e[0] for e in est])
     x_est = np.array([e[1] for e in est])
-    lines = [f'slam: {len(est)} poses, t = {t_est[0]:.1f} .. {t_est[-1]:.1f} s']
+    lines = [f'slam: {len(est)} poses over {t_est[-1] - t_est[0]:.1f} s from {start_when(t_est[0])}']
     truth = [odometry_to_pose(m) for m in msgs.get(SLAM_TRUTH, [])]
     if truth:
         it, ie = match_stamps(np.array([s[0] for s in truth]), t_est)

@@ -174,7 +174,7 @@ class SlamNode(TrackNode):
         now = time.monotonic()
         took = self._take_pending() > 0
         if self.merger.on_idle(now, took, self._step, time.monotonic, self._heard) and self._map_dirty:
-            self._publish_map(self.processed_ns / 1e9)
+            self._publish_map(self.processed_ns / 1_000_000_000)  # int / int: the float nearest to the stamp
 
     def _take_pending(self) -> int:
         """Take every message already waiting in both subscriptions into the merger (the executor's
@@ -243,7 +243,7 @@ class SlamNode(TrackNode):
     # -- core step and outputs ------------------------------------------------------------------
     def _step(self, stream: str, t_ns: int, payload) -> bool:
         """One released event into the filter; False when the core refused it (state unchanged)."""
-        t = t_ns / 1e9  # == stamp_to_sec: the float nearest to the stamp
+        t = t_ns / 1_000_000_000  # == stamp_to_sec: int / int is the nearest float (t_ns / 1e9 is not)
         if stream == INPUT:
             ok = self.slam.process_input(t, *payload)
             self.n_inputs += ok
