@@ -11,6 +11,11 @@ Impinj extensions). Three departures from LLRP 1.1 stop sllurp's bring-up, so th
 
 Tag reports come from ``phase_of(t)`` instead of random numbers: the wrapped phase (rad, LLRP sign)
 and the channel index of the one tag at wall time ``t``, so a test knows the dφ a MOVE must give.
+A read is taken, stamped and phased at its scheduled time ``t``, every 1/``reads_per_sec``, as a
+reader's radio does whatever its host is doing: when this process is starved (a busy machine), the
+reads it owes go out late in a burst, each with its own time, and not as a gap followed by a bunch
+of reads stamped at the send time (that stream, line fits over reads sharing one instant and a
+150 ms hole, is no reader's and fails MOVEs that a real reader's reads would pass).
 ``ReaderRig`` runs it in a child process (``python llrp_rig.py PORT OMEGA CHANNELS HOP_S``).
 """
 
@@ -69,10 +74,10 @@ class ScriptedReader(LLRPEmulator):
         while True:
             next_due += period
             await asyncio.sleep(max(0.0, next_due - time.time()))
-            now = time.time()
-            phase, channel = self.phase_of(now)
+            taken = next_due   # the radio reads on its own schedule; this process only reports (module doc)
+            phase, channel = self.phase_of(taken)
             units = round(phase % (2.0 * math.pi) / (2.0 * math.pi) * 4096) % 4096   # Impinj: 4096 = 2π
-            us = round(now * 1e6)
+            us = round(taken * 1e6)
             trd = params.TagReportData(
                 epc_parameter=params.EPC_96(epc=bytes.fromhex(EPC)),
                 antenna_id=params.AntennaID(antenna_id=1),

@@ -91,8 +91,10 @@ def test_a_reader_that_goes_away_and_comes_back_is_reconnected(ros, rig):
     assert ros.spin_until(lambda: node.link.drops >= 1 and not node.link.up, timeout=60)
     ros.spin_until(lambda: node.link.failures >= 2, timeout=30)   # it keeps trying while the reader is away
     assert node.link.failures >= 2
+    idle = node.live.idle_reads
     rig.start()                                                   # back on the same port
     assert ros.spin_until(lambda: node.link.connects >= 2 and node.link.up, timeout=60), node.link.last_error
+    assert ros.spin_until(lambda: node.live.idle_reads > idle + 100, timeout=60)   # its inventory has started
     step = _move(ros, node, got, pub, 1)
     assert step.ok and step.dphi == pytest.approx(OMEGA * MOVE_S, abs=0.3), step
 

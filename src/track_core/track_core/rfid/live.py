@@ -12,7 +12,11 @@ that varies and bunches reads (network, the client's thread, a busy machine). Wi
 the local (arrival) clock and moved to the reader's clock by the offset ô = max over reads of
 (reader time − arrival time): the arrival is the read's time plus a latency ≥ 0, so the read that
 came fastest bounds the offset best. A read belongs to the action whose window holds its *reader*
-time, and the answer waits ``latency_s`` after the window closed for the reads still on their way.
+time. The answer is due once a read taken after the window's end has arrived (a reader reports its
+reads in the order it takes them, over one TCP stream: every read of the window is in), or, when no
+such read comes (the tag is no longer read), ``latency_s`` after the window closed on the local
+clock. So the answer does not depend on how fast this process runs: when it is starved (a busy
+machine), the reads wait in the socket with their reader times and the window is still cut by those.
 A step back of the reader's clock by more than ``CLOCK_RESET_S`` (a reader that restarted) starts ô
 afresh. The stream's ``t_start``/``t_end`` (the button presses of ``signal.process_move``) are the
 window's ends on the reader's clock. Reads taken while no action is open are dropped and counted
@@ -65,6 +69,7 @@ class LiveActions:
         self.move_s, self.turn_read_s, self.latency_s = move_s, turn_read_s, latency_s
         self.current: _Open | None = None
         self.offset = -math.inf      # ô: reader clock − arrival clock
+        self.latest = -math.inf      # reader time of the newest read
         self.idle_reads = 0
         self.steps = self.turns = 0
 
@@ -89,7 +94,9 @@ class LiveActions:
         if not t.size:
             return
         lead = float(np.max(t - arrival))
-        self.offset = lead if lead < self.offset - CLOCK_RESET_S else max(self.offset, lead)
+        reset = lead < self.offset - CLOCK_RESET_S       # the reader restarted: its clock is learnt again
+        self.offset = lead if reset else max(self.offset, lead)
+        self.latest = float(np.max(t)) if reset else max(self.latest, float(np.max(t)))
         c = self.current
         keep = np.zeros(t.size, bool) if c is None else t >= c.t0 + self.offset
         self.idle_reads += int(t.size - keep.sum())
@@ -97,9 +104,12 @@ class LiveActions:
             c.rows.append(tuple(np.asarray(v, dtype=float)[keep] for v in (t, phase, rssi, carrier_hz)))
 
     def take_due(self, now: float) -> LiveAnswer | None:
-        """The open action's answer once ``now`` (arrival clock) is ``latency_s`` past its window's end."""
+        """The open action's answer once a read after its window has come, or ``now`` (arrival clock) is
+        ``latency_s`` past the window's end (module doc)."""
         c = self.current
-        if c is None or now < c.t1 + (self.latency_s if c.t1 > c.t0 else 0.0):
+        if c is None or now < c.t1:
+            return None
+        if now < c.t1 + (self.latency_s if c.t1 > c.t0 else 0.0) and not self.latest > c.t1 + self.offset:
             return None
         self.current = None
         t0, t1 = c.t0 + self.offset, c.t1 + self.offset

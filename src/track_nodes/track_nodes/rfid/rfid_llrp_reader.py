@@ -4,8 +4,8 @@ The reader side of the step-by-step protocol for a person holding a real reader:
 the reader at ``host``:``port`` over LLRP (``track_nodes.rfid.llrp``, sllurp), configures antennas,
 transmit power and the Impinj phase-angle and RSSI reports, and performs each command of
 ``/rfid/command`` with the reads it gets (``track_core.rfid.live``): a MOVE is the reads that arrive
-taken in the ``move_s`` after the command (the time the user takes for one step; the answer waits
-``latency_s`` more for reads still on their way), processed into dφ by
+taken in the ``move_s`` after the command (the time the user takes for one step; the answer comes
+with the first read taken after it, or ``latency_s`` later when the tag is no longer read), processed into dφ by
 the real-reader signal processing (``relock_reads``, ``noise``) with this reader's sign, wrap and
 hop table (``channels_mhz``: LLRP ChannelIndex → carrier); a TURN is taken as made as asked, checked
 by the reads of ``turn_read_s`` after it. Published as ``rfid_reader`` does
@@ -65,11 +65,11 @@ class RfidLlrpReaderParams(PhaseParams):
                           1e-2, 60.0, live=True)
     turn_read_s: float = param(_W.turn_read_s, 'reads collected after a TURN to check the signal [s]', 0.0, 60.0,
                                live=True)
-    latency_s: float = param(0.2, 'how long to wait after an action for its reads still on their way [s]', 0.0,
-                             10.0, live=True)
+    latency_s: float = param(1.0, 'how long to wait after an action for its reads still on their way when no '
+                             'later read has come (the tag not read) [s]', 0.0, 10.0, live=True)
     relock_reads: int = param(5, 'signal processing: agreeing reads that re-lock after a phase step; 0 = never',
                               0, 1000)
-    noise: str = param('online', 'signal processing: robust (heavy-tailed noise learnt from the data), online '
+    noise: str = param('robust', 'signal processing: robust (heavy-tailed noise learnt from the data), online '
                        '(Gaussian noise from the data) or fixed (the paper)', choices=('fixed', 'online', 'robust'))
     retry_s: float = param(2.0, 'seconds between connection attempts while the reader is away', 0.05, 3600.0)
     tick: float = param(0.02, 'period of the timer that takes reads and publishes due answers [s]', 1e-3, 1.0)

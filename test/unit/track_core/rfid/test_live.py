@@ -75,6 +75,27 @@ def test_late_and_bunched_reads_still_give_the_dphi(latency, bunch):
     assert a.result.dphi == pytest.approx(OMEGA * 0.5, abs=0.05) and abs(a.result.n_reads - 150) <= 2
 
 
+def test_the_answer_comes_with_the_first_later_read_and_a_starved_process_loses_no_read():
+    """Due as soon as a read taken after the window has arrived, before ``latency_s``; a process that ran
+    nothing for a second (the reads waiting in the socket) still cuts the window by reader time."""
+    live = _actions(latency_s=5.0)
+    live.add(*_reads(0.0, 0.5))
+    live.start(Command(CommandKind.MOVE, seq=1), 0.5)
+    reads = _reads(0.5, 1.1, seed=4)
+    _feed(live, tuple(v[reads[1] <= 1.0 + OFFSET - 0.01] for v in reads), 1.2)
+    assert live.take_due(1.2) is None                            # no read after the window yet, deadline at 6 s
+    _feed(live, tuple(v[reads[1] > 1.0 + OFFSET - 0.01] for v in reads), 1.2)
+    a = live.take_due(1.2)
+    assert a is not None and a.result.ok and abs(a.result.n_reads - 150) <= 1, a
+    live.start(Command(CommandKind.MOVE, seq=2), 2.0)
+    late = _reads(2.0, 2.6, seed=5)
+    live.add(late[0] * 0.0 + 3.5, *late[1:])                     # starved: all of them arrive at 3.5 s
+    a = live.take_due(3.5)
+    assert a.result.ok and abs(a.result.n_reads - 150) <= 1 and a.result.dphi == pytest.approx(4.0, abs=0.05)
+    live.start(Command(CommandKind.MOVE, seq=3), 4.0)            # the tag no longer read: the deadline answers
+    assert live.take_due(9.4) is None and not live.take_due(9.5).result.ok
+
+
 def test_a_turn_is_the_asked_turn_checked_by_reads_and_done_answers_at_once():
     live = _actions()
     live.start(Command(CommandKind.TURN, math.radians(30.0), 2), 0.0)
