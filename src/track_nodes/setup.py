@@ -36,6 +36,7 @@ setup(
             'track-bag-recover = track_nodes.bag.recover:main',
             'track-bag-check = track_nodes.bag.check:main',
             'track-dataset = track_nodes.bag.dataset:main',
+            'track-summary = track_nodes.report.summary:main',
         ],
     },
 )

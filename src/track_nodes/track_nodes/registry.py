@@ -30,17 +30,20 @@ NODES = {
     # bag tools that are nodes
     'recorder': 'track_nodes.bag.recorder:RecorderNode',
     'player': 'track_nodes.bag.player:PlayerNode',
+    # the launcher's /clock driver, for ros2 launch
+    'clock': 'track_nodes.launch.clock:ClockNode',
 }
 
 # Executables whose main is not TrackNode.main (they parse their own command line first). All take
-# sys.argv-style arguments (program name first) but bag_recover, a plain argparse tool.
+# sys.argv-style arguments (program name first) but bag_recover and summary, plain argparse tools.
 MAINS = {
     'recorder': 'track_nodes.bag.recorder:main',
     'player': 'track_nodes.bag.player:main',
     'bag_recover': 'track_nodes.bag.recover:main',
     'node_group': 'track_nodes.launch.group:main',
+    'summary': 'track_nodes.report.summary:main',
 }
-PLAIN_ARGV = frozenset({'bag_recover'})
+PLAIN_ARGV = frozenset({'bag_recover', 'summary'})
 
 
 class UnknownExecutableError(KeyError):

@@ -35,11 +35,11 @@ READY_PER_PROCESS = 4.0  # ... or per process (each imports numpy, scipy and rcl
 LISTED = 8  # names given in the line of a deadline that ran out
 
 
-class LauncherNode(Node):
-    """Publishes /clock and watches the graph. Always on wall time."""
+class GraphWatch:
+    """What a /clock driver needs of the graph (a mixin of a Node): its /clock publisher, who is up, what
+    is recorded, what still flows. Call ``watch_graph()`` once the node is built."""
 
-    def __init__(self, context: Context) -> None:
-        super().__init__('track_launcher', context=context, start_parameter_services=False)
+    def watch_graph(self) -> None:
         self.clock_pub = self.create_publisher(Clock, CLOCK, CLOCK_QOS)
         self.watched: dict[str, object] = {}
         self.last_message = time.monotonic()
@@ -126,6 +126,14 @@ class LauncherNode(Node):
                 missing.append(topic)
         return missing
 
+
+
+class LauncherNode(GraphWatch, Node):
+    """The launcher's node: publishes /clock and watches the graph. Always on wall time."""
+
+    def __init__(self, context: Context) -> None:
+        super().__init__('track_launcher', context=context, start_parameter_services=False)
+        self.watch_graph()
 
 def _qualified(name: str) -> str:
     return name if name.startswith('/') else f'/{name}'
