@@ -35,6 +35,7 @@ from track_nodes.launch.pacing import (
     GRACE,
     QUIET,
     SETTLE_PROCESSES,
+    Cadence,
     EpochError,
     clock_step,
     epoch_line,
@@ -88,6 +89,8 @@ class ClockNode(GraphWatch, TrackNode):
         if self.p.record_regex:
             self.names.append('recorder')
         self.watch_graph()
+        self.cadence = Cadence()  # fed by the watched topics (graph.GraphWatch.watch)
+        self.held = 0  # clock ticks held back for a topic that was behind
         self.exit_code = 0
         self.step, self.wall_step = clock_step(self.p.rate)
         self.duration = self.p.duration or None
@@ -113,7 +116,8 @@ class ClockNode(GraphWatch, TrackNode):
         elif self.phase is Phase.RUNNING:
             self._run(now)
         elif now - self.last_message >= QUIET + GRACE or now >= self.phase_end:
-            self.get_logger().info(f'/clock stopped at {self.duration:g} s; the graph is quiet: done')
+            self.get_logger().info(f'/clock stopped at {self.duration:g} s; the graph is quiet: done '
+                                   f'({self.held} ticks held for a topic behind)')
             self.context.try_shutdown()  # ends the spin; the process exits 0
 
     def _wait(self, now: float) -> None:
@@ -138,7 +142,11 @@ class ClockNode(GraphWatch, TrackNode):
                 self._fail(f'{other} other /clock publisher(s) in this ROS domain')
                 return
         t = node_time(self.k, self.step, self.duration)
-        self.publish_clock(self._epoch_ns() + round(t * NS))
+        t_ns = self._epoch_ns() + round(t * NS)
+        if self.k and self.cadence.holding(t_ns, now) is not None:
+            self.held += 1
+            return  # a periodic topic of another process is a step behind (pacing.Cadence)
+        self.publish_clock(t_ns)
         if self.duration is not None and t >= self.duration:
             self.phase, self.phase_end = Phase.DRAINING, now + DRAIN_MAX
             self.last_message = now

@@ -17,9 +17,10 @@ process the clock runs in lock-step: after each step the launcher runs every cal
 therefore runs slower than R×, never differently: a seed and an epoch reproduce every payload
 (another epoch shifts every stamp by the difference; the values agree to float rounding, ~1e-16
 of the epoch, because float seconds near 1.8e9 resolve 2.4e-7 s). With
-``--processes`` the other processes cannot be observed, so the clock is only paced by R, and it
-is held at the epoch while discovery settles (a process whose first callback runs late still
-reads the epoch first, so its step origin is the epoch's).
+``--processes`` the other processes cannot be observed, so the clock is paced by R, held at the
+epoch while discovery settles (a process whose first callback runs late still reads the epoch
+first, so its step origin is the epoch's) and held back while a periodic topic of theirs is a step
+behind (``pacing.Cadence``); the ``clock`` node of ``ros2 launch`` does the same.
 ``--rate 0`` runs on wall time, callbacks on the MultiThreadedExecutor's threads.
 
 Before the clock starts, the launcher waits until every node is up, every node's ``/clock``
@@ -70,6 +71,7 @@ from track_nodes.launch.pacing import (
     QUIET,
     SETTLE,
     SETTLE_PROCESSES,
+    Cadence,
     EpochError,
     clock_step,
     epoch_line,
@@ -350,8 +352,9 @@ class Launch:
         duration = None if self.duration is None else float(self.duration)
         lockstep = self.sim and not children
         step, wall_step = clock_step(self.rate) if self.sim else (0.0, CLOCK_TICK)
-        t0, k = time.monotonic(), 0
+        t0, k, watched_at = time.monotonic(), 0, -1
         epoch_ns = self._epoch_ns() if self.sim else 0
+        launcher.cadence = Cadence()  # the watched topics' stamps (--processes: graph.GraphWatch.watch)
         self.dog = Watchdog(len(self.sc.nodes) + 1, self.watchdog_s).start() if self.sim else None
         names = [s.name for s in self.sc.nodes] + ['recorder'] * (self.bag is not None) + [launcher.get_name()]
         foreign = ForeignCheck(launcher, names, None if children else [launcher, *self.nodes], self.sim)
@@ -360,7 +363,8 @@ class Launch:
                 return
             if (found := foreign.look()) is not None:
                 raise LaunchError(found)
-            if children and k % WATCH_EVERY == 0:
+            if children and k % WATCH_EVERY == 0 and k != watched_at:
+                watched_at = k
                 launcher.watch(self.record_regex)  # topics whose traffic tells when the processes are done
             if not self.sim:
                 if duration is not None and time.monotonic() - t0 >= duration:
@@ -368,6 +372,10 @@ class Launch:
                 self._pump(executor, time.monotonic() + CLOCK_TICK)
                 continue
             t = node_time(k, step, duration)
+            if children and k and launcher.cadence.holding(epoch_ns + round(t * 1e9), time.monotonic()):
+                self._pump(executor, time.monotonic() + wall_step)  # a process is a step behind (pacing.Cadence)
+                t0 = time.monotonic() - k * wall_step  # ... and the held time is not made up by a burst
+                continue
             launcher.publish_clock(epoch_ns + round(t * 1e9))
             self.dog.stepped(t)  # sim: the watchdog runs
             if lockstep:

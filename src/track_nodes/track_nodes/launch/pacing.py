@@ -69,3 +69,64 @@ def clock_step(rate: float) -> tuple[float, float]:
 def node_time(k: int, step: float, duration: float | None) -> float:
     """Node time of step ``k`` since the epoch [s], never past ``duration``."""
     return k * step if duration is None else min(k * step, duration)
+
+
+# --- holding the clock for other processes ---------------------------------------------------------
+HOLD_MAX = 5.0  # [wall s] the longest the clock waits for one topic; then that topic no longer holds it
+SAME_GAP_NS = 1_000  # two stamp gaps within this are the same period
+
+
+def header_stamp_ns(cdr: bytes) -> int | None:
+    """The ``header.stamp`` [ns] of a serialized message whose first field is a std_msgs/Header, or None."""
+    if len(cdr) < 12:
+        return None
+    order = 'little' if cdr[1] & 1 else 'big'  # CDR encapsulation: 0x0001 little endian, 0x0000 big
+    sec = int.from_bytes(cdr[4:8], order, signed=True)
+    nanosec = int.from_bytes(cdr[8:12], order)
+    return sec * 1_000_000_000 + nanosec if nanosec < 1_000_000_000 else None
+
+
+class Cadence:
+    """The stamps of the run's periodic topics, to keep a multi-process run's /clock from outrunning them.
+
+    In one process the launcher runs every callback of a step before the next (lock-step). Nodes in
+    other processes cannot be observed, and on a busy machine a slow one (an IDSQ field of 40 sensors
+    in one process) can fall a whole step behind the others: a node that merges topics by stamp (the
+    fusion node's ``schedule:=stamps``) then sees a later stamp of one topic before an earlier one of
+    another, and scores differently. A topic is *periodic* once its last two stamp gaps are equal (period
+    P); the clock must not reach L + 2P while its latest stamp is L, i.e. its message of L + P (due at
+    node time L + P) must have arrived before the clock passes one more period. A topic that keeps the
+    clock waiting ``HOLD_MAX`` wall seconds (it stopped, or was never periodic) holds it no more until it
+    shows a period again.
+    """
+
+    def __init__(self) -> None:
+        self.last: dict[str, int] = {}  # topic -> latest stamp [ns]
+        self.gaps: dict[str, tuple[int, ...]] = {}  # topic -> its last two stamp gaps [ns]
+        self.waiting: tuple[str, float] | None = None  # the topic holding the clock, since (monotonic)
+
+    def seen(self, topic: str, t_ns: int) -> None:
+        prev = self.last.get(topic)
+        if prev is not None and t_ns <= prev:
+            return
+        if prev is not None:
+            self.gaps[topic] = (*self.gaps.get(topic, ())[-1:], t_ns - prev)
+        self.last[topic] = t_ns
+
+    def period(self, topic: str) -> int | None:
+        gaps = self.gaps.get(topic, ())
+        return gaps[-1] if len(gaps) == 2 and abs(gaps[0] - gaps[1]) <= SAME_GAP_NS else None
+
+    def holding(self, next_ns: int, now: float) -> str | None:
+        """The topic that must deliver before /clock may reach ``next_ns`` (None: go on)."""
+        for topic in sorted(self.gaps):
+            p = self.period(topic)
+            if p is None or next_ns < self.last[topic] + 2 * p:
+                continue
+            if self.waiting is None or self.waiting[0] != topic:
+                self.waiting = (topic, now)
+            if now - self.waiting[1] < HOLD_MAX:
+                return topic
+            self.gaps.pop(topic)  # it keeps us waiting: stopped, or not periodic after all
+            self.waiting = None
+        return None

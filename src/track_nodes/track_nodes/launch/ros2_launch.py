@@ -28,8 +28,11 @@ comes up on a 2-core machine; true: one process each, as on a real distributed f
 from __future__ import annotations
 
 import signal
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 
+from track_nodes.launch.pacing import parse_epoch
 from track_nodes.launch.scenario import Scenario, load_scenario
 
 GROUPED = frozenset({'acoustic_sensor', 'doa_sensor'})  # executables hosted by one node_group
@@ -60,6 +63,64 @@ DESCRIPTIONS = {
 }
 
 
+@dataclass
+class Launched:
+    """One process of the launch: ``ros2 run track_nodes <executable> <arguments> --ros-args -r __node:=<name>``
+    with ``params`` (params files and dicts, in order)."""
+
+    executable: str
+    name: str | None
+    params: list = field(default_factory=list)
+    arguments: list[str] = field(default_factory=list)
+
+
+@dataclass
+class Plan:
+    """What a launch of a scenario runs, for given launch-argument values (``plan``)."""
+
+    nodes: list[Launched]
+    recorder: Launched | None = None
+    clock: Launched | None = None
+    bag: Path | None = None
+    summary: list[str] | None = None  # the summary executable's arguments, after the recording
+    wall_duration: float = 0.0  # without a clock node: end after this many wall seconds (0: never)
+
+
+def plan(sc: Scenario, values: Mapping[str, str]) -> Plan:
+    """The processes of scenario ``sc`` for the launch arguments ``values`` (``defaults`` fill the rest);
+    ValueError for a bad value, RuntimeError for a bag that exists."""
+    arg = {**defaults(sc), **values}
+    sim = arg['use_sim_time'].strip().lower() in TRUE
+    record = arg['record'].strip()
+    duration, rate = float(arg['duration']), float(arg['rate'])
+    if not (duration >= 0 and rate > 0):
+        raise ValueError(f'duration:={arg["duration"]} must be >= 0 and rate:={arg["rate"]} > 0')
+    parse_epoch(arg['epoch'], 'epoch:=')  # a bad epoch is one line before anything starts
+    regex = str(sc.options.get('record_regex', '.*'))
+    bag = bag_path(record) if record else None
+    if bag is not None and bag.exists():
+        raise RuntimeError(f'record:={record}: {bag} exists already, not overwriting (choose another name)')
+    player = any(spec.executable == 'player' for spec in sc.nodes)
+    grouped = [spec for spec in sc.nodes if spec.executable in GROUPED]
+    each = arg['one_process_per_sensor'].strip().lower() in TRUE
+    params = [str(sc.path), {'use_sim_time': sim}]
+    out = Plan([Launched(spec.executable, spec.name, params) for spec in sc.nodes if each or spec not in grouped])
+    if grouped and not each:  # no name: it would rename every node of the group
+        out.nodes.append(Launched('node_group', None, params, ['--nodes', *[f'{s.executable}:{s.name}'
+                                                                            for s in grouped]]))
+    if bag is not None:
+        out.bag = bag
+        out.recorder = Launched('recorder', 'recorder', [{'use_sim_time': sim, 'bag': str(bag), 'regex': regex}])
+        out.summary = [str(bag), *(['--scenario', str(sc.options['summary'])] if sc.options.get('summary') else [])]
+    if sim and not player:
+        out.clock = Launched('clock', 'clock', [{
+            'use_sim_time': False, 'rate': rate, 'epoch': arg['epoch'], 'duration': duration,
+            'wait_for': ','.join(spec.name for spec in sc.nodes), 'record_regex': regex if bag else ''}])
+    else:
+        out.wall_duration = duration
+    return out
+
+
 def scenario_launch_description(scenario_name: str):
     from launch import LaunchDescription
     from launch.actions import DeclareLaunchArgument, OpaqueFunction
@@ -71,7 +132,7 @@ def scenario_launch_description(scenario_name: str):
 
 
 def _actions(context, sc: Scenario) -> list:
-    """The actions of ``sc`` for the launch arguments' values in ``context``."""
+    """The launch actions of ``plan`` for the launch arguments' values in ``context``."""
     from launch.actions import EmitEvent, ExecuteProcess, LogInfo, RegisterEventHandler, TimerAction
     from launch.event_handlers import OnProcessExit
     from launch.events import Shutdown
@@ -79,33 +140,15 @@ def _actions(context, sc: Scenario) -> list:
     from launch_ros.actions import Node
     from launch_ros.substitutions import ExecutableInPackage
 
-    from track_nodes.launch.pacing import parse_epoch
+    p = plan(sc, {name: context.launch_configurations[name] for name in DESCRIPTIONS})
 
-    arg = context.launch_configurations
-    sim = arg['use_sim_time'].strip().lower() in TRUE
-    record = arg['record'].strip()
-    duration = float(arg['duration'])
-    parse_epoch(arg['epoch'], 'epoch:=')  # a bad epoch is one line before anything starts
-    regex = str(sc.options.get('record_regex', '.*'))
-    bag = bag_path(record) if record else None
-    if bag is not None and bag.exists():
-        raise RuntimeError(f'record:={record}: {bag} exists already, not overwriting (choose another name)')
-    player = any(spec.executable == 'player' for spec in sc.nodes)
+    def node(launched: Launched):
+        named = {'name': launched.name} if launched.name else {}
+        return Node(package='track_nodes', executable=launched.executable, parameters=launched.params,
+                    arguments=launched.arguments, output='screen', **named)
 
-    grouped = [spec for spec in sc.nodes if spec.executable in GROUPED]
-    each = arg['one_process_per_sensor'].strip().lower() in TRUE
-    node_params = [str(sc.path), {'use_sim_time': sim}]
-    actions = [Node(package='track_nodes', executable=spec.executable, name=spec.name, parameters=node_params,
-                    output='screen') for spec in sc.nodes if each or spec not in grouped]
-    if grouped and not each:  # no name= here: it would rename every node of the group
-        actions.append(Node(package='track_nodes', executable='node_group', output='screen',
-                            arguments=['--nodes', *[f'{s.executable}:{s.name}' for s in grouped]],
-                            parameters=node_params))
-    recorder = None
-    if bag is not None:
-        recorder = Node(package='track_nodes', executable='recorder', name='recorder', output='screen',
-                        parameters=[{'use_sim_time': sim, 'bag': str(bag), 'regex': regex}])
-        actions.append(recorder)
+    actions = [node(n) for n in p.nodes]
+    recorder = node(p.recorder) if p.recorder else None
 
     def end(reason: str) -> list:
         """Stop the recorder (its exit runs the summary), else shut down."""
@@ -115,24 +158,20 @@ def _actions(context, sc: Scenario) -> list:
                 EmitEvent(event=SignalProcess(signal_number=signal.SIGINT, process_matcher=lambda a: a is recorder))]
 
     if recorder is not None:
-        summary = [ExecutableInPackage('summary', 'track_nodes'), str(bag)]
-        if sc.options.get('summary'):
-            summary += ['--scenario', str(sc.options['summary'])]
+        summary = [ExecutableInPackage('summary', 'track_nodes'), *p.summary]
 
         def summarize(event, ctx) -> list:
             if ctx.is_shutdown:  # Ctrl-C: launch starts no new process now
-                return [LogInfo(msg=f'bag closed: {bag}; its summary: ros2 run track_nodes summary {bag}')]
+                return [LogInfo(msg=f'bag closed: {p.bag}; its summary: ros2 run track_nodes summary '
+                                    f'{" ".join(p.summary)}')]
             return [ExecuteProcess(cmd=summary, name='summary', output='screen', on_exit=[
                 EmitEvent(event=Shutdown(reason='run done'))])]
 
-        actions.append(RegisterEventHandler(OnProcessExit(target_action=recorder, on_exit=summarize)))
-
-    if sim and not player:
-        clock = Node(package='track_nodes', executable='clock', name='clock', output='screen', parameters=[{
-            'use_sim_time': False, 'rate': float(arg['rate']), 'epoch': arg['epoch'], 'duration': duration,
-            'wait_for': ','.join(spec.name for spec in sc.nodes), 'record_regex': regex if recorder else ''}])
+        actions += [recorder, RegisterEventHandler(OnProcessExit(target_action=recorder, on_exit=summarize))]
+    if p.clock is not None:
+        clock = node(p.clock)
         actions += [clock, RegisterEventHandler(OnProcessExit(
             target_action=clock, on_exit=lambda event, ctx: end(f'/clock done (exit code {event.returncode})')))]
-    elif duration > 0:
-        actions.append(TimerAction(period=duration, actions=end(f'{duration:g} s of wall time')))
+    elif p.wall_duration > 0:
+        actions.append(TimerAction(period=p.wall_duration, actions=end(f'{p.wall_duration:g} s of wall time')))
     return actions
