@@ -30,7 +30,7 @@ from nav_msgs.msg import Odometry
 from track_msgs_py.qos import ESTIMATE_QOS
 from track_msgs_py.topics import DEMO_TRUTH
 
-pytestmark = pytest.mark.integration
+pytestmark = [pytest.mark.integration, pytest.mark.timeout(1800)]  # builds a workspace with its interfaces: minutes
 
 # What a clone has that the tests read, where the checkout is no git repository (config links into src/track_nodes).
 COPIED = ('src', 'interfaces', 'test', 'config', 'pyproject.toml', 'colcon_defaults.yaml', 'README.md', 'MAINTAINERS',
@@ -79,7 +79,7 @@ def shell_env(ws: Path, base: dict[str, str] | None = None) -> dict[str, str]:
     """A new shell's environment: nothing of the venv or of ROS set, colcon's user defaults in ``ws``."""
     env = dict(base or os.environ)
     for key in ('AMENT_PREFIX_PATH', 'CMAKE_PREFIX_PATH', 'PYTHONPATH', 'VIRTUAL_ENV', 'COLCON_DEFAULTS_FILE',
-                'COLCON_PREFIX_PATH', 'LD_LIBRARY_PATH'):
+                'COLCON_PREFIX_PATH', 'LD_LIBRARY_PATH', '_ROS_WHEELS_BOOTSTRAP_COMPLETE'):  # re-exec marker
         env.pop(key, None)
     venv_bin = str(Path(sys.prefix) / 'bin')
     env['PATH'] = os.pathsep.join(p for p in env['PATH'].split(os.pathsep) if p != venv_bin)
@@ -130,7 +130,7 @@ def symlink_workspace(repo, tmp_path_factory, env_factory) -> Path:
     ws = tmp_path_factory.mktemp('colcon_ws_symlink')
     fresh_clone(repo, ws)
     (ws / '.venv').symlink_to(sys.prefix)
-    proc = colcon(ws, 'build', '--symlink-install', '--packages-skip', 'tf2_msgs', 'track_msgs',
+    proc = colcon(ws, 'build', '--symlink-install', '--packages-ignore', 'tf2_msgs', 'track_msgs',
                   env=shell_env(ws, env_factory()))
     assert proc.returncode == 0, proc.stdout + proc.stderr
     return ws
