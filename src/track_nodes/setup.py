@@ -38,6 +38,7 @@ setup(
             'track-bag-check = track_nodes.bag.check:main',
             'track-dataset = track_nodes.bag.dataset:main',
             'track-foxglove = track_nodes.foxglove.bridge:main',
+            'track-summary = track_nodes.report.summary:main',
         ],
     },
 )

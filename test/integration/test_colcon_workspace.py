@@ -1,16 +1,21 @@
-"""A colcon workspace works like our venv (issue 19 items 11-12).
+"""A colcon workspace works like our venv: the README's steps, as written, on a fresh clone.
 
-The three packages are built with colcon into a scratch workspace (a copy of the checkout: ``src/``,
-``test/``, the pytest and colcon configuration). A node starts from ``install/`` the way ``ros2 run``
-finds it: ``install/setup.sh`` sourced, ``ament_index_python.get_package_prefix`` +
-``lib/track_nodes/<executable>``, the interpreter being python3 on PATH (an activated venv).
-``colcon test`` runs our packages' parts of the suite against ``install/`` and fails on a failing
-test (a scratch one injected into the copy).
+``README.md``, section "colcon workspace": its ``sh`` block is read from the README and run line by
+line by ``sh`` in a fresh clone (every file git tracks, with the working tree's content; a copy of the
+checkout where there is no git), in the environment of a new shell (no ``AMENT_PREFIX_PATH``, no
+venv on ``PATH``). One line is not run as written: ``make install``, which would build a second venv
+of minutes; ``.venv`` is linked to the venv this suite runs in, which ``make install`` made. The
+workspace those steps built (the interface packages included) is then checked: a node starts from
+``install/`` the way ``ros2 run`` finds it (``install/setup.sh`` sourced,
+``ament_index_python.get_package_prefix`` + ``lib/track_nodes/<executable>``, the interpreter being
+python3 on PATH), and ``colcon test`` runs our packages' parts of the suite against ``install/`` and
+fails on a failing test (a scratch one injected into the clone).
 """
 
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -25,11 +30,13 @@ from nav_msgs.msg import Odometry
 from track_msgs_py.qos import ESTIMATE_QOS
 from track_msgs_py.topics import DEMO_TRUTH
 
-pytestmark = pytest.mark.integration
+pytestmark = [pytest.mark.integration, pytest.mark.timeout(1800)]  # builds a workspace with its interfaces: minutes
 
-# What a clone has that the tests read (config is a link into src/track_nodes).
-COPIED = ('src', 'test', 'config', 'pyproject.toml', 'colcon_defaults.yaml', 'README.md', 'MAINTAINERS', 'LICENSE')
+# What a clone has that the tests read, where the checkout is no git repository (config links into src/track_nodes).
+COPIED = ('src', 'interfaces', 'test', 'config', 'pyproject.toml', 'colcon_defaults.yaml', 'README.md', 'MAINTAINERS',
+          'LICENSE', 'Makefile')
 IGNORED = shutil.ignore_patterns('build', 'install', 'log', '*.egg-info', '__pycache__')
+MAKE_INSTALL = 'make install'
 # The shim before issue 19 item 11: the venv's interpreter only (exit 127 in a colcon install/).
 VENV_ONLY_SHIM = '#!/bin/sh\nexec "$(dirname "$0")/../../bin/python3" -m track_nodes demo_target "$@"\n'
 # What `ros2 run track_nodes EXE ARGS` does: the package prefix from the ament index, then lib/<pkg>/<exe>.
@@ -40,42 +47,117 @@ ROS2_RUN = ('import os, sys\n'
             'os.execv(exe, [exe, *sys.argv[2:]])\n')
 
 
-def colcon(ws: Path, *args: str, env: dict[str, str], timeout: float = 120) -> subprocess.CompletedProcess:
-    """``colcon ARGS`` in ``ws`` with this interpreter's colcon, no user defaults (COLCON_HOME in ``ws``)."""
-    exe = Path(sys.executable).parent / 'colcon'
-    cmd = [str(exe) if exe.is_file() else 'colcon', *args]
-    return subprocess.run(cmd, cwd=ws, env=env, capture_output=True, text=True, timeout=timeout)
+def readme_steps(readme: Path) -> list[str]:
+    """The commands of the README's colcon ``sh`` block, one per line, comments removed."""
+    section = readme.read_text().split('\n## colcon workspace', 1)[1].split('\n## ', 1)[0]
+    block = section.split('```sh\n', 1)[1].split('```', 1)[0]
+    return [re.sub(r'\s+#.*$', '', line).strip() for line in block.splitlines() if line.strip()]
+
+
+def fresh_clone(repo: Path, ws: Path) -> None:
+    """What ``git clone`` of the checkout gives (the tracked files, as they are in the working tree)."""
+    tracked = subprocess.run(['git', 'ls-files', '-z'], cwd=repo, capture_output=True, text=True)
+    names = [n for n in tracked.stdout.split('\0') if n] if tracked.returncode == 0 else []
+    if not names:  # not a git checkout: the files a clone has that the tests read
+        names = []
+        for name in COPIED:
+            src = repo / name
+            if src.is_dir() and not src.is_symlink():
+                shutil.copytree(src, ws / name, ignore=IGNORED)
+            elif src.exists() or src.is_symlink():
+                names.append(name)
+    for name in names:
+        src, dst = repo / name, ws / name
+        dst.parent.mkdir(parents=True, exist_ok=True)
+        if src.is_symlink():
+            dst.symlink_to(os.readlink(src))
+        elif src.is_file():
+            shutil.copy2(src, dst)
+
+
+def shell_env(ws: Path, base: dict[str, str] | None = None) -> dict[str, str]:
+    """A new shell's environment: nothing of the venv or of ROS set, colcon's user defaults in ``ws``."""
+    env = dict(base or os.environ)
+    for key in ('AMENT_PREFIX_PATH', 'CMAKE_PREFIX_PATH', 'PYTHONPATH', 'VIRTUAL_ENV', 'COLCON_DEFAULTS_FILE',
+                'COLCON_PREFIX_PATH', 'LD_LIBRARY_PATH', '_ROS_WHEELS_BOOTSTRAP_COMPLETE'):  # re-exec marker
+        env.pop(key, None)
+    venv_bin = str(Path(sys.prefix) / 'bin')
+    env['PATH'] = os.pathsep.join(p for p in env['PATH'].split(os.pathsep) if p != venv_bin)
+    env['COLCON_HOME'] = str(ws / '.colcon')
+    return env
+
+
+def colcon(ws: Path, *args: str, env: dict[str, str], timeout: float = 600) -> subprocess.CompletedProcess:
+    """``colcon ARGS`` in ``ws`` after the README's activation (``. .venv/bin/activate``, ``AMENT_PREFIX_PATH``)."""
+    script = '. .venv/bin/activate && export AMENT_PREFIX_PATH="$PWD/.venv" && exec colcon "$@"'
+    return subprocess.run(['sh', '-c', script, 'sh', *args], cwd=ws, env=env, capture_output=True, text=True,
+                          timeout=timeout)
 
 
 def ws_env(ws: Path, base: dict[str, str] | None = None) -> dict[str, str]:
+    """``base`` with the venv's python3 first on PATH (an activated venv) and colcon's defaults in ``ws``."""
     env = {**(base or os.environ), 'COLCON_HOME': str(ws / '.colcon'),
            'PATH': f'{Path(sys.executable).parent}{os.pathsep}{os.environ["PATH"]}'}
     env.pop('COLCON_DEFAULTS_FILE', None)
     return env
 
 
-def build_workspace(repo: Path, ws: Path, *build_args: str) -> Path:
-    for name in COPIED:
-        src = repo / name
-        if src.is_symlink():
-            (ws / name).symlink_to(os.readlink(src))
-        elif src.is_dir():
-            shutil.copytree(src, ws / name, ignore=IGNORED)
-        else:
-            shutil.copy2(src, ws / name)
-    proc = colcon(ws, 'build', *build_args, env=ws_env(ws))
-    assert proc.returncode == 0, proc.stdout + proc.stderr
+def follow_readme(repo: Path, ws: Path, env: dict[str, str]) -> subprocess.CompletedProcess:
+    """Clone into ``ws`` and run the README's colcon steps there, as written (but ``make install``)."""
+    fresh_clone(repo, ws)
+    steps = readme_steps(ws / 'README.md')
+    assert MAKE_INSTALL in steps, steps
+    script = ['set -ex', *[f'ln -s "{sys.prefix}" .venv' if step == MAKE_INSTALL else step for step in steps]]
+    return subprocess.run(['sh', '-c', '\n'.join(script)], cwd=ws, env=shell_env(ws, env), capture_output=True,
+                          text=True, timeout=1800)
+
+
+@pytest.fixture(scope='module')
+def readme_run(repo, tmp_path_factory, env_factory) -> tuple[Path, subprocess.CompletedProcess]:
+    ws = tmp_path_factory.mktemp('colcon_ws')
+    return ws, follow_readme(repo, ws, env_factory())
+
+
+@pytest.fixture(scope='module')
+def workspace(readme_run) -> Path:
+    ws, proc = readme_run
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-6000:]
     return ws
 
 
 @pytest.fixture(scope='module')
-def workspace(repo, tmp_path_factory) -> Path:
-    return build_workspace(repo, tmp_path_factory.mktemp('colcon_ws'))
+def symlink_workspace(repo, tmp_path_factory, env_factory) -> Path:
+    ws = tmp_path_factory.mktemp('colcon_ws_symlink')
+    fresh_clone(repo, ws)
+    (ws / '.venv').symlink_to(sys.prefix)
+    proc = colcon(ws, 'build', '--symlink-install', '--packages-ignore', 'tf2_msgs', 'track_msgs',
+                  env=shell_env(ws, env_factory()))
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    return ws
 
 
-@pytest.fixture(scope='module')
-def symlink_workspace(repo, tmp_path_factory) -> Path:
-    return build_workspace(repo, tmp_path_factory.mktemp('colcon_ws_symlink'), '--symlink-install')
+def test_the_readme_steps_run_as_written(readme_run):
+    """Every line of the README's block ran (sh -e) and did what it says: the interface packages built too,
+    the node's help came from install/, colcon test passed and colcon test-result found it."""
+    ws, proc = readme_run
+    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-6000:]
+    for pkg in ('tf2_msgs', 'track_msgs', 'track_core', 'track_msgs_py', 'track_nodes', 'track_experiments'):
+        assert (ws / 'install' / pkg).is_dir(), pkg
+    assert 'usage: ros2 run track_nodes demo_target' in proc.stdout, proc.stdout
+    assert '0 errors, 0 failures' in proc.stdout, proc.stdout[-3000:]
+
+
+def test_without_ament_prefix_path_the_interfaces_do_not_build(repo, tmp_path, env_factory):
+    """Why the README exports AMENT_PREFIX_PATH: `activate` does not set it, and tf2_msgs then finds no
+    rosidl type support (what a user saw). Configuring tf2_msgs alone shows it, in seconds."""
+    ws = tmp_path / 'ws'
+    ws.mkdir()
+    shutil.copytree(repo / 'interfaces/tf2_msgs', ws / 'tf2_msgs')
+    (ws / '.venv').symlink_to(sys.prefix)
+    script = '. .venv/bin/activate && exec colcon build --packages-select tf2_msgs'
+    proc = subprocess.run(['sh', '-c', script], cwd=ws, env=shell_env(ws, env_factory()), capture_output=True,
+                          text=True, timeout=600)
+    assert proc.returncode != 0 and 'tf2_msgs' in proc.stdout + proc.stderr
 
 
 def sourced(ws: Path, *cmd: str) -> list[str]:
@@ -138,7 +220,7 @@ def test_colcon_test_runs_our_tests_and_fails_on_a_failing_one(workspace):
     copy, and track_nodes' shim tests, which then run against install/ (the prefix the ament index gives)."""
     (workspace / 'test/unit/track_core/test_injected_failure.py').write_text(
         'def test_injected_failure():\n    assert 1 + 1 == 3\n')
-    env = ws_env(workspace)
+    env = shell_env(workspace)
     selected = ' or '.join(('test_injected_failure', 'test_wrap_half_open_interval',
                             'test_shim_runs_a_node_with_bad_params_file_message',
                             'test_a_shim_in_a_prefix_without_python_runs_the_node'))

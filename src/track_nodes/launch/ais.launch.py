@@ -1,6 +1,8 @@
-"""ros2 launch track_nodes ais.launch.py [use_sim_time:=true] [record:=NAME]
+"""ros2 launch track_nodes ais.launch.py [record:=NAME] [rate:=R] [epoch:=E] [duration:=S] [use_sim_time:=B]
 
-Same nodes and parameters as ``python -m track_nodes.launch ais`` (config/ais.yaml).
+What ``python -m track_nodes.launch ais --processes`` runs (config/ais.yaml); with the same /clock,
+recording and summary at the end (track_nodes/launch/ros2_launch.py). Needs launch and launch_ros (a
+ROS 2 install, or built from their jazzy sources); without them, use the launcher module.
 """
 
 from track_nodes.launch.ros2_launch import scenario_launch_description

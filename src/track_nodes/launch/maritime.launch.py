@@ -1,8 +1,10 @@
-"""ros2 launch track_nodes maritime.launch.py [use_sim_time:=true] [record:=NAME]
+"""ros2 launch track_nodes maritime.launch.py [record:=NAME] [rate:=R] [epoch:=E] [duration:=S] [use_sim_time:=B]
 
-Same nodes and parameters as ``python -m track_nodes.launch maritime`` (config/maritime.yaml): the
-smart target and the sonar observer, the IDSQ sensor field, the coastal radar with the decoy, and
-the fusion node (track_nodes/maritime.py).
+What ``python -m track_nodes.launch maritime --processes`` runs (config/maritime.yaml): the smart
+target and the sonar observer, the IDSQ sensor field, the coastal radar with the decoy, and the
+fusion node; with the same /clock, recording and summary at the end
+(track_nodes/launch/ros2_launch.py). Needs launch and launch_ros (a ROS 2 install, or built from
+their jazzy sources); without them, use the launcher module.
 """
 
 from track_nodes.launch.ros2_launch import scenario_launch_description

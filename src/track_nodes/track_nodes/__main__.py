@@ -29,8 +29,14 @@ def main(argv: list[str] | None = None) -> int:
     except UnknownExecutableError:
         print(f'track_nodes: unknown executable {args[0]!r}; known: {", ".join(executables())}', file=sys.stderr)
         return 2
-    except KeyboardInterrupt:  # Ctrl-C before rclpy took over SIGINT (still importing): no traceback
-        return 130
+    except KeyboardInterrupt:  # Ctrl-C before rclpy took over SIGINT (still importing): no traceback; or
+        return 0 if _torn_down() else 130  # one that outran the hold of a finished teardown (base/signals.py)
+
+
+def _torn_down() -> bool:
+    """The nodes of this process were torn down (files closed, DDS participant deleted): base/teardown.py."""
+    teardown = sys.modules.get('track_nodes.base.teardown')
+    return bool(getattr(getattr(teardown, 'TEARDOWN', None), 'done', False))
 
 
 def _exit(code: int) -> None:
@@ -43,8 +49,7 @@ def _exit(code: int) -> None:
     the last ones as hung. Any other program (bag tools) exits the normal way, and so does a Ctrl-C
     while importing: nothing is imported here then (a half-imported module would raise again).
     """
-    teardown = sys.modules.get('track_nodes.base.teardown')
-    if not getattr(getattr(teardown, 'TEARDOWN', None), 'done', False):
+    if not _torn_down():
         raise SystemExit(code)
     import atexit
     import os

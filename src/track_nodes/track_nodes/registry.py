@@ -32,6 +32,8 @@ NODES = {
     'player': 'track_nodes.bag.player:PlayerNode',
     # the live view
     'foxglove_bridge': 'track_nodes.foxglove.bridge:FoxgloveBridgeNode',
+    # the launcher's /clock driver, for ros2 launch
+    'clock': 'track_nodes.launch.clock:ClockNode',
 }
 
 # The managed (lifecycle) versions of the estimator nodes: ``lifecycle_<executable>`` is the node of
@@ -40,15 +42,16 @@ LIFECYCLE = {f'lifecycle_{exe}': NODES[exe] for exe in ('demo_tracker', 'fusion'
                                                         'rfid_guidance')}
 
 # Executables whose main is not TrackNode.main (they parse their own command line first). All take
-# sys.argv-style arguments (program name first) but bag_recover, a plain argparse tool.
+# sys.argv-style arguments (program name first) but bag_recover and summary, plain argparse tools.
 MAINS = {
     'recorder': 'track_nodes.bag.recorder:main',
     'player': 'track_nodes.bag.player:main',
     'foxglove_bridge': 'track_nodes.foxglove.bridge:main',
     'bag_recover': 'track_nodes.bag.recover:main',
     'node_group': 'track_nodes.launch.group:main',
+    'summary': 'track_nodes.report.summary:main',
 }
-PLAIN_ARGV = frozenset({'bag_recover'})
+PLAIN_ARGV = frozenset({'bag_recover', 'summary'})
 
 
 class UnknownExecutableError(KeyError):

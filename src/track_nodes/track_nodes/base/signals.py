@@ -11,15 +11,18 @@ Python runs a signal handler in the main thread between two bytecodes, so a main
 in C (an executor waiting with no timeout) would not see it; ``spin(executor)`` spins with a short
 timeout (``POLL`` wall seconds) for that reason. A loop of one's own must wake up as often.
 
-Teardown. Once a process is stopping, ``hold_stops()`` makes every further stop signal a count
-(``HELD.count``), not an exception: ``ros2 launch`` at Ctrl-C delivers the terminal's SIGINT and then
-its own, and SIGTERM after a while; the second one used to land in the middle of destroying the nodes
-(rclpy's handler chains to Python's, whose ``KeyboardInterrupt`` left teardown half done, exit 130,
-"process has died"). Teardown is bounded by the DDS alarm (``base/teardown.py``), so nothing is lost.
+Teardown. Once a process is stopping, every further stop signal is a count (``HELD.count``), not an
+exception: ``ros2 launch`` at Ctrl-C delivers the terminal's SIGINT and then its own, and SIGTERM 5 s
+later; the second one used to land in the middle of destroying the nodes (rclpy's handler chains to
+Python's, whose ``KeyboardInterrupt`` left teardown half done: exit 130, "process has died"). So the
+Python handler of SIGINT that ``stop_on`` installs holds the stops (``hold_stops()``) before it raises
+the ``KeyboardInterrupt`` of the first one: no instant is left between the first stop and the hold, not
+even the few bytecodes before a ``finally`` (rclpy, initialised after ``stop_on``, chains its own
+handler to it). Teardown is bounded by the DDS alarm (``base/teardown.py``), so nothing is lost.
 
-A signal that is ignored when ``stop_on`` is called (``nohup`` ignores SIGHUP) stays ignored. If
-SIGINT itself is ignored (a non-interactive shell's ``&`` does that), ``stop_on`` restores Python's
-default SIGINT handler: a process that stops on SIGTERM stops on SIGINT too.
+A signal that is ignored when ``stop_on`` is called (``nohup`` ignores SIGHUP) stays ignored. SIGINT
+is handled even where it was ignored (a non-interactive shell's ``&`` does that): a process that
+stops on SIGTERM stops on SIGINT too.
 """
 
 from __future__ import annotations
@@ -36,15 +39,21 @@ def _as_sigint(signum: int, frame: Any) -> None:
     signal.raise_signal(signal.SIGINT)
 
 
-def stop_on(*signals: int) -> list[int]:
-    """Make each of ``signals`` behave like SIGINT from now on; returns those taken over.
+def _first_stop(signum: int, frame: Any) -> None:
+    """SIGINT: hold every later stop signal (module doc, Teardown), then stop as Ctrl-C does."""
+    hold_stops()
+    raise KeyboardInterrupt
 
-    Call it from the main thread (elsewhere it does nothing). Idempotent.
+
+def stop_on(*signals: int) -> list[int]:
+    """Make each of ``signals`` behave like SIGINT from now on, and SIGINT hold the later ones (module doc);
+    returns those taken over.
+
+    Call it from the main thread (elsewhere it does nothing), before ``rclpy.init``. Idempotent.
     """
     taken = []
     with contextlib.suppress(ValueError):  # not the main thread
-        if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
-            signal.signal(signal.SIGINT, signal.default_int_handler)
+        signal.signal(signal.SIGINT, _first_stop)  # also where it was ignored (a non-interactive shell's &)
         for sig in signals:
             if signal.getsignal(sig) is signal.SIG_IGN:
                 continue  # asked to be ignored (nohup)

@@ -26,6 +26,7 @@ from track_msgs_py.stamps import ns_to_stamp
 from track_msgs_py.topics import CLOCK, READY, TF, TF_STATIC
 from track_nodes.bag.api import msg_class, recording_qos
 from track_nodes.base.ready import WATCH_QOS
+from track_nodes.launch.pacing import header_stamp_ns
 
 IGNORED_TOPICS = ('/rosout', '/parameter_events', CLOCK, READY)
 # The ready deadline (a deadline, not a wait), from the node count: READY_TIMEOUT plus, per node, ...
@@ -35,11 +36,11 @@ READY_PER_PROCESS = 4.0  # ... or per process (each imports numpy, scipy and rcl
 LISTED = 8  # names given in the line of a deadline that ran out
 
 
-class LauncherNode(Node):
-    """Publishes /clock and watches the graph. Always on wall time."""
+class GraphWatch:
+    """What a /clock driver needs of the graph (a mixin of a Node): its /clock publisher, who is up, what
+    is recorded, what still flows. Call ``watch_graph()`` once the node is built."""
 
-    def __init__(self, context: Context) -> None:
-        super().__init__('track_launcher', context=context, start_parameter_services=False)
+    def watch_graph(self) -> None:
         self.clock_pub = self.create_publisher(Clock, CLOCK, CLOCK_QOS)
         self.watched: dict[str, object] = {}
         self.last_message = time.monotonic()
@@ -67,11 +68,16 @@ class LauncherNode(Node):
                 cls = msg_class(types[0])
             except (ValueError, KeyError):
                 continue
-            self.watched[topic] = self.create_subscription(cls, topic, self._seen, recording_qos(
-                [i.qos_profile for i in infos]), raw=True)
+            stamped = next(iter(cls.get_fields_and_field_types().items()), None) == ('header', 'std_msgs/Header')
+            self.watched[topic] = self.create_subscription(
+                cls, topic, lambda data, topic=topic, stamped=stamped: self._seen(data, topic if stamped else None),
+                recording_qos([i.qos_profile for i in infos]), raw=True)
 
-    def _seen(self, _data: bytes) -> None:
+    def _seen(self, data: bytes, topic: str | None = None) -> None:
         self.last_message = time.monotonic()
+        cadence = getattr(self, 'cadence', None)
+        if cadence is not None and topic is not None and (t := header_stamp_ns(data)) is not None:
+            cadence.seen(topic, t)
 
     def publish_clock(self, t_ns: int) -> None:
         self.clock_pub.publish(Clock(clock=ns_to_stamp(t_ns)))
@@ -126,6 +132,14 @@ class LauncherNode(Node):
                 missing.append(topic)
         return missing
 
+
+
+class LauncherNode(GraphWatch, Node):
+    """The launcher's node: publishes /clock and watches the graph. Always on wall time."""
+
+    def __init__(self, context: Context) -> None:
+        super().__init__('track_launcher', context=context, start_parameter_services=False)
+        self.watch_graph()
 
 def _qualified(name: str) -> str:
     return name if name.startswith('/') else f'/{name}'

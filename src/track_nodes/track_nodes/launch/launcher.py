@@ -17,9 +17,10 @@ process the clock runs in lock-step: after each step the launcher runs every cal
 therefore runs slower than R×, never differently: a seed and an epoch reproduce every payload
 (another epoch shifts every stamp by the difference; the values agree to float rounding, ~1e-16
 of the epoch, because float seconds near 1.8e9 resolve 2.4e-7 s). With
-``--processes`` the other processes cannot be observed, so the clock is only paced by R, and it
-is held at the epoch while discovery settles (a process whose first callback runs late still
-reads the epoch first, so its step origin is the epoch's).
+``--processes`` the other processes cannot be observed, so the clock is paced by R, held at the
+epoch while discovery settles (a process whose first callback runs late still reads the epoch
+first, so its step origin is the epoch's) and held back while a periodic topic of theirs is a step
+behind (``pacing.Cadence``); the ``clock`` node of ``ros2 launch`` does the same.
 ``--rate 0`` runs on wall time, callbacks on the MultiThreadedExecutor's threads.
 
 Before the clock starts, the launcher waits until every node is up, every node's ``/clock``
@@ -46,7 +47,7 @@ import socket
 import subprocess
 import sys
 import time
-from datetime import UTC, datetime
+from datetime import datetime
 from pathlib import Path
 
 import rclpy
@@ -63,16 +64,24 @@ from track_nodes.launch.graph import LauncherNode, listing, ready_deadline
 from track_nodes.launch.hosts import Hosts, unavailable
 from track_nodes.launch.isolation import ForeignCheck, Isolation
 from track_nodes.launch.lockstep import Watchdog, run_ready
+from track_nodes.launch.pacing import (
+    CLOCK_TICK,
+    DRAIN_MAX,
+    GRACE,
+    QUIET,
+    SETTLE,
+    SETTLE_PROCESSES,
+    Cadence,
+    EpochError,
+    clock_step,
+    epoch_line,
+    epoch_now,
+    node_time,
+)
+from track_nodes.launch.pacing import parse_epoch as _parse_epoch
 from track_nodes.launch.processes import failed_children, processes_cpu, spawn_nodes, stop_processes
 from track_nodes.launch.scenario import Scenario, ScenarioError, load_scenario, params_file_sections
 
-CLOCK_TICK = 0.01  # wall seconds per /clock step at the nominal rate ...
-MAX_CLOCK_STEP = 0.05  # ... but never more than this many node seconds per step (bounded bursts)
-SETTLE = 1.0  # wall seconds for discovery to settle before the clock starts ...
-SETTLE_PROCESSES = 3.0  # ... with one process per node (seen: a reader matched after 1 s lost step 0)
-GRACE = 1.0  # wall seconds for messages in flight after the clock stops
-QUIET = 2.0  # --processes: the graph is drained once no watched topic delivered for this long [wall s] ...
-DRAIN_MAX = 120.0  # ... waiting at most this long after the clock stopped
 WATCH_EVERY = 50  # clock steps between looks for new topics to watch (--processes)
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 MAX_DOMAIN_ID = 232  # Fast DDS's default port mapping (7400 + 250 d + ...) leaves the UDP range above it
@@ -88,19 +97,10 @@ def _parse(argv: list[str] | None) -> argparse.Namespace:
 
 def parse_epoch(text: str) -> int | None:
     """``--epoch``: whole seconds since 1970, or None for 'now' (fixed when the clock starts)."""
-    if text == 'now':
-        return None
     try:
-        value = float(text)
-    except ValueError:
-        try:
-            when = datetime.fromisoformat(text)
-        except ValueError:
-            raise LaunchError(f"--epoch {text!r}: not 'now', seconds or an ISO date") from None
-        value = (when if when.tzinfo else when.replace(tzinfo=UTC)).timestamp()
-    if not (1 <= value <= 2**31 - 1 and value == int(value)):  # ROS time 0 means "not set"
-        raise LaunchError(f'--epoch {text!r}: must be whole seconds in [1, 2^31 - 1] (ROS time 0 is unset)')
-    return int(value)
+        return _parse_epoch(text)
+    except EpochError as exc:
+        raise LaunchError(str(exc)) from None
 
 
 class Launch:
@@ -353,24 +353,21 @@ class Launch:
 
     def _epoch_ns(self) -> int:
         if self.epoch is None:
-            # A whole minute: rcl phases a node-time timer from time 0, so an epoch that every period of a
-            # scenario divides (0.1 ... 5 s, 1 min) keeps the timers on the simulators' step grids.
-            self.epoch = int(time.time()) // 60 * 60
+            self.epoch = epoch_now()
         if not self.clock_said:
             self.clock_said = True
-            print(f'/clock from {datetime.fromtimestamp(self.epoch, UTC):%Y-%m-%d %H:%M:%S} UTC'
-                  f' (--epoch {self.epoch})', flush=True)
+            print(epoch_line(self.epoch), flush=True)
         return self.epoch * 1_000_000_000
 
     def _drive(self, launcher: LauncherNode, executor: MultiThreadedExecutor,
                children: list[subprocess.Popen]) -> None:
         duration = None if self.duration is None else float(self.duration)
         lockstep = self.sim and not children
-        step = min(self.rate * CLOCK_TICK, MAX_CLOCK_STEP)
-        wall_step = step / self.rate if self.sim else CLOCK_TICK
-        t0, k = time.monotonic(), 0
+        step, wall_step = clock_step(self.rate) if self.sim else (0.0, CLOCK_TICK)
+        t0, k, watched_at = time.monotonic(), 0, -1
         self.clock_cpu = (t0, processes_cpu(children)) if children else None
         epoch_ns = self._epoch_ns() if self.sim else 0
+        launcher.cadence = Cadence()  # the watched topics' stamps (--processes: graph.GraphWatch.watch)
         self.dog = Watchdog(len(self.sc.nodes) + 1, self.watchdog_s).start() if self.sim else None
         names = [s.name for s in self.sc.nodes] + ['recorder'] * (self.bag is not None) + [launcher.get_name()]
         foreign = ForeignCheck(launcher, names, None if children else [launcher, *self.nodes], self.sim)
@@ -379,21 +376,26 @@ class Launch:
                 return
             if (found := foreign.look()) is not None:
                 raise LaunchError(found)
-            if children and k % WATCH_EVERY == 0:
+            if children and k % WATCH_EVERY == 0 and k != watched_at:
+                watched_at = k
                 launcher.watch(self.record_regex)  # topics whose traffic tells when the processes are done
             if not self.sim:
                 if duration is not None and time.monotonic() - t0 >= duration:
                     return
                 self._pump(executor, time.monotonic() + CLOCK_TICK)
                 continue
-            node_time = k * step if duration is None else min(k * step, duration)
-            launcher.publish_clock(epoch_ns + round(node_time * 1e9))
-            self.dog.stepped(node_time)  # sim: the watchdog runs
+            t = node_time(k, step, duration)
+            if children and k and launcher.cadence.holding(epoch_ns + round(t * 1e9), time.monotonic()):
+                self._pump(executor, time.monotonic() + wall_step)  # a process is a step behind (pacing.Cadence)
+                t0 = time.monotonic() - k * wall_step  # ... and the held time is not made up by a burst
+                continue
+            launcher.publish_clock(epoch_ns + round(t * 1e9))
+            self.dog.stepped(t)  # sim: the watchdog runs
             if lockstep:
                 self._run_until_idle(executor)
             # Never faster than R x real time: wait for the wall time of the next step.
             self._pump(executor, t0 + (k + 1) * wall_step)
-            if duration is not None and node_time >= duration:
+            if duration is not None and t >= duration:
                 return
             k += 1
 
