@@ -10,8 +10,15 @@ def main(argv: list[str] | None = None) -> int:
     try:
         # Imported here, inside the guard: on a busy machine they take seconds, and a Ctrl-C then is a stop.
         from track_nodes.base.usage import wants_help
-        from track_nodes.registry import (LIFECYCLE, MAINS, NODES, UnknownExecutableError, executables, main_of,
-                                           node_class)
+        from track_nodes.registry import (
+            LIFECYCLE,
+            MAINS,
+            NODES,
+            UnknownExecutableError,
+            executables,
+            main_of,
+            node_class,
+        )
     except KeyboardInterrupt:
         return 130
     if not args or args[0].startswith('-'):
