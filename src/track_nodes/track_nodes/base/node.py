@@ -124,6 +124,12 @@ class TrackNode(Node, metaclass=CheckedNames):
             return TwinnedPublisher(pub, twin_pub)
         return pub
 
+    def destroy_publisher(self, publisher) -> bool:
+        if isinstance(publisher, TwinnedPublisher):  # its display twin goes with it
+            super().destroy_publisher(publisher.twin)
+            publisher = publisher.publisher
+        return super().destroy_publisher(publisher)
+
     def create_subscription(self, msg_type, topic: str, callback, qos_profile, *, as_given: bool = False,
                             **kwargs):
         _overridable(self, kwargs)

@@ -43,5 +43,15 @@ class TwinnedPublisher:
         if not isinstance(msg, bytes | bytearray | memoryview):
             self.twin.publish(display_twin(msg))
 
+    # A managed node (base/lifecycle.py) switches both on and off; destroying one destroys both
+    # (TrackNode.destroy_publisher).
+    def on_activate(self, state: Any) -> None:
+        self.publisher.on_activate(state)
+        self.twin.on_activate(state)
+
+    def on_deactivate(self, state: Any) -> None:
+        self.publisher.on_deactivate(state)
+        self.twin.on_deactivate(state)
+
     def __getattr__(self, name: str) -> Any:
         return getattr(self.publisher, name)
