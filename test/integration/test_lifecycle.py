@@ -28,7 +28,6 @@ from track_msgs_py.topics import (
     SONAR_ESTIMATE,
     TOPICS,
 )
-from track_msgs_py.topics import DISPLAY_TWINS, display_twin
 from track_nodes.registry import LIFECYCLE, node_class
 
 # lifecycle executable: (scenario file, feeding nodes (executable, name), output topic, input topic or None)
