@@ -95,6 +95,16 @@ def close_node(ros, node) -> None:
     node.destroy_node()
 
 
+def embedded_distro(bag) -> str:
+    """``ros_distro`` of the rosbag2 metadata record inside the bag's MCAP file."""
+    from mcap.reader import make_reader
+
+    with open(next(bag.glob('*.mcap')), 'rb') as f:
+        records = [m.metadata['serialized_metadata'] for m in make_reader(f).iter_metadata() if m.name == 'rosbag2']
+    assert len(records) == 1, records
+    return re.search(r'ros_distro: (\S+)', records[0]).group(1)
+
+
 def publish_all(ros, pub, msgs) -> list[bytes]:
     """Publish ``msgs`` once ``pub`` has a subscriber; return their serialized payloads."""
     assert ros.spin_until(lambda: pub.get_subscription_count() > 0, 10.0), 'recorder never subscribed'
@@ -122,7 +132,8 @@ def test_records_topics_with_their_qos_in_process(ros, tmp_path):
 
     assert (bag / 'metadata.yaml').is_file()
     with Reader(bag) as r:
-        assert r.ros_distro == 'jazzy'  # not 'rosbags' (issue 19, item 10)
+        assert r.ros_distro == 'jazzy'  # not 'rosbags'
+    assert embedded_distro(bag) == 'jazzy'  # the same inside the MCAP (what Foxglove reads)
     got, conns = read_bag(bag)
     # Decoded, not byte for byte: CDR alignment padding is not guaranteed to be zero on the wire.
     assert [deserialize_message(r, Odometry) for r in got['/r/odom']] == [
@@ -384,6 +395,7 @@ def test_sigkill_leaves_a_recoverable_mcap(ros, tmp_path, prefix):
     got, _ = read_bag(out)
     with Reader(out) as r:
         assert r.ros_distro == 'jazzy'
+    assert embedded_distro(out) == 'jazzy'
     recovered = got['/sig/odom']
     assert N <= len(recovered) <= len(sent)
     assert odoms(recovered) == odoms(sent[:len(recovered)])

@@ -6,7 +6,8 @@
 - ``open_bag_checked(path)``: open a rosbag2 bag for reading, turning every way a bag can be
   bad (missing, not a bag, killed recorder, truncated or corrupt .mcap) into ``BagError`` with
   one line naming the file and the problem.
-- ``set_ros_distro(bag)``: metadata.yaml names the ROS distribution (``jazzy``), not ``rosbags``.
+- ``set_ros_distro(bag)``: metadata.yaml names the ROS distribution (``jazzy``), not ``rosbags``;
+  ``embed_ros_distro(writer)`` does the same for the rosbag2 metadata record inside the MCAP.
 - ``flush_mcap_writer(writer)``: make a rosbags MCAP writer's pending data durable (see there).
 """
 
@@ -221,6 +222,21 @@ def recording_qos(publisher_profiles: Sequence) -> QoSProfile:
 
 
 ROS_DISTRO = 'jazzy'
+
+
+def embed_ros_distro(writer, distro: str = ROS_DISTRO) -> None:
+    """Make the rosbag2 metadata record an open rosbags ``Writer`` puts into the MCAP at close name ``distro``.
+
+    rosbags writes ``ros_distro: rosbags`` both there and in metadata.yaml (``set_ros_distro``);
+    readers of the MCAP alone (Foxglove, ``mcap info``) see this record. Wraps the storage's close.
+    """
+    storage = writer.storage
+    close = storage.close
+
+    def close_naming_the_distro(version: int, metadata: str) -> None:
+        close(version, metadata.replace('ros_distro: rosbags', f'ros_distro: {distro}', 1))
+
+    storage.close = close_naming_the_distro
 
 
 def set_ros_distro(bag: Path | str, distro: str = ROS_DISTRO) -> None:

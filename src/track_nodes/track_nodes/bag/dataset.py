@@ -44,7 +44,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from track_nodes.bag.api import one_line, set_ros_distro
+from track_nodes.bag.api import embed_ros_distro, one_line, set_ros_distro
 from track_nodes.base.cli import OneLineParser
 
 EXIT_BAD_INPUT = 2
@@ -144,6 +144,7 @@ def write_bag(out: Path, messages, topics: dict[str, str], custom: dict[str, str
     ts = get_typestore(Stores.ROS2_JAZZY)
     counts = dict.fromkeys(topics, 0)
     with Writer(out, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        embed_ros_distro(writer)
         for key, value in (custom or {}).items():
             writer.set_custom_data(key, value)
         conns = {topic: writer.add_connection(topic, msgtype, typestore=ts,

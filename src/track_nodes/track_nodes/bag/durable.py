@@ -33,7 +33,13 @@ from dataclasses import dataclass
 from io import BytesIO
 from pathlib import Path
 
-from track_nodes.bag.api import RECOVER_HINT, check_mcap_writer_internals, flush_mcap_writer, set_ros_distro
+from track_nodes.bag.api import (
+    RECOVER_HINT,
+    check_mcap_writer_internals,
+    embed_ros_distro,
+    flush_mcap_writer,
+    set_ros_distro,
+)
 from track_nodes.bag.mcap_append import CHUNK_BYTES, append, install
 
 RESERVE_NAME = '.disk-reserve'
@@ -55,6 +61,7 @@ def open_bag(path: Path) -> DurableBag:
         raise ValueError(f'{path}: cannot create bag: {exc.strerror or exc}') from None
     try:
         check_mcap_writer_internals(writer)
+        embed_ros_distro(writer)
         return DurableBag(writer, path)
     except (RuntimeError, OSError) as exc:
         writer.abort()

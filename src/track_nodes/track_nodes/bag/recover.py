@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 from io import BytesIO
 from pathlib import Path
 
-from track_nodes.bag.api import set_ros_distro
+from track_nodes.bag.api import embed_ros_distro, set_ros_distro
 from track_nodes.base import EXIT_BAD_INPUT
 
 PROG = 'track-bag-recover'
@@ -150,6 +150,7 @@ def write_recovered(rec: Recovered, out_path: Path) -> dict[str, int]:
     counts: dict[str, int] = {}
     conns = {}
     with Writer(out_path, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        embed_ros_distro(writer)
         for cid, (schema_id, topic, encoding, meta) in sorted(rec.channels.items()):
             name, _, text = rec.schemas.get(schema_id, ('', '', ''))
             if not name:

@@ -8,6 +8,7 @@ import random
 from rosbags.rosbag2 import Reader, StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 
+from track_nodes.bag.api import embed_ros_distro
 from track_nodes.bag.durable import open_bag
 from track_nodes.bag.loss_count import LossCounter
 from track_nodes.bag.mcap_append import CHUNK_BYTES
@@ -42,6 +43,7 @@ def test_write_many_writes_the_bytes_rosbags_writes(tmp_path):
     msgs = _stream(rng, 3000)
     ref = Writer(tmp_path / 'ref' / 'bag', version=9, storage_plugin=StoragePlugin.MCAP)
     ref.open()
+    embed_ros_distro(ref)  # as open_bag does: the MCAP's rosbag2 record names jazzy
     bag = open_bag(tmp_path / 'new' / 'bag')
     conns: dict[str, dict] = {'ref': {}, 'new': {}}
     for topic, batch in _runs(msgs, rng):
