@@ -73,9 +73,11 @@ def concurrent(out: Path, env: dict[str, str], run_s: float, timeout: float) -> 
     """Three recorded scenarios at once on one domain, stopped by SIGTERM after ``run_s`` of clock."""
     procs = {sc: Proc(sc, launch_cmd(sc, '--record', str(out / f'concurrent-{sc}'), '--duration', LONG),
                       out / f'concurrent-{sc}.log', env) for sc in CONCURRENT}
-    ready = {sc: p.wait_for(CLOCK_LINE, timeout) for sc, p in procs.items()}
-    time.sleep(run_s)
-    _stop_all(list(procs.values()))
+    try:
+        ready = {sc: p.wait_for(CLOCK_LINE, timeout) for sc, p in procs.items()}
+        time.sleep(run_s)
+    finally:  # interrupted too (Ctrl-C, a test's timeout): no child outlives the soak
+        _stop_all(list(procs.values()))
     return [_bag_row('concurrent', sc, p, out / f'concurrent-{sc}', CONCURRENT[sc], ready[sc])
             for sc, p in procs.items()]
 
@@ -89,10 +91,12 @@ def bringup(out: Path, env: dict[str, str], sensors: int, run_s: float, timeout:
     bag = out / f'bringup-{sensors}'
     proc = Proc(f'idsq{sensors}', launch_cmd(str(scenario), '--record', str(bag)), out / f'bringup-{sensors}.log',
                 env)
-    ready = proc.wait_for(CLOCK_LINE, timeout)
-    if ready is not None:
-        time.sleep(run_s)
-    _stop_all([proc])
+    try:
+        ready = proc.wait_for(CLOCK_LINE, timeout)
+        if ready is not None:
+            time.sleep(run_s)
+    finally:
+        _stop_all([proc])
     return [_bag_row('bringup', f'{sensors} sensors', proc, bag, '^/idsq/', ready)]
 
 
@@ -113,11 +117,13 @@ def loop(out: Path, env: dict[str, str], loops: int, timeout: float) -> list[Row
                        out / 'loop-tracker.log', env)
         player = Proc('player', node_cmd('player', str(source), '--loop', '--topics', '/demo/reports',
                                          '--rate', f'{LOOP_RATE:g}', '--wait', '30'), out / 'loop-player.log', env)
-        deadline = time.monotonic() + timeout + loops * 3 * LOOP_BAG_S / LOOP_RATE
-        first = probe.spin_until(lambda: probe.tracks_in(0) > 0, deadline)
-        ready = None if not first else time.monotonic() - tracker.t_start
-        probe.spin_until(lambda: probe.restarts >= loops, deadline)
-        _stop_all([player, tracker])
+        try:
+            deadline = time.monotonic() + timeout + loops * 3 * LOOP_BAG_S / LOOP_RATE
+            first = probe.spin_until(lambda: probe.tracks_in(0) > 0, deadline)
+            ready = None if not first else time.monotonic() - tracker.t_start
+            probe.spin_until(lambda: probe.restarts >= loops, deadline)
+        finally:
+            _stop_all([player, tracker])
     counts = [probe.tracks_in(k) for k in range(loops)]
     row = Row('loop', f'{loops} loops of {reports} reports', max(player.popen.returncode, tracker.popen.returncode,
                                                                   key=abs), ready,
