@@ -24,7 +24,7 @@ from rclpy.node import Node
 from track_nodes.base import ready
 from track_nodes.base.cli import params_file_problem
 from track_nodes.base.names import remember_args
-from track_nodes.base.signals import STOP_SIGNALS, hold_stops, spin, stop_on
+from track_nodes.base.signals import HELD, STOP_SIGNALS, hold_stops, spin, stop_on
 from track_nodes.base.teardown import TEARDOWN, dds_alarm
 
 EXIT_BAD_INPUT = 2
@@ -81,8 +81,9 @@ def run_nodes(makers: Sequence[tuple[str, Callable[[], Node]]], argv: Sequence[s
         with contextlib.suppress(KeyboardInterrupt, ExternalShutdownException):
             spin(executor)  # wakes up for stop signals (base/signals.py)
     except (Exception, KeyboardInterrupt) as exc:  # a clean stop: Ctrl-C (raised before rclpy's signal thread
-        if rclpy.ok() and not isinstance(exc, KeyboardInterrupt):  # shut the context), or a context shut down
-            raise                                       # under the nodes being built or a callback; else a bug
+        stop = isinstance(exc, KeyboardInterrupt) or HELD.stopping  # shut the context, or turned into another
+        if rclpy.ok() and not stop:                     # error inside C code), or a context shut down under the
+            raise                                       # nodes being built or a callback; else a bug
     finally:
         hold_stops()  # a second Ctrl-C (ros2 launch sends one) must not cut teardown short (base/signals.py)
         for node in [*nodes, *([twins.node] if twins else [])]:

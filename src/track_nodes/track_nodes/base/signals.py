@@ -41,6 +41,7 @@ def _as_sigint(signum: int, frame: Any) -> None:
 
 def _first_stop(signum: int, frame: Any) -> None:
     """SIGINT: hold every later stop signal (module doc, Teardown), then stop as Ctrl-C does."""
+    HELD.stopping = True
     hold_stops()
     raise KeyboardInterrupt
 
@@ -64,6 +65,9 @@ def stop_on(*signals: int) -> list[int]:
 
 class _Held:
     count = 0
+    # A stop signal arrived. Its KeyboardInterrupt, raised while rclpy is inside pybind11 (a take's message
+    # conversion), comes out as a RuntimeError ('Unable to convert call argument'): that error is the stop.
+    stopping = False
 
 
 HELD = _Held()
@@ -71,6 +75,7 @@ HELD = _Held()
 
 def _count(signum: int, frame: Any) -> None:
     HELD.count += 1
+    HELD.stopping = True
 
 
 def hold_stops() -> None:

@@ -32,3 +32,40 @@ def test_stops_after_the_first_are_counted_not_raised(stop_on):
         assert proc.returncode == 0 and proc.stdout.split('\n')[:2] == ['stopping', 'torn down 4'], proc
     else:
         assert proc.returncode != 0 and 'KeyboardInterrupt' in proc.stderr and 'torn down' not in proc.stdout
+
+
+# A node whose callback meets Ctrl-C inside C code: pybind11 turns the KeyboardInterrupt raised in a take's
+# conversion into RuntimeError('Unable to convert call argument ...'); here a timer does the same by hand.
+STOP_INSIDE_C = """
+import signal, sys
+import rclpy
+from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
+from track_nodes.base.run import run_nodes
+
+# rclpy's signal thread shuts the context down soon after a SIGINT; the error comes before it here
+_init = rclpy.init
+rclpy.init = lambda *a, **k: _init(*a, signal_handler_options=SignalHandlerOptions.NO, **k)
+
+class Taker(Node):
+    def __init__(self):
+        super().__init__('stop_inside_c')
+        self.create_timer(0.05, self.take)
+
+    def take(self):
+        try:
+            signal.raise_signal(signal.SIGINT)
+        except KeyboardInterrupt:
+            raise RuntimeError("Unable to convert call argument '0' to Python object") from None
+
+sys.exit(run_nodes([('stop_inside_c', Taker)], ['prog'], program='stop_inside_c'))
+"""
+
+
+def test_a_stop_turned_into_another_error_inside_c_code_is_a_clean_stop(env_factory):
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, '-c', STOP_INSIDE_C], capture_output=True, text=True, timeout=120,
+                          env=env_factory())
+    assert proc.returncode == 0 and 'Traceback' not in proc.stderr, proc.stderr
