@@ -23,7 +23,7 @@ What runs (``config/maritime.yaml``, written by ``scenario_yaml`` below):
   replay of the bag into a fresh fusion node gives the same scores), publishes scores,
   associations, fused estimates and markers.
 
-Evaluation (``maritime_metrics``, registered as ``SCENARIO_METRICS['maritime']``, run by the
+Evaluation (``maritime_summary.maritime_metrics``, registered as ``SCENARIO_METRICS["maritime"]``, run by the
 launcher after a recorded run): per tracker RTAMS (l = 0: √ mean squared position error over the
 matched stamps) against its target's truth; pings emitted (``/sonar/ping``) and detected (the
 target's last status); per pair the mean instant score and the verdict. The verdict of a pair is
@@ -31,7 +31,7 @@ target's last status); per pair the mean instant score and the verdict. The verd
 converged, a tracker having converged from the first stamp its position error is below
 ``CONVERGED_M`` (an evaluation-only choice; the fusion node never sees the truth); the summary
 prints the true pair's fraction (the goal: ≥ 95 %) and whether a decoy pair was ever associated. It also writes
-``picture.png`` into the bag directory (``picture``).
+``picture.png`` into the bag directory (``maritime_picture.picture``).
 
 Times printed or drawn are seconds from the run's start (``run_start``: the network's step origin,
 else the earliest stamp), not clock stamps: a sim-time run starts at an epoch (~1.8e9 s), whose
@@ -45,8 +45,7 @@ from pathlib import Path
 
 import numpy as np
 
-from track_core.filters import ellipse_points
-from track_core.metrics import match_stamps, rms
+from track_core.metrics import match_stamps
 from track_msgs_py.clouds import pointcloud2_to_table
 from track_msgs_py.odometry import odometry_to_cv_state, pose_cov_to_position
 from track_msgs_py.records.fusion import FusionPairs
@@ -173,168 +172,3 @@ def verdicts(d: dict, errors: dict | None = None) -> dict[tuple[str, str], dict]
                      'instants_after': len(after), 'fraction': frac, 'ever': bool(rows[:, 3].any()),
                      'associated': bool(after.size and frac >= 0.5)}
     return out
-
-
-# --- summary --------------------------------------------------------------------------------------
-
-def maritime_metrics(bag: Path) -> list[str]:
-    return summary_lines(load(bag), bag / PICTURE)
-
-
-def summary_lines(d: dict, picture_path: Path) -> list[str]:
-    """The summary of loaded data ``d`` (``load``); writes the picture to ``picture_path``."""
-    errors = tracker_errors(d)
-    start = run_start(d)
-    n_pings = len(d['pings'])
-    lines = [start_note(start),
-             f'{"tracker":<16} {"target":<13} {"estimates":>9} {"RTAMS":>9} {"converged":>10} {"pings":>6} '
-             f'{"detected":>8}']
-    for track_id, (label, _, _, child) in TRACKERS.items():
-        t, err = errors[track_id]
-        sonar = track_id == SONAR_TRACK
-        conv = converged_at(t, err) if t.size else float('inf')
-        lines.append(f'{label:<16} {child.replace("t0", "decoy"):<13} {t.size:>9} '
-                     f'{(f"{rms(err[:, None]):.1f} m" if t.size else "-"):>9} '
-                     f'{(f"t={conv - start:.1f} s" if np.isfinite(conv) else "never"):>10} '
-                     f'{(str(n_pings) if sonar else "-"):>6} {(str(d["detections"]) if sonar else "-"):>8}')
-    v = verdicts(d, errors)
-    lines.extend(true_pair_lines(v))
-    if not v:
-        lines.append('fusion: no scores recorded')
-    else:
-        lines.append(f'{"pair":<34} {"mean score":>10} {"assoc. after conv.":>18} {"verdict":>14} {"truth":>6}')
-        for (a, b), r in sorted(v.items()):
-            same = TRACKERS.get(a, ('',) * 4)[3] == TRACKERS.get(b, ('',) * 4)[3]
-            name = f'{TRACKERS.get(a, (a,))[0]} | {TRACKERS.get(b, (b,))[0]}'
-            frac = '-' if np.isnan(r['fraction']) else f'{100 * r["fraction"]:.0f}%'
-            lines.append(f'{name:<34} {r["mean_score"]:>10.3f} {frac:>18} '
-                         f'{"associated" if r["associated"] else "not assoc.":>14} {"same" if same else "diff":>6}')
-    try:
-        path = picture(d, picture_path, errors, v)
-        lines.append(f'picture: {path.resolve()}')
-    except Exception as exc:  # the summary must still print; the reason is one line
-        lines.append(f'picture: not written ({type(exc).__name__}: {exc})')
-    return lines
-
-
-def true_pair_lines(v: dict) -> list[str]:
-    """The goal: the sonar|network pair associated at ≥ 95 % of the instants after both converged,
-    and the decoy's pairs never."""
-    pair = tuple(sorted((SONAR_TRACK, NETWORK_TRACK)))
-    if pair not in v or np.isnan(v[pair]['fraction']):
-        return ['true pair (sonar | network): no scored instant after both converged']
-    r = v[pair]
-    n = r['instants_after']
-    decoy = [p for p in v if RADAR_DECOY in p and v[p]['ever']]
-    return [f'true pair (sonar | network) associated at {100 * r["fraction"]:.1f}% of {n} instants after both '
-            f'converged (goal >= 95%); decoy pairs associated at any instant: {len(decoy)}']
-
-
-# --- picture --------------------------------------------------------------------------------------
-
-COLOURS = {SONAR_TRACK: 'tab:red', NETWORK_TRACK: 'tab:blue', RADAR_DECOY: 'tab:orange'}
-
-
-def picture(d: dict, path: Path, errors: dict | None = None, v: dict | None = None, every: float = 5.0) -> Path:
-    """One PNG: map (field, sensors, truth, tracks with 2σ ellipses every ``every`` s, pings) and timelines."""
-    import matplotlib.pyplot as plt
-
-    fig = figure(d, errors, v, every)
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
-    return path
-
-
-def figure(d: dict, errors: dict | None = None, v: dict | None = None, every: float = 5.0):
-    """The picture's matplotlib Figure (Agg), laid out; axes: map, scores, errors."""
-    import matplotlib
-
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
-
-    errors = tracker_errors(d) if errors is None else errors
-    v = verdicts(d, errors) if v is None else v
-    start = run_start(d)
-    fig = plt.figure(figsize=(15, 7.5), layout='constrained')  # makes room for the outside legends
-    gs = fig.add_gridspec(2, 2, width_ratios=(1.15, 1.0))
-    _map(fig.add_subplot(gs[:, 0]), d, every)
-    ax1 = fig.add_subplot(gs[0, 1])
-    _scores_panel(ax1, d, v, start)
-    _errors_panel(fig.add_subplot(gs[1, 1], sharex=ax1), errors, start)
-    return fig
-
-
-def _map(ax, d: dict, every: float) -> None:
-    s = d['sensors']
-    if s is not None:
-        doa = s['type'] == 1
-        ax.scatter(s['x'][~doa], s['y'][~doa], marker='o', s=18, c='tab:cyan', label='acoustic sensor')
-        ax.scatter(s['x'][doa], s['y'][doa], marker='^', s=26, c='tab:green', label='DOA sensor')
-    truth_done = set()
-    for track_id, (label, _, _, child) in TRACKERS.items():
-        _, xt = d['truth'][track_id]
-        if child not in truth_done and xt.size:
-            truth_done.add(child)
-            ax.plot(xt[:, 0], xt[:, 1], 'k-' if child != 't0' else 'k--', lw=1.2,
-                    label='smart target truth' if child != 't0' else 'decoy truth')
-        t, x, P = d['tracks'][track_id]
-        if not t.size:
-            continue
-        c = COLOURS[track_id]
-        ax.plot(x[:, 0], x[:, 1], '-', color=c, lw=0.9, alpha=0.8, label=f'{label} track')
-        pick = np.flatnonzero(np.diff(np.floor(np.concatenate([[-np.inf], t]) / every)) > 0)  # one per interval
-        for pts in ellipse_points(x[pick], P[pick], n_points=47):
-            ax.plot(pts[:, 0], pts[:, 1], '-', color=c, lw=0.8)
-    if d['observer'].size:
-        ax.plot(d['observer'][:, 0], d['observer'][:, 1], ':', color='tab:purple', lw=1.2, label='observer AUV')
-    if d['pings'].size:
-        ax.scatter(d['pings'][:, 0], d['pings'][:, 1], marker='x', s=20, c='tab:purple', label='active ping')
-    ax.set_aspect('equal')
-    ax.set_xlabel('east [m]')
-    ax.set_ylabel('north [m]')
-    ax.set_title(f'map (2σ ellipses every {every:g} s)')
-    ax.legend(fontsize=7, **LEGEND_BELOW)  # the map's tracks fill it: 'best' still covered some
-    ax.grid(alpha=0.3)
-
-
-# Lines that coincide (the decoy's two pairs both score 0; two trackers with the same error) stay
-# visible: the k-th line of a panel is drawn narrower and with another dash than the one under it,
-# and the instant dots use another marker, so a line on top of another leaves that one's edges showing.
-LINE_STYLES = (('-', 3.0), ((0, (6, 2)), 2.0), ((0, (1, 2.5)), 1.4), ((0, (4, 1.5, 1, 1.5)), 1.0))
-DOT_MARKERS = ('o', 'x', '+', '.')
-LEGEND_OUTSIDE = {'loc': 'upper left', 'bbox_to_anchor': (1.01, 1.0), 'borderaxespad': 0.0}  # never over data
-LEGEND_BELOW = {'loc': 'upper center', 'bbox_to_anchor': (0.5, -0.08), 'ncols': 3, 'borderaxespad': 0.0}
-
-
-def line_style(k: int) -> dict:
-    """Dash and width of a panel's k-th line (``LINE_STYLES``, cycled)."""
-    ls, lw = LINE_STYLES[k % len(LINE_STYLES)]
-    return {'ls': ls, 'lw': lw}
-
-
-def _scores_panel(ax1, d: dict, v: dict, start: float) -> None:
-    for k, ((a, b), rows) in enumerate(sorted(d['scores'].items())):
-        name = f'{TRACKERS.get(a, (a,))[0]} | {TRACKERS.get(b, (b,))[0]}'
-        verdict = 'associated' if v.get((a, b), {}).get('associated') else 'not associated'
-        ax1.plot(rows[:, 0] - start, rows[:, 2], **line_style(k), label=f'{name}: {verdict}')
-        ax1.plot(rows[:, 0] - start, rows[:, 1], ls='none', marker=DOT_MARKERS[k % len(DOT_MARKERS)], ms=3,
-                 mfc='none', color=ax1.lines[-1].get_color(), alpha=0.6)
-    ax1.axhline(0.5, color='grey', ls='--', lw=0.8)
-    ax1.set_ylim(-0.03, 1.03)
-    ax1.set_ylabel('score (line: combined, marks: instant)')
-    ax1.set_title('fusion scores per pair (grey dashed: threshold)')
-    ax1.legend(fontsize=7, **LEGEND_OUTSIDE)
-    ax1.grid(alpha=0.3)
-
-
-def _errors_panel(ax2, errors: dict, start: float) -> None:
-    for k, (track_id, (t, err)) in enumerate(errors.items()):
-        if t.size:
-            ax2.plot(t - start, err, **line_style(k), color=COLOURS[track_id],
-                     label=f'{TRACKERS[track_id][0]} (RTAMS {rms(err[:, None]):.1f} m)')
-    ax2.set_xlabel(f"time from the run's start [s] (start: {start_when(start)})")
-    ax2.set_ylabel('position error [m]')
-    ax2.set_yscale('log')
-    ax2.set_title('tracking error against truth')
-    ax2.legend(fontsize=7, **LEGEND_OUTSIDE)
-    ax2.grid(alpha=0.3)

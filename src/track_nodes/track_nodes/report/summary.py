@@ -21,7 +21,7 @@ from pathlib import Path
 
 from rosbags.rosbag2 import Reader
 
-from track_nodes.report import ais, demo, fusion, idsq, maritime, rfid, slam, sonar
+from track_nodes.report import ais, demo, fusion, idsq, maritime_summary, rfid, slam, sonar
 
 SCENARIO_METRICS = {
     'demo': demo.demo_metrics,
@@ -31,7 +31,7 @@ SCENARIO_METRICS = {
     'slam': slam.slam_metrics,
     'idsq': idsq.idsq_metrics,
     'ais': ais.ais_metrics,
-    'maritime': maritime.maritime_metrics,
+    'maritime': maritime_summary.maritime_metrics,
 }
 
 FOLD_AT = 5  # topics that differ only in their numbers (per-sensor topics) list as one line from this many

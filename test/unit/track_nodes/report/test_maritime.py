@@ -8,6 +8,8 @@ from itertools import pairwise
 import numpy as np
 
 from track_nodes.report import maritime as mar
+from track_nodes.report import maritime_picture as pic
+from track_nodes.report import maritime_summary as msum
 
 EPOCH = 1796283180.0  # a sim-time run's start: 2026-12-03 07:33:00 UTC
 
@@ -33,7 +35,7 @@ def _data(t0: float = EPOCH, n: int = 40) -> dict:
 
 
 def test_a_summary_of_an_epoch_start_run_prints_small_times_and_the_date_once(tmp_path):
-    lines = mar.summary_lines(_data(), tmp_path / mar.PICTURE)
+    lines = msum.summary_lines(_data(), tmp_path / mar.PICTURE)
     text = '\n'.join(lines)
     assert text.count('2026-12-03 07:33:00 UTC') == 1
     assert 'e+09' not in text and '1796' not in text
@@ -52,7 +54,7 @@ def test_run_start_without_a_layout_is_the_earliest_stamp():
 def test_the_picture_time_axes_read_seconds_from_the_start_with_the_date_once():
     import matplotlib.pyplot as plt
 
-    fig = mar.figure(_data())
+    fig = pic.figure(_data())
     try:
         fig.canvas.draw()
         _, scores, errors = fig.axes
@@ -69,7 +71,7 @@ def test_the_picture_time_axes_read_seconds_from_the_start_with_the_date_once():
 def test_the_legends_sit_outside_the_data_axes_and_inside_the_figure():
     import matplotlib.pyplot as plt
 
-    fig = mar.figure(_data())
+    fig = pic.figure(_data())
     try:
         fig.canvas.draw()
         r = fig.canvas.get_renderer()
@@ -85,7 +87,7 @@ def test_coinciding_score_lines_differ_in_dash_width_and_marker():
     """The decoy's two pairs both score 0 at every instant: one line on the other, so each must be told apart."""
     import matplotlib.pyplot as plt
 
-    fig = mar.figure(_data())
+    fig = pic.figure(_data())
     try:
         _, scores, errors = fig.axes
         combined = [ln for ln in scores.lines if not ln.get_label().startswith('_')]
@@ -104,6 +106,6 @@ def test_coinciding_score_lines_differ_in_dash_width_and_marker():
 
 
 def test_line_styles_cycle_with_distinct_neighbours():
-    styles = [mar.line_style(k) for k in range(len(mar.LINE_STYLES) + 1)]
+    styles = [pic.line_style(k) for k in range(len(pic.LINE_STYLES) + 1)]
     assert all(a != b for a, b in pairwise(styles))
-    assert styles[len(mar.LINE_STYLES)] == styles[0]
+    assert styles[len(pic.LINE_STYLES)] == styles[0]
