@@ -147,6 +147,19 @@ def test_the_launch_plan_gives_the_launchers_summary(repo, prefix, tmp_path, env
     assert any('position RMSE' in line for line in planned), planned
 
 
+def test_the_maritime_launch_plan_gives_the_launchers_summary(repo, prefix, tmp_path, env_factory):
+    """maritime, 8 s at 20x from the same epoch: the sonar, the network of 40 sensors in their group process,
+    the radar and the fusion node each in a process of their own score the instants a lock-step run scores
+    (the fusion node's stamp schedule waits for every input topic's watermark), so the summaries agree."""
+    values = {'record': 'planned', 'duration': '8', 'epoch': EPOCH}
+    planned, errs = run_plan('maritime', values, prefix, tmp_path, env_factory())
+    assert 'Traceback' not in errs and 'refused' not in errs, errs
+    ref = launcher_summary(repo, tmp_path, env_factory(), 'maritime', '--duration', '8')
+    assert [line.replace('/planned/', '/BAG/') for line in planned] == [line.replace('/launcher/', '/BAG/')
+                                                                        for line in ref]
+    assert any(line.startswith('true pair (sonar | network)') for line in planned), planned
+
+
 def test_the_clock_node_refuses_sim_time_and_a_bad_epoch(prefix, env_factory):
     clock = str(prefix / 'lib/track_nodes/clock')
     for setting, word in (('use_sim_time:=true', 'use_sim_time'), ('epoch:=yesterday', 'epoch')):

@@ -138,7 +138,8 @@ class PairAssociator:
     def __init__(self, method: str = 'exact', threshold: float = THRESHOLD, combine: str = 'geometric',
                  window: int = 10, *, n_samples: int = 500, same_source_pairs: bool = False,
                  stale_after: float = 2.0, max_prediction: float = 10.0, q_s: float = 0.0, seed: int = 0,
-                 stamp_rate: float | None = None, gate: bool = True) -> None:
+                 stamp_rate: float | None = None, stamp_streams: tuple[str, ...] = (),
+                 stamp_max_wait: float = float('inf'), gate: bool = True) -> None:
         if method not in METHODS:
             raise ValueError(f'method must be one of {", ".join(METHODS)}, got {method!r}')
         if not 0.0 <= threshold <= 1.0 or window < 1:
@@ -149,7 +150,8 @@ class PairAssociator:
         self.rng = np.random.default_rng(seed)
         self.table = TrackTable(stale_after, max_prediction, q_s)
         self.gate = gate and method in GATED_METHODS
-        self.schedule = StampSchedule(stamp_rate) if stamp_rate is not None else None
+        self.schedule = (StampSchedule(stamp_rate, streams=stamp_streams, max_wait=stamp_max_wait)
+                         if stamp_rate is not None else None)
         self._clear()
 
     def _clear(self) -> None:
@@ -168,7 +170,8 @@ class PairAssociator:
         self.table = TrackTable(self.table.stale_after, self.table.max_prediction, self.table.q_s)
         self._clear()
         if self.schedule is not None:
-            self.schedule = StampSchedule(self.schedule.rate, self.schedule.max_skip)
+            sc = self.schedule
+            self.schedule = StampSchedule(sc.rate, sc.max_skip, sc.streams, sc.max_wait)
 
     def update(self, source: str, track_id: str, report: TrackReport | None) -> None:
         """Make ``report`` the latest of ``track_id`` (a track of ``source``); None forgets the track."""
@@ -196,14 +199,24 @@ class PairAssociator:
         a, b = np.divmod(self.windows.keys, _STRIDE)
         self.windows.drop((a == slot) | (b == slot))
 
-    def push(self, source: str, track_id: str, report: TrackReport, t: float | None = None) -> list[Instant]:
-        """Take one report (None: forget the track at stamp ``t``); return the instants it made due that had a pair."""
+    def push(self, source: str, track_id: str, report: TrackReport, t: float | None = None,
+             stream: str | None = None) -> list[Instant]:
+        """Take one report (None: forget the track at stamp ``t``) from input ``stream`` (the schedule's
+        watermarks, ``StampSchedule``); return the instants it made due that had a pair."""
         if self.schedule is None:
             self.update(source, track_id, report)
             return []
-        out = []
         stamp = report.t if report is not None else float(t)
-        for t_k, released in self.schedule.push(stamp, track_id, (source, track_id, report)):
+        return self._score_due(self.schedule.push(stamp, track_id, (source, track_id, report), stream))
+
+    def heard(self, stream: str, t: float) -> list[Instant]:
+        """Input ``stream`` delivered stamp ``t`` with no report to push (a shard's input of tracks held
+        elsewhere): its watermark moves on; → the instants that made due."""
+        return [] if self.schedule is None else self._score_due(self.schedule.heard(stream, t))
+
+    def _score_due(self, due: list) -> list[Instant]:
+        out = []
+        for t_k, released in due:
             for item in released:
                 self.update(*item)
             instant = self.score(t_k)

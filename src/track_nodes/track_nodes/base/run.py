@@ -66,6 +66,9 @@ def run_nodes(makers: Sequence[tuple[str, Callable[[], Node]]], argv: Sequence[s
     ready.HOLD.held = True  # the nodes announce themselves once no older twin was heard (base/ready.py)
     twins = None
     try:
+        # Made before any node announces itself: a stop signal that lands inside an executor's __init__
+        # leaves a half-built object whose __del__ prints a traceback, so not while others may signal us.
+        executor = rclpy.get_global_executor() if len(makers) == 1 else SingleThreadedExecutor()
         for name, make in makers:
             try:
                 nodes.append(make())
@@ -75,7 +78,6 @@ def run_nodes(makers: Sequence[tuple[str, Callable[[], Node]]], argv: Sequence[s
                 print(f'{name}: {exc}', file=sys.stderr)
                 return EXIT_BAD_INPUT
         twins = ready.settle(nodes, program, EXIT_BAD_INPUT)  # no older twin heard: announced (base/ready.py)
-        executor = rclpy.get_global_executor() if len(nodes) == 1 else SingleThreadedExecutor()
         for node in [*nodes, twins.node]:
             executor.add_node(node)
         with contextlib.suppress(KeyboardInterrupt, ExternalShutdownException):

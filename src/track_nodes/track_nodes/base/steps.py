@@ -8,6 +8,7 @@ from rclpy.node import Node
 
 NS = 1_000_000_000
 PROBE = 1e-3  # node seconds after start at which the origin is read
+PHASE_TOLERANCE = 2e-3  # node seconds: a periodic timer this close to the step grid is left as it is
 
 
 class FixedRateSteps:
@@ -24,6 +25,12 @@ class FixedRateSteps:
     resolution of 2.4e-7 s, too coarse for a 1 ns tolerance. ``max_time`` > 0 stops stepping
     after that much node time since the origin. ``set_period`` (a live ``period`` parameter) keeps
     the steps taken: the next one comes one new period after the last.
+
+    The periodic timer starts when the node is built, at any phase of the step grid; on wall time a
+    step stamped t would then go out up to a period after t (a report 1.9 s old when it leaves, at a
+    2 s period). So once the origin is known the timer is re-phased onto the grid: a one-shot timer
+    to the next due time, from which the periodic timer runs (``_align``). Under a ``/clock`` that
+    starts at the origin the grid and the first phase agree and the schedule is the same as before.
     """
 
     def __init__(self, node: Node, period: float, step: Callable[[float], None], max_time: float = 0.0,
@@ -34,6 +41,7 @@ class FixedRateSteps:
         self.origin: float | None = origin  # None: fixed at the first tick (see above)
         self.offset = 0.0  # node time from the origin to step 0 of the current period
         self.timer = node.create_timer(period, self._tick)
+        self._aligned = False
         # The origin is the clock's first reading, not the first step's: a 1 ms probe fixes it.
         self._probe = node.create_timer(PROBE, self._fix_origin) if origin is None else None
 
@@ -56,11 +64,36 @@ class FixedRateSteps:
             self.origin = float(self.node.get_clock().now().nanoseconds // NS)
             if self.on_origin is not None:
                 self.on_origin(self.origin)
+        self._align()
+
+    def _align(self) -> None:
+        """Run the periodic timer from the next due time on (class doc): a one-shot timer until then."""
+        if self._aligned:
+            return
+        self._aligned = True
+        now_ns = self.node.get_clock().now().nanoseconds
+        self._catch_up(now_ns)  # steps already due go out now
+        wait_ns = round(self.origin * NS) + self._due_ns(self.k + 1) - now_ns
+        left = self.timer.time_until_next_call()
+        if left is None or abs(left - wait_ns) <= PHASE_TOLERANCE * NS:  # cancelled (a lifecycle node resets
+            return                                                        # it), or in phase already
+        self.node.destroy_timer(self.timer)
+        self.timer = self.node.create_timer(max(wait_ns, 0) / NS, self._first_due)
+
+    def _first_due(self) -> None:
+        self.node.destroy_timer(self.timer)
+        self.timer = self.node.create_timer(self.period, self._tick)
+        self._tick()
 
     def _tick(self) -> None:
-        now_ns = self.node.get_clock().now().nanoseconds
         if self.origin is None:
             self._fix_origin()
+        elif not self._aligned:  # an origin given at construction
+            self._align()
+        self._catch_up(self.node.get_clock().now().nanoseconds)
+
+    def _catch_up(self, now_ns: int) -> None:
+        """Every step due by ``now_ns``, one at a time, unless past ``max_time``."""
         origin_ns = round(self.origin * NS)
         max_ns = round(self.max_time * NS)
         while origin_ns + self._due_ns(self.k + 1) <= now_ns:

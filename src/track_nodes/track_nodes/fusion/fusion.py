@@ -19,11 +19,13 @@ Pairs within one source are not scored unless ``same_source_pairs``. Velocities 
 ``not_estimated`` variance are ignored (the track is held like a position report).
 
 Schedule. ``timer`` (default): score at every tick of a ``rate`` Hz timer on the node clock.
-``stamps``: score the data instants t_k = k/``rate`` once a report stamped ≥ t_k + 1/``rate`` has
-come, with the reports stamped ≤ t_k (``track_core.fusion.StampSchedule``): a replayed bag
-reproduces every score. The core (``track_core.fusion.PairAssociator``) predicts each live track
-to the instant, scores the gate's candidates with ``method`` (eqs. 49–71), combines each pair's
-last ``window`` instants (§1) and fuses the associated pairs by covariance intersection.
+``stamps``: score the data instants t_k = k/``rate`` once every input topic has delivered a report
+stamped ≥ t_k + 1/``rate`` (or ``stamps_max_wait`` of data time has passed without one), with the
+reports stamped ≤ t_k (``track_core.fusion.StampSchedule``): a replayed bag reproduces every
+score, and nodes in other processes give the scores of a lock-step run whatever the arrival order.
+The core (``track_core.fusion.PairAssociator``) predicts each live track to the instant, scores
+the gate's candidates with ``method`` (eqs. 49–71), combines each pair's last ``window`` instants
+(§1) and fuses the associated pairs by covariance intersection.
 
 | topic | type | content |
 |---|---|---|
@@ -112,10 +114,13 @@ class FusionNode(TrackNode):
         except ValueError as exc:
             raise ParameterError(f'parameter region: {exc}') from None
         self.shard = ShardInput(self.region)
+        streams = tuple(self.resolve_topic_name(t) for t in (*arrays, *odo, *pose, *multi))
         self.core = PairAssociator(p.method, p.threshold, p.combine, p.window, n_samples=p.n_samples,
                                    same_source_pairs=p.same_source_pairs, stale_after=p.stale_after,
                                    max_prediction=p.max_prediction, q_s=p.q_s, seed=p.seed,
-                                   stamp_rate=p.rate if p.schedule == 'stamps' else None)
+                                   stamp_rate=p.rate if p.schedule == 'stamps' else None,
+                                   stamp_streams=streams,
+                                   stamp_max_wait=p.stamps_max_wait)
         self.markers = FusionMarkers(lifetime=2.0 / min(p.rate, p.display_rate))
         self.stamps = StampMonotonic()
         self.policy = InputPolicy(horizon=p.stamp_horizon, lead=p.stamp_lead)
@@ -194,7 +199,9 @@ class FusionNode(TrackNode):
             if reason:
                 self._drop(topic, reason)
             else:
-                self._push_state(topic, track_id, t, x[k], P[k])
+                self._push_state(topic, track_id, t, x[k], P[k], topic)
+        for instant in self.core.heard(topic, t):   # its watermark, also when every track was another shard's
+            self._publish(instant)
 
     def _on_odometry(self, topic: str, msg: Odometry) -> None:
         track_id = f'{topic}/{msg.child_frame_id}' if msg.child_frame_id else topic
@@ -203,15 +210,15 @@ class FusionNode(TrackNode):
         if reason:
             self._drop(topic, reason)
             return
-        self._push_state(topic, track_id, *odometry_to_cv_state(msg))
+        self._push_state(topic, track_id, *odometry_to_cv_state(msg), topic)
 
-    def _push_state(self, source: str, track_id: str, t: float, x: np.ndarray, P: np.ndarray) -> None:
+    def _push_state(self, source: str, track_id: str, t: float, x: np.ndarray, P: np.ndarray, stream: str) -> None:
         """A CV state [x, ẋ, y, ẏ] and its covariance: held as a position when the velocity is not estimated."""
         Pv = P[np.ix_([1, 3], [1, 3])]
         if np.any(not_estimated(np.diag(Pv))):
-            self._push(source, track_id, TrackReport(t, x[[0, 2]], P[np.ix_([0, 2], [0, 2])]))
+            self._push(source, track_id, TrackReport(t, x[[0, 2]], P[np.ix_([0, 2], [0, 2])]), stream)
             return
-        self._push(source, track_id, TrackReport(t, x[[0, 2]], P[np.ix_([0, 2], [0, 2])], x[[1, 3]], Pv))
+        self._push(source, track_id, TrackReport(t, x[[0, 2]], P[np.ix_([0, 2], [0, 2])], x[[1, 3]], Pv), stream)
 
     def _on_pose(self, topic: str, msg: PoseWithCovarianceStamped) -> None:
         reason = (pose_cov_problem(msg, KNOWN_FRAMES) or pose_cov_bounds_problem(msg, self.policy)
@@ -221,7 +228,7 @@ class FusionNode(TrackNode):
             return
         t, z, R = pose_cov_to_position(msg)
         # One track per topic; a source publishes its tracks under one namespace (<source>/<track>).
-        self._push(topic.rsplit('/', 1)[0] or topic, topic, TrackReport(t, z, R))
+        self._push(topic.rsplit('/', 1)[0] or topic, topic, TrackReport(t, z, R), topic)
 
     def _on_pose_track(self, topic: str, msg: PoseWithCovarianceStamped) -> None:
         frame, local = split_track_frame_id(msg.header.frame_id)
@@ -237,13 +244,13 @@ class FusionNode(TrackNode):
             self._drop(topic, reason)
             return
         t, z, R = pose_cov_to_position(msg)
-        self._push(topic, track_id, TrackReport(t, z, R))  # the topic is the source
+        self._push(topic, track_id, TrackReport(t, z, R), topic)  # the topic is the source
 
-    def _push(self, source: str, track_id: str, report: TrackReport) -> None:
+    def _push(self, source: str, track_id: str, report: TrackReport, stream: str) -> None:
         route = self.shard.route(track_id, float(report.mu[0]), float(report.mu[1]))   # another shard's track?
         if route == 'skip':
             return
-        for instant in self.core.push(source, track_id, report if route == 'hold' else None, t=report.t):
+        for instant in self.core.push(source, track_id, report if route == 'hold' else None, t=report.t, stream=stream):
             self._publish(instant)
 
     # -- scoring -------------------------------------------------------------------------

@@ -36,6 +36,8 @@ class FusionParams:
         'namespace)')
     schedule: str = param('timer', 'timer: score at node-clock ticks; stamps: at the data instants k/rate, '
         'deterministic (module docstring)', choices=('timer', 'stamps'))
+    stamps_max_wait: float = param(30.0, 'schedule stamps: wait at most this long in data time for an input topic '
+        'that has not delivered an instant before scoring it without (module docstring) [s]', 0.0, 1e6)
     publish_pairs: str = param('all', 'all: every pair of different sources; nonzero: only the pairs with a '
         'positive score or combined score, or associated (module docstring)', choices=('all', 'nonzero'))
     region: list[float] = param([-math.inf, math.inf, -math.inf, math.inf], 'shard: the rectangle [xmin, xmax, '

@@ -32,3 +32,27 @@ def test_several_instants_at_once_and_a_jump_skips_the_empty_ones():
 def test_bad_rate():
     with pytest.raises(ValueError, match='rate'):
         StampSchedule(0.0)
+
+
+def test_with_streams_an_instant_waits_for_every_streams_watermark():
+    """Across processes the radar's report for t = 2 can come before the network's for t = 1: the instant
+    t_1 waits for both streams, so the release is the one a lock-step run gives, whatever the arrival order."""
+    lockstep = StampSchedule(rate=1.0, streams=('radar', 'net'))
+    late = StampSchedule(rate=1.0, streams=('radar', 'net'))
+    for t in (1.0, 2.0, 3.0):
+        got = lockstep.push(t, 'r', f'r{t:g}', 'radar') + lockstep.push(t, 'n', f'n{t:g}', 'net')
+        assert got == ([] if t == 1.0 else [(t - 1.0, [f'n{t - 1:g}', f'r{t - 1:g}'])])
+    assert late.push(1.0, 'r', 'r1', 'radar') == [] and late.push(2.0, 'r', 'r2', 'radar') == []
+    assert late.next_k is None                     # the network has not spoken: no first instant yet
+    assert late.push(3.0, 'r', 'r3', 'radar') == []
+    assert late.push(1.0, 'n', 'n1', 'net') == []  # the network's watermark is t = 1: t_1 not complete
+    assert late.push(2.0, 'n', 'n2', 'net') == [(1.0, ['n1', 'r1'])]
+    assert late.push(3.0, 'n', 'n3', 'net') == [(2.0, ['n2', 'r2'])]
+
+
+def test_a_silent_stream_is_waited_for_at_most_max_wait():
+    s = StampSchedule(rate=1.0, streams=('radar', 'dead'), max_wait=3.0)
+    assert [s.push(t, 'r', t, 'radar') for t in (1.0, 2.0, 3.0, 4.0)] == [[], [], [], []]
+    assert s.push(5.0, 'r', 5.0, 'radar') == [(1.0, [1.0])]       # 5 - 3 = 2 ≥ t_1 + 1: scored without it
+    with pytest.raises(ValueError, match='max_wait'):
+        StampSchedule(1.0, max_wait=-1.0)
