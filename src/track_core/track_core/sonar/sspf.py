@@ -102,6 +102,7 @@ from track_core.filters import (
     normalize_log_weights,
     symmetrize,
     systematic_resample,
+    unscented_predict,
     unscented_update,
     unscented_weights,
     weighted_mean_cov,
@@ -109,11 +110,14 @@ from track_core.filters import (
 from track_core.filters.unscented import UnscentedWeights
 from track_core.sonar.models import SensorMode, SonarParams, measure, residual
 from track_core.sonar.scheduler import DELTA, CovarianceScheduler, FixedScheduler
-from track_core.sonar.smart_target import SmartTargetParams, evasive_transition
+from track_core.sonar.smart_target import SmartTargetParams, batched_transition, evasive_transition
 
 log = logging.getLogger(__name__)
 
 PROPOSALS = ('rb', 'transition', 'propagated', 'bootstrap')
+# Smart-target model: each particle's Gaussian predicted through the manoeuvre by its sigma points, or
+# its mean moved by it with F P Fᵀ + Q (``SSPF._smart_prediction``).
+PREDICTIONS = ('unscented', 'linear')
 TRACKERS = ('ss-pf', 'papf', 'acpf')
 DEFAULT_SPLIT = 0.25
 # Largest position standard deviation (m) of one 'rb' particle at the start (``SSPF.split_for``).
@@ -171,15 +175,16 @@ def rb_ukf(
 
 def rb_ukf_innovation(x: np.ndarray, P: np.ndarray, z: np.ndarray, mode: SensorMode, observer_xy: np.ndarray,
                       params: SonarParams, weights: UnscentedWeights, *,
-                      mu_p: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
+                      mu_p: np.ndarray | None = None, P_p: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
     """``rb_ukf`` that also returns the innovation ν (N, m) and its covariance S = P_u + R (N, m, m).
 
     ν and S give each Gaussian particle's predictive likelihood N(ν; 0, S), the weight of the
-    Rao-Blackwellised ('rb') filter. ``mu_p`` (N, 4) replaces the predicted mean F x (a target
-    model with a commanded manoeuvre); the predicted covariance stays F P Fᵀ + Q.
+    Rao-Blackwellised ('rb') filter. ``mu_p`` (N, 4) and ``P_p`` (N, 4, 4) replace the predicted mean
+    F x and covariance F P Fᵀ + Q (a target model with a commanded manoeuvre).
     """
-    mu_lin, P_p = kf_predict(x, P, params.F, params.Q)
+    mu_lin, P_lin = kf_predict(x, P, params.F, params.Q)
     mu_p = mu_lin if mu_p is None else mu_p
+    P_p = P_lin if P_p is None else P_p
     P_p = np.broadcast_to(P_p, (*mu_p.shape[:-1], 4, 4))
     obs = np.asarray(observer_xy, dtype=float)
     return unscented_update(mu_p, P_p, z, lambda chi: measure(chi, obs, mode), params.R(mode), weights, residual)
@@ -219,7 +224,11 @@ class SSPF:
         move_threshold: float = MOVE_THRESHOLD,
         merge: bool = True,
         prior_inflation: float = PRIOR_INFLATION,
+        prediction: str = 'unscented',
     ) -> None:
+        if prediction not in PREDICTIONS:
+            raise ValueError(f'prediction must be one of {PREDICTIONS}, got {prediction!r}')
+        self.prediction = prediction
         if not (math.isfinite(prior_inflation) and prior_inflation >= 1.0):
             raise ValueError(f'prior_inflation must be a finite number >= 1, got {prior_inflation!r}')
         self.prior_inflation = float(prior_inflation)
@@ -418,9 +427,9 @@ class SSPF:
         Algorithm 3's 'Output' with each particle's Pⁱ added, Cov = Σ wⁱ (Pⁱ + (mⁱ − m̄)(mⁱ − m̄)ᵀ).
         Every Pⁱ is a UKF posterior of a prediction ≥ Q, so Cov ≥ min Pⁱ > 0: no collapse.
         """
-        mu_p = self._smart_prediction(obs) if self.target_model is not None else None
+        mu_p, P_p = self._smart_prediction(obs) if self.target_model is not None else (None, None)
         x_post, P_post, nu, S = rb_ukf_innovation(self.particles, self.P, z, mode, obs, self.params, self._w,
-                                                  mu_p=mu_p)
+                                                  mu_p=mu_p, P_p=P_p)
         self._prev = (obs.copy(), mode is SensorMode.ACTIVE)
         n = x_post.shape[0]  # N, or 1 while the mixture is merged
         if n == 1 and self.target_model is None:  # merged: one UKF step, no weights
@@ -523,8 +532,8 @@ class SSPF:
         self.estimate = SonarEstimate(self.k, mean, cov, mode, next_mode, ess)
         return self.estimate
 
-    def _smart_prediction(self, obs: np.ndarray) -> np.ndarray:
-        """Predicted means under the smart-target model (a jump-Markov model, sampled per particle).
+    def _smart_prediction(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+        """Predicted Gaussians under the smart-target model (a jump-Markov model, sampled per particle).
 
         If the last step pinged, each particle draws whether its target heard it, with
         P_det(range of its mean) (``SmartTargetParams.detection_probability``); a particle is evading
@@ -532,6 +541,10 @@ class SSPF:
         ``smart_target.evasive_transition`` (cruise: back to its own cruise speed, the speed of its
         mean at the start). The discrete part is sampled, the continuous part stays Gaussian (a
         Rao-Blackwellised jump-Markov filter), so the weight N(ν; 0, S) scores each particle's mode.
+        ``prediction='unscented'``: each particle's sigma points go through the manoeuvre (its
+        turn and speed change are clipped, so where the commanded heading or speed is reached the
+        velocity spread contracts), plus Q; ``'linear'``: its mean moves, with F P Fᵀ + Q (returned
+        as None).
         """
         tm = self.target_model
         t_prev = self.k * self.params.T
@@ -541,7 +554,10 @@ class SSPF:
             heard = self.rng.random(self.n) < tm.detection_probability(r)
             self._last_heard = np.where(heard, t_prev, self._last_heard)
         evading = (t_prev - self._last_heard) < tm.quiet_period
-        return evasive_transition(self.particles, evading, prev_obs, self._cruise, tm, self.params.T)
+        if self.prediction == 'linear':
+            return evasive_transition(self.particles, evading, prev_obs, self._cruise, tm, self.params.T), None
+        f = batched_transition(evading, prev_obs, self._cruise, tm, self.params.T)
+        return unscented_predict(self.particles, self.P, f, self._Q, self._w)
 
     def _propose(self, z: np.ndarray, mode: SensorMode, obs: np.ndarray):
         """Draw x ~ q = N(x̃ⁱ, P̃ⁱ) (Algorithm 3) and return it with the pieces the weights need."""
@@ -603,6 +619,7 @@ def make_tracker(
     move_threshold: float = MOVE_THRESHOLD,
     merge: bool = True,
     prior_inflation: float = PRIOR_INFLATION,
+    prediction: str = 'unscented',
 ) -> SSPF:
     """'ss-pf' (eq. 7 scheduling), 'papf' (passive only) or 'acpf' (active only)."""
     if kind == 'ss-pf':
@@ -616,4 +633,4 @@ def make_tracker(
         raise ValueError(f'tracker must be one of {TRACKERS}, got {kind!r}')
     return SSPF(params, sched, rng, proposal=proposal, resample_threshold=resample_threshold,
                 regularize=regularize, split=split, target_model=target_model, move_threshold=move_threshold,
-                merge=merge, prior_inflation=prior_inflation)
+                merge=merge, prior_inflation=prior_inflation, prediction=prediction)

@@ -208,23 +208,28 @@ class StoneSoupUKF:
         return self.estimate
 
 
-FILTERS = ('pf', 'ukf', 'stonesoup-ukf')
+FILTERS = ('pf', 'ukf', 'gs-ukf', 'stonesoup-ukf')
 
 
 def make_ukf(kind: str, params: SonarParams | None = None, *, peer: str = 'ukf', P_D=None, delta: float = DELTA,
              metric: str = 'spectral', block: str = 'full', cov_kind: str = 'posterior',
              target_model: SmartTargetParams | None = None):
-    """'ss-pf'/'papf'/'acpf' scheduling on a UKF: ``peer='ukf'`` (ours) or 'stonesoup-ukf'.
+    """'ss-pf'/'papf'/'acpf' scheduling on a UKF: ``peer='ukf'`` (ours), 'gs-ukf' or 'stonesoup-ukf'.
 
-    ``target_model`` gives our UKF the smart-target model (evade/cruise hypotheses, merged);
+    ``target_model`` gives our UKFs the smart-target model: 'ukf' merges the evade/cruise hypotheses
+    into one Gaussian, 'gs-ukf' (``gaussian_sum.GaussianSumUKF``) keeps one UKF per last-heard time;
     Stone Soup's UKF has only eq. 1's CV model.
     """
     p = params or SonarParams()
     sched = _scheduler(kind, p, P_D, delta, metric, block, cov_kind)
     if peer == 'ukf':
         return UKFTracker(p, sched, target_model=target_model)
+    if peer == 'gs-ukf':
+        from track_core.sonar.gaussian_sum import GaussianSumUKF
+
+        return GaussianSumUKF(p, sched, target_model=target_model)
     if target_model is not None:
-        raise ValueError(f"target_model needs peer='ukf' (ours), got peer={peer!r}")
+        raise ValueError(f"target_model needs peer='ukf' or 'gs-ukf' (ours), got peer={peer!r}")
     if peer == 'stonesoup-ukf':
         return StoneSoupUKF(p, sched)
-    raise ValueError(f"peer must be 'ukf' or 'stonesoup-ukf', got {peer!r}")
+    raise ValueError(f"peer must be 'ukf', 'gs-ukf' or 'stonesoup-ukf', got {peer!r}")

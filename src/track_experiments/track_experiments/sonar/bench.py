@@ -9,7 +9,7 @@ CV model, and the smart-target model: ``smart_pf_over_ukf`` is the PF's cost in 
   ``ParticleUpdater`` with systematic resampling, bearing-range measurement model.
 
 Scaling (``data['scaling']``): CPU time of one step of the point-particle 'bootstrap' proposal at
-N = 10⁵ … 10⁶ and of the 'rb' proposal at 10⁴ … 10⁵ (quick: smaller N), the peak memory traced by
+N = 10⁵ … 10⁶ and of the 'rb' proposal at the same N (quick: smaller N), the peak memory traced by
 ``tracemalloc`` (numpy's buffers: the particles and one step's temporaries) and the least-squares
 slope of log time against log N (1 = linear).
 
@@ -214,7 +214,7 @@ def merged_cost(seed: int, repeat: int) -> dict:
 
 # Particle counts of the scaling rows (full run, quick run).
 SCALE_N = {'bootstrap': ((100_000, 200_000, 500_000, 1_000_000), (10_000, 30_000, 100_000)),
-           'rb': ((10_000, 30_000, 100_000), (2_000, 10_000))}
+           'rb': ((100_000, 200_000, 500_000, 1_000_000), (2_000, 10_000))}
 
 
 def _cpu_time(fn, repeat: int) -> float:

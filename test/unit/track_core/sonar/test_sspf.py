@@ -287,3 +287,24 @@ def test_wide_prior_is_split_finer_and_its_tails_weighted_back():
     assert f.split_for(np.diag([400.0, 4, 400, 4])) == 0.25 and f.weights is None
     with pytest.raises(ValueError, match=r'^prior_inflation must be'):
         SSPF(prior_inflation=0.5)
+
+
+def test_smart_prediction_is_unscented_and_linear_for_a_naive_target():
+    from track_core.sonar import SmartTargetParams
+
+    p, x0, P0 = SonarParams(), np.array([310.0, 12.0, 290.0, -12.5]), np.diag([400.0, 4, 400, 4])
+    runs = {}
+    for model in (SmartTargetParams(naive=True), SmartTargetParams()):
+        for pred in ('unscented', 'linear'):
+            f = SSPF(p, FixedScheduler('active'), np.random.default_rng(5), target_model=model, prediction=pred)
+            f.initialize(x0, P0)
+            for _, z in _cv_readings(8, 'active'):
+                f.step(z, 'active', np.zeros(2))
+            runs[model.naive, pred] = f.estimate
+    # eq. 1 is linear: the unscented prediction is F P Fᵀ + Q exactly
+    np.testing.assert_allclose(runs[True, 'unscented'].mean, runs[True, 'linear'].mean, atol=1e-8)
+    np.testing.assert_allclose(runs[True, 'unscented'].cov, runs[True, 'linear'].cov, atol=1e-7)
+    # the manoeuvre is not: the two predictions differ
+    assert not np.allclose(runs[False, 'unscented'].cov, runs[False, 'linear'].cov, atol=1e-3)
+    with pytest.raises(ValueError, match='prediction must be one of'):
+        SSPF(p, prediction='ekf')
