@@ -70,8 +70,11 @@ linear, so the first proposal is one RB-UKF on N(m₀, P₀) itself and the tran
 weight is the exact predicted prior N(F m₀, F P₀ Fᵀ + Q). Starting from N points drawn from a 20 m
 prior instead leaves only the few that land within a few metres of an active fix (ESS ≈ 1).
 
-Selection. ``resample_threshold=1.0`` (default) resamples systematically at every step, as
-Algorithm 3 does; a smaller value resamples only when ESS < threshold·N (weights carried).
+Selection. By default (``resample_threshold=None``) the filter resamples systematically at every step, as
+Algorithm 3 does (threshold 1), except after a wide 'rb' prior, whose defensive weights are carried
+until ESS < N/2 (``WIDE_RESAMPLE_THRESHOLD``): selecting at the first step would drop the tail means
+before any bearing could favour them (``sonar-wide-prior``, tuned on seeds 0 and 1). A value in (0, 1]
+resamples only when ESS < threshold·N (weights carried), whatever the prior.
 ``regularize=True`` (default; not in the paper) moves the selected particles (their means, for
 'rb') with a Liu–West shrinkage kernel, x ← a x + (1−a) x̄ + h L e, h = (4/(N(n+2)))^{1/(n+4)},
 a = √(1−h²), L L' = the particles' (means') covariance, which keeps the cloud's mean and
@@ -129,6 +132,8 @@ MERGE_SHARE = 1e-3
 SPLIT_RATIO = 0.05
 # A wide prior's means are drawn from PRIOR_INFLATION times their covariance and weighted back.
 PRIOR_INFLATION = 2.0
+# 'rb', wide prior (default ``resample_threshold``): select only when ESS < this share of N.
+WIDE_RESAMPLE_THRESHOLD = 0.5
 # 'rb': the Liu–West move runs only after a selection whose ESS was below this share of N.
 MOVE_THRESHOLD = 0.5
 # A cloud has collapsed when its smallest covariance eigenvalue is below COLLAPSE_RTOL times its
@@ -217,7 +222,7 @@ class SSPF:
         rng: np.random.Generator | None = None,
         *,
         proposal: str = 'rb',
-        resample_threshold: float = 1.0,
+        resample_threshold: float | None = None,
         regularize: bool = True,
         split: float | None = None,
         target_model: SmartTargetParams | None = None,
@@ -247,9 +252,10 @@ class SSPF:
             raise ValueError(f'split must be in (0, 1] (share of the prior covariance per particle), got {split!r}')
         self.split = None if split is None else float(split)
         self.repairs = 0
-        if not 0.0 < resample_threshold <= 1.0:
+        if resample_threshold is not None and not 0.0 < resample_threshold <= 1.0:
             raise ValueError(f'resample_threshold must be in (0, 1] (fraction of N), got {resample_threshold!r}')
-        self.resample_threshold = resample_threshold
+        self._resample_option = resample_threshold
+        self.resample_threshold = 1.0 if resample_threshold is None else float(resample_threshold)
         self.regularize = regularize
         self.weights: np.ndarray | None = None
         if proposal not in PROPOSALS:
@@ -298,6 +304,10 @@ class SSPF:
             self.particles = mean + e @ cholesky_jitter(c * (1.0 - b) * cov).T
             if c != 1.0:  # m = m₀ + √c L e: log N(m; m₀, LLᵀ) − log N(m; m₀, cLLᵀ) = −½ (c − 1)|e|² + const
                 self.weights, _ = normalize_log_weights(-0.5 * (c - 1.0) * np.sum(e * e, axis=1))
+            # A wide prior's weights are carried until ESS < N/2: selecting at once would drop the
+            # tail means the inflation placed before any reading could favour them.
+            self.resample_threshold = (self._resample_option if self._resample_option is not None
+                                       else WIDE_RESAMPLE_THRESHOLD if c != 1.0 else 1.0)
             self.P = np.broadcast_to(b * cov, (self.n, 4, 4)).copy()
             self._prior = None
             self._last_heard = np.full(self.n, -np.inf)  # per particle: time it last heard a ping
@@ -610,7 +620,7 @@ def make_tracker(
     delta: float = DELTA,
     metric: str = 'spectral',
     proposal: str = 'rb',
-    resample_threshold: float = 1.0,
+    resample_threshold: float | None = None,
     regularize: bool = True,
     split: float | None = None,
     block: str = 'full',
