@@ -451,7 +451,9 @@ class SSPF:
             self.estimate = SonarEstimate(self.k, mean, cov, mode, self.scheduler.decide(cov), 1.0)
             return self.estimate
         prev_w = np.full(n, 1.0 / n) if self.weights is None else self.weights
-        w, _ = normalize_log_weights(np.log(prev_w) + gaussian_logpdf(nu, S))
+        with np.errstate(divide='ignore'):  # a carried weight that underflowed to 0 stays 0
+            log_prev = np.log(prev_w)
+        w, _ = normalize_log_weights(log_prev + gaussian_logpdf(nu, S))
         ess = effective_sample_size(w)
         self.moved = False
         if n > 1 and ess < self.resample_threshold * n:
