@@ -53,10 +53,11 @@ estimate (``repaired``) and logged; the experiments report the count.
 
 Smart-target model (``target_model=SmartTargetParams(...)``, 'rb' only, beyond the paper). The
 observer knows when it pinged; each particle then draws whether its target heard the ping with
-P_det(range), and evading particles move by ``smart_target.evasive_transition``. The discrete part
-is sampled, the continuous part stays Gaussian (a Rao-Blackwellised jump-Markov filter). A single
-UKF given the same model as two merged hypotheses (``ukf.UKFTracker(target_model=...)``) does as
-well in the closed loop (``smart-target``): the gain over the CV filters is the model's.
+P_det(range), and evading particles move by ``smart_target.evasive_transition``, each particle's
+Gaussian predicted through it by its sigma points (``prediction``). The discrete part is sampled, the
+continuous part stays Gaussian (a Rao-Blackwellised jump-Markov filter). A Gaussian sum of UKFs
+given the same model, one per last-heard time (``gaussian_sum.GaussianSumUKF``), ties it in the
+closed loop (``smart-target``): the gain over the CV filters is the model's.
 
 Merge and split ('rb', CV model, ``merge=True`` by default; ``SSPF._merge_or_split``). On a
 near-Gaussian posterior the N Gaussians become copies of one UKF (between-component share of the
