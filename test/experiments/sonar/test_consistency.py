@@ -99,10 +99,11 @@ def test_table2_never_crashes(seed):
 
 
 def test_smart_target_gain_is_the_models_not_the_filters():
-    # Same truth, pings (the CV UKF's eq. 7 decisions, δ = 50) and noise for all four trackers.
+    # Same truth, pings (the CV UKF's eq. 7 decisions, δ = 50) and noise for all four trackers; the
+    # same-model UKF is the Gaussian sum (one UKF per last-heard time, cruise speed a state).
     p, tp = SonarParams(), SmartTargetParams()
     factories = {'ukf': lambda rng: make_ukf('ss-pf', p, delta=50.0),
-                 'ukf-smart': lambda rng: make_ukf('ss-pf', p, delta=50.0, target_model=tp),
+                 'ukf-smart': lambda rng: make_ukf('ss-pf', p, peer='gs-ukf', delta=50.0, target_model=tp),
                  'pf-cv': lambda rng: make_tracker('ss-pf', p, rng, delta=50.0),
                  'pf-smart': lambda rng: make_tracker('ss-pf', p, rng, delta=50.0, target_model=tp)}
     res = run_closed_loop_paired(6, 1, factories, 'ukf')

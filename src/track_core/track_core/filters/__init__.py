@@ -36,6 +36,7 @@ from track_core.filters.resampling import (
 from track_core.filters.unscented import (
     UnscentedWeights,
     sigma_points,
+    unscented_predict,
     unscented_update,
     unscented_weights,
 )
@@ -52,6 +53,7 @@ __all__ += [
     'normalize_log_weights',
     'sigma_points',
     'systematic_resample',
+    'unscented_predict',
     'unscented_update',
     'unscented_weights',
     'weighted_mean_cov',

@@ -92,3 +92,23 @@ def unscented_update(
     x_post = mean + np.einsum('...ij,...j->...i', K, nu)
     P_post = symmetrize(cov - K @ S @ np.swapaxes(K, -1, -2))
     return x_post, P_post, nu, S
+
+
+def unscented_predict(
+    mean: np.ndarray,
+    cov: np.ndarray,
+    f: Callable[[np.ndarray], np.ndarray],
+    Q: np.ndarray,
+    w: UnscentedWeights,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Unscented prediction of a batch of Gaussians through x' = f(x) + q, q ~ N(0, Q).
+
+    ``f`` maps sigma points (..., 2n+1, n) to (..., 2n+1, n) (a batch of states; the caller flattens the
+    leading axes if its function takes (N, n)). Returns the predicted (mean, cov); for a linear
+    f(x) = F x it is exactly (F μ, F P Fᵀ + Q).
+    """
+    chi = sigma_points(mean, cov, w)
+    Y = f(chi)
+    mu = np.einsum('i,...ia->...a', w.wm, Y)
+    dY = Y - mu[..., None, :]
+    return mu, symmetrize(np.einsum('i,...ia,...ib->...ab', w.wc, dY, dY) + Q)

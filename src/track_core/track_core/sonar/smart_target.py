@@ -85,6 +85,17 @@ def evasive_transition(x: np.ndarray, evading: np.ndarray, observer_xy: np.ndarr
     return np.stack([x[:, 0] + 0.5 * T * (vx + vxn), vxn, x[:, 2] + 0.5 * T * (vy + vyn), vyn], axis=1)
 
 
+def batched_transition(evading: np.ndarray, observer_xy: np.ndarray, cruise_speed: np.ndarray,
+                       params: SmartTargetParams, T: float):
+    """``evasive_transition`` as f(χ) for the sigma points χ (N, S, 4) of N Gaussians, each Gaussian with its
+    own ``evading`` flag and ``cruise_speed`` (N,): the f of ``filters.unscented_predict``."""
+    def f(chi: np.ndarray) -> np.ndarray:
+        n_s = chi.shape[-2]
+        return evasive_transition(chi.reshape(-1, 4), np.repeat(evading, n_s), observer_xy,
+                                  np.repeat(cruise_speed, n_s), params, T).reshape(chi.shape)
+    return f
+
+
 @dataclass
 class SmartTarget:
     """Truth simulator with explicit state; ``step(rng, pinged, observer_xy)`` advances one period T."""

@@ -53,10 +53,11 @@ estimate (``repaired``) and logged; the experiments report the count.
 
 Smart-target model (``target_model=SmartTargetParams(...)``, 'rb' only, beyond the paper). The
 observer knows when it pinged; each particle then draws whether its target heard the ping with
-P_det(range), and evading particles move by ``smart_target.evasive_transition``. The discrete part
-is sampled, the continuous part stays Gaussian (a Rao-Blackwellised jump-Markov filter). A single
-UKF given the same model as two merged hypotheses (``ukf.UKFTracker(target_model=...)``) does as
-well in the closed loop (``smart-target``): the gain over the CV filters is the model's.
+P_det(range), and evading particles move by ``smart_target.evasive_transition``, each particle's
+Gaussian predicted through it by its sigma points (``prediction``). The discrete part is sampled, the
+continuous part stays Gaussian (a Rao-Blackwellised jump-Markov filter). A Gaussian sum of UKFs
+given the same model, one per last-heard time (``gaussian_sum.GaussianSumUKF``), ties it in the
+closed loop (``smart-target``): the gain over the CV filters is the model's.
 
 Merge and split ('rb', CV model, ``merge=True`` by default; ``SSPF._merge_or_split``). On a
 near-Gaussian posterior the N Gaussians become copies of one UKF (between-component share of the
@@ -70,8 +71,11 @@ linear, so the first proposal is one RB-UKF on N(m₀, P₀) itself and the tran
 weight is the exact predicted prior N(F m₀, F P₀ Fᵀ + Q). Starting from N points drawn from a 20 m
 prior instead leaves only the few that land within a few metres of an active fix (ESS ≈ 1).
 
-Selection. ``resample_threshold=1.0`` (default) resamples systematically at every step, as
-Algorithm 3 does; a smaller value resamples only when ESS < threshold·N (weights carried).
+Selection. By default (``resample_threshold=None``) the filter resamples systematically at every step, as
+Algorithm 3 does (threshold 1), except after a wide 'rb' prior, whose defensive weights are carried
+until ESS < N/2 (``WIDE_RESAMPLE_THRESHOLD``): selecting at the first step would drop the tail means
+before any bearing could favour them (``sonar-wide-prior``, tuned on seeds 0 and 1). A value in (0, 1]
+resamples only when ESS < threshold·N (weights carried), whatever the prior.
 ``regularize=True`` (default; not in the paper) moves the selected particles (their means, for
 'rb') with a Liu–West shrinkage kernel, x ← a x + (1−a) x̄ + h L e, h = (4/(N(n+2)))^{1/(n+4)},
 a = √(1−h²), L L' = the particles' (means') covariance, which keeps the cloud's mean and
@@ -102,6 +106,7 @@ from track_core.filters import (
     normalize_log_weights,
     symmetrize,
     systematic_resample,
+    unscented_predict,
     unscented_update,
     unscented_weights,
     weighted_mean_cov,
@@ -109,11 +114,14 @@ from track_core.filters import (
 from track_core.filters.unscented import UnscentedWeights
 from track_core.sonar.models import SensorMode, SonarParams, measure, residual
 from track_core.sonar.scheduler import DELTA, CovarianceScheduler, FixedScheduler
-from track_core.sonar.smart_target import SmartTargetParams, evasive_transition
+from track_core.sonar.smart_target import SmartTargetParams, batched_transition, evasive_transition
 
 log = logging.getLogger(__name__)
 
 PROPOSALS = ('rb', 'transition', 'propagated', 'bootstrap')
+# Smart-target model: each particle's Gaussian predicted through the manoeuvre by its sigma points, or
+# its mean moved by it with F P Fᵀ + Q (``SSPF._smart_prediction``).
+PREDICTIONS = ('unscented', 'linear')
 TRACKERS = ('ss-pf', 'papf', 'acpf')
 DEFAULT_SPLIT = 0.25
 # Largest position standard deviation (m) of one 'rb' particle at the start (``SSPF.split_for``).
@@ -125,6 +133,8 @@ MERGE_SHARE = 1e-3
 SPLIT_RATIO = 0.05
 # A wide prior's means are drawn from PRIOR_INFLATION times their covariance and weighted back.
 PRIOR_INFLATION = 2.0
+# 'rb', wide prior (default ``resample_threshold``): select only when ESS < this share of N.
+WIDE_RESAMPLE_THRESHOLD = 0.5
 # 'rb': the Liu–West move runs only after a selection whose ESS was below this share of N.
 MOVE_THRESHOLD = 0.5
 # A cloud has collapsed when its smallest covariance eigenvalue is below COLLAPSE_RTOL times its
@@ -171,15 +181,16 @@ def rb_ukf(
 
 def rb_ukf_innovation(x: np.ndarray, P: np.ndarray, z: np.ndarray, mode: SensorMode, observer_xy: np.ndarray,
                       params: SonarParams, weights: UnscentedWeights, *,
-                      mu_p: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
+                      mu_p: np.ndarray | None = None, P_p: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
     """``rb_ukf`` that also returns the innovation ν (N, m) and its covariance S = P_u + R (N, m, m).
 
     ν and S give each Gaussian particle's predictive likelihood N(ν; 0, S), the weight of the
-    Rao-Blackwellised ('rb') filter. ``mu_p`` (N, 4) replaces the predicted mean F x (a target
-    model with a commanded manoeuvre); the predicted covariance stays F P Fᵀ + Q.
+    Rao-Blackwellised ('rb') filter. ``mu_p`` (N, 4) and ``P_p`` (N, 4, 4) replace the predicted mean
+    F x and covariance F P Fᵀ + Q (a target model with a commanded manoeuvre).
     """
-    mu_lin, P_p = kf_predict(x, P, params.F, params.Q)
+    mu_lin, P_lin = kf_predict(x, P, params.F, params.Q)
     mu_p = mu_lin if mu_p is None else mu_p
+    P_p = P_lin if P_p is None else P_p
     P_p = np.broadcast_to(P_p, (*mu_p.shape[:-1], 4, 4))
     obs = np.asarray(observer_xy, dtype=float)
     return unscented_update(mu_p, P_p, z, lambda chi: measure(chi, obs, mode), params.R(mode), weights, residual)
@@ -212,14 +223,18 @@ class SSPF:
         rng: np.random.Generator | None = None,
         *,
         proposal: str = 'rb',
-        resample_threshold: float = 1.0,
+        resample_threshold: float | None = None,
         regularize: bool = True,
         split: float | None = None,
         target_model: SmartTargetParams | None = None,
         move_threshold: float = MOVE_THRESHOLD,
         merge: bool = True,
         prior_inflation: float = PRIOR_INFLATION,
+        prediction: str = 'unscented',
     ) -> None:
+        if prediction not in PREDICTIONS:
+            raise ValueError(f'prediction must be one of {PREDICTIONS}, got {prediction!r}')
+        self.prediction = prediction
         if not (math.isfinite(prior_inflation) and prior_inflation >= 1.0):
             raise ValueError(f'prior_inflation must be a finite number >= 1, got {prior_inflation!r}')
         self.prior_inflation = float(prior_inflation)
@@ -238,9 +253,10 @@ class SSPF:
             raise ValueError(f'split must be in (0, 1] (share of the prior covariance per particle), got {split!r}')
         self.split = None if split is None else float(split)
         self.repairs = 0
-        if not 0.0 < resample_threshold <= 1.0:
+        if resample_threshold is not None and not 0.0 < resample_threshold <= 1.0:
             raise ValueError(f'resample_threshold must be in (0, 1] (fraction of N), got {resample_threshold!r}')
-        self.resample_threshold = resample_threshold
+        self._resample_option = resample_threshold
+        self.resample_threshold = 1.0 if resample_threshold is None else float(resample_threshold)
         self.regularize = regularize
         self.weights: np.ndarray | None = None
         if proposal not in PROPOSALS:
@@ -289,6 +305,10 @@ class SSPF:
             self.particles = mean + e @ cholesky_jitter(c * (1.0 - b) * cov).T
             if c != 1.0:  # m = m₀ + √c L e: log N(m; m₀, LLᵀ) − log N(m; m₀, cLLᵀ) = −½ (c − 1)|e|² + const
                 self.weights, _ = normalize_log_weights(-0.5 * (c - 1.0) * np.sum(e * e, axis=1))
+            # A wide prior's weights are carried until ESS < N/2: selecting at once would drop the
+            # tail means the inflation placed before any reading could favour them.
+            self.resample_threshold = (self._resample_option if self._resample_option is not None
+                                       else WIDE_RESAMPLE_THRESHOLD if c != 1.0 else 1.0)
             self.P = np.broadcast_to(b * cov, (self.n, 4, 4)).copy()
             self._prior = None
             self._last_heard = np.full(self.n, -np.inf)  # per particle: time it last heard a ping
@@ -418,9 +438,9 @@ class SSPF:
         Algorithm 3's 'Output' with each particle's Pⁱ added, Cov = Σ wⁱ (Pⁱ + (mⁱ − m̄)(mⁱ − m̄)ᵀ).
         Every Pⁱ is a UKF posterior of a prediction ≥ Q, so Cov ≥ min Pⁱ > 0: no collapse.
         """
-        mu_p = self._smart_prediction(obs) if self.target_model is not None else None
+        mu_p, P_p = self._smart_prediction(obs) if self.target_model is not None else (None, None)
         x_post, P_post, nu, S = rb_ukf_innovation(self.particles, self.P, z, mode, obs, self.params, self._w,
-                                                  mu_p=mu_p)
+                                                  mu_p=mu_p, P_p=P_p)
         self._prev = (obs.copy(), mode is SensorMode.ACTIVE)
         n = x_post.shape[0]  # N, or 1 while the mixture is merged
         if n == 1 and self.target_model is None:  # merged: one UKF step, no weights
@@ -432,7 +452,9 @@ class SSPF:
             self.estimate = SonarEstimate(self.k, mean, cov, mode, self.scheduler.decide(cov), 1.0)
             return self.estimate
         prev_w = np.full(n, 1.0 / n) if self.weights is None else self.weights
-        w, _ = normalize_log_weights(np.log(prev_w) + gaussian_logpdf(nu, S))
+        with np.errstate(divide='ignore'):  # a carried weight that underflowed to 0 stays 0
+            log_prev = np.log(prev_w)
+        w, _ = normalize_log_weights(log_prev + gaussian_logpdf(nu, S))
         ess = effective_sample_size(w)
         self.moved = False
         if n > 1 and ess < self.resample_threshold * n:
@@ -523,8 +545,8 @@ class SSPF:
         self.estimate = SonarEstimate(self.k, mean, cov, mode, next_mode, ess)
         return self.estimate
 
-    def _smart_prediction(self, obs: np.ndarray) -> np.ndarray:
-        """Predicted means under the smart-target model (a jump-Markov model, sampled per particle).
+    def _smart_prediction(self, obs: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+        """Predicted Gaussians under the smart-target model (a jump-Markov model, sampled per particle).
 
         If the last step pinged, each particle draws whether its target heard it, with
         P_det(range of its mean) (``SmartTargetParams.detection_probability``); a particle is evading
@@ -532,6 +554,10 @@ class SSPF:
         ``smart_target.evasive_transition`` (cruise: back to its own cruise speed, the speed of its
         mean at the start). The discrete part is sampled, the continuous part stays Gaussian (a
         Rao-Blackwellised jump-Markov filter), so the weight N(ν; 0, S) scores each particle's mode.
+        ``prediction='unscented'``: each particle's sigma points go through the manoeuvre (its
+        turn and speed change are clipped, so where the commanded heading or speed is reached the
+        velocity spread contracts), plus Q; ``'linear'``: its mean moves, with F P Fᵀ + Q (returned
+        as None).
         """
         tm = self.target_model
         t_prev = self.k * self.params.T
@@ -541,7 +567,10 @@ class SSPF:
             heard = self.rng.random(self.n) < tm.detection_probability(r)
             self._last_heard = np.where(heard, t_prev, self._last_heard)
         evading = (t_prev - self._last_heard) < tm.quiet_period
-        return evasive_transition(self.particles, evading, prev_obs, self._cruise, tm, self.params.T)
+        if self.prediction == 'linear':
+            return evasive_transition(self.particles, evading, prev_obs, self._cruise, tm, self.params.T), None
+        f = batched_transition(evading, prev_obs, self._cruise, tm, self.params.T)
+        return unscented_predict(self.particles, self.P, f, self._Q, self._w)
 
     def _propose(self, z: np.ndarray, mode: SensorMode, obs: np.ndarray):
         """Draw x ~ q = N(x̃ⁱ, P̃ⁱ) (Algorithm 3) and return it with the pieces the weights need."""
@@ -594,7 +623,7 @@ def make_tracker(
     delta: float = DELTA,
     metric: str = 'spectral',
     proposal: str = 'rb',
-    resample_threshold: float = 1.0,
+    resample_threshold: float | None = None,
     regularize: bool = True,
     split: float | None = None,
     block: str = 'full',
@@ -603,6 +632,7 @@ def make_tracker(
     move_threshold: float = MOVE_THRESHOLD,
     merge: bool = True,
     prior_inflation: float = PRIOR_INFLATION,
+    prediction: str = 'unscented',
 ) -> SSPF:
     """'ss-pf' (eq. 7 scheduling), 'papf' (passive only) or 'acpf' (active only)."""
     if kind == 'ss-pf':
@@ -616,4 +646,4 @@ def make_tracker(
         raise ValueError(f'tracker must be one of {TRACKERS}, got {kind!r}')
     return SSPF(params, sched, rng, proposal=proposal, resample_threshold=resample_threshold,
                 regularize=regularize, split=split, target_model=target_model, move_threshold=move_threshold,
-                merge=merge, prior_inflation=prior_inflation)
+                merge=merge, prior_inflation=prior_inflation, prediction=prediction)

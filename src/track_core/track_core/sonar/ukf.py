@@ -12,9 +12,11 @@ A single Gaussian carries the continuous state; the discrete part, the time the 
 ping, is a distribution over the recent ping times (after a ping at range r, the target heard it with
 P_det(r), averaged over the sigma points of the estimate). The target evades while the last ping it
 heard is younger than ``quiet_period``, so the distribution gives two hypotheses, evade and cruise,
-each predicted by ``smart_target.evasive_transition`` with F P Fᵀ + Q (as each SS-PF particle is),
-updated by the UKF, weighted by its predictive likelihood N(ν; 0, S) and merged by moment matching
-(a GPB1 filter; ``filters.mixture_mean_cov``). Both hypotheses cost one batched unscented update.
+each predicted through ``smart_target.evasive_transition`` by its sigma points plus Q (as each SS-PF
+particle is; ``prediction='linear'``: the mean moved, F P Fᵀ + Q), updated by the UKF, weighted by
+its predictive likelihood N(ν; 0, S) and merged by moment matching (a GPB1 filter;
+``filters.mixture_mean_cov``). Both hypotheses cost one batched unscented update. The fair peer of the
+SS-PF keeps the hypotheses apart and learns the cruise speed: ``gaussian_sum.GaussianSumUKF``.
 
 ``StoneSoupUKF`` wraps Stone Soup's ``UnscentedKalmanPredictor``/``UnscentedKalmanUpdater`` (the
 peer the issue compares against) behind the same interface; ``stonesoup_available()`` says whether
@@ -35,14 +37,15 @@ from track_core.filters import (
     mixture_mean_cov,
     normalize_log_weights,
     sigma_points,
+    unscented_predict,
     unscented_update,
     unscented_weights,
     wrap_angle,
 )
 from track_core.sonar.models import SensorMode, SonarParams, measure, residual
 from track_core.sonar.scheduler import DELTA, CovarianceScheduler, FixedScheduler
-from track_core.sonar.smart_target import SmartTargetParams, evasive_transition
-from track_core.sonar.sspf import TRACKERS, SonarEstimate
+from track_core.sonar.smart_target import SmartTargetParams, batched_transition, evasive_transition
+from track_core.sonar.sspf import PREDICTIONS, TRACKERS, SonarEstimate
 
 
 def _scheduler(kind: str, params: SonarParams, P_D, delta: float, metric: str, block: str, cov_kind: str):
@@ -63,7 +66,10 @@ class UKFTracker:
     """
 
     def __init__(self, params: SonarParams | None = None, scheduler=None, *,
-                 target_model: SmartTargetParams | None = None) -> None:
+                 target_model: SmartTargetParams | None = None, prediction: str = 'unscented') -> None:
+        if prediction not in PREDICTIONS:
+            raise ValueError(f'prediction must be one of {PREDICTIONS}, got {prediction!r}')
+        self.prediction = prediction
         self.params = params or SonarParams()
         self.scheduler = scheduler if scheduler is not None else CovarianceScheduler(params=self.params)
         self.target_model = target_model
@@ -123,9 +129,13 @@ class UKFTracker:
         p_ev = float(np.clip(self._heard_p.sum(), 0.0, 1.0))
         hyp = np.array([e for e, p in ((True, p_ev), (False, 1.0 - p_ev)) if p > 0.0])
         prior = np.where(hyp, p_ev, 1.0 - p_ev)
-        x2 = np.broadcast_to(self.x, (hyp.size, 4))
-        mu_p = evasive_transition(x2, hyp, prev_obs, np.full(hyp.size, self._cruise), tm, T)
-        P_p = np.broadcast_to(self.params.F @ self.P @ self.params.F.T + self.params.Q, (hyp.size, 4, 4))
+        x2, cruise = np.broadcast_to(self.x, (hyp.size, 4)), np.full(hyp.size, self._cruise)
+        if self.prediction == 'linear':
+            mu_p = evasive_transition(x2, hyp, prev_obs, cruise, tm, T)
+            P_p = np.broadcast_to(self.params.F @ self.P @ self.params.F.T + self.params.Q, (hyp.size, 4, 4))
+        else:
+            mu_p, P_p = unscented_predict(x2, np.broadcast_to(self.P, (hyp.size, 4, 4)),
+                                          batched_transition(hyp, prev_obs, cruise, tm, T), self.params.Q, self._w)
         x_post, P_post, nu, S = unscented_update(mu_p, P_p, z, lambda chi: measure(chi, obs, mode),
                                                  self.params.R(mode), self._w, residual)
         w, _ = normalize_log_weights(np.log(prior) + gaussian_logpdf(nu, S))
@@ -208,23 +218,28 @@ class StoneSoupUKF:
         return self.estimate
 
 
-FILTERS = ('pf', 'ukf', 'stonesoup-ukf')
+FILTERS = ('pf', 'ukf', 'gs-ukf', 'stonesoup-ukf')
 
 
 def make_ukf(kind: str, params: SonarParams | None = None, *, peer: str = 'ukf', P_D=None, delta: float = DELTA,
              metric: str = 'spectral', block: str = 'full', cov_kind: str = 'posterior',
              target_model: SmartTargetParams | None = None):
-    """'ss-pf'/'papf'/'acpf' scheduling on a UKF: ``peer='ukf'`` (ours) or 'stonesoup-ukf'.
+    """'ss-pf'/'papf'/'acpf' scheduling on a UKF: ``peer='ukf'`` (ours), 'gs-ukf' or 'stonesoup-ukf'.
 
-    ``target_model`` gives our UKF the smart-target model (evade/cruise hypotheses, merged);
+    ``target_model`` gives our UKFs the smart-target model: 'ukf' merges the evade/cruise hypotheses
+    into one Gaussian, 'gs-ukf' (``gaussian_sum.GaussianSumUKF``) keeps one UKF per last-heard time;
     Stone Soup's UKF has only eq. 1's CV model.
     """
     p = params or SonarParams()
     sched = _scheduler(kind, p, P_D, delta, metric, block, cov_kind)
     if peer == 'ukf':
         return UKFTracker(p, sched, target_model=target_model)
+    if peer == 'gs-ukf':
+        from track_core.sonar.gaussian_sum import GaussianSumUKF
+
+        return GaussianSumUKF(p, sched, target_model=target_model)
     if target_model is not None:
-        raise ValueError(f"target_model needs peer='ukf' (ours), got peer={peer!r}")
+        raise ValueError(f"target_model needs peer='ukf' or 'gs-ukf' (ours), got peer={peer!r}")
     if peer == 'stonesoup-ukf':
         return StoneSoupUKF(p, sched)
-    raise ValueError(f"peer must be 'ukf' or 'stonesoup-ukf', got {peer!r}")
+    raise ValueError(f"peer must be 'ukf', 'gs-ukf' or 'stonesoup-ukf', got {peer!r}")

@@ -9,7 +9,7 @@ CV model, and the smart-target model: ``smart_pf_over_ukf`` is the PF's cost in 
   ``ParticleUpdater`` with systematic resampling, bearing-range measurement model.
 
 Scaling (``data['scaling']``): CPU time of one step of the point-particle 'bootstrap' proposal at
-N = 10⁵ … 10⁶ and of the 'rb' proposal at 10⁴ … 10⁵ (quick: smaller N), the peak memory traced by
+N = 10⁵ … 10⁶ and of the 'rb' proposal at the same N (quick: smaller N), the peak memory traced by
 ``tracemalloc`` (numpy's buffers: the particles and one step's temporaries) and the least-squares
 slope of log time against log N (1 = linear).
 
@@ -159,12 +159,14 @@ def _ukf_step_fn(peer: str):
 
 
 def _smart_ukf_step_fn():
-    """One active step of our UKF with the smart-target model after a ping (both hypotheses live)."""
+    """One active step of the same-model peer, the Gaussian-sum UKF with the smart-target model, pinging every
+    step after ten pings (one component per ping of the quiet period: its largest size)."""
     from track_core.sonar.ukf import make_ukf
 
-    trk = make_ukf('acpf', SonarParams(), target_model=SmartTargetParams())
+    trk = make_ukf('acpf', SonarParams(), peer='gs-ukf', target_model=SmartTargetParams())
     trk.initialize(X0, P0)
-    trk.step(Z, SensorMode.ACTIVE, OBS)
+    for _ in range(10):
+        trk.step(Z, SensorMode.ACTIVE, OBS)
     return lambda: trk.step(Z, SensorMode.ACTIVE, OBS)
 
 
@@ -214,7 +216,7 @@ def merged_cost(seed: int, repeat: int) -> dict:
 
 # Particle counts of the scaling rows (full run, quick run).
 SCALE_N = {'bootstrap': ((100_000, 200_000, 500_000, 1_000_000), (10_000, 30_000, 100_000)),
-           'rb': ((10_000, 30_000, 100_000), (2_000, 10_000))}
+           'rb': ((100_000, 200_000, 500_000, 1_000_000), (2_000, 10_000))}
 
 
 def _cpu_time(fn, repeat: int) -> float:
@@ -301,7 +303,7 @@ def sonar_benchmark(cfg: RunConfig) -> Outcome:
             ['SS-PF step, transition (ours)', 200, data['transition_n200_ms'], '-'],
             ['UKF peer step (ours, filters/)', 1, data['ukf_ms'], '-'],
             ['SS-PF step, rb, smart-target model', 200, data['smart_n200_ms'], '-'],
-            ['UKF step, smart-target model (same model)', 1, data['ukf_smart_ms'], '-'],
+            ['Gaussian-sum UKF step, smart-target model (same model)', 1, data['ukf_smart_ms'], '-'],
             ['Stone Soup UKF step', 1, fmt(data['stonesoup_ukf_ms']), '-'],
             ['FilterPy UKF per particle (loop)', 200, fmt(data['filterpy_loop_n200_ms']),
              fmt(data['speedup_vs_filterpy'])],

@@ -16,8 +16,8 @@ smart-target: the closed loop with a ``SmartTarget`` that evades when it hears p
 tracker schedules itself (SS-PF δ = ``CLOSED_LOOP_DELTA``); then, for each schedule source of
 ``PAIRED_SCHEDULES``, the CV UKF's eq. 7 decisions drive all trackers (identical pings, target
 reaction, truth and noise), comparing the UKF and our SS-PF each with eq. 1's CV model and each with
-the smart-target model (``UKFTracker``/``SSPF(target_model=...)``) paired run by run, so the gain of
-the model and the gain of the filter are measured apart.
+the smart-target model (``GaussianSumUKF``, ``UKFTracker``, ``SSPF(target_model=...)``) paired run by
+run, so the gain of the model and the gain of the filter are measured apart.
 
 sonar-wide-prior: the particle filter's own ground, bearings-only runs from a wide prior (150 and 300 m,
 and 300 m with an observer that never turns), where one UKF linearises over hundreds of metres: our
@@ -329,7 +329,8 @@ def _fig13(res: dict, path: Path) -> Path:
 def closed_loop_tracker(kind: str, params, rng: np.random.Generator, *, filt: str = 'pf',
                         delta: float = CLOSED_LOOP_DELTA, target_params: SmartTargetParams | None = None,
                         target_aware: bool = False):
-    """One closed-loop tracker: our SS-PF ('pf') or a UKF peer; ``target_aware`` gives either the smart-target model."""
+    """One closed-loop tracker: our SS-PF ('pf') or a UKF peer ('ukf', 'gs-ukf', 'stonesoup-ukf');
+    ``target_aware`` gives it the smart-target model."""
     model = (target_params or SmartTargetParams()) if target_aware else None
     if filt == 'pf':
         return make_tracker(kind, params, rng, delta=delta, target_model=model)
@@ -413,16 +414,16 @@ def smart_target(cfg: RunConfig) -> Outcome:
     Own schedule: each tracker decides its pings (SS-PF δ = ``CLOSED_LOOP_DELTA``). Paired: for each
     schedule source in ``PAIRED_SCHEDULES`` the CV UKF's eq. 7 decision (or a fixed sensor) drives
     all trackers, so pings, truth and noise are identical, and the per-run RMS differences have a
-    standard error. Four filters, two models: 'ukf' and 'pf-cv' with eq. 1's CV model, 'ukf-smart'
-    (``UKFTracker(target_model=...)``: evade/cruise hypotheses merged) and 'pf-smart'
-    (``SSPF(target_model=...)``) with the smart-target model. The gain of the model is
-    ukf-smart − ukf; the gain of the particle filter is pf-smart − ukf-smart (same model) and
-    pf-cv − ukf (same CV model).
+    standard error. Five filters, two models: 'ukf' and 'pf-cv' with eq. 1's CV model; with the
+    smart-target model 'ukf-smart' (``gaussian_sum.GaussianSumUKF``: one UKF per last-heard time, the
+    best Gaussian peer), 'ukf-1g' (``UKFTracker(target_model=...)``: evade/cruise merged into one
+    Gaussian) and 'pf-smart' (``SSPF(target_model=...)``). The gain of the model is ukf-smart − ukf;
+    the gain of the particle filter is pf-smart − ukf-smart (same model) and pf-cv − ukf (same CV model).
     """
     n_runs = cfg.n_runs(full=50, quick=4)
     sc = Scenario()
     p = sc.params
-    own = [('ss-pf', 'pf', True), ('ukf-smart ss-pf', 'ukf', True), ('ss-pf cv', 'pf', False),
+    own = [('ss-pf', 'pf', True), ('ukf-smart ss-pf', 'gs-ukf', True), ('ss-pf cv', 'pf', False),
            ('ukf ss-pf', 'ukf', False), ('acpf', 'pf', True), ('papf', 'pf', True)]
     if not cfg.quick and 'stonesoup-ukf' in available_peers():
         own.append(('stonesoup-ukf ss-pf', 'stonesoup-ukf', False))
@@ -446,30 +447,35 @@ def smart_target(cfg: RunConfig) -> Outcome:
         def make(filt, aware, kind=kind, delta=delta):
             return lambda rng: closed_loop_tracker(kind, p, rng, filt=filt, delta=delta, target_aware=aware)
 
-        factories = {'ukf': make('ukf', False), 'ukf-smart': make('ukf', True), 'pf-cv': make('pf', False),
-                     'pf-smart': make('pf', True)}
+        factories = {'ukf': make('ukf', False), 'ukf-1g': make('ukf', True), 'ukf-smart': make('gs-ukf', True),
+                     'pf-cv': make('pf', False), 'pf-smart': make('pf', True)}
         res = run_closed_loop_paired(n_runs, cfg.seed, factories, 'ukf')
         e = res['err2']
         entry = {'schedule': f'{kind} d={delta:g}' if kind == 'ss-pf' else kind, 'pings': float(res['pings'].mean()),
                  'detections': float(res['detections'].mean())}
         for n in factories:
             entry[n] = {'rtams_m': _rtams(e[n]), 'anees': float(np.nanmean(res['nees'][n]))}
-        for n in ('ukf-smart', 'pf-cv', 'pf-smart'):
+        for n in ('ukf-1g', 'ukf-smart', 'pf-cv', 'pf-smart'):
             entry[n]['minus_ukf_rms_m'], entry[n]['se_m'] = paired_difference(e[n], e['ukf'])
         entry['pf-smart']['minus_ukf_smart_rms_m'], entry['pf-smart']['se_vs_ukf_smart_m'] = paired_difference(
             e['pf-smart'], e['ukf-smart'])
         paired.append(entry)
         ps = entry['pf-smart']
+        entry['pf-smart']['minus_ukf_1g_rms_m'], entry['pf-smart']['se_vs_ukf_1g_m'] = paired_difference(
+            e['pf-smart'], e['ukf-1g'])
         prow.append([entry['schedule'], entry['pings'], entry['detections'], entry['ukf']['rtams_m'],
-                     entry['ukf-smart']['rtams_m'], entry['pf-cv']['rtams_m'], ps['rtams_m'],
+                     entry['ukf-1g']['rtams_m'], entry['ukf-smart']['rtams_m'], entry['pf-cv']['rtams_m'],
+                     ps['rtams_m'],
                      f'{entry["ukf-smart"]["minus_ukf_rms_m"]:+.2f} ± {entry["ukf-smart"]["se_m"]:.2f}',
                      f'{entry["pf-cv"]["minus_ukf_rms_m"]:+.3f} ± {entry["pf-cv"]["se_m"]:.3f}',
                      f'{ps["minus_ukf_smart_rms_m"]:+.3f} ± {ps["se_vs_ukf_smart_m"]:.3f}',
+                     f'{ps["minus_ukf_1g_rms_m"]:+.3f} ± {ps["se_vs_ukf_1g_m"]:.3f}',
                      entry['ukf']['anees'], entry['ukf-smart']['anees'], ps['anees']])
     table += ('\n\nPaired (same truth, pings and noise; schedule from the CV UKF): RTAMS m, and per-run RMS '
               'differences (mean ± SE): model = UKF smart − UKF, filter = PF − UKF with the same model\n'
-              + format_table(['schedule', 'pings/run', 'detected/run', 'UKF cv', 'UKF smart', 'PF cv', 'PF smart',
-                              'model gain', 'filter gain (cv)', 'filter gain (smart)', 'UKF cv ANEES',
+              + format_table(['schedule', 'pings/run', 'detected/run', 'UKF cv', 'UKF smart 1 Gaussian',
+                              'UKF smart', 'PF cv', 'PF smart', 'model gain', 'filter gain (cv)',
+                              'filter gain (smart)', 'PF smart − UKF 1 Gaussian', 'UKF cv ANEES',
                               'UKF smart ANEES', 'PF smart ANEES'], prow))
     fig = _fig_closed_loop(cfg.out / 'smart-target.png', trackers)
     return Outcome(table, {'trackers': trackers, 'paired': paired}, [fig])

@@ -1,7 +1,15 @@
 import numpy as np
 import pytest
 
-from track_core.filters import kf_update, sigma_points, unscented_update, unscented_weights, wrap_angle
+from track_core.filters import (
+    kf_predict,
+    kf_update,
+    sigma_points,
+    unscented_predict,
+    unscented_update,
+    unscented_weights,
+    wrap_angle,
+)
 
 
 def _random_cov(rng, n, batch=()):
@@ -25,6 +33,20 @@ def test_linear_measurement_equals_kalman(alpha, beta, kappa):
     np.testing.assert_allclose(Pu, Pk, atol=1e-9, rtol=0)
     np.testing.assert_allclose(nuu, nuk, atol=1e-9)
     np.testing.assert_allclose(Su, Sk, atol=1e-9)
+
+
+@pytest.mark.parametrize(('alpha', 'beta', 'kappa'), [(1.0, 2.0, 0.0), (0.5, 2.0, 1.0)])
+def test_linear_prediction_equals_kalman(alpha, beta, kappa):
+    rng = np.random.default_rng(2)
+    x, P = rng.normal(size=(5, 4)), _random_cov(rng, 4, (5,))
+    F, Q = rng.normal(size=(4, 4)), _random_cov(rng, 4)
+    mu, C = unscented_predict(x, P, lambda s: s @ F.T, Q, unscented_weights(4, alpha, beta, kappa))
+    mk, Ck = kf_predict(x, P, F, Q)
+    np.testing.assert_allclose(mu, mk, atol=1e-9)
+    np.testing.assert_allclose(C, Ck, atol=1e-9)
+    # a nonlinear f: the mean is not f of the mean
+    mu2, _ = unscented_predict(x, P, lambda s: s**2, Q, unscented_weights(4))
+    assert np.all(mu2 > x**2)
 
 
 def test_sigma_points_reproduce_mean_and_cov():

@@ -287,3 +287,49 @@ def test_wide_prior_is_split_finer_and_its_tails_weighted_back():
     assert f.split_for(np.diag([400.0, 4, 400, 4])) == 0.25 and f.weights is None
     with pytest.raises(ValueError, match=r'^prior_inflation must be'):
         SSPF(prior_inflation=0.5)
+
+
+def test_smart_prediction_is_unscented_and_linear_for_a_naive_target():
+    from track_core.sonar import SmartTargetParams
+
+    p, x0, P0 = SonarParams(), np.array([310.0, 12.0, 290.0, -12.5]), np.diag([400.0, 4, 400, 4])
+    runs = {}
+    for model in (SmartTargetParams(naive=True), SmartTargetParams()):
+        for pred in ('unscented', 'linear'):
+            f = SSPF(p, FixedScheduler('active'), np.random.default_rng(5), target_model=model, prediction=pred)
+            f.initialize(x0, P0)
+            for _, z in _cv_readings(8, 'active'):
+                f.step(z, 'active', np.zeros(2))
+            runs[model.naive, pred] = f.estimate
+    # eq. 1 is linear: the unscented prediction is F P Fᵀ + Q exactly
+    np.testing.assert_allclose(runs[True, 'unscented'].mean, runs[True, 'linear'].mean, atol=1e-8)
+    np.testing.assert_allclose(runs[True, 'unscented'].cov, runs[True, 'linear'].cov, atol=1e-7)
+    # the manoeuvre is not: the two predictions differ
+    assert not np.allclose(runs[False, 'unscented'].cov, runs[False, 'linear'].cov, atol=1e-3)
+    with pytest.raises(ValueError, match='prediction must be one of'):
+        SSPF(p, prediction='ekf')
+
+
+def test_a_wide_prior_carries_its_weights_until_they_degenerate():
+    m0, wide, narrow = np.array([300.0, 12.25, 300.0, -12.25]), np.diag([300.0**2, 4, 300.0**2, 4]), np.diag(
+        [400.0, 4, 400, 4])
+    f = SSPF(SonarParams(), FixedScheduler('passive'), np.random.default_rng(3))
+    f.initialize(m0, wide)
+    assert f.resample_threshold == 0.5
+    assert 1.0 / np.sum(f.weights**2) > 0.5 * f.n  # the prior's weights alone do not trigger a selection
+    every = SSPF(SonarParams(), FixedScheduler('passive'), np.random.default_rng(3), resample_threshold=1.0)
+    every.initialize(m0, wide)  # an explicit value holds whatever the prior
+    assert every.resample_threshold == 1.0
+    carried = 0
+    for k in range(1, 6):
+        obs = np.array([10.0 * k, 0.0])
+        z = np.array([np.arctan2(300.0 + 12.25 * k - obs[0], 300.0 - 12.25 * k)])
+        est = f.step(z, 'passive', obs)
+        every.step(z, 'passive', obs)
+        # selected only when ESS < N/2; otherwise the weights carry the prior ratio and the likelihoods
+        assert (est.ess >= 0.5 * f.n) == (f.weights is not None)
+        assert every.weights is None
+        carried += f.weights is not None
+    assert carried > 0
+    f.initialize(m0, narrow)  # the paper's prior: selection at every step, as Algorithm 3
+    assert f.resample_threshold == 1.0
