@@ -203,6 +203,7 @@ _SENSOR = '''
     comm_range: {comm_range!r}
     selection: mi
     prediction: bank
+    start: election
     ack_timeout: 2.0
     truth_topics: [/sonar/target/truth, /radar/truth]
 '''

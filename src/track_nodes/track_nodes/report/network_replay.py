@@ -34,9 +34,14 @@ import numpy as np
 import yaml
 
 from track_core.fusion import PairAssociator, TrackReport
-from track_core.idsq.grid import uniform_belief
 from track_core.idsq.handoff import decode_handoff
-from track_core.idsq.leader_protocol import loudest, measurement_normal, stamp_of_step, start_leader_of
+from track_core.idsq.leader_protocol import (
+    loudest,
+    measurement_normal,
+    stamp_of_step,
+    start_belief,
+    start_leader_of,
+)
 from track_core.idsq.models import simulate_measurement
 from track_core.idsq.network import SensorLayout
 from track_core.idsq.tracker import leader_step
@@ -75,7 +80,9 @@ def replay(d: dict, setup, layout: SensorLayout) -> list[dict]:
     steps = sorted(s for s, v in by_step.items() if s >= 0 and len(v) == 2)
     truth = {s: np.array([by_step[s][mar.RADAR_DECOY], by_step[s][mar.NETWORK_TRACK]]) for s in steps}
     leader, prev = start_leader_of(layout, truth[steps[0]], setup.noise, setup.seed), None
-    belief, rows = uniform_belief(setup.grid), []
+    belief = start_belief(layout, leader, truth[steps[0]], setup.noise, setup.seed, setup.grid, setup.tracker,
+                          setup.start)
+    rows = []
     for s in steps:  # the leader of each step (one after the other: a step needs the previous handoff)
         pos, doa = layout.positions[leader], bool(layout.is_doa[leader])
         z = simulate_measurement(loudest(truth[s], pos), pos, doa, setup.noise,
