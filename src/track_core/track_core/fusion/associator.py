@@ -21,6 +21,14 @@ the pairs whose newest score is positive, and a stored run broken by a non-candi
 dropped at that instant. A tick costs O(n log n + candidates) instead of O(n²). The other methods
 score every pair of different sources (their score is not 0 outside the gate).
 
+Floor (``floor`` ε > 0, ``geofeasibility.track``: a disjoint instant enters the mean as ε instead of
+vetoing the window): a zero no longer breaks a run, so ``PairWindows`` keeps the window of every
+pair that was a candidate (positive score) within its last ``window`` instants, and at each instant
+those of them that are live but not candidates are added with score 0 (listed in ``Instant.pairs``
+with their combination, associated and fused when it stays ≥ ``threshold``). A pair with no positive
+score in its window combines to 0 as before, so the cost stays O(n log n + candidates + stored
+windows). ``floor`` 0 (the default) is the paper's means, and the code path, bit for bit.
+
 Isolation: when the batch fails (a degenerate covariance slipped past the caller's checks), each
 pair is scored alone; a pair whose score raises (or comes out not finite) is skipped and reported in
 ``Instant.skipped`` (ids and reason, its window untouched) and every other pair is scored as
@@ -139,13 +147,14 @@ class PairAssociator:
                  window: int = 10, *, n_samples: int = 500, same_source_pairs: bool = False,
                  stale_after: float = 2.0, max_prediction: float = 10.0, q_s: float = 0.0, seed: int = 0,
                  stamp_rate: float | None = None, stamp_streams: tuple[str, ...] = (),
-                 stamp_max_wait: float = float('inf'), gate: bool = True) -> None:
+                 stamp_max_wait: float = float('inf'), gate: bool = True, floor: float = 0.0) -> None:
         if method not in METHODS:
             raise ValueError(f'method must be one of {", ".join(METHODS)}, got {method!r}')
         if not 0.0 <= threshold <= 1.0 or window < 1:
             raise ValueError(f'need 0 <= threshold <= 1 and window >= 1; got {threshold}, {window}')
-        ScoreWindow(combine)  # checks the combination's name
+        ScoreWindow(combine, floor=floor)  # checks the combination's name and the floor
         self.method, self.threshold, self.combine, self.window = method, threshold, combine, int(window)
+        self.floor = float(floor)
         self.n_samples, self.same_source_pairs = n_samples, same_source_pairs
         self.rng = np.random.default_rng(seed)
         self.table = TrackTable(stale_after, max_prediction, q_s)
@@ -156,7 +165,7 @@ class PairAssociator:
 
     def _clear(self) -> None:
         self.source: dict[str, str] = {}
-        self.windows = PairWindows(self.combine, self.window)
+        self.windows = PairWindows(self.combine, self.window, self.floor)
         self.live = LiveIntervals()
         self._slot: dict[str, int] = {}      # track id → permanent integer (pair keys, liveness)
         self._names: list[str] = []
@@ -271,6 +280,8 @@ class PairAssociator:
             self._skips.setdefault(key, []).append(m)
         untouched = keys[~ok]          # a failed pair's window is untouched
         i, j, s, keys = i[ok], j[ok], s[ok], keys[ok]
+        if self.floor > 0.0:   # the stored windows of live pairs that are not candidates now: score 0
+            i, j, s, keys = self._stored_pairs(slots, i, j, s, keys, untouched)
         total = self.live.colive(slots[i], slots[j], m) - self._skipped(keys, m)
         combined, instants = self.windows.add(keys, np.clip(s, 0.0, 1.0), t, total)
         self._drop_broken_runs(np.concatenate([keys, untouched]), m)
@@ -285,6 +296,27 @@ class PairAssociator:
         pairs = PairScores(ids, i, j, s, combined, instants, associated)
         every = (lambda: self._every_pair(ids, slots, src, m, pairs, keys)) if gated else None
         return Instant(t, ids, mu, R, pairs, tuple(fused), skipped=skipped, every=every)
+
+    def _stored_pairs(self, slots, i, j, s, keys, untouched):
+        """(i, j, s, keys) with every stored window whose two tracks are rows of this instant and that is
+        not scored (nor failed) here appended with score 0 (module docstring: floor)."""
+        stored = self.windows.keys
+        if not stored.size:
+            return i, j, s, keys
+        stored = stored[~np.isin(stored, np.concatenate([keys, untouched]))]
+        a, b = np.divmod(stored, _STRIDE)
+        order = np.argsort(slots, kind='stable')
+        ra = np.minimum(np.searchsorted(slots[order], a), slots.size - 1)
+        rb = np.minimum(np.searchsorted(slots[order], b), slots.size - 1)
+        here = (slots[order][ra] == a) & (slots[order][rb] == b)
+        ra, rb, stored = order[ra[here]], order[rb[here]], stored[here]
+        xi, xj = np.minimum(ra, rb), np.maximum(ra, rb)
+        same = slots[xi] * _STRIDE + slots[xj] == stored      # the key orientation of the scored pairs
+        xi, xj = xi[same], xj[same]
+        i, j = np.concatenate([i, xi]), np.concatenate([j, xj])
+        order = np.lexsort((j, i))                              # pair order as without the gate
+        return (i[order], j[order], np.concatenate([s, np.zeros(xi.size)])[order],
+                np.concatenate([keys, stored[same]])[order])
 
     def _candidates(self, mu, R, src) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict, bool]:
         """Pairs (i, j) to score, their scores, the failures (isolation, see above), and whether gated."""

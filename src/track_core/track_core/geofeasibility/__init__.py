@@ -5,7 +5,8 @@
 - :func:`ellipse_to_gaussian`, :func:`gaussian_to_ellipse` — eqs. 56–59 (φ: bearing of the r_x
   axis, clockwise from north).
 - :func:`combine_scores`, :func:`track_score`, :class:`ScoreWindow` — track-level combination;
-  :class:`PairWindows` — ScoreWindow for many pairs at once (vectorised).
+  :class:`PairWindows` — ScoreWindow for many pairs at once (vectorised); ``FLOOR_2SIGMA`` — the
+  floor of a disjoint instant in a combination (``track`` module docstring).
 - :func:`containment` — exact "one contains the other" / "no overlap" tests.
 - :func:`candidate_pairs`, :func:`gated_score` — the pairs whose 2σ ellipses may overlap (cKDTree
   radius gate + separating-ellipse test, :mod:`.gate`): scoring only those equals scoring all pairs.
@@ -14,7 +15,14 @@
 from track_core.geofeasibility.ellipse import ellipse_to_gaussian, gaussian_to_ellipse
 from track_core.geofeasibility.gate import candidate_pairs, gated_score
 from track_core.geofeasibility.scores import METHODS, score
-from track_core.geofeasibility.track import PairWindows, ScoreWindow, combine_scores, common_instants, track_score
+from track_core.geofeasibility.track import (
+    FLOOR_2SIGMA,
+    PairWindows,
+    ScoreWindow,
+    combine_scores,
+    common_instants,
+    track_score,
+)
 from track_core.geofeasibility.validate import check_pairs
 
 
@@ -28,6 +36,7 @@ def containment(mu1, R1, mu2, R2):
 
 
 __all__ = [
+    'FLOOR_2SIGMA',
     'METHODS',
     'PairWindows',
     'ScoreWindow',

@@ -13,6 +13,17 @@ The paper scores one common time instant and says several such scores "would be 
 - **Means** (:func:`combine_scores`): harmonic K / Σ 1/g_k or geometric exp(mean ln g_k).
   Both are ≤ the arithmetic mean and are 0 as soon as one instant scores 0: one instant at
   which the ellipses are disjoint makes the pair infeasible within the window.
+- **Floor** ε (``floor``, default 0: the means above, as the paper's): the paper sets no rule for
+  an instant whose ellipses are disjoint (eq. 47: g = 0) inside a combination. Both ellipses are
+  2σ regions, so "disjoint" is finite evidence against the pair, not proof: a consistent track's
+  2σ ellipse misses its target with probability e⁻² ≈ 0.135 (2 degrees of freedom), and one
+  track in a discovery phase (a belief still on the wrong mode of its first readings) is disjoint
+  from its true partner for an instant or two. With ``floor`` = ε > 0 every instant score enters
+  the mean as max(g_k, ε), so one disjoint instant costs the factor ε^(1/n) in the geometric mean
+  instead of vetoing the window; a window with no positive score still combines to 0 (nothing
+  speaks for the pair), so a pair that was never a candidate, or not within the last K instants,
+  stays at 0 and is not stored. Where no instant scores below ε the combination is unchanged.
+  ``FLOOR_2SIGMA`` = e⁻² is the value argued above (the maritime scenario uses it).
 """
 
 from __future__ import annotations
@@ -24,19 +35,32 @@ import numpy as np
 from track_core.geofeasibility.scores import score
 
 MEANS = ('harmonic', 'geometric')
+#: the floor of a disjoint instant argued in the module docstring: a 2σ ellipse misses its target with probability e⁻²
+FLOOR_2SIGMA = float(np.exp(-2.0))
 #: a pair whose combined score reaches this is taken as one ship (the default of every decision rule)
 THRESHOLD = 0.5
 
 
-def combine_scores(scores, mean: str = 'harmonic') -> float:
-    """Harmonic or geometric mean of per-instant scores in [0, 1]; 0 if any score is 0."""
+def check_floor(floor: float) -> float:
+    """The floor ε of the module docstring, checked: a number in [0, 1)."""
+    if not (isinstance(floor, int | float | np.floating | np.integer) and 0.0 <= floor < 1.0):
+        raise ValueError(f'floor must be a number in [0, 1), got {floor!r}')
+    return float(floor)
+
+
+def combine_scores(scores, mean: str = 'harmonic', floor: float = 0.0) -> float:
+    """Harmonic or geometric mean of per-instant scores in [0, 1]; 0 if any score is 0 (``floor`` 0), else
+    the mean of max(g, ``floor``), and 0 when no score is positive (module docstring)."""
     g = np.asarray(scores, dtype=float).ravel()
     if mean not in MEANS:
         raise ValueError(f'unknown mean {mean!r}; choose one of {", ".join(MEANS)}')
+    floor = check_floor(floor)
     if g.size == 0:
         raise ValueError('no scores to combine (no common instants in the window)')
     if not np.all(np.isfinite(g)) or np.any((g < 0) | (g > 1)):
         raise ValueError(f'scores must be finite and in [0, 1], got {g[~((g >= 0) & (g <= 1))][:5].tolist()}')
+    if floor > 0.0 and np.any(g > 0.0):
+        g = np.maximum(g, floor)
     if np.any(g == 0.0):
         return 0.0
     if mean == 'harmonic':
@@ -66,7 +90,7 @@ def common_instants(t1, t2, tol: float = 1e-6) -> tuple[np.ndarray, np.ndarray]:
 
 def track_score(t1, mu1, R1, t2, mu2, R2, *, method: str = 'exact', mean: str = 'harmonic',
                 window: float | None = None, max_instants: int | None = None, tol: float = 1e-6,
-                n_samples: int = 500, rng: np.random.Generator | None = None) -> float:
+                n_samples: int = 500, rng: np.random.Generator | None = None, floor: float = 0.0) -> float:
     """Combined score of two tracks given as report times (k,), means (k, 2), covariances (k, 2, 2).
 
     Raises ``ValueError`` when the tracks have no common instant in the window.
@@ -83,16 +107,19 @@ def track_score(t1, mu1, R1, t2, mu2, R2, *, method: str = 'exact', mean: str = 
         raise ValueError('tracks have no common instant in the window')
     g = score(np.asarray(mu1, float)[i1], np.asarray(R1, float)[i1], np.asarray(mu2, float)[i2],
               np.asarray(R2, float)[i2], method, n_samples=n_samples, rng=rng)
-    return combine_scores(g, mean)
+    return combine_scores(g, mean, floor)
 
 
 class ScoreWindow:
     """Streaming version for one pair: ``add(t, g)`` per common instant, ``value()`` combined.
 
-    Keeps the instants in [t_newest − window, t_newest] and at most ``max_instants`` of them.
+    Keeps the instants in [t_newest − window, t_newest] and at most ``max_instants`` of them;
+    ``floor``: see the module docstring.
     """
 
-    def __init__(self, mean: str = 'harmonic', window: float | None = None, max_instants: int | None = None):
+    def __init__(self, mean: str = 'harmonic', window: float | None = None, max_instants: int | None = None,
+                 floor: float = 0.0):
+        self.floor = check_floor(floor)
         if mean not in MEANS:
             raise ValueError(f'unknown mean {mean!r}; choose one of {", ".join(MEANS)}')
         if window is not None and not window > 0:
@@ -117,7 +144,7 @@ class ScoreWindow:
 
     def value(self) -> float:
         """Combined score of the instants in the window; ``ValueError`` when empty."""
-        return combine_scores([g for _, g in self._buf], self.mean)
+        return combine_scores([g for _, g in self._buf], self.mean, self.floor)
 
 
 class PairWindows:
@@ -134,18 +161,27 @@ class PairWindows:
     last n scores when the run is at least n long, and 0 otherwise. Equal, instant by instant, to
     one ``ScoreWindow(mean, max_instants=K)`` per pair fed every instant (tests compare them).
     Vectorised over pairs; the means are taken per window length in one batch.
+
+    With ``floor`` ε > 0 (module docstring) a zero no longer breaks the window, so the stored pairs
+    are those with a positive score within their last n instants, each with its last K scores
+    (``vals``, right-aligned, zeros included) and the total at its last call; the instants between
+    two calls scored 0. The combination is the mean of max(g, ε) over the last n, or 0 when none of
+    them is positive; again equal to ``ScoreWindow(mean, max_instants=K, floor=ε)`` per pair (tests).
+    A caller must then pass every stored pair whose tracks are both live (with score 0 when it is
+    not a candidate), since its combination may stay above a threshold for a few instants.
     """
 
-    def __init__(self, mean: str = 'harmonic', max_instants: int = 10) -> None:
+    def __init__(self, mean: str = 'harmonic', max_instants: int = 10, floor: float = 0.0) -> None:
         if mean not in MEANS:
             raise ValueError(f'unknown mean {mean!r}; choose one of {", ".join(MEANS)}')
         if max_instants < 1:
             raise ValueError(f'max_instants must be >= 1, got {max_instants}')
-        self.mean, self.k = mean, int(max_instants)
+        self.mean, self.k, self.floor = mean, int(max_instants), check_floor(floor)
         self.keys = np.zeros(0, np.int64)         # pairs with a positive newest score, sorted
         self.total = np.zeros(0, np.int64)        # the pair's total at its last call
         self.run_len = np.zeros(0, np.int64)
         self.run_vals = np.zeros((0, 0))          # trailing positive scores, right-aligned (newest last)
+        self.vals = np.zeros((0, self.k))         # floor > 0: the last K scores, right-aligned (newest last)
         self.last_t: float | None = None
 
     def __len__(self) -> int:
@@ -163,6 +199,8 @@ class PairWindows:
         if np.any(total < 1):
             raise ValueError(f'total must count this instant (>= 1), got {total[total < 1][:5].tolist()}')
         self.last_t = float(t)
+        if self.floor > 0.0:
+            return self._add_floored(keys, g, total)
         count = np.minimum(total, self.k)
         pos, found = _lookup(self.keys, keys)
         found &= (self.total[pos] == total - 1) if self.keys.size else found
@@ -198,11 +236,41 @@ class PairWindows:
             combined[sel] = _combine_rows(w, self.mean)
         return combined, count
 
+    def _add_floored(self, keys: np.ndarray, g: np.ndarray, total: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``add`` with a floor ε > 0 (class docstring): windows of the last K scores, zeros floored at ε."""
+        k = self.k
+        count = np.minimum(total, k)
+        pos, found = _lookup(self.keys, keys)
+        vals = np.zeros((keys.size, k))
+        if found.any():
+            shift = np.maximum(total[found] - self.total[pos[found]], 1)   # instants since its last call
+            src = np.arange(k)[None, :] + shift[:, None]                   # new column c ← old column c + shift
+            old = np.take_along_axis(self.vals[pos[found]], np.minimum(src, k - 1), axis=1)
+            vals[found] = np.where(src < k, old, 0.0)                      # the instants between: scored 0
+        vals[:, -1] = g
+        in_window = np.arange(k)[None, :] >= (k - count)[:, None]
+        positive = np.any((vals > 0.0) & in_window, axis=1)
+        combined = np.zeros(keys.size)
+        for n in np.unique(count[positive]):
+            sel = np.flatnonzero(positive & (count == n))
+            combined[sel] = _combine_rows(np.maximum(vals[sel, k - n:], self.floor), self.mean)
+        keep = ~_lookup(np.sort(keys), self.keys)[1]   # stored pairs not in this call
+        rk = np.concatenate([self.keys[keep], keys[positive]])
+        order = np.argsort(rk, kind='stable')
+        self.keys = rk[order]
+        self.total = np.concatenate([self.total[keep], total[positive]])[order]
+        self.vals = np.concatenate([self.vals[keep], vals[positive]])[order]
+        self.run_len = np.zeros(self.keys.size, np.int64)   # unused with a floor
+        return combined, count
+
     def drop(self, mask) -> None:
         """Forget the stored runs where ``mask`` (over ``keys``) holds (runs known to be broken)."""
         keep = ~np.asarray(mask, bool)
         self.keys, self.total, self.run_len = self.keys[keep], self.total[keep], self.run_len[keep]
-        self.run_vals = self.run_vals[keep]
+        if self.floor > 0.0:
+            self.vals = self.vals[keep]
+        else:
+            self.run_vals = self.run_vals[keep]
 
 
 def _lookup(sorted_keys: np.ndarray, keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

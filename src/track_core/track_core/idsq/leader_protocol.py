@@ -27,7 +27,14 @@ Protocol (Table 1 of Liu, Reich, Zhao 2002, one leader at a time):
 - Start (§5.1): with the truth of step 0 every sensor computes every sensor's step-0 amplitude
   reading (a function of the seed, the sensor and the step only); the acoustic sensor with the
   highest reading leads step 0 from the uniform belief. All sensors agree without messages;
-  this stands in for the election the paper does not describe.
+  this stands in for the election the paper does not describe. ``SensorSetup.start`` = 'election'
+  (beyond the paper; ``start_belief``): the start leader also keeps the step-0 amplitude readings of
+  its radio neighbours, which its election compared with its own (a DOA array is a set of
+  microphones too), and leads step 0 from the uniform belief updated with each of them (eq. 6, as a
+  leader's own reading). One amplitude reading bounds the range only (a disk of radius a_hi/z), and a
+  near DOA leader's bearing at step 1 then favours the far end of its ray (its near-field σ(r) is
+  wide, the wedge grows with r): the belief sat 30-50 m off for 2-3 steps. The neighbours' disks
+  intersect round the source. After step 0 the protocol is the paper's, one leader per step.
 - Leader failure (beyond the paper): a handoff not acknowledged before its timeout (the node's
   steady-clock timer calls ``timeout``) or refused with a nack is re-sent to the next sensor of
   ``handoff_order``: the other candidates by decreasing MI, then the previous leader (if a
@@ -95,11 +102,11 @@ from track_core.idsq.handoff import (
     read_package,
     validate_handoff,
 )
-from track_core.idsq.models import SimNoise, TrackerParams, loudest_source, simulate_measurement
+from track_core.idsq.models import SimNoise, TrackerParams, amplitude_reading, loudest_source, simulate_measurement
 from track_core.idsq.network import SensorLayout
 from track_core.idsq.network import handoff_targets as core_handoff_targets
 from track_core.idsq.simulation import scenario_of, start_leader_at
-from track_core.idsq.tracker import LeaderStepResult, leader_step
+from track_core.idsq.tracker import LeaderStepResult, leader_step, update
 
 MEASUREMENT_KEY, SELECTION_KEY = 3, 4
 MAX_TRUTH = 4096  # buffered truth steps per sensor (the §5.1 track has 72)
@@ -137,6 +144,26 @@ def selection_rng(seed: int, sensor: int, step: int) -> np.random.Generator:
 
 
 loudest = loudest_source  # (sources (2,) or (M, 2), sensor (2,)) → the nearest source: what the sensor hears
+
+
+STARTS = ('uniform', 'election')
+
+
+def start_belief(layout: SensorLayout, leader: int, truth0: np.ndarray, noise: SimNoise, seed: int, grid: GridSpec,
+                 p: TrackerParams, start: str = 'uniform') -> SparseBelief:
+    """The belief the start leader leads step 0 from: 'uniform' (§5.1), or 'election' (module docstring):
+    the uniform belief updated (``tracker.update``, eq. 6) with the step-0 amplitude reading of each
+    radio neighbour of ``leader`` (``SensorLayout.neighbours``), drawn as in ``start_leader_of``."""
+    if start not in STARTS:
+        raise ValueError(f'start={start!r} must be one of {STARTS}')
+    belief = uniform_belief(grid)
+    if start == 'uniform':
+        return belief
+    for k in np.asarray(layout.neighbours[leader]).tolist():
+        pos = layout.positions[k]
+        z = amplitude_reading(loudest_source(truth0, pos), pos, noise, measurement_normal(seed, k, 0))
+        belief, _ = update(belief, z, pos, False, p)
+    return belief
 
 
 def start_leader_of(layout: SensorLayout, truth0: np.ndarray, noise: SimNoise, seed: int) -> int:
@@ -329,6 +356,7 @@ class SensorSetup:
     selection: str = 'mi'
     truth_topics: tuple[str, ...] = ('truth',)  # names of the truth streams (the node's topics)
     ack_timeout: float = 2.0  # only named in the timeout warning; the node's timer measures it
+    start: str = 'uniform'  # the start leader's belief at step 0 (``start_belief``)
 
 
 class HandoffLedger:
@@ -455,9 +483,12 @@ class HandoffLedger:
             self.start_checked = True
             if start_leader_of(self.layout, self.truth[0], self.s.noise, self.s.seed) == self.me:
                 fx.append(Log('info', f'sensor {self.me} has the highest amplitude at step 0: leading from a '
-                                      'uniform belief'))
+                                      + ('uniform belief' if self.s.start == 'uniform' else
+                                         "belief holding its neighbours' election readings")))
                 if self.pending is None:
-                    self.pending = Pending(uniform_belief(self.s.grid), 0, None)
+                    self.pending = Pending(start_belief(self.layout, self.me, self.truth[0], self.s.noise,
+                                                        self.s.seed, self.s.grid, self.s.tracker, self.s.start),
+                                           0, None)
         while self.pending is not None and self.pending.step in self.truth:
             pend, self.pending = self.pending, None
             fx += self._lead(pend)

@@ -119,8 +119,7 @@ class FusionNode(TrackNode):
                                    same_source_pairs=p.same_source_pairs, stale_after=p.stale_after,
                                    max_prediction=p.max_prediction, q_s=p.q_s, seed=p.seed,
                                    stamp_rate=p.rate if p.schedule == 'stamps' else None,
-                                   stamp_streams=streams,
-                                   stamp_max_wait=p.stamps_max_wait)
+                                   stamp_streams=streams, stamp_max_wait=p.stamps_max_wait, floor=p.floor)
         self.markers = FusionMarkers(lifetime=2.0 / min(p.rate, p.display_rate))
         self.stamps = StampMonotonic()
         self.policy = InputPolicy(horizon=p.stamp_horizon, lead=p.stamp_lead)

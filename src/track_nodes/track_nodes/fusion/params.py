@@ -27,6 +27,9 @@ class FusionParams:
                              0.0, 1.0, live=True)
     combine: str = param('geometric', 'track-level combination of instant scores', choices=('geometric', 'harmonic'))
     window: int = param(10, 'instant scores kept per pair for the combination', 1, 100_000)
+    floor: float = param(0.0, 'floor ε of an instant score in the combination: a disjoint instant enters the mean as '
+        'ε (0: the paper\'s means, one disjoint instant vetoes the window; e^-2 = 0.135: a 2σ ellipse misses its '
+        'target that often; track_core.geofeasibility.track)', 0.0, 0.999)
     stale_after: float = param(2.0, 'a position report older than this drops out [s]', 1e-3, 1e6, live=True)
     max_prediction: float = param(10.0, 'an Odometry track predicted further than this drops out [s]',
                                   1e-3, 1e6, live=True)

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from track_core.idsq import GridSpec, SimNoise, TrackerParams
-from track_core.idsq.leader_protocol import SensorSetup
+from track_core.idsq.leader_protocol import STARTS, SensorSetup
 from track_core.idsq.models import DEG
 from track_core.idsq.prediction import PREDICTIONS
 from track_core.idsq.tracker import SELECTIONS
@@ -46,6 +46,8 @@ class SensorParams:
     prediction: str = param('diffusion', 'belief prediction: diffusion (§2.1), or drift / bank (velocity-aware, '
                             'track_core.idsq.prediction)', choices=PREDICTIONS)
     ack_timeout: float = param(2.0, 'steady-clock wait for an ack before re-selecting [s]', 1e-3, 600.0)
+    start: str = param('uniform', 'belief of the start leader at step 0: uniform (§5.1) or election (also its '
+                       'radio neighbours\' step-0 amplitude readings; track_core.idsq.leader_protocol)', choices=STARTS)
     track_id: str = param('idsq_track', 'child_frame_id of the estimate')
     truth_topics: list[str] = param([IDSQ_TRUTH], 'Odometry truth topics of the sources; each sensor senses the '
                                     'loudest (nearest) source (track_core.idsq.leader_protocol)')
@@ -68,4 +70,4 @@ def sensor_setup(p: SensorParams, position: np.ndarray, truth_topics: tuple[str,
                        r_near=p.r_near, r_far=p.r_far, sigma_doa=p.sigma_doa_deg * DEG, prediction=p.prediction)
     noise = SimNoise(amplitude=p.amplitude, sigma_a=p.noise_sigma_a, sigma_doa=p.noise_sigma_doa_deg * DEG)
     return SensorSetup(int(p.id), position, p.type == 'doa', GridSpec.for_field(p.width, p.height, p.cell), tp,
-                       noise, p.seed, p.selection, truth_topics, p.ack_timeout)
+                       noise, p.seed, p.selection, truth_topics, p.ack_timeout, p.start)

@@ -173,6 +173,7 @@ track_launch:
     threshold: 0.5
     combine: geometric
     window: 10                 # the fusion default: a true pair's instant scores dip below 0.5 now and then
+    floor: 0.1353352832366127  # e^-2: a disjoint instant is evidence, not a veto (track_core.geofeasibility.track)
     stale_after: 2.5
     max_prediction: 3.0
     q_s: 1.0
@@ -202,6 +203,7 @@ _SENSOR = '''
     comm_range: {comm_range!r}
     selection: mi
     prediction: bank
+    start: election
     ack_timeout: 2.0
     truth_topics: [/sonar/target/truth, /radar/truth]
 '''

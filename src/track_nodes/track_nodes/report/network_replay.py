@@ -34,9 +34,14 @@ import numpy as np
 import yaml
 
 from track_core.fusion import PairAssociator, TrackReport
-from track_core.idsq.grid import uniform_belief
 from track_core.idsq.handoff import decode_handoff
-from track_core.idsq.leader_protocol import loudest, measurement_normal, stamp_of_step, start_leader_of
+from track_core.idsq.leader_protocol import (
+    loudest,
+    measurement_normal,
+    stamp_of_step,
+    start_belief,
+    start_leader_of,
+)
 from track_core.idsq.models import simulate_measurement
 from track_core.idsq.network import SensorLayout
 from track_core.idsq.tracker import leader_step
@@ -75,7 +80,9 @@ def replay(d: dict, setup, layout: SensorLayout) -> list[dict]:
     steps = sorted(s for s, v in by_step.items() if s >= 0 and len(v) == 2)
     truth = {s: np.array([by_step[s][mar.RADAR_DECOY], by_step[s][mar.NETWORK_TRACK]]) for s in steps}
     leader, prev = start_leader_of(layout, truth[steps[0]], setup.noise, setup.seed), None
-    belief, rows = uniform_belief(setup.grid), []
+    belief = start_belief(layout, leader, truth[steps[0]], setup.noise, setup.seed, setup.grid, setup.tracker,
+                          setup.start)
+    rows = []
     for s in steps:  # the leader of each step (one after the other: a step needs the previous handoff)
         pos, doa = layout.positions[leader], bool(layout.is_doa[leader])
         z = simulate_measurement(loudest(truth[s], pos), pos, doa, setup.noise,
@@ -91,7 +98,7 @@ def replay(d: dict, setup, layout: SensorLayout) -> list[dict]:
     return rows
 
 
-FUSION_KEYS = ('method', 'threshold', 'combine', 'window', 'stale_after', 'max_prediction', 'q_s')
+FUSION_KEYS = ('method', 'threshold', 'combine', 'window', 'floor', 'stale_after', 'max_prediction', 'q_s')
 
 
 def fusion_of(scenario: Path | dict) -> dict:
@@ -104,11 +111,12 @@ def fusion_of(scenario: Path | dict) -> dict:
 def fuse(d: dict, rows: list[dict], **fusion) -> dict[tuple[str, str], np.ndarray]:
     """Scores per pair (sorted ids → rows t, score, combined, associated), as ``maritime.load`` reads a bag;
     ``fusion``: the fusion node's settings (``fusion_of``; default config/maritime.yaml's)."""
-    f = {'method': 'exact', 'threshold': 0.5, 'combine': 'geometric', 'window': 10, 'stale_after': 2.5,
+    f = {'method': 'exact', 'threshold': 0.5, 'combine': 'geometric', 'window': 10, 'floor': 0.0, 'stale_after': 2.5,
          'max_prediction': 3.0, 'q_s': 1.0, **fusion}
     fa = PairAssociator(f['method'], float(f['threshold']), f['combine'], int(f['window']),
                         stale_after=float(f['stale_after']), max_prediction=float(f['max_prediction']),
-                        q_s=float(f['q_s']), stamp_rate=1.0)  # schedule: stamps at 1 Hz, as config/maritime.yaml
+                        q_s=float(f['q_s']), stamp_rate=1.0,  # schedule: stamps at 1 Hz, as config/maritime.yaml
+                        floor=float(f['floor']))
     tracks = dict(d['tracks'])
     tracks[mar.NETWORK_TRACK] = (np.array([r['t'] for r in rows]), np.array([r['mean'] for r in rows]),
                                np.array([r['cov'] for r in rows]))

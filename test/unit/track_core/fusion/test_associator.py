@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 
 from track_core.fusion import PairAssociator, TrackReport
+from track_core.geofeasibility import FLOOR_2SIGMA
 
 DATA = json.loads((Path(__file__).parent / 'data/associator_cases.json').read_text())
 
@@ -121,6 +122,42 @@ def test_window_combination_threshold_and_fusion():
     assert q.combined == 1.0 and q.associated
 
 
+def test_a_floor_makes_one_disjoint_instant_evidence_not_a_veto():
+    """floor ε: a true pair disjoint at one instant stays associated (ε^(1/n) in the geometric mean), listed
+    with score 0 and fused; a pair never a candidate stays at 0 and unstored; K disjoint instants forget it."""
+    core = PairAssociator('exact', threshold=0.5, combine='geometric', window=4, floor=FLOOR_2SIGMA)
+    R = np.eye(2) * 4.0
+
+    def at(t, xb):
+        core.update('/a', 'a', TrackReport(t, np.zeros(2), R))
+        core.update('/b', 'b', TrackReport(t, np.array([xb, 0.0]), R))
+        core.update('/c', 'decoy', TrackReport(t, np.array([500.0, 500.0]), R))
+        inst = core.score(t)
+        return {(q.a, q.b): q for q in inst.all_pairs()}, inst
+
+    for t in range(3):
+        at(float(t), 0.0)
+    pairs, inst = at(3.0, 100.0)                       # disjoint: exact score 0
+    q = pairs[('a', 'b')]
+    assert q.score == 0.0 and q.instants == 4
+    assert math.isclose(q.combined, FLOOR_2SIGMA ** 0.25) and q.associated     # e^(-1/2) = 0.61
+    assert [(f.a, f.b) for f in inst.fused] == [('a', 'b')]
+    assert ('a', 'b') in [(p.a, p.b) for p in inst.pairs]  # passed to the window although not a candidate
+    for p in ('a', 'b'):
+        d = pairs[tuple(sorted((p, 'decoy')))]
+        assert (d.combined, d.associated) == (0.0, False)
+    assert set(core.history) == {('a', 'b')}           # the decoy's pairs are not stored
+    pairs, _ = at(4.0, 100.0)                          # two disjoint instants of 4: ε^(1/2) = 0.37
+    assert math.isclose(pairs[('a', 'b')].combined, FLOOR_2SIGMA ** 0.5) and not pairs[('a', 'b')].associated
+    at(5.0, 100.0)
+    pairs, _ = at(6.0, 100.0)                          # 4 disjoint instants: nothing speaks for the pair
+    assert pairs[('a', 'b')].combined == 0.0 and core.history == {}
+    pairs, _ = at(7.0, 0.0)                            # together again: ε³·1 over the window of 4
+    assert math.isclose(pairs[('a', 'b')].combined, FLOOR_2SIGMA ** 0.75)
+    with pytest.raises(ValueError, match='floor'):
+        PairAssociator(floor=1.0)
+
+
 def test_nothing_to_score_and_bad_settings():
     core = PairAssociator()
     assert core.score(0.0) is None
@@ -172,10 +209,10 @@ def test_valid_batches_take_the_batch_path_unchanged():
     assert inst.skipped == () and len(inst.all_pairs()) == 1
 
 
-def _picture_run(gate: bool, combine: str, seed: int, rows_scored: list | None = None):
+def _picture_run(gate: bool, combine: str, seed: int, rows_scored: list | None = None, floor: float = 0.0):
     """60 tracks of two sources in clusters, moving, some dropping out: every instant's pairs and fusions."""
     rng = np.random.default_rng(seed)
-    core = PairAssociator('exact', 0.3, combine, 4, gate=gate, stale_after=1.5)
+    core = PairAssociator('exact', 0.3, combine, 4, gate=gate, stale_after=1.5, floor=floor)
     centre = rng.uniform(0, 400.0, (60, 2))
     centre[30:] = centre[:30] + rng.normal(0, 3.0, (30, 2))       # source 2 sees the ships of source 1
     vel = rng.normal(0, 2.0, (60, 2))
@@ -195,13 +232,14 @@ def _picture_run(gate: bool, combine: str, seed: int, rows_scored: list | None =
 
 @pytest.mark.parametrize('combine', ['geometric', 'harmonic'])
 @pytest.mark.parametrize('seed', [0, 1])
-def test_the_gate_changes_no_pair_result(combine, seed, monkeypatch):
+@pytest.mark.parametrize('floor', [0.0, FLOOR_2SIGMA])
+def test_the_gate_changes_no_pair_result(combine, seed, floor, monkeypatch):
     import track_core.geofeasibility.gate as gate_mod
 
     scored = []
     real = gate_mod.score
     monkeypatch.setattr(gate_mod, 'score', lambda mu1, *a, **kw: scored.append(len(mu1)) or real(mu1, *a, **kw))
-    gated = _picture_run(True, combine, seed)
-    assert _picture_run(False, combine, seed) == gated
+    gated = _picture_run(True, combine, seed, floor=floor)
+    assert _picture_run(False, combine, seed, floor=floor) == gated
     assert sum(len(x) for x in gated) > 10 * sum(scored)         # most pairs were never scored
     assert any(q[3] > 0 for x in gated for q in x if len(q) == 6)  # and some pairs were associated

@@ -1,7 +1,17 @@
+import math
+
 import numpy as np
 import pytest
 
-from track_core.geofeasibility import PairWindows, ScoreWindow, combine_scores, common_instants, score, track_score
+from track_core.geofeasibility import (
+    FLOOR_2SIGMA,
+    PairWindows,
+    ScoreWindow,
+    combine_scores,
+    common_instants,
+    score,
+    track_score,
+)
 
 
 def test_means():
@@ -77,6 +87,47 @@ def test_pair_windows_equal_one_score_window_per_pair(mean, k):
             assert (c, m) == (ref[p].value(), len(ref[p]))
     assert passed > 0.8 * 0.7 * 0.5 * 40 * n_pairs
     assert len(win) <= n_pairs and np.all(win.run_len >= 1)     # only positive runs are stored
+
+
+@pytest.mark.parametrize('mean', ['harmonic', 'geometric'])
+@pytest.mark.parametrize('k', [1, 3, 10])
+def test_pair_windows_with_a_floor_equal_one_score_window_per_pair(mean, k):
+    """With a floor, PairWindows fills the instants a pair was not passed with zeros, as ScoreWindow sees them."""
+    rng = np.random.default_rng(100 + k)
+    n_pairs, floor = 40, FLOOR_2SIGMA
+    ref = {p: ScoreWindow(mean, max_instants=k, floor=floor) for p in range(n_pairs)}
+    total = np.zeros(n_pairs, np.int64)
+    win = PairWindows(mean, max_instants=k, floor=floor)
+    floored = 0
+    for step in range(40):
+        in_call = np.flatnonzero(rng.random(n_pairs) < 0.7)
+        g = np.where(rng.random(in_call.size) < 0.3, 0.0, rng.uniform(1e-3, 1.0, in_call.size))
+        total[in_call] += 1
+        for p, v in zip(in_call, g, strict=True):
+            ref[p].add(float(step), float(v))
+        sent = (g > 0) | (rng.random(in_call.size) < 0.5)
+        keys = in_call[sent]
+        combined, instants = win.add(keys * 7 + 3, g[sent], float(step), total[keys])
+        for p, c, m in zip(keys, combined, instants, strict=True):
+            assert (c, m) == (ref[p].value(), len(ref[p]))
+            floored += bool(c > 0 and any(v == 0 for _, v in ref[p]._buf))
+            # a window with no positive score is not stored
+            assert (p * 7 + 3 in win.keys) == any(v > 0 for _, v in ref[p]._buf)
+    assert floored > 20 or k == 1                         # windows holding a zero and still positive
+
+
+def test_a_floor_is_evidence_not_a_veto_and_changes_nothing_above_it():
+    e = FLOOR_2SIGMA
+    assert math.isclose(combine_scores([1.0, 0.0, 1.0], 'geometric', e), e ** (1 / 3))
+    assert math.isclose(combine_scores([1.0, 0.0], 'harmonic', e), 2 / (1 + 1 / e))
+    assert combine_scores([0.0, 0.0], 'geometric', e) == 0.0           # nothing speaks for the pair
+    assert combine_scores([0.3, 0.9], 'geometric', e) == combine_scores([0.3, 0.9], 'geometric')
+    assert combine_scores([1.0, 0.0, 1.0], 'geometric') == 0.0          # floor 0: the paper's means
+    for bad in (-0.1, 1.0, float('nan')):
+        with pytest.raises(ValueError, match='floor'):
+            combine_scores([0.5], 'geometric', bad)
+        with pytest.raises(ValueError, match='floor'):
+            PairWindows('geometric', 3, bad)
 
 
 def test_pair_windows_refuse_what_score_window_refuses():
