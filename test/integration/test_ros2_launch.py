@@ -256,6 +256,21 @@ def test_launch_service_runs_demo_like_the_launcher(launch_env, repo, tmp_path, 
                                                                '--rate', '20')
 
 
+def test_launch_service_runs_maritime_like_the_launcher(launch_env, repo, tmp_path, env_factory):
+    """The walk-through ``ros2 launch track_nodes maritime.launch.py``, 8 s from the same epoch: the launcher's
+    summary, line for line (the picture's path aside)."""
+    env = env_factory()
+    proc = run_launch(launch_env, tmp_path, 'maritime', 'record:=launched', 'duration:=8', f'epoch:={EPOCH}',
+                      domain=env['ROS_DOMAIN_ID'])
+    out = proc.communicate(timeout=900)[0]
+    assert proc.returncode == 0, out
+    assert DIED not in out and 'Traceback' not in out, out
+    launched = [line.split('] ', 1)[1] for line in out.splitlines() if line.startswith('[summary-')]
+    ref = launcher_summary(repo, tmp_path, env, 'maritime', '--duration', '8')
+    assert [x.replace('/launched/', '/BAG/') for x in summary_of('\n'.join(launched))] == [
+        x.replace('/launcher/', '/BAG/') for x in ref]
+
+
 def test_ctrl_c_of_ros2_launch_reports_no_node_died(launch_env, tmp_path, env_factory):
     """The terminal's SIGINT to the whole process group (launch and its nodes), launch's own SIGINT after it."""
     env = env_factory()

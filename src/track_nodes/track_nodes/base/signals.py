@@ -20,6 +20,13 @@ the ``KeyboardInterrupt`` of the first one: no instant is left between the first
 even the few bytecodes before a ``finally`` (rclpy, initialised after ``stop_on``, chains its own
 handler to it). Teardown is bounded by the DDS alarm (``base/teardown.py``), so nothing is lost.
 
+Spinning. A ``KeyboardInterrupt`` raised wherever the main thread happens to be can land inside an
+object's ``__init__`` (an executor's ``Task`` for the next callback): the half-built object's
+``__del__`` then prints a traceback, and a callback cut in the middle leaves its node's state half
+updated. So while ``spin(executor)`` runs, the first stop only marks the process as stopping; the loop
+ends after the callback in progress (a turn waits at most ``POLL``) and raises the
+``KeyboardInterrupt`` there. Outside ``spin`` (building the nodes, a tool's own loop) it raises at once.
+
 A signal that is ignored when ``stop_on`` is called (``nohup`` ignores SIGHUP) stays ignored. SIGINT
 is handled even where it was ignored (a non-interactive shell's ``&`` does that): a process that
 stops on SIGTERM stops on SIGINT too.
@@ -40,10 +47,12 @@ def _as_sigint(signum: int, frame: Any) -> None:
 
 
 def _first_stop(signum: int, frame: Any) -> None:
-    """SIGINT: hold every later stop signal (module doc, Teardown), then stop as Ctrl-C does."""
+    """SIGINT: hold every later stop signal (module doc, Teardown), then stop as Ctrl-C does (inside
+    ``spin``: at its next turn, module doc, Spinning)."""
     HELD.stopping = True
     hold_stops()
-    raise KeyboardInterrupt
+    if not HELD.spinning:
+        raise KeyboardInterrupt
 
 
 def stop_on(*signals: int) -> list[int]:
@@ -65,6 +74,7 @@ def stop_on(*signals: int) -> list[int]:
 
 class _Held:
     count = 0
+    spinning = False  # inside spin(): a stop ends the loop at its next turn instead of raising where it lands
     # A stop signal arrived. Its KeyboardInterrupt, raised while rclpy is inside pybind11 (a take's message
     # conversion), comes out as a RuntimeError ('Unable to convert call argument'): that error is the stop.
     stopping = False
@@ -90,6 +100,13 @@ def hold_stops() -> None:
 
 
 def spin(executor) -> None:
-    """``executor.spin()``, waking every ``POLL`` s so that a stop signal's Python handler runs."""
-    while executor.context.ok():
-        executor.spin_once(timeout_sec=POLL)
+    """``executor.spin()``, waking every ``POLL`` s so that a stop signal's Python handler runs; a stop
+    signal raises ``KeyboardInterrupt`` here, between two turns (module doc, Spinning)."""
+    HELD.spinning = True
+    try:
+        while executor.context.ok() and not HELD.stopping:
+            executor.spin_once(timeout_sec=POLL)
+    finally:
+        HELD.spinning = False
+    if HELD.stopping:
+        raise KeyboardInterrupt
