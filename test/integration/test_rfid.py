@@ -389,6 +389,12 @@ def test_an_llrp_hopping_reader_with_relock_and_online_noise_finds_the_tag(ros, 
     assert all(m.relocks >= 0 for m in moves)
 
 
+def test_the_simulators_heavy_tailed_reads_are_node_parameters(ros, repo):
+    """noise_dof / noise_burst_s reach the simulated world (Student-t reads in fades), as the experiments use."""
+    reader = _node(ros, repo, RfidReaderNode, 'rfid_reader', noise_dof=3.0, noise_burst_s=0.05)
+    assert (reader.world.noise_dof, reader.world.noise_burst_s) == (3.0, 0.05)
+
+
 # --- protocol windows (issue 13, defects 4 and 6) --------------------------------------------------------
 
 def test_reader_refuses_a_seq_far_ahead_and_keeps_answering(ros, repo):

@@ -116,6 +116,10 @@ class RfidReaderParams(PhaseParams):
                                           '0 [MHz]')
     phase_step_rate: float = param(0.0, 'simulated lasting multipath phase steps per second; 0 = none [1/s]', 0.0, 1e3)
     phase_step_size: list[float] = param([0.8, 2.5], 'their size, uniform in [lo, hi], random sign [rad]')
+    noise_dof: float = param(_W.noise_dof, 'heavy-tailed reads: Student-t read noise with this ν; 0 = Gaussian (the '
+                             'paper)', 0.0, 1e6)
+    noise_burst_s: float = param(_W.noise_burst_s, 'time over which the t noise keeps its scale (a fade) [s]',
+                                 1e-6, 60.0)
     relock_reads: int = param(0, 'signal processing: agreeing reads that re-lock after a lasting phase step; 0 = never',
                               0, 1000)
     noise: str = param('fixed', 'signal processing: fixed (the paper), online (per-read noise from the data) or '
@@ -147,7 +151,8 @@ def world_params(p) -> WorldParams:
             s_r=p.s_r, s_a=math.radians(p.s_a_deg), found_radius=p.found_radius, step_model=p.step_model,
             obstacles=office_obstacles() if p.obstacles == 'office' else (), hop_dwell_s=p.hop_dwell_s,
             channels_hz=tuple(1e6 * f for f in p.hop_channels_mhz) if p.hop_dwell_s > 0 else (),
-            phase_step_rate=p.phase_step_rate, phase_step_size=tuple(p.phase_step_size))
+            phase_step_rate=p.phase_step_rate, phase_step_size=tuple(p.phase_step_size), noise_dof=p.noise_dof,
+            noise_burst_s=p.noise_burst_s)
     except ValueError as exc:
         raise ParameterError(f'invalid world parameters: {exc}') from None
 
