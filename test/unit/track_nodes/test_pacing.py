@@ -43,16 +43,16 @@ def test_header_stamp_of_a_serialized_message():
     assert header_stamp_ns(b'\x00\x01') is None
 
 
-def test_a_periodic_topic_behind_holds_the_clock_one_period_ahead_at_most():
+def test_a_periodic_topic_behind_holds_the_clock_two_periods_ahead_at_most():
     c = Cadence()
     for k in range(3):
         c.seen('/idsq/estimate', (k + 1) * S)  # stamps 1, 2, 3 s: period 1 s
     assert c.period('/idsq/estimate') == S
     assert c.holding(4 * S, 0.0) is None  # its stamp 4 is due at node time 4: not behind yet
-    assert c.holding(5 * S - 1, 0.0) is None
-    assert c.holding(5 * S, 0.0) == '/idsq/estimate'  # passing 5 s before it delivered 4 s: held
+    assert c.holding(6 * S - 1, 0.0) is None  # a topic derived from the next period's inputs trails by one
+    assert c.holding(6 * S, 0.0) == '/idsq/estimate'  # passing 6 s before it delivered 4 s: held
     c.seen('/idsq/estimate', 4 * S)
-    assert c.holding(5 * S, 0.1) is None
+    assert c.holding(6 * S, 0.1) is None
 
 
 def test_irregular_and_stopped_topics_hold_nothing_for_long():

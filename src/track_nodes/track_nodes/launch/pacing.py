@@ -73,6 +73,7 @@ def node_time(k: int, step: float, duration: float | None) -> float:
 
 # --- holding the clock for other processes ---------------------------------------------------------
 HOLD_MAX = 5.0  # [wall s] the longest the clock waits for one topic; then that topic no longer holds it
+LAG_PERIODS = 3  # the clock waits for a periodic topic whose latest stamp L is this many periods old (Cadence)
 SAME_GAP_NS = 1_000  # two stamp gaps within this are the same period
 
 
@@ -93,11 +94,17 @@ class Cadence:
     other processes cannot be observed, and on a busy machine a slow one (an IDSQ field of 40 sensors
     in one process) can fall a whole step behind the others: a node that merges topics by stamp (the
     fusion node's ``schedule:=stamps``) then sees a later stamp of one topic before an earlier one of
-    another, and scores differently. A topic is *periodic* once its last two stamp gaps are equal (period
-    P); the clock must not reach L + 2P while its latest stamp is L, i.e. its message of L + P (due at
-    node time L + P) must have arrived before the clock passes one more period. A topic that keeps the
-    clock waiting ``HOLD_MAX`` wall seconds (it stopped, or was never periodic) holds it no more until it
-    shows a period again.
+    another, and scores differently (the stamp schedule now waits for every input's watermark, so it no
+    longer depends on this; a network far behind still would, after ``stamps_max_wait``). A topic is
+    *periodic* once its last two stamp gaps are equal (period P); the clock must not reach
+    L + ``LAG_PERIODS``·P while its latest stamp is L, i.e. its message of L + P (due at node time
+    L + P) must have arrived before the clock passes two more periods. Two, not one: a topic computed
+    from other processes' messages of the next period trails by a period of its own. The fusion node's
+    instant t is due once every input has delivered t + P, the network's estimate of t + P leaves after
+    node time t + P, so the fusion's output of t leaves after t + P too; with one period the clock
+    would wait at t + 2P for an output that needs the network's t + 2P (a stall of ``HOLD_MAX`` at
+    every step). A topic that keeps the clock waiting ``HOLD_MAX`` wall seconds (it stopped, or was
+    never periodic) holds it no more until it shows a period again.
     """
 
     def __init__(self) -> None:
@@ -121,7 +128,7 @@ class Cadence:
         """The topic that must deliver before /clock may reach ``next_ns`` (None: go on)."""
         for topic in sorted(self.gaps):
             p = self.period(topic)
-            if p is None or next_ns < self.last[topic] + 2 * p:
+            if p is None or next_ns < self.last[topic] + LAG_PERIODS * p:
                 continue
             if self.waiting is None or self.waiting[0] != topic:
                 self.waiting = (topic, now)
