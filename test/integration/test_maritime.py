@@ -145,7 +145,7 @@ def test_offline_replay_reproduces_the_recorded_network_and_scores(maritime_run)
     np.testing.assert_array_equal([r['mean'] for r in rows], x)
     np.testing.assert_array_equal([r['cov'] for r in rows], P)
     assert all((r['bytes'] - HEADER_BYTES - BANK_BYTES) % 8 == 0 and r['bytes'] > 1000 for r in rows)
-    scores = network_replay.fuse(d, rows)
+    scores = network_replay.fuse(d, rows, **network_replay.fusion_of(cfg))  # the run's fusion settings
     assert scores.keys() == d['scores'].keys()
     for pair, got in scores.items():  # the record carries the scores with 6 decimals
         want = d['scores'][pair]

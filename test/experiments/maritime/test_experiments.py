@@ -17,9 +17,10 @@ def test_quick_seeds_meet_the_network_goal(tmp_path, capsys):
     for s, r in data['seeds'].items():  # the goal: RTAMS <= 15 m, true pair >= 95 %, decoy never
         assert r['rtams'] <= 15.0 and r['fraction'] >= 0.95 and not r['decoy_ever'] and r['meets'], (s, r)
         assert r['instants'] >= 25
+        assert 2 <= r['pings'] < 32  # the scenario's two initial pings, then eq. 7: not active at every step
     assert data['met'] == 3
     text = capsys.readouterr().out
-    assert '3 of 3 seeds meet the goal' in text and 'worst RTAMS seed' in text
+    assert '3 of 3 seeds meet the goal' in text and 'worst RTAMS seed' in text and 'pings per run' in text
 
 
 def test_seed_options():

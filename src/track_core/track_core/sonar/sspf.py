@@ -633,11 +633,13 @@ def make_tracker(
     merge: bool = True,
     prior_inflation: float = PRIOR_INFLATION,
     prediction: str = 'unscented',
+    initial_pings: int = 1,
 ) -> SSPF:
-    """'ss-pf' (eq. 7 scheduling), 'papf' (passive only) or 'acpf' (active only)."""
+    """'ss-pf' (eq. 7 scheduling; ``initial_pings`` active steps at the start, ``scheduler``), 'papf'
+    (passive only) or 'acpf' (active only)."""
     if kind == 'ss-pf':
         sched: CovarianceScheduler | FixedScheduler = CovarianceScheduler(
-            P_D, delta, metric=metric, block=block, cov_kind=cov_kind, params=params)
+            P_D, delta, metric=metric, block=block, cov_kind=cov_kind, params=params, initial_pings=initial_pings)
     elif kind == 'papf':
         sched = FixedScheduler(SensorMode.PASSIVE)
     elif kind == 'acpf':

@@ -36,6 +36,7 @@ def run_seed(seed: int, fusion: dict | None = None, **tracker) -> dict:
     rows = network_replay.replay(d, setup, layout)
     scores = network_replay.fuse(d, rows, **{**network_replay.fusion_of(cfg), **(fusion or {})})
     s = network_replay.summary(d, rows, scores)
+    s['pings'] = len(d['pings'])  # the observer's active steps: what concealment costs
     s['meets'] = bool(s['rtams'] <= RTAMS_GOAL and s['fraction'] >= FRACTION_GOAL and not s['decoy_ever'])
     return s
 
@@ -55,17 +56,19 @@ def parse_seeds(text: str) -> list[int]:
 def maritime_seeds(cfg: RunConfig) -> Outcome:
     seeds = parse_seeds(cfg.options.get('seeds', '1-3' if cfg.quick else '1-20'))
     res = {s: run_seed(s) for s in cfg.progress(seeds, desc='maritime-seeds')}
-    rows = [[s, r['rtams'], r['error_max'], 100 * r['fraction'], r['instants'], r['decoy_ever'],
+    rows = [[s, r['rtams'], r['error_max'], 100 * r['fraction'], r['instants'], r['decoy_ever'], r['pings'],
              'yes' if r['meets'] else 'NO'] for s, r in res.items()]
-    table = format_table(['seed', 'RTAMS m', 'max err m', 'true pair %', 'instants', 'decoy assoc.', 'goal'], rows)
+    table = format_table(['seed', 'RTAMS m', 'max err m', 'true pair %', 'instants', 'decoy assoc.', 'pings', 'goal'],
+                         rows)
     worst_r = max(res, key=lambda s: res[s]['rtams'])
     worst_f = min(res, key=lambda s: res[s]['fraction'])
     met = sum(r['meets'] for r in res.values())
     table += (f'\n{met} of {len(res)} seeds meet the goal (RTAMS <= {RTAMS_GOAL:g} m, true pair >= '
               f'{100 * FRACTION_GOAL:g} % after convergence, decoy never); worst RTAMS seed {worst_r}: '
               f"{res[worst_r]['rtams']:.1f} m (max error {res[worst_r]['error_max']:.1f} m); worst true-pair seed "
-              f"{worst_f}: {100 * res[worst_f]['fraction']:.1f} % of {res[worst_f]['instants']} instants")
+              f"{worst_f}: {100 * res[worst_f]['fraction']:.1f} % of {res[worst_f]['instants']} instants; "
+              f"{sum(r['pings'] for r in res.values()) / len(res):.2f} pings per run")
     data = {'seeds': {str(s): {k: r[k] for k in ('rtams', 'error_max', 'fraction', 'instants', 'decoy_ever', 'meets',
-                                                  'bytes_mean')} for s, r in res.items()},
+                                                  'bytes_mean', 'pings')} for s, r in res.items()},
             'met': met, 'n_seeds': len(res)}
     return Outcome(table, data)

@@ -133,6 +133,7 @@ track_launch:
     delta: 50.0                # as config/sonar.yaml
     P_D: [5.0, 0.25, 5.0, 0.25]
     metric: spectral
+    initial_pings: 2           # two active readings before eq. 7 decides: one 2.5-3σ range reading stays while trailing
     n_particles: 200
     regularize: true
     period: 1.0
@@ -172,7 +173,7 @@ track_launch:
     method: exact
     threshold: 0.5
     combine: geometric
-    window: 10                 # the fusion default: a true pair's instant scores dip below 0.5 now and then
+    window: 15                 # a true pair's scores dip for up to 5 instants between two pings: 5·2 ≤ 15·ln 2
     floor: 0.1353352832366127  # e^-2: a disjoint instant is evidence, not a veto (track_core.geofeasibility.track)
     stale_after: 2.5
     max_prediction: 3.0

@@ -90,7 +90,7 @@ def simulate(scenario: str | Path | dict, n_steps: int | None = None) -> dict:
     noise_ss, filter_ss = np.random.SeedSequence(op.seed).spawn(2)
     o_rng = np.random.default_rng(noise_ss)
     tracker = make_tracker(op.tracker, sonar, np.random.default_rng(filter_ss), P_D=_p_d(op.P_D), delta=op.delta,
-                           metric=op.metric, regularize=op.regularize)
+                           metric=op.metric, regularize=op.regularize, initial_pings=op.initial_pings)
     tracker.initialize(np.asarray(op.prior_mean, dtype=float), prior_cov)
     # radar (report_source setup)
     x0 = np.asarray(rp.targets, dtype=float).reshape(-1, 4)

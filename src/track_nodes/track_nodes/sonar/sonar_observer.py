@@ -107,6 +107,8 @@ class SonarObserverParams:
                              'vy]: 4 values (diagonal) or 16 (row-major 4x4), symmetric PSD')
     metric: str = param('spectral', 'eq. 7 distance: spectral ‖P_D − Cov‖₂ (paper) or excess λmax(Cov − P_D)',
                         choices=('spectral', 'excess'))
+    initial_pings: int = param(1, 'active steps at the start before eq. 7 decides (Algorithm 3: 1; '
+                               'track_core.sonar.scheduler)', 1, 1000)
     n_particles: int = param(200, 'number of particles N (Table 1: 200)', 1, 1_000_000)
     regularize: bool = param(True, 'Liu-West move after resampling (track_core.sonar.sspf; not in the paper)')
     period: float = param(1.0, 'sampling period T (Table 1: 1 s) [s]', 1e-3, 60.0)
@@ -191,7 +193,8 @@ class SonarObserverNode(TrackNode):
         noise_ss, filter_ss = np.random.SeedSequence(p.seed).spawn(2)
         self.noise_rng = np.random.default_rng(noise_ss)
         self.tracker = make_tracker(p.tracker, self.sonar, np.random.default_rng(filter_ss), P_D=P_D,
-                                    delta=p.delta, metric=p.metric, regularize=p.regularize)
+                                    delta=p.delta, metric=p.metric, regularize=p.regularize,
+                                    initial_pings=p.initial_pings)
         self.tracker.initialize(m0, prior_cov)
         self.gate = TruthGate(round(p.period * 1e9))  # step k = the truth of grid point k (track_core.sonar.lockstep)
         self.pings = 0
