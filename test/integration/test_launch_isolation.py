@@ -133,6 +133,53 @@ def test_watchdog_names_the_callback_that_blocks_and_stops(tmp_path, env_factory
     assert (tmp_path / 'bags/s/metadata.yaml').is_file()  # stopped the usual way: the bag is closed
 
 
+SLOW = '''
+import sys, time
+from track_nodes.base import TrackNode
+from track_nodes.launch import launcher, scenario
+
+class Slow(TrackNode):
+    """Test only: every callback takes 0.3 s of wall time and counts its start and its end on stderr."""
+    def setup(self):
+        self.create_timer(0.5, self.tick)
+
+    def tick(self):
+        print('tick start', file=sys.stderr, flush=True)
+        time.sleep(0.3)
+        print('tick end', file=sys.stderr, flush=True)
+
+known = scenario.NodeSpec.node_class
+scenario.NodeSpec.node_class = lambda self: Slow if self.executable == 'slow' else known(self)
+raise SystemExit(launcher.main(sys.argv[1:]))
+'''
+
+
+def test_sigterm_while_the_clock_runs_lets_the_callback_finish_and_closes_the_bag(tmp_path, env_factory):
+    """A stop signal during a run is taken between two callbacks: none is cut in the middle (every 'start'
+    has its 'end'), the run ends the usual way (exit 0, the bag closed)."""
+    (tmp_path / 'slow.yaml').write_text('track_launch:\n  ros__parameters:\n    nodes: [demo_target, "slow:slow"]\n'
+                                        '    record_regex: "^/demo/"\n')
+    (tmp_path / 'slow.py').write_text(SLOW)
+    proc = subprocess.Popen([sys.executable, str(tmp_path / 'slow.py'), str(tmp_path / 'slow.yaml'), '--record', 's',
+                             '--duration', '1000', '--rate', '10'], cwd=tmp_path, env=env_factory(),
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    lines: list[str] = []
+    try:
+        while sum(line.startswith('tick start') for line in lines) < 3:
+            line = proc.stderr.readline()
+            assert line, ''.join(lines)
+            lines.append(line)
+        proc.send_signal(signal.SIGTERM)   # most likely inside a 0.3 s callback
+        lines += proc.communicate(timeout=120)[1].splitlines(keepends=True)
+    finally:
+        proc.kill()
+    assert proc.returncode == 0, ''.join(lines)
+    ticks = [line.split()[1] for line in lines if line.startswith('tick ')]
+    assert ticks == ['start', 'end'] * (len(ticks) // 2), ticks
+    assert 'Traceback' not in ''.join(lines), ''.join(lines)
+    assert (tmp_path / 'bags/s/metadata.yaml').is_file()
+
+
 def test_watchdog_deadline_grows_with_the_graph_and_the_steps():
     from track_nodes.launch.lockstep import STALL_MIN, Watchdog
 

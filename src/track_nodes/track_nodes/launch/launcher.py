@@ -186,7 +186,11 @@ class Launch:
                 for node in nodes:
                     executor.add_node(node)
             self._wait_ready(launcher, executor, children)
-            self._drive(launcher, executor, children)
+            self._deferring = True  # a stop is taken between two callbacks from here (_on_stop_signal)
+            try:
+                self._drive(launcher, executor, children)
+            finally:
+                self._deferring = False
         except KeyboardInterrupt:
             pass
         finally:
@@ -247,6 +251,8 @@ class Launch:
             left = deadline - time.monotonic()
             if left <= 0:
                 return
+            if self._interrupted():
+                raise KeyboardInterrupt  # a stop signal, taken between two turns
             executor.spin_once(timeout_sec=min(left, 0.005))
 
     def _run_until_idle(self, executor: MultiThreadedExecutor) -> None:
@@ -261,11 +267,21 @@ class Launch:
         self._sig_r, self._sig_w = socket.socketpair()
         for sock in (self._sig_r, self._sig_w):
             sock.setblocking(False)
+        self._sigint = self._deferring = False
         with contextlib.suppress(ValueError):  # not the main thread: no watch
             signal.set_wakeup_fd(self._sig_w.fileno(), warn_on_full_buffer=False)
-            for sig in STOP_SIGNALS[1:]:
-                signal.signal(sig, signal.default_int_handler)
-        self._sigint = False
+            for sig in STOP_SIGNALS:
+                signal.signal(sig, self._on_stop_signal)
+
+    def _on_stop_signal(self, signum: int, frame) -> None:
+        """While the clock runs a stop is taken at the loop's next turn, between two callbacks: a
+        KeyboardInterrupt raised inside one (the recorder's, holding its writer's lock) could leave
+        teardown waiting on that lock until the process is killed, its bag unreadable. Elsewhere
+        (bring-up, teardown), and from the watchdog (a callback that does not return must be cut),
+        it is a KeyboardInterrupt at once, as before."""
+        self._sigint = True
+        if not self._deferring or (self.dog is not None and self.dog.stalled):
+            raise KeyboardInterrupt
 
     def _interrupted(self) -> bool:
         with contextlib.suppress(BlockingIOError, AttributeError, OSError):
@@ -372,6 +388,8 @@ class Launch:
         names = [s.name for s in self.sc.nodes] + ['recorder'] * (self.bag is not None) + [launcher.get_name()]
         foreign = ForeignCheck(launcher, names, None if children else [launcher, *self.nodes], self.sim)
         while self.context.ok():
+            if self._interrupted():
+                raise KeyboardInterrupt  # a stop signal, taken between two steps
             if any(c.poll() is not None for c in children):
                 return
             if (found := foreign.look()) is not None:

@@ -123,6 +123,8 @@ def run_ready(executor: Executor, context: Context, deadline: float | None, inte
     else until ``deadline`` (monotonic s)."""
     idle = 0
     while context.ok():
+        if interrupted():
+            raise KeyboardInterrupt  # a stop signal, taken between two callbacks (launcher._on_stop_signal)
         if deadline is None:
             if idle >= 2:
                 return
