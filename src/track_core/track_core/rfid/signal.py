@@ -360,6 +360,9 @@ def _precheck(stream: PhaseStream, cfg: UnwrapConfig) -> DphiEstimate | None:
         problem = (StreamStatus.INVALID, 'non-positive or non-finite carrier in the stream')
     elif np.any(np.diff(t) < 0):
         problem = (StreamStatus.INVALID, 'read times are not in order')
+    elif 2 * (distinct := np.unique(t).size) < n:   # the phase rate and the end fits need each read's time
+        problem = (StreamStatus.INVALID, f'{n} reads carry only {distinct} distinct times: the reader stamps '
+                   'reads in batches (each read needs its own time)')
     elif n < cfg.min_reads:
         problem = (StreamStatus.SIGNAL_LOST, f'signal lost: only {n} reads (< {cfg.min_reads})')
     elif stream.t_start is not None and t[0] - stream.t_start > cfg.max_edge_gap_s:

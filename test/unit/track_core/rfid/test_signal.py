@@ -155,6 +155,18 @@ def test_non_finite_or_unordered_reads_are_invalid():
     assert 'order' in process_move(PhaseStream(t[::-1], np.ones(100), np.ones(100))).reason
 
 
+@pytest.mark.parametrize('noise', ['fixed', 'online', 'robust'])
+def test_reads_stamped_in_batches_are_refused_with_the_reason(noise):
+    """A reader that stamps a whole report with one instant: no phase rate, no end fit; refused, not guessed."""
+    pm = PhaseModel()
+    stream, _ = make_stream(pm, (-4.0, 0.0), (-3.5, 0.0), np.random.default_rng(7))
+    batched = stream.t_start + np.floor((stream.t - stream.t_start) / 0.1) * 0.1   # one stamp per 0.1 s report
+    cfg = UnwrapConfig.for_model(pm, noise=noise)
+    good = process_move(stream, cfg)
+    est = process_move(PhaseStream(batched, stream.phase, stream.rssi, stream.t_start, stream.t_end), cfg)
+    assert good.ok and est.status is StreamStatus.INVALID and 'distinct times' in est.reason
+
+
 def test_stream_lengths_must_match_and_config_is_checked():
     with pytest.raises(ValueError, match='lengths'):
         PhaseStream(np.zeros(3), np.zeros(2), np.zeros(3))
