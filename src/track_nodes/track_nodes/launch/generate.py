@@ -134,6 +134,15 @@ track_launch:
     P_D: [5.0, 0.25, 5.0, 0.25]
     metric: spectral
     initial_pings: 2           # two active readings before eq. 7 decides: one 2.5-3σ range reading stays while trailing
+    target_model: smart        # the SS-PF knows its pings make the target evade; model_* = smart_target's
+    prediction: linear         # the mean through the manoeuvre, F P F' + Q: eq. 7 pings as with the CV model
+    model_p_max: 0.9
+    model_r_50: 600.0
+    model_width: 100.0
+    model_evade_speed: 9.0
+    model_max_turn_rate_deg: 3.0
+    model_max_accel: 1.0
+    model_quiet_period: 10.0
     n_particles: 200
     regularize: true
     period: 1.0

@@ -7,8 +7,9 @@ file's parameters, with the same cores, seeds and lock-step as the nodes:
   x_{k-1} → x_k with the ping and position of the observer at t_{k-1} (``TargetGate`` with
   ``sync_observer``: step 1 has neither, so the observer is taken at the origin and unpinged);
 - ``sonar_observer`` (``make_tracker`` on the second of ``SeedSequence(seed).spawn(2)``, noise on
-  the first): step k measures x_k from ``ObserverTrajectory.state(k·T)`` in the mode its tracker
-  chose at k − 1, and its estimate is stamped t_k;
+  the first, with its ``target_model``, ``prediction`` and ``model_*`` parameters, ``target_model_of``):
+  step k measures x_k from ``ObserverTrajectory.state(k·T)`` in the mode its tracker chose at k − 1,
+  and its estimate is stamped t_k;
 - the ``radar`` ``report_source`` (``CVTarget``, truth and noise seeds): the decoy's truth and its
   report with the 2σ ellipse at every t_k (dropouts drawn as the node does).
 
@@ -37,7 +38,7 @@ from track_nodes.fusion.report_source import ReportSourceParams
 from track_nodes.launch.scenario import section_node
 from track_nodes.report import maritime as mar
 from track_nodes.sonar.smart_target import SmartTargetNodeParams
-from track_nodes.sonar.sonar_observer import SonarObserverParams, _p_d
+from track_nodes.sonar.sonar_observer import SonarObserverParams, _p_d, target_model_of
 
 
 def _params(cls, entry: dict):
@@ -90,7 +91,8 @@ def simulate(scenario: str | Path | dict, n_steps: int | None = None) -> dict:
     noise_ss, filter_ss = np.random.SeedSequence(op.seed).spawn(2)
     o_rng = np.random.default_rng(noise_ss)
     tracker = make_tracker(op.tracker, sonar, np.random.default_rng(filter_ss), P_D=_p_d(op.P_D), delta=op.delta,
-                           metric=op.metric, regularize=op.regularize, initial_pings=op.initial_pings)
+                           metric=op.metric, regularize=op.regularize, initial_pings=op.initial_pings,
+                           target_model=target_model_of(op), prediction=op.prediction)
     tracker.initialize(np.asarray(op.prior_mean, dtype=float), prior_cov)
     # radar (report_source setup)
     x0 = np.asarray(rp.targets, dtype=float).reshape(-1, 4)

@@ -44,6 +44,18 @@ refused, so it cannot fix the new grid.
 The measurements are simulated here from the truth, so there is no report another publisher could
 inject and no innovation gate.
 
+Target model (``target_model``, read-only). ``cv``: the paper's constant-velocity model (eqs. 1-4).
+``smart``: the SS-PF knows what its own pings do to a ``smart_target`` (``SSPF(target_model=...)``,
+``track_core.sonar.sspf``): after a step it pinged, each particle draws whether its target heard the
+ping with P_det(range) and, while it last heard one less than ``model_quiet_period`` ago, moves away
+from the observer towards ``model_evade_speed`` with bounded turn rate and acceleration
+(``smart_target.evasive_transition``). The model's parameters are this node's ``model_*`` parameters
+(the observer cannot read the target's): a scenario sets them to its ``smart_target``'s values, as
+``config/maritime.yaml`` does. ``prediction`` picks how each particle's Gaussian crosses the manoeuvre:
+``unscented`` (its sigma points through it; where the commanded speed and heading are reached the
+velocity spread contracts) or ``linear`` (its mean through it, F P Fᵀ + Q as for the CV model, so eq. 7
+sees the CV model's covariance growth).
+
 Parameters are checked at start; δ < 0, N < 1 or a P_D that is not symmetric PSD (4 values: a
 diagonal; 16: a row-major 4×4 matrix) stop the node with one line.
 """
@@ -65,6 +77,7 @@ from track_core.sonar import (
     ObserverTrajectory,
     Scenario,
     SensorMode,
+    SmartTargetParams,
     SonarParams,
     desired_covariance,
     make_tracker,
@@ -73,7 +86,7 @@ from track_core.sonar import (
 from track_core.sonar.lockstep import TruthGate
 from track_core.sonar.scenario import DEFAULT_LEGS
 from track_core.sonar.scheduler import DELTA
-from track_core.sonar.sspf import TRACKERS
+from track_core.sonar.sspf import PREDICTIONS, TRACKERS
 from track_msgs_py.diagnostics import DIAG_OK, diagnostic_array
 from track_msgs_py.markers.sonar import estimate_markers
 from track_msgs_py.odometry import cv_state_to_odometry, odometry_to_cv_state, positions_to_pose_array
@@ -95,6 +108,9 @@ from track_msgs_py.topics import (
 from track_msgs_py.validate import InputPolicy, clock_now, odometry_bounds_problem, odometry_problem, stamp_problem
 from track_nodes.base import ParameterError, TrackNode, param
 
+TARGET_MODELS = ('cv', 'smart')
+_SMART = SmartTargetParams()
+
 
 @dataclass
 class SonarObserverParams:
@@ -109,6 +125,20 @@ class SonarObserverParams:
                         choices=('spectral', 'excess'))
     initial_pings: int = param(1, 'active steps at the start before eq. 7 decides (Algorithm 3: 1; '
                                'track_core.sonar.scheduler)', 1, 1000)
+    target_model: str = param('cv', "the filter's target model: cv (eqs. 1-4) or smart (the target evades when it "
+                              'hears a ping; the model_* parameters)', choices=TARGET_MODELS)
+    prediction: str = param('unscented', 'smart model: each particle predicted through the manoeuvre by its sigma '
+                            'points (unscented) or by its mean with F P Fᵀ + Q (linear)', choices=PREDICTIONS)
+    model_p_max: float = param(_SMART.p_max, 'smart model: detection probability of a ping at close range', 0.0, 1.0)
+    model_r_50: float = param(_SMART.r_50, 'smart model: range at which a ping is heard with probability p_max/2 [m]',
+                              1e-3, 1e7)
+    model_width: float = param(_SMART.width, 'smart model: width of the logistic fall-off of P_det [m]', 1e-3, 1e7)
+    model_evade_speed: float = param(_SMART.evade_speed, 'smart model: speed while evading [m/s]', 0.0, 1e3)
+    model_max_turn_rate_deg: float = param(math.degrees(_SMART.max_turn_rate), 'smart model: bounded turn rate '
+                                           '[deg/s]', 0.0, 360.0)
+    model_max_accel: float = param(_SMART.max_accel, 'smart model: bounded speed change [m/s²]', 0.0, 1e3)
+    model_quiet_period: float = param(_SMART.quiet_period, 'smart model: time without a heard ping before cruising '
+                                      'again [s]', 0.0, 1e6)
     n_particles: int = param(200, 'number of particles N (Table 1: 200)', 1, 1_000_000)
     regularize: bool = param(True, 'Liu-West move after resampling (track_core.sonar.sspf; not in the paper)')
     period: float = param(1.0, 'sampling period T (Table 1: 1 s) [s]', 1e-3, 60.0)
@@ -142,6 +172,15 @@ def _p_d(values) -> np.ndarray:
     except ValueError as exc:
         raise ParameterError(f'parameter P_D={v.tolist()!r} is invalid ({exc}): allowed a symmetric PSD '
                              'matrix') from None
+
+
+def target_model_of(p: SonarObserverParams) -> SmartTargetParams | None:
+    """The SS-PF's ``target_model`` of the parameters: None for ``cv``, the ``model_*`` values for ``smart``."""
+    if p.target_model == 'cv':
+        return None
+    return SmartTargetParams(p_max=p.model_p_max, r_50=p.model_r_50, width=p.model_width,
+                             evade_speed=p.model_evade_speed, max_turn_rate=math.radians(p.model_max_turn_rate_deg),
+                             max_accel=p.model_max_accel, quiet_period=p.model_quiet_period)
 
 
 class SonarObserverNode(TrackNode):
@@ -194,7 +233,8 @@ class SonarObserverNode(TrackNode):
         self.noise_rng = np.random.default_rng(noise_ss)
         self.tracker = make_tracker(p.tracker, self.sonar, np.random.default_rng(filter_ss), P_D=P_D,
                                     delta=p.delta, metric=p.metric, regularize=p.regularize,
-                                    initial_pings=p.initial_pings)
+                                    initial_pings=p.initial_pings, target_model=target_model_of(p),
+                                    prediction=p.prediction)
         self.tracker.initialize(m0, prior_cov)
         self.gate = TruthGate(round(p.period * 1e9))  # step k = the truth of grid point k (track_core.sonar.lockstep)
         self.pings = 0

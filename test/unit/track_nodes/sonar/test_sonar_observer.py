@@ -1,4 +1,5 @@
-"""``sonar_observer``'s "no truth" warning runs on the node's clock (sim time under use_sim_time).
+"""``sonar_observer``: the "no truth" warning runs on the node's clock (sim time under use_sim_time);
+the target model of its parameters (``target_model_of``), as the node and the maritime replay use it.
 
 The check is called on a stand-in for the node (no rclpy.init, no DDS): its clock is an rclpy
 ``ROSClock`` driven like ``/clock``, and the wall clock (``steady_now``) fails if it is read.
@@ -6,13 +7,20 @@ The check is called on a stand-in for the node (no rclpy.init, no DDS): its cloc
 
 from __future__ import annotations
 
+import dataclasses
 import inspect
+import math
 from types import SimpleNamespace
 
+import numpy as np
+import pytest
 from rclpy.clock import ROSClock
 from rclpy.time import Time
 
-from track_nodes.sonar.sonar_observer import WAIT_WARN, SonarObserverNode
+from track_core.sonar import SmartTargetParams
+from track_nodes.report.maritime import SONAR_TRACK
+from track_nodes.report.maritime_sim import sections, seed_scenario, simulate
+from track_nodes.sonar.sonar_observer import WAIT_WARN, SonarObserverNode, SonarObserverParams, target_model_of
 
 EPOCH = 1796283180.0
 
@@ -81,3 +89,39 @@ def test_the_wait_timer_is_on_the_node_clock():
     src = inspect.getsource(SonarObserverNode.setup)
     line = next(ln for ln in src.splitlines() if '_check_waiting' in ln)
     assert 'create_timer' in line and '_steady' not in line, line
+
+
+def test_the_cv_target_model_is_the_default_and_gives_no_model():
+    assert SonarObserverParams().target_model == 'cv'
+    assert target_model_of(SonarObserverParams()) is None
+
+
+def test_the_smart_target_model_takes_the_model_parameters():
+    p = SonarObserverParams(target_model='smart', model_evade_speed=9.0, model_max_turn_rate_deg=6.0,
+                            model_quiet_period=4.0)
+    tm = target_model_of(p)
+    assert tm == SmartTargetParams(evade_speed=9.0, max_turn_rate=math.radians(6.0), quiet_period=4.0)
+    # the defaults are the core's, so an unset model_* is SmartTargetParams' default (the turn rate via degrees)
+    default = target_model_of(SonarObserverParams(target_model='smart'))
+    assert default.max_turn_rate == pytest.approx(SmartTargetParams().max_turn_rate, rel=1e-12)
+    assert dataclasses.replace(default, max_turn_rate=SmartTargetParams().max_turn_rate) == SmartTargetParams()
+
+
+def test_the_maritime_observer_models_the_maritime_target(repo):
+    """config/maritime.yaml: the observer's model_* are the smart_target's own parameters."""
+    sec = sections(repo / 'src/track_nodes/config/maritime.yaml')
+    obs, tgt = sec['sonar_observer'], sec['smart_target']
+    assert obs['target_model'] == 'smart'
+    for key in ('p_max', 'r_50', 'width', 'evade_speed', 'max_turn_rate_deg', 'max_accel', 'quiet_period'):
+        assert obs[f'model_{key}'] == tgt[key], key
+
+
+def test_the_replay_runs_the_observer_with_its_target_model():
+    """``maritime_sim`` gives the observer the node's target model: cv and smart give other tracks."""
+    cfg = seed_scenario(1)
+    node = cfg['/**/sonar_observer']['ros__parameters']
+    runs = {}
+    for model in ('cv', 'smart'):
+        node['target_model'] = model
+        runs[model] = simulate(cfg, n_steps=6)['tracks'][SONAR_TRACK][1]
+    assert not np.allclose(runs['cv'], runs['smart'])
