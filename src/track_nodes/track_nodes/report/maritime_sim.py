@@ -37,8 +37,8 @@ from track_core.sonar.sspf import make_tracker
 from track_nodes.fusion.report_source import ReportSourceParams
 from track_nodes.launch.scenario import section_node
 from track_nodes.report import maritime as mar
+from track_nodes.sonar.observer_params import SonarObserverParams, p_d, target_model_of
 from track_nodes.sonar.smart_target import SmartTargetNodeParams
-from track_nodes.sonar.sonar_observer import SonarObserverParams, _p_d, target_model_of
 
 
 def _params(cls, entry: dict):
@@ -90,7 +90,7 @@ def simulate(scenario: str | Path | dict, n_steps: int | None = None) -> dict:
     prior_cov = Scenario(params=sonar, prior_pos_std=op.prior_pos_std, prior_vel_std=op.prior_vel_std).prior_cov
     noise_ss, filter_ss = np.random.SeedSequence(op.seed).spawn(2)
     o_rng = np.random.default_rng(noise_ss)
-    tracker = make_tracker(op.tracker, sonar, np.random.default_rng(filter_ss), P_D=_p_d(op.P_D), delta=op.delta,
+    tracker = make_tracker(op.tracker, sonar, np.random.default_rng(filter_ss), P_D=p_d(op.P_D), delta=op.delta,
                            metric=op.metric, regularize=op.regularize, initial_pings=op.initial_pings,
                            target_model=target_model_of(op), prediction=op.prediction)
     tracker.initialize(np.asarray(op.prior_mean, dtype=float), prior_cov)

@@ -1,0 +1,88 @@
+"""Parameters of ``sonar_observer`` (module docstring of ``track_nodes.sonar.sonar_observer``) and what
+they build: the desired covariance P_D of eq. 7 and the filter's target model."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from track_core.sonar import DEFAULT_P_D, SmartTargetParams, desired_covariance
+from track_core.sonar.scenario import DEFAULT_LEGS
+from track_core.sonar.scheduler import DELTA
+from track_core.sonar.sspf import PREDICTIONS, TRACKERS
+from track_nodes.base import ParameterError, param
+
+TARGET_MODELS = ('cv', 'smart')
+_SMART = SmartTargetParams()
+
+
+@dataclass
+class SonarObserverParams:
+    """Parameters of ``sonar_observer``."""
+
+    seed: int = param(0, 'seed of the measurement noise and of the particle filter (two spawned streams)', 0, 2**31 - 1)
+    tracker: str = param('ss-pf', 'ss-pf: eq. 7 scheduling; papf: passive only; acpf: active only', choices=TRACKERS)
+    delta: float = param(DELTA, 'threshold δ of eq. 7 (Table 1: 5) [m²]', 0.0, 1e12, live=True)
+    P_D: list[float] = param([float(v) for v in np.diag(DEFAULT_P_D)], 'desired covariance P_D of eq. 7 in [x, vx, y, '
+                             'vy]: 4 values (diagonal) or 16 (row-major 4x4), symmetric PSD')
+    metric: str = param('spectral', 'eq. 7 distance: spectral ‖P_D − Cov‖₂ (paper) or excess λmax(Cov − P_D)',
+                        choices=('spectral', 'excess'))
+    initial_pings: int = param(1, 'active steps at the start before eq. 7 decides (Algorithm 3: 1; '
+                               'track_core.sonar.scheduler)', 1, 1000)
+    target_model: str = param('cv', "the filter's target model: cv (eqs. 1-4) or smart (the target evades when it "
+                              'hears a ping; the model_* parameters)', choices=TARGET_MODELS)
+    prediction: str = param('unscented', 'smart model: each particle predicted through the manoeuvre by its sigma '
+                            'points (unscented) or by its mean with F P Fᵀ + Q (linear)', choices=PREDICTIONS)
+    model_p_max: float = param(_SMART.p_max, 'smart model: detection probability of a ping at close range', 0.0, 1.0)
+    model_r_50: float = param(_SMART.r_50, 'smart model: range at which a ping is heard with probability p_max/2 [m]',
+                              1e-3, 1e7)
+    model_width: float = param(_SMART.width, 'smart model: width of the logistic fall-off of P_det [m]', 1e-3, 1e7)
+    model_evade_speed: float = param(_SMART.evade_speed, 'smart model: speed while evading [m/s]', 0.0, 1e3)
+    model_max_turn_rate_deg: float = param(math.degrees(_SMART.max_turn_rate), 'smart model: bounded turn rate '
+                                           '[deg/s]', 0.0, 360.0)
+    model_max_accel: float = param(_SMART.max_accel, 'smart model: bounded speed change [m/s²]', 0.0, 1e3)
+    model_quiet_period: float = param(_SMART.quiet_period, 'smart model: time without a heard ping before cruising '
+                                      'again [s]', 0.0, 1e6)
+    n_particles: int = param(200, 'number of particles N (Table 1: 200)', 1, 1_000_000)
+    regularize: bool = param(True, 'Liu-West move after resampling (track_core.sonar.sspf; not in the paper)')
+    period: float = param(1.0, 'sampling period T (Table 1: 1 s) [s]', 1e-3, 60.0)
+    q_s: float = param(1.0, 'process-noise intensity q_s of the filter model (Table 1: 1) [m²/s³]', 1e-9, 1e3)
+    sigma_b_deg: float = param(1.0, 'bearing noise std σ_b (Table 1: 1°) [deg]', 1e-6, 180.0)
+    sigma_d: float = param(5.0, 'range noise std σ_d of the active sonar (Table 1: 5 m) [m]', 1e-6, 1e6)
+    prior_mean: list[float] = param([300.0, 12.25, 300.0, -12.25], 'prior mean m₀ = [x, vx, y, vy] at t = 0 [m, m/s]')
+    prior_pos_std: float = param(20.0, 'prior position std per axis [m]', 1e-6, 1e6)
+    prior_vel_std: float = param(2.0, 'prior velocity std per axis [m/s]', 1e-6, 1e6)
+    start: list[float] = param([0.0, 0.0], 'observer start position [x, y] in map [m]')
+    speed: float = param(10.0, 'observer speed [m/s]', 0.0, 1e3)
+    heading0_deg: float = param(90.0, 'observer initial heading, clockwise from north [deg]', -360.0, 360.0)
+    legs: list[float] = param([float(v) for leg in DEFAULT_LEGS for v in leg], 'observer legs, flat [duration s, turn '
+                              'rate deg/s, ...]; the last leg extends past its duration')
+    max_time: float = param(0.0, 'stop after step k with k·T > max_time (trajectory time) [s]; 0 = never', 0.0, 1e9)
+    track_id: str = param('sonar_track', 'child_frame_id of the estimate')
+    observer_id: str = param('sonar_observer', 'child_frame_id of the observer odometry')
+    stamp_lead: float = param(3.0, 'look-ahead tolerance: refuse truths stamped more than this ahead of the node clock '
+        '(a few periods; also a late truth of a run before a clock jump) [s]', 1e-3, 1e9, live=True)
+
+
+
+
+def p_d(values) -> np.ndarray:
+    v = np.asarray(values, dtype=float)
+    if v.size not in (4, 16):
+        raise ParameterError(f'parameter P_D has {v.size} values: allowed 4 (diagonal) or 16 (row-major 4x4)')
+    try:
+        return desired_covariance(v if v.size == 4 else v.reshape(4, 4))
+    except ValueError as exc:
+        raise ParameterError(f'parameter P_D={v.tolist()!r} is invalid ({exc}): allowed a symmetric PSD '
+                             'matrix') from None
+
+
+def target_model_of(p: SonarObserverParams) -> SmartTargetParams | None:
+    """The SS-PF's ``target_model`` of the parameters: None for ``cv``, the ``model_*`` values for ``smart``."""
+    if p.target_model == 'cv':
+        return None
+    return SmartTargetParams(p_max=p.model_p_max, r_50=p.model_r_50, width=p.model_width,
+                             evade_speed=p.model_evade_speed, max_turn_rate=math.radians(p.model_max_turn_rate_deg),
+                             max_accel=p.model_max_accel, quiet_period=p.model_quiet_period)
