@@ -30,14 +30,14 @@ import yaml
 
 from track_core.demo import CVTarget
 from track_core.geofeasibility.ellipse import ellipse_to_gaussian
-from track_core.sonar import SmartTarget, SmartTargetParams, SonarParams
+from track_core.sonar import SmartTarget, SonarParams
 from track_core.sonar.models import SensorMode, simulate_measurement
 from track_core.sonar.scenario import ObserverTrajectory, Scenario
 from track_core.sonar.sspf import make_tracker
 from track_nodes.fusion.report_source import ReportSourceParams
 from track_nodes.launch.scenario import section_node
 from track_nodes.report import maritime as mar
-from track_nodes.sonar.observer_params import SonarObserverParams, p_d, target_model_of
+from track_nodes.sonar.observer_params import SonarObserverParams, p_d, smart_target_params, target_model_of
 from track_nodes.sonar.smart_target import SmartTargetNodeParams
 
 
@@ -75,11 +75,7 @@ def simulate(scenario: str | Path | dict, n_steps: int | None = None) -> dict:
         n_steps = round(float(sec.get('track_launch', {}).get('duration', 32.0)) / T)
     # smart_target (node setup)
     target = SmartTarget(np.asarray(tp.x0, dtype=float), sonar=SonarParams(T=T, q_s=tp.q_s),
-                         params=SmartTargetParams(p_max=tp.p_max, r_50=tp.r_50, width=tp.width,
-                                                  evade_speed=tp.evade_speed,
-                                                  max_turn_rate=math.radians(tp.max_turn_rate_deg),
-                                                  max_accel=tp.max_accel, quiet_period=tp.quiet_period,
-                                                  naive=tp.naive))
+                         params=smart_target_params(tp))
     t_rng = np.random.default_rng(tp.seed)
     # sonar_observer (node setup and _start_run)
     sonar = SonarParams(T=op.period, q_s=op.q_s, sigma_b=math.radians(op.sigma_b_deg), sigma_d=op.sigma_d,

@@ -79,10 +79,16 @@ def p_d(values) -> np.ndarray:
                              'matrix') from None
 
 
+def smart_target_params(p, prefix: str = '') -> SmartTargetParams:
+    """``SmartTargetParams`` of node parameters named ``<prefix>p_max``, ``<prefix>r_50``, ... (turn rate in
+    deg/s): ``smart_target``'s own (no prefix) and the observer's model of it (``model_``)."""
+    def get(name):
+        return getattr(p, prefix + name)
+    return SmartTargetParams(p_max=get('p_max'), r_50=get('r_50'), width=get('width'), evade_speed=get('evade_speed'),
+                             max_turn_rate=math.radians(get('max_turn_rate_deg')), max_accel=get('max_accel'),
+                             quiet_period=get('quiet_period'), naive=getattr(p, prefix + 'naive', False))
+
+
 def target_model_of(p: SonarObserverParams) -> SmartTargetParams | None:
     """The SS-PF's ``target_model`` of the parameters: None for ``cv``, the ``model_*`` values for ``smart``."""
-    if p.target_model == 'cv':
-        return None
-    return SmartTargetParams(p_max=p.model_p_max, r_50=p.model_r_50, width=p.model_width,
-                             evade_speed=p.model_evade_speed, max_turn_rate=math.radians(p.model_max_turn_rate_deg),
-                             max_accel=p.model_max_accel, quiet_period=p.model_quiet_period)
+    return None if p.target_model == 'cv' else smart_target_params(p, 'model_')

@@ -53,6 +53,7 @@ from track_msgs_py.validate import (
     odometry_problem,
 )
 from track_nodes.base import FixedRateSteps, TrackNode, param, vector
+from track_nodes.sonar.observer_params import smart_target_params
 
 _D = SmartTargetParams()
 
@@ -86,10 +87,7 @@ class SmartTargetNode(TrackNode):
     def setup(self) -> None:
         p = self.p
         x0 = vector('x0', p.x0, 4)
-        params = SmartTargetParams(p_max=p.p_max, r_50=p.r_50, width=p.width, evade_speed=p.evade_speed,
-                                   max_turn_rate=math.radians(p.max_turn_rate_deg), max_accel=p.max_accel,
-                                   quiet_period=p.quiet_period, naive=p.naive)
-        self.target = SmartTarget(x0, sonar=SonarParams(T=p.period, q_s=p.q_s), params=params)
+        self.target = SmartTarget(x0, sonar=SonarParams(T=p.period, q_s=p.q_s), params=smart_target_params(p))
         self.rng = np.random.default_rng(p.seed)
         # step k waits for the observer's step k-1 (track_core.sonar.lockstep)
         self.gate = TargetGate(p.sync_observer, round(2e9 * p.period))
