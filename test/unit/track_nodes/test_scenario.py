@@ -76,6 +76,23 @@ def test_maritime_radio_range_links_the_columns(seed):
     assert abs(np.quantile(np.hypot(37.5 + e[:, 0], e[:, 1]), 0.999) - 60.0) < 1.0
 
 
+def test_maritime_fusion_release_is_one_disjoint_instant_below_the_threshold():
+    """The maritime fusion's release ratio is ε^(1/window) (``associator.release_ratio_of``), so an
+    association outlasts one disjoint instant, whatever the window and floor the scenario sets."""
+    import math
+
+    import yaml
+
+    from track_core.fusion.associator import release_ratio_of
+    from track_nodes.launch.generate import maritime_yaml
+    from track_nodes.launch.scenario import section_node
+
+    cfg = yaml.safe_load(maritime_yaml(seed=1))
+    (f,) = [v['ros__parameters'] for k, v in cfg.items() if section_node(k) == 'fusion']
+    assert math.isclose(f['release_ratio'], release_ratio_of(f['floor'], f['window']), rel_tol=1e-12)
+    assert f['release_ratio'] < 1.0
+
+
 @pytest.mark.parametrize(('extra', 'words'), [
     ('demo_trackr:\n  ros__parameters:\n    q_s: 1.0\n', ["node section 'demo_trackr' (did you mean demo_tracker"]),
     ('/ns/demo_tracker:\n  ros__parameters:\n    q_s: 1.0\n', ["'ns/demo_tracker'"]),

@@ -29,6 +29,15 @@ with their combination, associated and fused when it stays ≥ ``threshold``). A
 score in its window combines to 0 as before, so the cost stays O(n log n + candidates + stored
 windows). ``floor`` 0 (the default) is the paper's means, and the code path, bit for bit.
 
+Release (``release_ratio`` ρ < 1: hysteresis, as track management confirms and deletes at two
+levels): a pair associated at its previous scored instant stays associated while its combination is
+≥ ρ·``threshold``; a pair not associated needs ``threshold``. The paper decides each instant afresh (one
+level); with a window of K and a floor ε one disjoint instant lowers a combination by the factor
+ε^(1/K), so ρ = ε^(1/K) (``release_ratio_of``) keeps an association through one such instant and
+nothing weaker: without it a pair at the threshold flickers off and on. ρ = 1 (the default) is the
+paper's rule, bit for bit. A pair that was not associated is unaffected, so the release never makes
+a new association.
+
 Isolation: when the batch fails (a degenerate covariance slipped past the caller's checks), each
 pair is scored alone; a pair whose score raises (or comes out not finite) is skipped and reported in
 ``Instant.skipped`` (ids and reason, its window untouched) and every other pair is scored as
@@ -147,14 +156,16 @@ class PairAssociator:
                  window: int = 10, *, n_samples: int = 500, same_source_pairs: bool = False,
                  stale_after: float = 2.0, max_prediction: float = 10.0, q_s: float = 0.0, seed: int = 0,
                  stamp_rate: float | None = None, stamp_streams: tuple[str, ...] = (),
-                 stamp_max_wait: float = float('inf'), gate: bool = True, floor: float = 0.0) -> None:
+                 stamp_max_wait: float = float('inf'), gate: bool = True, floor: float = 0.0,
+                 release_ratio: float = 1.0) -> None:
         if method not in METHODS:
             raise ValueError(f'method must be one of {", ".join(METHODS)}, got {method!r}')
-        if not 0.0 <= threshold <= 1.0 or window < 1:
-            raise ValueError(f'need 0 <= threshold <= 1 and window >= 1; got {threshold}, {window}')
+        if not 0.0 <= threshold <= 1.0 or window < 1 or not 0.0 < release_ratio <= 1.0:
+            raise ValueError(f'need 0 <= threshold <= 1, 0 < release_ratio <= 1 and window >= 1; got {threshold}, '
+                             f'{release_ratio}, {window}')
         ScoreWindow(combine, floor=floor)  # checks the combination's name and the floor
         self.method, self.threshold, self.combine, self.window = method, threshold, combine, int(window)
-        self.floor = float(floor)
+        self.floor, self.release_ratio = float(floor), float(release_ratio)
         self.n_samples, self.same_source_pairs = n_samples, same_source_pairs
         self.rng = np.random.default_rng(seed)
         self.table = TrackTable(stale_after, max_prediction, q_s)
@@ -173,6 +184,7 @@ class PairAssociator:
         self._src: list[int] = []            # source code per slot
         self._skips: dict[int, list[int]] = {}   # pair key → instants at which its score failed
         self._last_t: float | None = None
+        self._held = np.zeros(0, np.int64)   # keys of the pairs associated at their last scored instant
 
     def reset(self) -> None:
         """Forget every track, pair window and scheduled instant (the clock jumped: their times are over)."""
@@ -207,6 +219,8 @@ class PairAssociator:
         self.source.pop(track_id, None)
         a, b = np.divmod(self.windows.keys, _STRIDE)
         self.windows.drop((a == slot) | (b == slot))
+        a, b = np.divmod(self._held, _STRIDE)
+        self._held = self._held[(a != slot) & (b != slot)]
 
     def push(self, source: str, track_id: str, report: TrackReport, t: float | None = None,
              stream: str | None = None) -> list[Instant]:
@@ -285,7 +299,7 @@ class PairAssociator:
         total = self.live.colive(slots[i], slots[j], m) - self._skipped(keys, m)
         combined, instants = self.windows.add(keys, np.clip(s, 0.0, 1.0), t, total)
         self._drop_broken_runs(np.concatenate([keys, untouched]), m)
-        associated = combined >= self.threshold
+        associated = self._associate(keys, combined, untouched)
         a, b = i[associated], j[associated]
         fused = []
         if a.size:
@@ -296,6 +310,16 @@ class PairAssociator:
         pairs = PairScores(ids, i, j, s, combined, instants, associated)
         every = (lambda: self._every_pair(ids, slots, src, m, pairs, keys)) if gated else None
         return Instant(t, ids, mu, R, pairs, tuple(fused), skipped=skipped, every=every)
+
+    def _associate(self, keys: np.ndarray, combined: np.ndarray, untouched: np.ndarray) -> np.ndarray:
+        """Which pairs ``keys`` are associated at this instant (threshold, and the release of the pairs
+        held: module docstring); a pair whose score failed keeps its state."""
+        associated = combined >= self.threshold
+        level = self.release_ratio * self.threshold
+        if self._held.size and self.release_ratio < 1.0:
+            associated |= np.isin(keys, self._held) & (combined >= level) & (combined > 0.0)
+        self._held = np.concatenate([keys[associated], untouched[np.isin(untouched, self._held)]])
+        return associated
 
     def _stored_pairs(self, slots, i, j, s, keys, untouched):
         """(i, j, s, keys) with every stored window whose two tracks are rows of this instant and that is
@@ -404,6 +428,12 @@ class PairAssociator:
             if not np.isfinite(v):
                 failed[k] = f'scoring failed: non-finite score {v}'
         return failed
+
+
+def release_ratio_of(floor: float, window: int) -> float:
+    """The release ratio that keeps an association through one disjoint instant: ε^(1/K) (module
+    docstring); 1 (no hysteresis) without a floor."""
+    return float(floor ** (1.0 / window)) if floor > 0.0 else 1.0
 
 
 def _non_finite(s: np.ndarray) -> dict[int, str]:

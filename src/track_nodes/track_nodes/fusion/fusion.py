@@ -119,7 +119,8 @@ class FusionNode(TrackNode):
                                    same_source_pairs=p.same_source_pairs, stale_after=p.stale_after,
                                    max_prediction=p.max_prediction, q_s=p.q_s, seed=p.seed,
                                    stamp_rate=p.rate if p.schedule == 'stamps' else None,
-                                   stamp_streams=streams, stamp_max_wait=p.stamps_max_wait, floor=p.floor)
+                                   stamp_streams=streams, stamp_max_wait=p.stamps_max_wait, floor=p.floor,
+                                   release_ratio=p.release_ratio)
         self.markers = FusionMarkers(lifetime=2.0 / min(p.rate, p.display_rate))
         self.stamps = StampMonotonic()
         self.policy = InputPolicy(horizon=p.stamp_horizon, lead=p.stamp_lead)
@@ -149,7 +150,7 @@ class FusionNode(TrackNode):
 
     def apply_params(self, changed: set[str]) -> None:
         p, core = self.p, self.core
-        core.threshold = float(p.threshold)
+        core.threshold, core.release_ratio = float(p.threshold), float(p.release_ratio)
         core.table.stale_after, core.table.max_prediction = float(p.stale_after), float(p.max_prediction)
         self.refusals.throttle = float(p.warn_period)
         self.policy = InputPolicy(horizon=p.stamp_horizon, lead=p.stamp_lead)

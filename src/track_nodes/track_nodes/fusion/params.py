@@ -25,6 +25,9 @@ class FusionParams:
     n_samples: int = param(500, 'Monte-Carlo samples per pair (method mc)', 10, 1_000_000)
     threshold: float = param(THRESHOLD, 'associate a pair when its combined score is at least this',
                              0.0, 1.0, live=True)
+    release_ratio: float = param(1.0, 'an associated pair stays associated while its combined score is at least '
+        'release_ratio·threshold (hysteresis; 1: the paper\'s one level; ε^(1/window) keeps an association through one '
+        'disjoint instant; track_core.fusion.associator)', 1e-6, 1.0, live=True)
     combine: str = param('geometric', 'track-level combination of instant scores', choices=('geometric', 'harmonic'))
     window: int = param(10, 'instant scores kept per pair for the combination', 1, 100_000)
     floor: float = param(0.0, 'floor ε of an instant score in the combination: a disjoint instant enters the mean as '

@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 
 from track_core.fusion import PairAssociator, TrackReport
+from track_core.fusion.associator import release_ratio_of
 from track_core.geofeasibility import FLOOR_2SIGMA
 
 DATA = json.loads((Path(__file__).parent / 'data/associator_cases.json').read_text())
@@ -156,6 +157,46 @@ def test_a_floor_makes_one_disjoint_instant_evidence_not_a_veto():
     assert math.isclose(pairs[('a', 'b')].combined, FLOOR_2SIGMA ** 0.75)
     with pytest.raises(ValueError, match='floor'):
         PairAssociator(floor=1.0)
+
+
+def test_a_release_below_the_threshold_keeps_an_association_through_one_disjoint_instant():
+    """Hysteresis: with the release ratio ε^(1/K) an associated pair outlasts one disjoint instant that
+    takes its mean just below the threshold, not two; a pair never associated still needs the threshold;
+    ratio 1 is the one-level rule."""
+    K = 4
+    ratio = release_ratio_of(FLOOR_2SIGMA, K)
+    assert math.isclose(ratio, FLOOR_2SIGMA ** (1 / K))
+    level = 0.5 * ratio
+
+    def run(release_ratio, xs, start=0.0):
+        core = PairAssociator('exact', threshold=0.5, combine='geometric', window=K, floor=FLOOR_2SIGMA,
+                              release_ratio=release_ratio)
+        R = np.eye(2) * 4.0
+        out = []
+        for t, xb in enumerate(xs):
+            core.update('/a', 'a', TrackReport(start + t, np.zeros(2), R))
+            core.update('/b', 'b', TrackReport(start + t, np.array([xb, 0.0]), R))
+            (q,) = core.score(start + t).all_pairs()
+            out.append((q.combined, q.associated))
+        return out
+
+    # 3.0 m apart: the 2σ circles (radius 4 m) overlap by ~0.5; 100 m: disjoint (floored at ε)
+    near = run(1.0, [0.0])[0][0]
+    assert near == 1.0
+    part = run(1.0, [3.0])[0][0]
+    xs = [0.0, 0.0, 3.0, 100.0, 3.0, 100.0, 100.0]
+    one_level, held = run(1.0, xs), run(ratio, xs)
+    for k, ((c1, a1), (c2, a2)) in enumerate(zip(one_level, held, strict=True)):
+        assert c1 == c2                                     # the release changes no score
+        assert a1 == (c1 >= 0.5) and a2 == (c2 >= 0.5 or (held[k - 1][1] and c2 >= level and c2 > 0))
+    assert any(a2 and not a1 for (_, a1), (_, a2) in zip(one_level, held, strict=True))   # kept by the release
+    assert not held[-1][1]                                  # two disjoint instants release it
+    never = run(ratio, [100.0, 3.0, 3.0])                   # never associated: the threshold decides alone
+    assert [a for _, a in never] == [c >= 0.5 for c, _ in never]
+    assert part < 1.0
+    with pytest.raises(ValueError, match='release'):
+        PairAssociator(release_ratio=0.0)
+    assert release_ratio_of(0.0, K) == 1.0
 
 
 def test_nothing_to_score_and_bad_settings():
