@@ -7,12 +7,15 @@ radar, as the nodes run them), the network replayed on its truths (``report.netw
 sensors' leader steps and handoffs) and the three tracks scored by the fusion node's associator.
 
 The goal, on every seed: network RTAMS ≤ 15 m, the true sonar|network pair associated at ≥ 95 % of
-the instants after both trackers converged, the decoy's pairs never associated.
+the instants after both trackers converged, the decoy's pairs never associated. ``--set instants=yes``
+adds the per-instant view of ``instants.py`` (the trackers' NEES and the share of runs whose instant
+score is below the threshold, measured and if both trackers were consistent).
 """
 
 from __future__ import annotations
 
 from track_experiments.cli import Outcome, RunConfig, format_table, set_keys
+from track_experiments.maritime.instants import instant_rows, instants_table
 
 RTAMS_GOAL = 15.0
 FRACTION_GOAL = 0.95
@@ -25,9 +28,11 @@ def seed_scenario(seed: int) -> dict:
     return scenario(seed)
 
 
-def run_seed(seed: int, fusion: dict | None = None, **tracker) -> dict:
+def run_seed(seed: int, fusion: dict | None = None, instants: bool = False, **tracker) -> dict:
     """Replay summary (``network_replay.summary``) of one seed, ``tracker`` overriding TrackerParams fields
-    and ``fusion`` the fusion node's settings (``network_replay.FUSION_KEYS``)."""
+    and ``fusion`` the fusion node's settings (``network_replay.FUSION_KEYS``); with ``instants`` also its
+    ``instants.instant_rows`` (key ``per_instant``)."""
+    from track_nodes.report import maritime as mar
     from track_nodes.report import maritime_sim, network_replay
 
     cfg = seed_scenario(seed)
@@ -36,6 +41,8 @@ def run_seed(seed: int, fusion: dict | None = None, **tracker) -> dict:
     rows = network_replay.replay(d, setup, layout)
     scores = network_replay.fuse(d, rows, **{**network_replay.fusion_of(cfg), **(fusion or {})})
     s = network_replay.summary(d, rows, scores)
+    if instants:
+        s['per_instant'] = instant_rows(d, rows, scores, mar.SONAR_TRACK, mar.NETWORK_TRACK, mar.run_start(d))
     s['pings'] = len(d['pings'])  # the observer's active steps: what concealment costs
     s['meets'] = bool(s['rtams'] <= RTAMS_GOAL and s['fraction'] >= FRACTION_GOAL and not s['decoy_ever'])
     return s
@@ -52,10 +59,15 @@ def parse_seeds(text: str) -> list[int]:
     return out
 
 
-@set_keys(seeds='seeds to run: comma-separated values or ranges a-b (default 1-20; --quick: 1-3)')
+@set_keys(seeds='seeds to run: comma-separated values or ranges a-b (default 1-20; --quick: 1-3)',
+          instants='yes: also the per-instant table (NEES of both trackers, share of runs with an instant score '
+                   'below the threshold, and that share if both trackers were consistent; default no)')
 def maritime_seeds(cfg: RunConfig) -> Outcome:
     seeds = parse_seeds(cfg.options.get('seeds', '1-3' if cfg.quick else '1-20'))
-    res = {s: run_seed(s) for s in cfg.progress(seeds, desc='maritime-seeds')}
+    per_instant = cfg.options.get('instants', 'no')
+    if per_instant not in ('yes', 'no'):
+        raise ValueError(f'--set instants={per_instant!r}: allowed yes or no')
+    res = {s: run_seed(s, instants=per_instant == 'yes') for s in cfg.progress(seeds, desc='maritime-seeds')}
     rows = [[s, r['rtams'], r['error_max'], 100 * r['fraction'], r['instants'], r['decoy_ever'], r['pings'],
              'yes' if r['meets'] else 'NO'] for s, r in res.items()]
     table = format_table(['seed', 'RTAMS m', 'max err m', 'true pair %', 'instants', 'decoy assoc.', 'pings', 'goal'],
@@ -71,4 +83,9 @@ def maritime_seeds(cfg: RunConfig) -> Outcome:
     data = {'seeds': {str(s): {k: r[k] for k in ('rtams', 'error_max', 'fraction', 'instants', 'decoy_ever', 'meets',
                                                   'bytes_mean', 'pings')} for s, r in res.items()},
             'met': met, 'n_seeds': len(res)}
+    if per_instant == 'yes':
+        rows, data['instants'] = instants_table([r['per_instant'] for r in res.values()])
+        table += '\n\nPer instant over the runs (NEES: 2 dof; instant score of the true pair below the threshold):\n'
+        table += format_table(['t s', 'runs', 'sonar NEES', 'network NEES', 'score < thr %',
+                               'if consistent %'], rows)
     return Outcome(table, data)
