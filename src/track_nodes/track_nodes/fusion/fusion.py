@@ -30,7 +30,7 @@ the gate's candidates with ``method`` (eqs. 49–71), combines each pair's last 
 | topic | type | content |
 |---|---|---|
 | /fusion/scores | track_msgs/PairScoreArray | one array per instant: the pairs (``publish_pairs``) and the rule |
-| /fusion/associations | track_msgs/PairScoreArray | the pairs whose combined score ≥ ``threshold`` |
+| /fusion/associations | track_msgs/PairScoreArray | the associated pairs (``threshold``, ``release_ratio``) |
 | /fusion/fused | track_msgs/FusedTrackArray | covariance intersection of each associated pair |
 | /fusion/markers | MarkerArray | 2σ ellipses of tracks and fused pairs, links, at ``display_rate`` |
 
