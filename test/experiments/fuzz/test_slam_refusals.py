@@ -84,17 +84,20 @@ def test_broken_scans_stamped_ahead_do_not_wedge_the_node(ros):
 
 
 def test_a_flood_of_refused_scans_does_not_pause_the_scan_stream(ros):
-    pause = 0.05
+    # pause_wall is wall time: a gap longer than it between two calls below is a real pause, so it is
+    # long enough (0.5 s) that a busy machine's stall between an input and its scan is not one
+    pause = 0.5
     slam, poses = _slam(ros, pause_wall=pause)
     slam._on_input(inputs_to_twist(1.0, 1.0, 0.0))
     for k in range(5):
         _feed(slam, 1.05 + 0.1 * k)
     assert len(poses) == 5
     t, t0 = 1.55, time.monotonic()
-    while time.monotonic() - t0 < 4 * pause:  # broken scans only, for longer than pause_wall; inputs go on
+    while time.monotonic() - t0 < 3 * pause:  # broken scans only, for longer than pause_wall; inputs go on
         slam._on_scan(table_to_pointcloud2(t, 'laser', {'r': np.ones(2)}))  # no range/bearing: refused
         slam._on_input(inputs_to_twist(t, 1.0, 0.0))
         t += 0.001
+        time.sleep(0.005)
     assert slam.n_bad_scans > 0
     n = len(poses)
     for k in range(10):  # valid again, each scan arriving after the input 50 ms later (laser latency)
