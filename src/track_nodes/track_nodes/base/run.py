@@ -46,8 +46,10 @@ def run_nodes(makers: Sequence[tuple[str, Callable[[], Node]]], argv: Sequence[s
     args = list(sys.argv if argv is None else argv)
     # A process that does not stop gets SIGUSR1 from the launcher before the kill (launch/processes.py):
     # every thread's Python stack goes to stderr (a C-level handler: it fires with the main thread in C too).
+    # A crash in C (SIGSEGV, SIGABRT, ...) prints every thread's Python stack too, before the process dies.
     with contextlib.suppress(AttributeError, ValueError, RuntimeError):
         faulthandler.register(signal.SIGUSR1, all_threads=True)
+        faulthandler.enable(all_threads=True)
     stop_on(*STOP_SIGNALS)  # SIGTERM and SIGHUP stop the nodes as SIGINT does (base/signals.py)
     problem = params_file_problem(args)
     if problem is None:
@@ -88,9 +90,17 @@ def run_nodes(makers: Sequence[tuple[str, Callable[[], Node]]], argv: Sequence[s
             raise                                       # nodes being built or a callback; else a bug
     finally:
         hold_stops()  # a second Ctrl-C (ros2 launch sends one) must not cut teardown short (base/signals.py)
-        for node in [*nodes, *([twins.node] if twins else [])]:
-            node.destroy_node()  # the last node of the context takes the DDS participant with it (rmw_fastrtps)
-        with dds_alarm():
-            rclpy.try_shutdown()
-        TEARDOWN.done = True
+        _teardown(nodes, twins.node if twins else None)
     return max((getattr(node, 'exit_code', 0) for node in nodes), default=0)
+
+
+def _teardown(nodes: list[Node], twins: Node | None) -> None:
+    """Destroy the nodes, then the twins' node and the context, each DDS deletion under the alarm."""
+    for node in nodes:
+        node.destroy_node()  # a TrackNode closes its files, then deletes its DDS entities under the alarm
+    if twins is not None:
+        with dds_alarm():  # the last node of the context takes the DDS participant with it (rmw_fastrtps)
+            twins.destroy_node()
+    with dds_alarm():
+        rclpy.try_shutdown()
+    TEARDOWN.done = True
