@@ -48,17 +48,24 @@ def instant_rows(d: dict, rows: list[dict], scores: dict, sonar: str, network: s
 
 
 def consistent_share(P_s: np.ndarray, P_n: np.ndarray, rng: np.random.Generator, method: str = 'exact',
-                     threshold: float = THRESHOLD, draws: int = DRAWS) -> float:
-    """Share of draws whose instant score is below ``threshold`` when both errors follow their covariances
-    (NaN when a covariance is not positive definite: no Gaussian to draw from)."""
-    try:
-        L_s, L_n = np.linalg.cholesky(P_s), np.linalg.cholesky(P_n)
-    except np.linalg.LinAlgError:
-        return float('nan')
-    e_s = rng.standard_normal((draws, 2)) @ L_s.T
-    e_n = rng.standard_normal((draws, 2)) @ L_n.T
-    g = score(e_s, np.broadcast_to(P_s, (draws, 2, 2)), e_n, np.broadcast_to(P_n, (draws, 2, 2)), method)
-    return float(np.mean(g < threshold))
+                     threshold: float = THRESHOLD, draws: int = DRAWS) -> float | np.ndarray:
+    """Share of draws whose instant score is below ``threshold`` when both errors follow their covariances,
+    per pair of covariances (``P_s``, ``P_n``: (2, 2) → a float, or (m, 2, 2) → (m,), scored in one batch);
+    NaN where a covariance is not positive definite (no Gaussian to draw from)."""
+    single = np.ndim(P_s) == 2
+    P_s, P_n = (np.asarray(P, float).reshape(-1, 2, 2) for P in (P_s, P_n))
+    ok = (np.linalg.eigvalsh(P_s)[:, 0] > 0) & (np.linalg.eigvalsh(P_n)[:, 0] > 0)
+    eye = np.eye(2)
+    L_s = np.linalg.cholesky(np.where(ok[:, None, None], P_s, eye))
+    L_n = np.linalg.cholesky(np.where(ok[:, None, None], P_n, eye))
+    m = P_s.shape[0]
+    e_s = np.einsum('mij,mdj->mdi', L_s, rng.standard_normal((m, draws, 2)))
+    e_n = np.einsum('mij,mdj->mdi', L_n, rng.standard_normal((m, draws, 2)))
+    cov = (np.broadcast_to(np.where(ok[:, None, None], P, eye)[:, None], (m, draws, 2, 2)).reshape(-1, 2, 2)
+           for P in (P_s, P_n))
+    g = score(e_s.reshape(-1, 2), next(cov), e_n.reshape(-1, 2), next(cov), method).reshape(m, draws)
+    share = np.where(ok, np.mean(g < threshold, axis=1), np.nan)
+    return float(share[0]) if single else share
 
 
 def instants_table(runs: list[list[dict]], method: str = 'exact', threshold: float = THRESHOLD,
@@ -73,7 +80,8 @@ def instants_table(runs: list[list[dict]], method: str = 'exact', threshold: flo
     rows, data = [], []
     for t in sorted(by_t):
         rs = by_t[t]
-        cons = [consistent_share(r['P_sonar'], r['P_network'], rng, method, threshold, draws) for r in rs]
+        cons = consistent_share(np.array([r['P_sonar'] for r in rs]), np.array([r['P_network'] for r in rs]),
+                                rng, method, threshold, draws)
         rec = {'t': t, 'runs': len(rs),
                'nees_sonar': float(np.nanmean([r['nees_sonar'] for r in rs])),
                'nees_network': float(np.nanmean([r['nees_network'] for r in rs])),
