@@ -77,8 +77,8 @@ def test_maritime_radio_range_links_the_columns(seed):
 
 
 def test_maritime_fusion_release_is_one_disjoint_instant_below_the_threshold():
-    """The maritime fusion's release ratio is ε^(1/window) (``associator.release_ratio_of``), so an
-    association outlasts one disjoint instant, whatever the window and floor the scenario sets."""
+    """The maritime fusion's release ratio is ε^(1/(window + prior_weight)) (``associator.release_ratio_of``),
+    so an association outlasts one disjoint instant, whatever the window, floor and prior the scenario sets."""
     import math
 
     import yaml
@@ -89,7 +89,8 @@ def test_maritime_fusion_release_is_one_disjoint_instant_below_the_threshold():
 
     cfg = yaml.safe_load(maritime_yaml(seed=1))
     (f,) = [v['ros__parameters'] for k, v in cfg.items() if section_node(k) == 'fusion']
-    assert math.isclose(f['release_ratio'], release_ratio_of(f['floor'], f['window']), rel_tol=1e-12)
+    assert math.isclose(f['release_ratio'], release_ratio_of(f['floor'], f['window'], f['prior_weight']),
+                        rel_tol=1e-12)
     assert f['release_ratio'] < 1.0
 
 

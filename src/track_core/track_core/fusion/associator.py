@@ -38,6 +38,14 @@ nothing weaker: without it a pair at the threshold flickers off and on. ρ = 1 (
 paper's rule, bit for bit. A pair that was not associated is unaffected, so the release never makes
 a new association.
 
+Prior (``prior_weight`` ν > 0, ``prior_score`` s̄: ``geofeasibility.track.with_prior``): the
+combination of a pair's window of n instants includes ν instants scoring s̄, so a young pair
+(n = 1, 2) is not decided on one or two instant scores alone, and the prior's weight fades as the
+window fills. The decision and ``combined`` use it. A pair with no positive score in its window
+stays at 0. One disjoint instant then lowers a combination by ε^(1/(K + ν)), and
+``release_ratio_of(floor, window, prior_weight)`` gives that ratio. ν = 0 (the default) is the paper's
+combination, bit for bit.
+
 Isolation: when the batch fails (a degenerate covariance slipped past the caller's checks), each
 pair is scored alone; a pair whose score raises (or comes out not finite) is skipped and reported in
 ``Instant.skipped`` (ids and reason, its window untouched) and every other pair is scored as
@@ -61,7 +69,7 @@ from track_core.fusion.schedule import StampSchedule
 from track_core.fusion.tracks import TrackReport, TrackTable
 from track_core.geofeasibility import PairWindows, ScoreWindow, check_pairs, score
 from track_core.geofeasibility.gate import GATED_METHODS, candidate_pairs
-from track_core.geofeasibility.track import THRESHOLD
+from track_core.geofeasibility.track import THRESHOLD, check_prior, with_prior
 
 METHODS = ('exact', 'glr', 'glr_thresholded', 'mc')
 _STRIDE = np.int64(1) << 31   # pair key = slot(a) · 2³¹ + slot(b)
@@ -157,13 +165,14 @@ class PairAssociator:
                  stale_after: float = 2.0, max_prediction: float = 10.0, q_s: float = 0.0, seed: int = 0,
                  stamp_rate: float | None = None, stamp_streams: tuple[str, ...] = (),
                  stamp_max_wait: float = float('inf'), gate: bool = True, floor: float = 0.0,
-                 release_ratio: float = 1.0) -> None:
+                 release_ratio: float = 1.0, prior_weight: float = 0.0, prior_score: float = 1.0) -> None:
         if method not in METHODS:
             raise ValueError(f'method must be one of {", ".join(METHODS)}, got {method!r}')
         if not 0.0 <= threshold <= 1.0 or window < 1 or not 0.0 < release_ratio <= 1.0:
             raise ValueError(f'need 0 <= threshold <= 1, 0 < release_ratio <= 1 and window >= 1; got {threshold}, '
                              f'{release_ratio}, {window}')
         ScoreWindow(combine, floor=floor)  # checks the combination's name and the floor
+        self.prior_weight, self.prior_score = check_prior(prior_weight, prior_score)
         self.method, self.threshold, self.combine, self.window = method, threshold, combine, int(window)
         self.floor, self.release_ratio = float(floor), float(release_ratio)
         self.n_samples, self.same_source_pairs = n_samples, same_source_pairs
@@ -298,6 +307,7 @@ class PairAssociator:
             i, j, s, keys = self._stored_pairs(slots, i, j, s, keys, untouched)
         total = self.live.colive(slots[i], slots[j], m) - self._skipped(keys, m)
         combined, instants = self.windows.add(keys, np.clip(s, 0.0, 1.0), t, total)
+        combined = with_prior(combined, instants, self.combine, self.prior_weight, self.prior_score)
         self._drop_broken_runs(np.concatenate([keys, untouched]), m)
         associated = self._associate(keys, combined, untouched)
         a, b = i[associated], j[associated]
@@ -430,10 +440,10 @@ class PairAssociator:
         return failed
 
 
-def release_ratio_of(floor: float, window: int) -> float:
-    """The release ratio that keeps an association through one disjoint instant: ε^(1/K) (module
+def release_ratio_of(floor: float, window: int, prior_weight: float = 0.0) -> float:
+    """The release ratio that keeps an association through one disjoint instant: ε^(1/(K + ν)) (module
     docstring); 1 (no hysteresis) without a floor."""
-    return float(floor ** (1.0 / window)) if floor > 0.0 else 1.0
+    return float(floor ** (1.0 / (window + prior_weight))) if floor > 0.0 else 1.0
 
 
 def _non_finite(s: np.ndarray) -> dict[int, str]:

@@ -6,7 +6,8 @@
   axis, clockwise from north).
 - :func:`combine_scores`, :func:`track_score`, :class:`ScoreWindow` — track-level combination;
   :class:`PairWindows` — ScoreWindow for many pairs at once (vectorised); ``FLOOR_2SIGMA`` — the
-  floor of a disjoint instant in a combination (``track`` module docstring).
+  floor of a disjoint instant in a combination; :func:`with_prior` — a young window's prior
+  (``track`` module docstring).
 - :func:`containment` — exact "one contains the other" / "no overlap" tests.
 - :func:`candidate_pairs`, :func:`gated_score` — the pairs whose 2σ ellipses may overlap (cKDTree
   radius gate + separating-ellipse test, :mod:`.gate`): scoring only those equals scoring all pairs.
@@ -22,6 +23,7 @@ from track_core.geofeasibility.track import (
     combine_scores,
     common_instants,
     track_score,
+    with_prior,
 )
 from track_core.geofeasibility.validate import check_pairs
 
@@ -50,4 +52,5 @@ __all__ = [
     'gaussian_to_ellipse',
     'score',
     'track_score',
+    'with_prior',
 ]

@@ -120,7 +120,8 @@ class FusionNode(TrackNode):
                                    max_prediction=p.max_prediction, q_s=p.q_s, seed=p.seed,
                                    stamp_rate=p.rate if p.schedule == 'stamps' else None,
                                    stamp_streams=streams, stamp_max_wait=p.stamps_max_wait, floor=p.floor,
-                                   release_ratio=p.release_ratio)
+                                   release_ratio=p.release_ratio, prior_weight=p.prior_weight,
+                                   prior_score=p.prior_score)
         self.markers = FusionMarkers(lifetime=2.0 / min(p.rate, p.display_rate))
         self.stamps = StampMonotonic()
         self.policy = InputPolicy(horizon=p.stamp_horizon, lead=p.stamp_lead)
@@ -151,6 +152,7 @@ class FusionNode(TrackNode):
     def apply_params(self, changed: set[str]) -> None:
         p, core = self.p, self.core
         core.threshold, core.release_ratio = float(p.threshold), float(p.release_ratio)
+        core.prior_weight, core.prior_score = float(p.prior_weight), float(p.prior_score)
         core.table.stale_after, core.table.max_prediction = float(p.stale_after), float(p.max_prediction)
         self.refusals.throttle = float(p.warn_period)
         self.policy = InputPolicy(horizon=p.stamp_horizon, lead=p.stamp_lead)

@@ -28,6 +28,11 @@ class FusionParams:
     release_ratio: float = param(1.0, 'an associated pair stays associated while its combined score is at least '
         'release_ratio·threshold (hysteresis; 1: the paper\'s one level; ε^(1/window) keeps an association through one '
         'disjoint instant; track_core.fusion.associator)', 1e-6, 1.0, live=True)
+    prior_weight: float = param(0.0, 'prior of a young pair: its combination includes this many instants scoring '
+        'prior_score, so one or two instant scores do not decide alone (0: the paper\'s combination; '
+        'track_core.geofeasibility.track)', 0.0, 1e6, live=True)
+    prior_score: float = param(1.0, 'the score of the prior\'s instants: the typical instant score of a true pair',
+                               1e-6, 1.0, live=True)
     combine: str = param('geometric', 'track-level combination of instant scores', choices=('geometric', 'harmonic'))
     window: int = param(10, 'instant scores kept per pair for the combination', 1, 100_000)
     floor: float = param(0.0, 'floor ε of an instant score in the combination: a disjoint instant enters the mean as '

@@ -189,7 +189,9 @@ track_launch:
     combine: geometric
     window: 15                 # a true pair's scores dip for up to 5 instants between two pings: 5·2 ≤ 15·ln 2
     floor: 0.1353352832366127  # e^-2: a disjoint instant is evidence, not a veto (track_core.geofeasibility.track)
-    release_ratio: 0.8751733190429475  # e^(-2/15) = ε^(1/window): an association outlasts one disjoint instant
+    prior_weight: 2.0          # a young pair's mean has 2 more instants at prior_score (AIS: the short-pair rule)
+    prior_score: 0.8           # the true pair's typical instant score (geometric mean; docs/results/maritime.md)
+    release_ratio: 0.8890097654027757  # e^(-2/17) = ε^(1/(window + prior_weight)): outlasts one disjoint instant
     stale_after: 2.5
     max_prediction: 3.0
     q_s: 1.0

@@ -98,8 +98,8 @@ def replay(d: dict, setup, layout: SensorLayout) -> list[dict]:
     return rows
 
 
-FUSION_KEYS = ('method', 'threshold', 'release_ratio', 'combine', 'window', 'floor', 'stale_after', 'max_prediction',
-               'q_s')
+FUSION_KEYS = ('method', 'threshold', 'release_ratio', 'prior_weight', 'prior_score', 'combine', 'window', 'floor',
+               'stale_after', 'max_prediction', 'q_s')
 
 
 def fusion_of(scenario: Path | dict) -> dict:
@@ -112,12 +112,14 @@ def fusion_of(scenario: Path | dict) -> dict:
 def fuse(d: dict, rows: list[dict], **fusion) -> dict[tuple[str, str], np.ndarray]:
     """Scores per pair (sorted ids → rows t, score, combined, associated), as ``maritime.load`` reads a bag;
     ``fusion``: the fusion node's settings (``fusion_of``; default config/maritime.yaml's)."""
-    f = {'method': 'exact', 'threshold': 0.5, 'release_ratio': 1.0, 'combine': 'geometric', 'window': 10, 'floor': 0.0,
-         'stale_after': 2.5, 'max_prediction': 3.0, 'q_s': 1.0, **fusion}
+    f = {'method': 'exact', 'threshold': 0.5, 'release_ratio': 1.0, 'prior_weight': 0.0, 'prior_score': 1.0,
+         'combine': 'geometric', 'window': 10, 'floor': 0.0, 'stale_after': 2.5, 'max_prediction': 3.0, 'q_s': 1.0,
+         **fusion}
     fa = PairAssociator(f['method'], float(f['threshold']), f['combine'], int(f['window']),
                         stale_after=float(f['stale_after']), max_prediction=float(f['max_prediction']),
                         q_s=float(f['q_s']), stamp_rate=1.0,  # schedule: stamps at 1 Hz, as config/maritime.yaml
-                        floor=float(f['floor']), release_ratio=float(f['release_ratio']))
+                        floor=float(f['floor']), release_ratio=float(f['release_ratio']),
+                        prior_weight=float(f['prior_weight']), prior_score=float(f['prior_score']))
     tracks = dict(d['tracks'])
     tracks[mar.NETWORK_TRACK] = (np.array([r['t'] for r in rows]), np.array([r['mean'] for r in rows]),
                                np.array([r['cov'] for r in rows]))

@@ -199,6 +199,52 @@ def test_a_release_below_the_threshold_keeps_an_association_through_one_disjoint
     assert release_ratio_of(0.0, K) == 1.0
 
 
+def test_a_prior_decides_a_young_pair_on_more_than_its_first_score():
+    """With the prior (ν, s̄) a pair's first instant at g associates when (g·s̄^ν)^(1/(1+ν)) ≥ the threshold
+    (here g ≈ 0.3 < 0.5), a never-overlapping pair stays at 0, ν = 0 is the paper's combination, the
+    combined column carries the prior, the prior can change between instants (a live parameter), and
+    the release ratio that keeps an association through one disjoint instant is ε^(1/(K + ν))."""
+    K, nu, sbar = 4, 2.0, 0.8
+
+    def run(xs, **kw):
+        core = PairAssociator('exact', threshold=0.5, combine='geometric', window=K, floor=FLOOR_2SIGMA, **kw)
+        R = np.eye(2) * 4.0
+        out = []
+        for t, xb in enumerate(xs):
+            core.update('/a', 'a', TrackReport(float(t), np.zeros(2), R))
+            core.update('/b', 'b', TrackReport(float(t), np.array([xb, 0.0]), R))
+            (q,) = core.score(float(t)).all_pairs()
+            out.append((q.score, q.combined, q.associated, q.instants))
+        return out, core
+
+    (first,), _ = run([4.0])                         # 2σ circles of radius 4 m, 4 m apart: score ~0.39
+    assert 0.125 / sbar ** nu < first[0] < 0.5 and not first[2]
+    (young,), _ = run([4.0], prior_weight=nu, prior_score=sbar)
+    assert math.isclose(young[1], (first[0] * sbar ** nu) ** (1 / (1 + nu)), rel_tol=1e-12) and young[2]
+    apart, _ = run([100.0, 100.0], prior_weight=nu, prior_score=sbar)
+    assert [c for _, c, _, _ in apart] == [0.0, 0.0] and not any(a for *_, a, _ in apart)
+    xs = [4.0, 0.0, 100.0, 4.0, 0.0, 0.0]
+    plain, _ = run(xs)
+    same, _ = run(xs, prior_weight=0.0, prior_score=sbar)
+    assert plain == same
+    with_p, core = run(xs, prior_weight=nu, prior_score=sbar)
+    for (g, c, _, n), (g2, c2, _, n2) in zip(plain, with_p, strict=True):
+        assert g == g2 and n == n2
+        assert math.isclose(c2, math.exp((n * math.log(c) + nu * math.log(sbar)) / (n + nu)), rel_tol=1e-12)
+    core.prior_weight = 0.0                          # the node's live parameter: the next instant without it
+    core.update('/a', 'a', TrackReport(6.0, np.zeros(2), np.eye(2) * 4.0))
+    core.update('/b', 'b', TrackReport(6.0, np.array([4.0, 0.0]), np.eye(2) * 4.0))
+    (q,) = core.score(6.0).all_pairs()
+    assert q.instants == K and math.isclose(q.combined, math.exp(np.mean(np.log(
+        np.maximum([0.0 if x == 100.0 else (1.0 if x == 0.0 else first[0]) for x in [4.0, 0.0, 0.0, 4.0]],
+                   FLOOR_2SIGMA)))), rel_tol=1e-9)
+    assert math.isclose(release_ratio_of(FLOOR_2SIGMA, K, nu), FLOOR_2SIGMA ** (1 / (K + nu)))
+    with pytest.raises(ValueError, match='prior'):
+        PairAssociator(prior_weight=-1.0)
+    with pytest.raises(ValueError, match='prior'):
+        PairAssociator(prior_score=0.0)
+
+
 def test_nothing_to_score_and_bad_settings():
     core = PairAssociator()
     assert core.score(0.0) is None

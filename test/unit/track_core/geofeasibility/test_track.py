@@ -11,7 +11,9 @@ from track_core.geofeasibility import (
     common_instants,
     score,
     track_score,
+    with_prior,
 )
+from track_core.geofeasibility.track import check_prior
 
 
 def test_means():
@@ -128,6 +130,27 @@ def test_a_floor_is_evidence_not_a_veto_and_changes_nothing_above_it():
             combine_scores([0.5], 'geometric', bad)
         with pytest.raises(ValueError, match='floor'):
             PairWindows('geometric', 3, bad)
+
+
+@pytest.mark.parametrize('mean', ['geometric', 'harmonic'])
+def test_a_prior_is_its_instants_in_the_mean_and_fades_as_the_window_fills(mean):
+    """ν instants scoring s̄ join the mean: equal to combining the window's scores with them (integer ν);
+    0 stays 0; ν = 0 changes nothing; a full window moves less than a young one."""
+    rng = np.random.default_rng(3)
+    for n in (1, 2, 5, 15):
+        g = rng.uniform(0.05, 1.0, n)
+        c = combine_scores(g, mean)
+        for nu, sbar in ((1, 0.8), (2, 0.8), (3, 1.0)):
+            assert math.isclose(float(with_prior(c, n, mean, nu, sbar)), combine_scores([*g, *[sbar] * nu], mean),
+                                rel_tol=1e-12)
+    c = np.array([0.2, 0.0, 0.2])
+    out = with_prior(c, np.array([1, 1, 15]), mean, 2.0, 0.8)
+    assert out[1] == 0.0                                        # nothing speaks for the pair: still 0
+    assert out[0] > out[2] > 0.2                                # the young window leans more
+    assert np.array_equal(with_prior(c, np.array([1, 1, 15]), mean, 0.0, 0.8), c)
+    for bad in ((-1.0, 0.8), (2.0, 0.0), (2.0, 1.5), (float('nan'), 0.8), ('2', 0.8)):
+        with pytest.raises(ValueError, match='prior'):
+            check_prior(*bad)
 
 
 def test_pair_windows_refuse_what_score_window_refuses():
