@@ -60,6 +60,7 @@ from track_nodes.bag.playcheck import plan_playback
 from track_nodes.base import ParameterError, TrackNode, param, run_node
 from track_nodes.base.cli import OneLineParser, cli_overrides
 from track_nodes.base.ready import Announced
+from track_nodes.base.signals import HELD
 
 CLOCK_TOPIC = '/clock'
 DEPTH = 100
@@ -113,6 +114,7 @@ class PlayerNode(TrackNode):
         self.reader = None
         self.exit_code = 0
         self.done = threading.Event()
+        self._final_line: tuple[str, bool] | None = None
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         if not self.p.bag:
@@ -133,8 +135,8 @@ class PlayerNode(TrackNode):
                              durability=DurabilityPolicy.TRANSIENT_LOCAL if transient else DurabilityPolicy.VOLATILE)
             self.publishers_by_topic[topic] = self.create_publisher(self.classes[msgtype], topic, qos,
                                                                     as_given=True)  # the recorded names
-        if exit_when_done:
-            self.create_timer(0.05, self._exit_if_done, clock=RosClock(clock_type=ClockType.STEADY_TIME))
+        self.exit_when_done = exit_when_done
+        self.create_timer(0.05, self._exit_if_done, clock=RosClock(clock_type=ClockType.STEADY_TIME))
         self._thread = threading.Thread(target=self._run, name='player', daemon=True)
         self._thread.start()
 
@@ -187,10 +189,21 @@ class PlayerNode(TrackNode):
                 break
         self._stop.wait(SETTLE)
 
-    def _log(self, line: str, error: bool = False) -> None:
-        if self.context.ok():
+    def _final(self, line: str, error: bool = False) -> None:
+        """The playback thread's last line, left for the main thread to log (``_log_final``): a stop signal
+        shuts the context down from rclpy's signal thread, and the rcl logger called from a third thread
+        while that happens crashed the process (SIGSEGV in rosout), whatever ``context.ok()`` said just before."""
+        self._final_line = (line, error)
+
+    def _log_final(self) -> None:
+        """Log the playback's last line once, from the main thread (``_exit_if_done``, ``destroy_node``)."""
+        final, self._final_line = self._final_line, None
+        if final is None:
+            return
+        line, error = final
+        if self.context.ok() and not HELD.stopping:
             (self.get_logger().error if error else self.get_logger().info)(line)
-        else:  # after shutdown (Ctrl-C) the logger can no longer reach /rosout and complains
+        else:  # stopping or shut down: the logger can no longer reach /rosout (and must not try)
             print(f'[{"ERROR" if error else "INFO"}] [{self.get_name()}]: {line}', file=sys.stderr)
 
     def _publish_clock(self, ns: int) -> None:
@@ -209,13 +222,13 @@ class PlayerNode(TrackNode):
                 if self._stop.is_set():
                     break
                 pub.wait_for_all_acked(Duration(seconds=ACK_TIMEOUT))
-            self._log(self._played())
+            self._final(self._played())
         except Exception as exc:  # a failing playback thread must not hang the node
             if self._stop.is_set() or not self.context.ok():  # a stop signal shut the context down mid-publish
-                self._log(self._played())
+                self._final(self._played())
             else:
                 self.exit_code = 1
-                self._log(f'playback of {self.path} failed: {type(exc).__name__}: {exc}', error=True)
+                self._final(f'playback of {self.path} failed: {type(exc).__name__}: {exc}', error=True)
         finally:
             self.done.set()
 
@@ -244,8 +257,11 @@ class PlayerNode(TrackNode):
         return f'played {self.published} of {self.to_play} messages from {self.path} (stopped before the end)'
 
     def _exit_if_done(self) -> None:
+        """Once the playback is done: its last line, and with ``exit_when_done`` the end of the process."""
         if self.done.is_set():
-            self.context.try_shutdown()  # ends run_node's spin; destroy_node follows
+            self._log_final()
+            if self.exit_when_done:
+                self.context.try_shutdown()  # ends run_node's spin; destroy_node follows
 
     def _close_reader(self) -> None:
         reader, self.reader = self.reader, None
@@ -256,6 +272,7 @@ class PlayerNode(TrackNode):
         self._stop.set()
         if self._thread is not None:
             self._thread.join(timeout=5.0)
+        self._log_final()
         self._close_reader()
         super().destroy_node()
 
