@@ -10,6 +10,7 @@ import pytest
 SCRIPT = '''
 import signal
 from track_nodes.base.signals import HELD, stop_on
+signal.signal(signal.SIGINT, signal.default_int_handler)  # Python's default, also where SIGINT came ignored (a &)
 if {stop_on}:
     stop_on(signal.SIGTERM, signal.SIGHUP)
 try:
