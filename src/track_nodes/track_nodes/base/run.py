@@ -20,6 +20,7 @@ import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
 
 from track_nodes.base import ready
 from track_nodes.base.cli import params_file_problem
@@ -54,7 +55,10 @@ def run_nodes(makers: Sequence[tuple[str, Callable[[], Node]]], argv: Sequence[s
     problem = params_file_problem(args)
     if problem is None:
         try:
-            rclpy.init(args=args)
+            # No rclpy signal handlers: its signal thread shut the context down while this thread was
+            # building or destroying the nodes, a race that crashed about one stop in seven under load
+            # (SIGSEGV); the stop is ours alone, and teardown shuts the context down itself (base/signals.py).
+            rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
             remember_args(rclpy.get_default_context(), args)  # its params files, for base/names.py
         except _rclpy.UnknownROSArgsError as exc:
             problem = f'unknown ROS arguments {exc}'

@@ -4,8 +4,14 @@
 SIGHUP. Their default action kills the process at once, so a recorder would leave an .mcap without
 summary and no ``metadata.yaml``. ``stop_on(signal.SIGTERM, signal.SIGHUP)`` gives each of them a
 handler that raises SIGINT in the process: whatever handles SIGINT then runs, unchanged (in a node
-process, rclpy's handler shuts the context down and the nodes are destroyed in order, the recorder
-closing its bag; in a process without rclpy's handlers, Python's ``KeyboardInterrupt``).
+process, the stop below: the nodes are destroyed in order, the recorder closing its bag, and the
+context is shut down last; elsewhere, Python's ``KeyboardInterrupt``).
+
+A node process (``base/run.py``) initialises rclpy without its signal handlers
+(``SignalHandlerOptions.NO``). rclpy's handler wakes a thread of its own that shuts every context down
+at once, while the main thread goes on building or destroying the nodes: that race crashed the
+process (SIGSEGV in a C thread) at about one stop in seven with four nodes stopping at once. Here the
+main thread alone stops: the spin loop below ends, the nodes are destroyed, then the context.
 
 Python runs a signal handler in the main thread between two bytecodes, so a main thread blocked
 in C (an executor waiting with no timeout) would not see it; ``spin(executor)`` spins with a short
@@ -13,12 +19,12 @@ timeout (``POLL`` wall seconds) for that reason. A loop of one's own must wake u
 
 Teardown. Once a process is stopping, every further stop signal is a count (``HELD.count``), not an
 exception: ``ros2 launch`` at Ctrl-C delivers the terminal's SIGINT and then its own, and SIGTERM 5 s
-later; the second one used to land in the middle of destroying the nodes (rclpy's handler chains to
-Python's, whose ``KeyboardInterrupt`` left teardown half done: exit 130, "process has died"). So the
+later; the second one used to land in the middle of destroying the nodes (Python's
+``KeyboardInterrupt`` left teardown half done: exit 130, "process has died"). So the
 Python handler of SIGINT that ``stop_on`` installs holds the stops (``hold_stops()``) before it raises
 the ``KeyboardInterrupt`` of the first one: no instant is left between the first stop and the hold, not
-even the few bytecodes before a ``finally`` (rclpy, initialised after ``stop_on``, chains its own
-handler to it). Teardown is bounded by the DDS alarm (``base/teardown.py``), so nothing is lost.
+even the few bytecodes before a ``finally``. Teardown is bounded by the DDS alarm
+(``base/teardown.py``), so nothing is lost.
 
 Spinning. A ``KeyboardInterrupt`` raised wherever the main thread happens to be can land inside an
 object's ``__init__`` (an executor's ``Task`` for the next callback): the half-built object's

@@ -28,7 +28,9 @@ subscription has matched its publisher (under sim time) and, when recording, unt
 has subscribed to every recordable topic, then lets discovery settle: nothing
 published at t = 0 is lost. The clock stops exactly at ``--duration``, the launcher waits a
 short grace period for messages in flight, then stops every node (the recorder closes its
-bag). Ctrl-C, SIGTERM and SIGHUP stop everything the same way.
+bag). Ctrl-C, SIGTERM and SIGHUP stop everything the same way. A wall-time run that replays a bag
+(a ``player`` node, not looped) ends when the bag has been played and the recorded topics have been
+quiet for ``QUIET`` s (``_drain``), so a busy machine does not cut it; ``--duration`` stays the bound.
 
 Isolation (``isolation``): a run discovers on localhost only (``--network`` opens it), takes a
 ROS domain of its own when ROS_DOMAIN_ID is unset (printed), and stops with one line when a
@@ -57,6 +59,7 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from track_msgs_py.topics import READY
+from track_nodes.bag.player import PlayerNode
 from track_nodes.base import EXIT_BAD_INPUT, remember_args, shared_names_problem
 from track_nodes.base.ready import ALLOW_TWINS, twins_allowed
 from track_nodes.launch.cli import parse_args
@@ -138,6 +141,7 @@ class Launch:
         self.clock_cpu: tuple[float, float] | None = None  # (wall, CPU s) at the clock's start, --processes
         self.lockstep = False
         self.nodes: list[Node] = []
+        self.replay_done = False
 
     # -- the two ways of running the nodes ------------------------------------------------
     def run(self, processes: bool, n_hosts: int = 0) -> int:
@@ -197,8 +201,9 @@ class Launch:
             if self.dog is not None:
                 self.dog.watching = False  # the clock has stopped: the drain and the grace have their own bounds
             with contextlib.suppress(KeyboardInterrupt):
-                if children:
+                if children or self.replay_done:
                     self._drain(launcher, executor)
+                if children:
                     self._say_cpu(children)
                 self._pump(executor, time.monotonic() + GRACE)  # messages in flight reach the recorder
             stop_processes(children)
@@ -226,8 +231,13 @@ class Launch:
         print(f'cpu: {processes_cpu(children) - cpu0:.2f} s in {len(children)} processes and the launcher '
               f'from the clock\'s start to the end of the work ({time.monotonic() - t0:.1f} s wall)', flush=True)
 
+    def _replayed(self) -> bool:
+        """Wall time: every player among the nodes has played its bag (a looped one never has)."""
+        players = [n for n in self.nodes if isinstance(n, PlayerNode)]
+        return bool(players) and all(p.done.is_set() for p in players)
+
     def _drain(self, launcher: LauncherNode, executor: MultiThreadedExecutor) -> None:
-        """--processes: after the clock stopped, wait until the other processes' work is done.
+        """--processes, or a played bag: after the clock stopped, wait until the nodes' work is done.
 
         They cannot be observed directly, but every result they produce is a message: once no
         watched topic has delivered anything for ``QUIET`` wall seconds, the work queued up to the
@@ -399,6 +409,10 @@ class Launch:
                 launcher.watch(self.record_regex)  # topics whose traffic tells when the processes are done
             if not self.sim:
                 if duration is not None and time.monotonic() - t0 >= duration:
+                    return
+                if self._replayed():
+                    self.replay_done = True  # the bag has been played: drain its consumers, then stop
+                    print('the bag has been played: stopping once the nodes are done', flush=True)
                     return
                 self._pump(executor, time.monotonic() + CLOCK_TICK)
                 continue
