@@ -119,3 +119,10 @@ def test_options_lists_every_key_with_its_meaning(capsys):
     every = capsys.readouterr().out
     assert '--set keys of maritime-seeds:' in every and '--set keys of demo-kf:\n  (none' in every
     assert experiment_main(['no-such', '--options']) == 2
+
+
+def test_a_choice_option_defaults_to_the_first_and_refuses_others():
+    assert RunConfig().choice('prior', 'scenario', 'none') == 'scenario'
+    assert RunConfig(options={'prior': 'none'}).choice('prior', 'scenario', 'none') == 'none'
+    with pytest.raises(ValueError, match=r"--set prior='maybe': allowed scenario or none"):
+        RunConfig(options={'prior': 'maybe'}).choice('prior', 'scenario', 'none')

@@ -49,6 +49,13 @@ class RunConfig:
             return self.runs
         return quick if self.quick else full
 
+    def choice(self, key: str, *allowed: str) -> str:
+        """Option ``key`` (default: the first of ``allowed``); ``ValueError`` naming them when it is another."""
+        value = self.options.get(key, allowed[0])
+        if value not in allowed:
+            raise ValueError(f'--set {key}={value!r}: allowed {", ".join(allowed[:-1])} or {allowed[-1]}')
+        return value
+
     def progress(self, iterable: Iterable, **kw: Any) -> Iterable:
         """A tqdm progress bar on stderr (silent when show_progress is False)."""
         from tqdm import tqdm

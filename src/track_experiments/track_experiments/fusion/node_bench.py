@@ -187,12 +187,8 @@ def bench(cfg: RunConfig) -> Outcome:
 
     n = int(cfg.options.get('tracks', 200 if cfg.quick else 1000))
     seconds = float(cfg.options.get('seconds', 4.0 if cfg.quick else 20.0))
-    publish_pairs = cfg.options.get('publish_pairs', 'nonzero')
-    if publish_pairs not in ('nonzero', 'all'):
-        raise ValueError(f'publish_pairs must be nonzero or all, got {publish_pairs!r}')
-    kind = cfg.options.get('input', 'arrays')
-    if kind not in ('arrays', 'poses'):
-        raise ValueError(f'input must be arrays or poses, got {kind!r}')
+    publish_pairs = cfg.choice('publish_pairs', 'nonzero', 'all')
+    kind = cfg.choice('input', 'arrays', 'poses')
     rng = np.random.default_rng(cfg.seed)
     mu, R = solent_layout(n, rng)
     r = run_node(mu, R, seconds, publish_pairs, cfg.seed, float(cfg.options.get('stale_after', 2.5)), kind == 'arrays')

@@ -54,14 +54,13 @@ def run_seed(seed: int, fusion: dict | None = None, instants: bool = False, **tr
     return s
 
 
-def without_prior(seed: int) -> dict:
-    """The fusion settings of seed ``seed``'s scenario without the prior: ``prior_weight`` 0 and the release
-    ratio of the window alone (``associator.release_ratio_of``)."""
+def without_prior(fusion: dict) -> dict:
+    """Overrides of the fusion settings ``fusion`` (``network_replay.fusion_of``) that drop the prior:
+    ``prior_weight`` 0 and the release ratio of the window alone (``associator.release_ratio_of``)."""
     from track_core.fusion.associator import release_ratio_of
-    from track_nodes.report.network_replay import fusion_of
 
-    f = fusion_of(seed_scenario(seed))
-    return {'prior_weight': 0.0, 'release_ratio': release_ratio_of(float(f.get('floor', 0.0)), int(f['window']))}
+    return {'prior_weight': 0.0, 'release_ratio': release_ratio_of(float(fusion.get('floor', 0.0)),
+                                                                   int(fusion['window']))}
 
 
 def typical_score(scores: list[np.ndarray], floor: float) -> tuple[float, int]:
@@ -89,13 +88,12 @@ def parse_seeds(text: str) -> list[int]:
                 'release ratio of the window alone)')
 def maritime_seeds(cfg: RunConfig) -> Outcome:
     seeds = parse_seeds(cfg.options.get('seeds', '1-3' if cfg.quick else '1-20'))
-    per_instant = cfg.options.get('instants', 'no')
-    if per_instant not in ('yes', 'no'):
-        raise ValueError(f'--set instants={per_instant!r}: allowed yes or no')
-    prior = cfg.options.get('prior', 'scenario')
-    if prior not in ('scenario', 'none'):
-        raise ValueError(f'--set prior={prior!r}: allowed scenario or none')
-    res = {s: run_seed(s, without_prior(s) if prior == 'none' else None, instants=per_instant == 'yes')
+    per_instant = cfg.choice('instants', 'no', 'yes')
+    prior = cfg.choice('prior', 'scenario', 'none')
+    from track_nodes.report.network_replay import fusion_of
+
+    fusion = fusion_of(seed_scenario(seeds[0]))   # every seed's fusion settings are the scenario's
+    res = {s: run_seed(s, without_prior(fusion) if prior == 'none' else None, instants=per_instant == 'yes')
            for s in cfg.progress(seeds, desc='maritime-seeds')}
     rows = [[s, r['rtams'], r['error_max'], 100 * r['fraction'], r['instants'], r['decoy_ever'], r['pings'],
              'yes' if r['meets'] else 'NO'] for s, r in res.items()]
@@ -109,9 +107,7 @@ def maritime_seeds(cfg: RunConfig) -> Outcome:
               f"{res[worst_r]['rtams']:.1f} m (max error {res[worst_r]['error_max']:.1f} m); worst true-pair seed "
               f"{worst_f}: {100 * res[worst_f]['fraction']:.1f} % of {res[worst_f]['instants']} instants; "
               f"{sum(r['pings'] for r in res.values()) / len(res):.2f} pings per run")
-    from track_nodes.report.network_replay import fusion_of
-
-    floor = float(fusion_of(seed_scenario(seeds[0])).get('floor', 0.0))
+    floor = float(fusion.get('floor', 0.0))
     typical, n_inst = typical_score([r['true_scores'] for r in res.values()], floor)
     table += (f'\ntrue pair typical instant score (geometric mean, floored at {floor:.3g}): {typical:.3f} over '
               f'{n_inst} instants' + ('; fusion prior: none' if prior == 'none' else ''))

@@ -60,7 +60,6 @@ from track_nodes.bag.playcheck import plan_playback
 from track_nodes.base import ParameterError, TrackNode, param, run_node
 from track_nodes.base.cli import OneLineParser, cli_overrides
 from track_nodes.base.ready import Announced
-from track_nodes.base.signals import HELD
 
 CLOCK_TOPIC = '/clock'
 DEPTH = 100
@@ -190,9 +189,8 @@ class PlayerNode(TrackNode):
         self._stop.wait(SETTLE)
 
     def _final(self, line: str, error: bool = False) -> None:
-        """The playback thread's last line, left for the main thread to log (``_log_final``): a stop signal
-        shuts the context down from rclpy's signal thread, and the rcl logger called from a third thread
-        while that happens crashed the process (SIGSEGV in rosout), whatever ``context.ok()`` said just before."""
+        """The playback thread's last line: the main thread logs it (``_log_final``), so the rcl logger is
+        never called from this thread while the main one tears the node down."""
         self._final_line = (line, error)
 
     def _log_final(self) -> None:
@@ -200,11 +198,10 @@ class PlayerNode(TrackNode):
         final, self._final_line = self._final_line, None
         if final is None:
             return
-        line, error = final
-        if self.context.ok() and not HELD.stopping:
-            (self.get_logger().error if error else self.get_logger().info)(line)
-        else:  # stopping or shut down: the logger can no longer reach /rosout (and must not try)
-            print(f'[{"ERROR" if error else "INFO"}] [{self.get_name()}]: {line}', file=sys.stderr)
+        if self.context.ok():
+            (self.get_logger().error if final[1] else self.get_logger().info)(final[0])
+        else:  # after shutdown the logger can no longer reach /rosout and complains
+            print(f'[{"ERROR" if final[1] else "INFO"}] [{self.get_name()}]: {final[0]}', file=sys.stderr)
 
     def _publish_clock(self, ns: int) -> None:
         if ns > self._last_clock:
@@ -275,8 +272,6 @@ class PlayerNode(TrackNode):
         self._log_final()
         self._close_reader()
         super().destroy_node()
-
-
 
 
 def parse_cli(argv: Sequence[str]) -> list[Parameter]:
