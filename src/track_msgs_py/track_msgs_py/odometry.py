@@ -27,8 +27,11 @@ described with their topics in ``track_msgs_py.topics``.
 Deliberate deviations and losses:
 
 - Odometry twist is expressed in ``child_frame_id`` (REP-105). Our tracks carry no heading, so
-  the child frame is defined axis-aligned with ``map`` (orientation identity) and the twist is
-  the map-frame velocity: ``twist.twist.linear.x`` is the east velocity, not a forward speed.
+  the child frame we publish is axis-aligned with ``map`` (orientation identity) and the twist is
+  the map-frame velocity. On the way in, ``odometry_to_cv_state`` reads any Odometry the REP-105
+  way: the twist (and its covariance) is rotated by the pose's orientation into ``header.frame_id``,
+  so a vehicle's odometry (heading in the orientation, forward speed in ``twist.linear.x``) is read
+  as the velocity it is. An identity or unset (all-zero) orientation rotates nothing, bit for bit.
 - Odometry has no slot for position–velocity cross-covariances: they are dropped on the way
   out, and ``odometry_to_cv_state`` returns ``P`` with zero cross blocks.
 - A ``PoseArray`` carries no weights: particle clouds are for display, publish them after resampling.
@@ -70,13 +73,42 @@ def cv_state_to_odometry(t: float, x: np.ndarray, P: np.ndarray, frame_id: str =
 
 
 def odometry_to_cv_state(msg: Odometry) -> tuple[float, np.ndarray, np.ndarray]:
-    """``nav_msgs/Odometry`` → ``(t, x=[x, ẋ, y, ẏ], P)``; P's position–velocity blocks are zero."""
+    """``nav_msgs/Odometry`` → ``(t, x=[x, ẋ, y, ẏ], P)`` in ``header.frame_id``; P's position–velocity
+    blocks are zero. The twist is in ``child_frame_id`` (REP-105) and is rotated by the pose's
+    orientation (``orientation_matrix``) into the parent frame, with its covariance."""
     p, v = msg.pose.pose.position, msg.twist.twist.linear
-    x = np.array([p.x, v.x, p.y, v.y], dtype=float)
+    R = orientation_matrix(msg.pose.pose.orientation)
+    if R is None:  # identity: the twist is already in the parent frame
+        vx, vy = v.x, v.y
+        vel_cov = xy_block(msg.twist.covariance)
+    else:
+        vx, vy, _ = R @ np.array([v.x, v.y, v.z], dtype=float)
+        lin = np.asarray(msg.twist.covariance, dtype=float).reshape(6, 6)[:3, :3]
+        vel_cov = (R @ lin @ R.T)[:2, :2]
+    x = np.array([p.x, vx, p.y, vy], dtype=float)
     P = np.zeros((4, 4))
     P[np.ix_(_POS, _POS)] = xy_block(msg.pose.covariance)
-    P[np.ix_(_VEL, _VEL)] = xy_block(msg.twist.covariance)
+    P[np.ix_(_VEL, _VEL)] = vel_cov
     return stamp_to_sec(msg.header.stamp), x, P
+
+
+def orientation_matrix(q) -> np.ndarray | None:
+    """Rotation matrix (3×3) of a ``geometry_msgs/Quaternion``, normalised; ``None`` for the identity and for
+    the unset all-zero quaternion (which many drivers leave in a message without an orientation)."""
+    x, y, z, w = float(q.x), float(q.y), float(q.z), float(q.w)
+    if x == 0.0 and y == 0.0 and z == 0.0:
+        return None
+    s = 2.0 / (x * x + y * y + z * z + w * w)
+    return np.array([
+        [1.0 - s * (y * y + z * z), s * (x * y - z * w), s * (x * z + y * w)],
+        [s * (x * y + z * w), 1.0 - s * (x * x + z * z), s * (y * z - x * w)],
+        [s * (x * z - y * w), s * (y * z + x * w), 1.0 - s * (x * x + y * y)],
+    ])
+
+
+def yaw_to_quaternion(yaw: float) -> tuple[float, float]:
+    """(z, w) of the rotation by ``yaw`` [rad] about the z axis (REP-103: counter-clockwise from x)."""
+    return math.sin(0.5 * yaw), math.cos(0.5 * yaw)
 
 
 # --- position report ⇄ PoseWithCovarianceStamped --------------------------------------------

@@ -158,9 +158,19 @@ def xyz_problem(field: str, v) -> str | None:
     return finite_problem(field, x=v.x, y=v.y, z=v.z)
 
 
+QUATERNION_NORM_TOL = 1e-3  # |‖q‖ − 1| allowed: float32 round trips and drivers that normalise loosely
+
+
 def quaternion_problem(field: str, q) -> str | None:
-    """Reason naming the first non-finite component of a Quaternion."""
-    return finite_problem(field, x=q.x, y=q.y, z=q.z, w=q.w)
+    """Reason naming the first non-finite component of a Quaternion, or a norm that is not 1 (the all-zero
+    quaternion, an orientation left unset, is accepted and read as the identity)."""
+    reason = finite_problem(field, x=q.x, y=q.y, z=q.z, w=q.w)
+    if reason:
+        return reason
+    norm = math.sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w)
+    if norm != 0.0 and abs(norm - 1.0) > QUATERNION_NORM_TOL:
+        return f'{field}: not a unit quaternion (norm {norm:.6g})'
+    return None
 
 
 def covariance36_problem(field: str, covariance) -> str | None:

@@ -1,5 +1,7 @@
 """Tracks, reports and poses ⇄ Odometry, PoseWithCovarianceStamped and PoseArray, also through CDR."""
 
+import math
+
 import numpy as np
 import pytest
 from geometry_msgs.msg import PoseWithCovarianceStamped
@@ -120,3 +122,33 @@ def test_pose_array_round_trip():
     np.testing.assert_allclose(th2, th, atol=1e-12)
     _, th0 = pose_array_to_positions(positions_to_pose_array(0.0, xy))
     assert np.all(th0 == 0.0)
+
+
+def test_rep105_odometry_twist_in_the_child_frame_is_rotated_into_the_parent():
+    """A vehicle's odometry (heading in the orientation, forward speed in twist.linear.x) is read as the
+    velocity it is, with its covariance rotated too; the identity and the unset orientation read as before."""
+    from track_msgs_py.odometry import yaw_to_quaternion
+
+    heading = math.radians(30.0)  # REP-103 yaw: 30° counter-clockwise from east
+    msg = cv_state_to_odometry(5.0, np.array([10.0, 0.0, 20.0, 0.0]), np.diag([1.0, 4.0, 1.0, 0.25]))
+    msg.pose.pose.orientation.z, msg.pose.pose.orientation.w = yaw_to_quaternion(heading)
+    msg.twist.twist.linear.x = 3.0  # forward
+    _, x, P = odometry_to_cv_state(msg)
+    np.testing.assert_allclose(x, [10.0, 3.0 * math.cos(heading), 20.0, 3.0 * math.sin(heading)], atol=1e-12)
+    c, s = math.cos(heading), math.sin(heading)
+    R = np.array([[c, -s], [s, c]])
+    np.testing.assert_allclose(P[np.ix_([1, 3], [1, 3])], R @ np.diag([4.0, 0.25]) @ R.T, atol=1e-12)
+    for w in (1.0, 0.0):  # identity, and the all-zero quaternion a driver leaves unset
+        msg.pose.pose.orientation.z, msg.pose.pose.orientation.w = 0.0, w
+        _, x, _ = odometry_to_cv_state(msg)
+        assert x[1] == 3.0 and x[3] == 0.0
+
+
+def test_a_quaternion_that_is_not_unit_is_refused():
+    from track_msgs_py.validate import odometry_problem
+
+    msg = cv_state_to_odometry(5.0, np.zeros(4), np.eye(4))
+    msg.pose.pose.orientation.w = 2.0
+    assert 'not a unit quaternion' in odometry_problem(msg, {'map'})
+    msg.pose.pose.orientation.w = 0.0
+    assert odometry_problem(msg, {'map'}) is None
