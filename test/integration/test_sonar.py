@@ -1,13 +1,12 @@
-"""Sonar scenario (issue 3): smart_target and sonar_observer in-process and through the launcher.
+"""Sonar scenario: smart_target, sonar_sim and sonar_observer in-process and through the launcher.
 
-- In-process, /clock driven by the test: the estimate converges near the truth, and the two nodes
+- In-process, /clock driven by the test: the estimate converges near the truth, and the three nodes
   reproduce, bit for bit, the core-only closed loop with the same seeds (the nodes add no maths
   and follow the ordering rule of ``track_experiments.sonar.experiments.run_closed_loop``).
-- Launcher: ``config/sonar.yaml`` recorded for 20 s; replaying the recorded truth with the player
-  into a fresh ``sonar_observer`` with the same parameters reproduces every recorded estimate.
-- Started by hand, in either order and 3 s apart on wall time, the two processes lock-step
-  (issue 19, item 4: each used to take its own wall-time second as its stamp origin and could wait
-  for the other forever).
+- Launcher: ``config/sonar.yaml`` recorded for 20 s; replaying the recorded contacts and navigation
+  with the player into a fresh ``sonar_observer`` with the same parameters reproduces every recorded
+  estimate and request.
+- Started by hand, in any order and 3 s apart on wall time, the three processes lock-step.
 - Bad parameters stop a node at start with one line (through the ros2-run shim, exit code 2).
 """
 
@@ -38,16 +37,19 @@ from track_core.sonar import (
     SmartTargetParams,
     SonarParams,
     make_tracker,
-    simulate_measurement,
 )
+from track_core.sonar.contacts import bearing_of_yaw, simulated_contact
+from track_msgs import msg as tm
 from track_msgs_py.odometry import odometry_to_cv_state
-from track_msgs_py.qos import CLOCK_QOS, ESTIMATE_QOS, TRUTH_QOS
+from track_msgs_py.qos import CLOCK_QOS, ESTIMATE_QOS, STATIC_QOS, TRUTH_QOS
 from track_msgs_py.records.sonar import SonarMode
 from track_msgs_py.stamps import sec_to_stamp, stamp_to_ns
 from track_msgs_py.topics import (
     CLOCK,
+    SONAR_CONTACTS,
     SONAR_ESTIMATE,
     SONAR_MODE,
+    SONAR_MODE_COMMAND,
     SONAR_OBSERVER,
     SONAR_PING,
     SONAR_TARGET_STATUS,
@@ -60,6 +62,7 @@ from track_nodes.base import ParameterError
 from track_nodes.launch.scenario import node_params
 from track_nodes.sonar.smart_target import SmartTargetNode
 from track_nodes.sonar.sonar_observer import SonarObserverNode
+from track_nodes.sonar.sonar_sim import SonarSimNode
 
 STEPS = 40  # the paper's 40 s at T = 1 s
 RECORD_S = 20
@@ -80,13 +83,13 @@ class Sink:
 
     def __init__(self, ros, raw: bool = False) -> None:
         self.node = ros.add(Node('sonar_sink', context=ros.context))
-        self.msgs: dict[str, list] = {t: [] for t in (SONAR_TRUTH, SONAR_ESTIMATE, SONAR_PING, SONAR_MODE,
-                                                      SONAR_OBSERVER, SONAR_TARGET_STATUS)}
         types = {SONAR_TRUTH: Odometry, SONAR_ESTIMATE: Odometry, SONAR_OBSERVER: Odometry,
-                 SONAR_PING: PointStamped, SONAR_MODE: DiagnosticArray, SONAR_TARGET_STATUS: DiagnosticArray}
+                 SONAR_PING: PointStamped, SONAR_MODE: DiagnosticArray, SONAR_TARGET_STATUS: DiagnosticArray,
+                 SONAR_CONTACTS: tm.SonarContact, SONAR_MODE_COMMAND: tm.SonarModeCommand}
+        self.msgs: dict[str, list] = {t: [] for t in types}
+        qos = {SONAR_TRUTH: TRUTH_QOS, SONAR_MODE_COMMAND: STATIC_QOS}  # transient-local, as published
         for topic, cls in types.items():
-            qos = TRUTH_QOS if topic == SONAR_TRUTH else ESTIMATE_QOS  # the truth is transient-local
-            self.node.create_subscription(cls, topic, self.msgs[topic].append, qos)
+            self.node.create_subscription(cls, topic, self.msgs[topic].append, qos.get(topic, ESTIMATE_QOS))
 
 
 def truth_x0(repo: Path) -> np.ndarray:
@@ -95,29 +98,31 @@ def truth_x0(repo: Path) -> np.ndarray:
 
 def _reference_closed_loop(cfg: dict, steps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, SmartTarget]:
     """The same closed loop with the core only (as run_closed_loop): estimates, covariances, modes."""
-    tp, op = node_params(cfg, 'smart_target'), node_params(cfg, 'sonar_observer')
+    tp, op, sp = node_params(cfg, 'smart_target'), node_params(cfg, 'sonar_observer'), node_params(cfg, 'sonar_sim')
     target = SmartTarget(np.array(tp['x0']), sonar=SonarParams(T=tp['period'], q_s=tp['q_s']), params=SmartTargetParams(
         p_max=tp['p_max'], r_50=tp['r_50'], width=tp['width'], evade_speed=tp['evade_speed'],
         max_turn_rate=math.radians(tp['max_turn_rate_deg']), max_accel=tp['max_accel'],
         quiet_period=tp['quiet_period'], naive=tp['naive']))
     r_tgt = np.random.default_rng(tp['seed'])
-    sonar = SonarParams(T=op['period'], q_s=op['q_s'], sigma_b=math.radians(op['sigma_b_deg']),
-                        sigma_d=op['sigma_d'], n_particles=op['n_particles'])
-    noise_ss, filter_ss = np.random.SeedSequence(op['seed']).spawn(2)
-    r_noise = np.random.default_rng(noise_ss)
+    sonar = SonarParams(T=op['period'], q_s=op['q_s'], sigma_b=math.radians(sp['sigma_b_deg']),
+                        sigma_d=sp['sigma_d'], n_particles=op['n_particles'])
+    r_noise = np.random.default_rng(np.random.SeedSequence(sp['seed']).spawn(2)[0])
+    filter_ss = np.random.SeedSequence(op['seed']).spawn(2)[1]
     trk = make_tracker(op['tracker'], sonar, np.random.default_rng(filter_ss), P_D=op['P_D'], delta=op['delta'],
                        metric=op['metric'], regularize=op['regularize'])
     trk.initialize(np.array(op['prior_mean']), Scenario(prior_pos_std=op['prior_pos_std'],
                                                         prior_vel_std=op['prior_vel_std']).prior_cov)
-    legs = tuple(zip(op['legs'][::2], op['legs'][1::2], strict=True))
-    traj = ObserverTrajectory(start=tuple(op['start']), speed=op['speed'], heading0_deg=op['heading0_deg'], legs=legs)
+    legs = tuple(zip(sp['legs'][::2], sp['legs'][1::2], strict=True))
+    traj = ObserverTrajectory(start=tuple(sp['start']), speed=sp['speed'], heading0_deg=sp['heading0_deg'], legs=legs)
     means, covs, active = [], [], []
     pinged, obs_prev = False, np.zeros(2)
     for k in range(1, steps + 1):
         x = target.step(r_tgt, pinged, obs_prev)  # hears the ping of t_{k-1}, moves to t_k
         obs = traj.position(k * op['period'])
         mode = trk.next_mode
-        est = trk.step(simulate_measurement(r_noise, x, obs, mode, sonar), mode, obs)
+        c = simulated_contact(r_noise, k * 10**9, x, obs, mode, sonar)  # a true bearing: REP-103 yaw in map
+        z = [bearing_of_yaw(c.yaw), c.range][:2 if mode is SensorMode.ACTIVE else 1]
+        est = trk.step(np.array(z, dtype=float), mode, obs, R=c.R)
         means.append(est.mean)
         covs.append(est.cov)
         pinged, obs_prev = mode is SensorMode.ACTIVE, obs
@@ -127,8 +132,9 @@ def _reference_closed_loop(cfg: dict, steps: int) -> tuple[np.ndarray, np.ndarra
 
 @pytest.fixture
 def in_process_run(ros, repo):
-    """Both nodes in-process on sim time; the test publishes /clock and waits for each step."""
+    """The three nodes in-process on sim time; the test publishes /clock and waits for each step."""
     target = _node(ros, repo, SmartTargetNode, 'smart_target')
+    _node(ros, repo, SonarSimNode, 'sonar_sim')
     observer = _node(ros, repo, SonarObserverNode, 'sonar_observer')
     sink = Sink(ros)
     clock = ros.add(Node('test_clock', context=ros.context)).create_publisher(Clock, CLOCK, CLOCK_QOS)
@@ -223,43 +229,47 @@ def test_every_frame_of_the_recording_is_placed_in_map(sonar_bag):
     assert len(_bag_msgs(bag)[TF]) == RECORD_S  # one per observer step, the first one too (advertised at start)
 
 
-def test_replaying_the_truth_reproduces_the_estimates(sonar_bag, ros, repo, prefix):
-    """The recorded truth, played into a fresh sonar_observer (same parameters and seed), gives the
-    recorded estimates and pings exactly: the observer depends on nothing but its seed and the truth."""
+def test_replaying_the_measurements_reproduces_the_estimates(sonar_bag, ros, repo, prefix):
+    """The recorded contacts and navigation, played with track-play into a fresh sonar_observer (same
+    parameters and seed), give the recorded estimates, modes and requests exactly: the estimator depends
+    on nothing but its seed and its measurements."""
     bag, _ = sonar_bag
     recorded = _bag_msgs(bag)
     observer = _node(ros, repo, SonarObserverNode, 'sonar_observer')
     sink = Sink(ros)
     player = subprocess.Popen([str(prefix / 'lib/track_nodes/player'), str(bag), '--rate', '10',
-                               '--topics', SONAR_TRUTH, '--wait-subscribers', '60'], env=ros.env,
-                              stdout=subprocess.PIPE,
-                              stderr=subprocess.PIPE, text=True)
+                               '--topics', SONAR_CONTACTS, SONAR_OBSERVER, '--wait-subscribers', '60'], env=ros.env,
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         ros.spin_until(lambda: len(sink.msgs[SONAR_ESTIMATE]) >= RECORD_S or player.poll() is not None, timeout=180)
         ros.spin_until(lambda: all(len(sink.msgs[t]) >= len(recorded[t])
-                                   for t in (SONAR_ESTIMATE, SONAR_PING, SONAR_OBSERVER)), timeout=5)
+                                   for t in (SONAR_ESTIMATE, SONAR_MODE, SONAR_MODE_COMMAND)), timeout=5)
     finally:
         _, err = player.communicate(timeout=30)
     assert player.returncode == 0, err
-    assert observer.k == RECORD_S
-    for topic in (SONAR_ESTIMATE, SONAR_PING, SONAR_OBSERVER):
+    assert observer.k == RECORD_S and observer.tracker.predictions == 0
+    for topic in (SONAR_ESTIMATE, SONAR_MODE):
         assert sink.msgs[topic] == recorded[topic], topic  # message equality: every field, exactly
+    # the requests after each step (the start request, stamp 0, is latched and comes first or not at all)
+    got = [m for m in sink.msgs[SONAR_MODE_COMMAND] if stamp_to_ns(m.header.stamp) > 0]
+    assert got == [m for m in recorded[SONAR_MODE_COMMAND] if stamp_to_ns(m.header.stamp) > 0]
 
 
 # --- any start order ------------------------------------------------------------------------------
 
-@pytest.mark.parametrize('first', ['smart_target', 'sonar_observer'])
-def test_the_pair_started_by_hand_3_s_apart_steps_together(ros, repo, prefix, first):
-    """Wall time, two processes through the shims, one started 3 s after the other: estimates flow."""
+@pytest.mark.parametrize('order', [('smart_target', 'sonar_sim', 'sonar_observer'),
+                                   ('sonar_observer', 'sonar_sim', 'smart_target')])
+def test_the_three_started_by_hand_3_s_apart_step_together(ros, repo, prefix, order):
+    """Wall time, three processes through the shims, each started 3 s after the one before: estimates flow."""
     sink = Sink(ros)
-    second = 'sonar_observer' if first == 'smart_target' else 'smart_target'
     cmd = ['--ros-args', '--params-file', str(repo / 'config/sonar.yaml')]
-    procs = [subprocess.Popen([str(prefix / 'lib/track_nodes' / first), *cmd], env=ros.env,
-                              stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)]
+    procs = []
     try:
-        ros.spin_for(3.0)  # the gap under test, not a wait for a condition
-        procs.append(subprocess.Popen([str(prefix / 'lib/track_nodes' / second), *cmd], env=ros.env,
-                                      stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True))
+        for exe in order:
+            if procs:
+                ros.spin_for(3.0)  # the gap under test, not a wait for a condition
+            procs.append(subprocess.Popen([str(prefix / 'lib/track_nodes' / exe), *cmd], env=ros.env,
+                                          stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True))
         assert ros.spin_until(lambda: len(sink.msgs[SONAR_ESTIMATE]) >= 4, timeout=90), \
             f'no estimates: truth {len(sink.msgs[SONAR_TRUTH])}, observer {len(sink.msgs[SONAR_OBSERVER])}'
         truth_keys = {stamp_to_ns(m.header.stamp) for m in sink.msgs[SONAR_TRUTH]}
@@ -280,6 +290,8 @@ def test_the_pair_started_by_hand_3_s_apart_steps_together(ros, repo, prefix, fi
     ('sonar_observer', 'P_D: [5.0, 0.25, -5.0, 0.25]', ['P_D', '-5.0', 'PSD']),
     ('sonar_observer', 'tracker: kalman', ['tracker', 'kalman', 'ss-pf']),
     ('smart_target', 'p_max: 1.5', ['p_max', '1.5', 'allowed']),
+    ('sonar_sim', 'legs: [10.0]', ['legs', 'allowed']),
+    ('sonar_observer', 'body_frame: map', ['world_frame', 'body_frame', 'map']),
 ])
 def test_bad_parameter_stops_the_shim_with_one_line(tmp_path, prefix, env_factory, node, line, words):
     bad = tmp_path / 'bad.yaml'

@@ -54,6 +54,20 @@ HANDOFF_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=4, reliability=R
 TRUTH_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=256, reliability=ReliabilityPolicy.RELIABLE,
                        durability=DurabilityPolicy.TRANSIENT_LOCAL)
 
+# IDSQ readings (one per sensor and step, records.idsq.IdsqReading): reliable (a lost reading makes a
+# leader step predict-only) and deep (a busy leader loses none). The sensors subscribe volatile by
+# default, so any reliable publisher (a driver's default QoS) matches; the simulator publishes
+# transient-local, and the scenario files subscribe transient-local (``reading_durability``), so a
+# sensor that matched late still gets step 0 (the election needs it).
+READING_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=256, reliability=ReliabilityPolicy.RELIABLE,
+                         durability=DurabilityPolicy.VOLATILE)
+READING_LATCHED_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=256, reliability=ReliabilityPolicy.RELIABLE,
+                                 durability=DurabilityPolicy.TRANSIENT_LOCAL)
+# The start election (/idsq/election): one sample per sensor, every one kept for a late reader (a
+# keyless topic: the reader's KEEP_LAST depth counts the samples of all K writers together).
+ELECTION_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=4096, reliability=ReliabilityPolicy.RELIABLE,
+                          durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
 QOS_BY_KIND: dict[str, QoSProfile] = {
     'sensor': SENSOR_QOS,
     'estimate': ESTIMATE_QOS,

@@ -122,8 +122,16 @@ SONAR_PARTICLES = '/sonar/particles'
 SONAR_MODE = '/sonar/mode'
 SONAR_PING = '/sonar/ping'
 SONAR_MARKERS = '/sonar/markers'
+SONAR_CONTACTS = '/sonar/contacts'
+SONAR_MODE_COMMAND = '/sonar/mode_command'
 
 TOPICS.update({
+    SONAR_CONTACTS: TopicSpec('track_msgs/msg/SonarContact', 'estimate',
+                              'one sonar reading per listen or ping (a driver, or sonar_sim): mode, bearing '
+                              '(REP-103 in header.frame_id), range when active, their stds'),
+    SONAR_MODE_COMMAND: TopicSpec('track_msgs/msg/SonarModeCommand', 'static',
+                                  "the observer's eq. 7 request for the next reading (passive|active), after every "
+                                  'filter step and at start (stamp 0); latched: a driver started late gets it'),
     SONAR_TRUTH: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
                            'true state of the smart target (zero covariance), stamped t_k = k·T; '
                            'child_frame_id = target id'),
@@ -132,8 +140,9 @@ TOPICS.update({
                                    '(naive|cruise|evade), heard (a ping at t_{k-1} was detected: true|false), '
                                    'pings, detections (totals so far)'),
     SONAR_OBSERVER: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
-                              'observer AUV state at t_k (zero covariance); published last in its step, so it '
-                              'also marks "observer step k done" for the smart target'),
+                              "the observer ship's navigation (REP-105: heading in the pose, forward speed in "
+                              'child_frame_id); sonar_sim publishes it at t_k last in its step, so it also marks '
+                              '"sonar step k done" for the smart target'),
     SONAR_ESTIMATE: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
                               f'SS-PF/PaPF/AcPF estimate of the target with its particle covariance ({COV_PLANAR}: '
                               'yaw, yaw rate); child_frame_id = track id'),
@@ -143,7 +152,8 @@ TOPICS.update({
                           'sensor schedule: one status "<node>/sensor_mode", message = mode used at t_k, values '
                           'mode, next_mode (eq. 7 choice for t_{k+1}), step, ess, distance (‖P_D − Cov‖, ss-pf)'),
     SONAR_PING: TopicSpec('geometry_msgs/msg/PointStamped', 'estimate',
-                          'active-ping event: the observer pinged at header.stamp from point (x, y, 0)'),
+                          'active-ping event: the observer pinged at header.stamp from point (x, y, 0) '
+                          '(published by the sonar: sonar_sim)'),
     SONAR_MARKERS: TopicSpec('visualization_msgs/msg/MarkerArray', 'estimate',
                              '2σ position ellipse of the sonar estimate (ns "sonar_estimate", id 0)'),
 })
@@ -208,8 +218,11 @@ TOPICS.update({
 })
 
 # Leader-based IDSQ acoustic/DOA sensor network. Besides the fixed topics below, every
-# sensor k has three topics of its own (not in TOPICS, three per sensor; names from the helpers),
-# all QoS HANDOFF_QOS (reliable, transient-local, depth 4; records.idsq maps them):
+# sensor k has four topics of its own (not in TOPICS, four per sensor; names from the helpers).
+# Its readings, QoS READING_QOS (reliable, depth 256; records.idsq.IdsqReading):
+#   /idsq/sensor_<k>/reading  track_msgs/msg/IdsqReading: one per step from k's front end or the
+#                             simulator (vehicle_sim): amplitude; DOA direction (REP-103) and its std
+# and three of the protocol, all QoS HANDOFF_QOS (reliable, transient-local, depth 4; records.idsq maps them):
 #   /idsq/sensor_<k>/handoff  track_msgs/msg/IdsqHandoff: the belief handed to k (step, sender, grid,
 #                             sparse cells and masses)
 #   /idsq/sensor_<k>/ack      track_msgs/msg/IdsqAck: one per reply to a handoff k sent (ack or nack
@@ -221,7 +234,14 @@ IDSQ_ESTIMATE = '/idsq/estimate'
 IDSQ_BELIEF = '/idsq/belief'
 IDSQ_MARKERS = '/idsq/markers'
 IDSQ_LEADER = '/idsq/leader'
+IDSQ_ELECTION = '/idsq/election'
 IDSQ_HANDOFF_REGEX = r'^/idsq/sensor_(\d+)/handoff$'
+IDSQ_READING_REGEX = r'^/idsq/sensor_(\d+)/reading$'
+
+
+def idsq_reading_topic(sensor: int) -> str:
+    """Reading topic of sensor ``sensor`` (its front end's, or the simulator's, readings)."""
+    return f'/idsq/sensor_{int(sensor)}/reading'
 
 
 def idsq_handoff_topic(sensor: int) -> str:
@@ -258,6 +278,9 @@ TOPICS.update({
     IDSQ_MARKERS: TopicSpec('visualization_msgs/msg/MarkerArray', 'estimate',
                             'sensors (acoustic / DOA colours), the leader highlighted, the link to the next leader '
                             'and the 2σ ellipse of the estimate'),
+    IDSQ_ELECTION: TopicSpec('track_msgs/msg/IdsqReading', 'static',
+                             "§5.1 start election: each sensor node relays its own step-0 reading (its amplitude) "
+                             'once, transient-local (ELECTION_QOS); every sensor decides the start leader on them'),
     IDSQ_LEADER: TopicSpec('track_msgs/msg/IdsqLeaderEvent', 'estimate',
                            'one message per leader event of sensor `leader`: event (STEP|RESELECT|SELF|VOID), '
                            'step, next, previous, handoff_bytes, belief_size, spread_m2, candidates, mi_bits, '
@@ -388,6 +411,24 @@ for _prefix, _what in ((AIS_RADAR, 'coastal radar'), (AIS_PATROL, 'patrol')):
             'id>" (the fusion track id), values mmsi, reports'),
     })
 del _prefix, _what
+
+# Live AIS (ais_nmea_source) and the run's one map datum (track_msgs_py.ais, track_core.ais.datum).
+AIS_NMEA = '/ais/nmea'
+AIS_NMEA_TRACKS = f'{AIS_NMEA}/tracks'
+AIS_NMEA_SHIPS = f'{AIS_NMEA}/ships'
+MAP_DATUM = '/map_datum'
+TOPICS.update({
+    AIS_NMEA_TRACKS: TopicSpec('track_msgs/msg/TrackArray', 'estimate',
+                               'live AIS: one array per decoded position report (frame map), one track, id = the '
+                               'MMSI; covariance from the position-accuracy flag, velocity from SOG/COG or not '
+                               'estimated'),
+    AIS_NMEA_SHIPS: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'static',
+                              'live AIS: static data of every ship heard, one status per MMSI (name = MMSI, '
+                              'values name, ship_type, callsign, reports)'),
+    MAP_DATUM: TopicSpec('sensor_msgs/msg/NavSatFix', 'static',
+                         'the origin of map on WGS-84 (frame_id map): one per run, latched; map is the transverse '
+                         'Mercator about it (track_core.ais.datum)'),
+})
 
 # Maritime scenario's coastal radar: a report_source with prefix /radar (config/maritime.yaml) that reports
 # the decoy (ship 0) and publishes its truth (track_nodes.report.maritime reads both).

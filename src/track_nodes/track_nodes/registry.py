@@ -14,6 +14,7 @@ NODES = {
     'demo_target': 'track_nodes.demo.demo_target:DemoTargetNode',
     'demo_tracker': 'track_nodes.demo.demo_tracker:DemoTrackerNode',
     'smart_target': 'track_nodes.sonar.smart_target:SmartTargetNode',
+    'sonar_sim': 'track_nodes.sonar.sonar_sim:SonarSimNode',
     'sonar_observer': 'track_nodes.sonar.sonar_observer:SonarObserverNode',
     'vehicle_sim': 'track_nodes.idsq.vehicle_sim:VehicleSimNode',
     'acoustic_sensor': 'track_nodes.idsq.sensor:AcousticSensorNode',
@@ -26,6 +27,7 @@ NODES = {
     'slam': 'track_nodes.slam.slam:SlamNode',
     'report_source': 'track_nodes.fusion.report_source:ReportSourceNode',
     'ais_source': 'track_nodes.fusion.ais_source:AisSourceNode',
+    'ais_nmea_source': 'track_nodes.fusion.ais_nmea_source:AisNmeaSourceNode',
     'fusion': 'track_nodes.fusion.fusion:FusionNode',
     # bag tools that are nodes
     'recorder': 'track_nodes.bag.recorder:RecorderNode',

@@ -1,23 +1,25 @@
-"""The lock-step of the sonar node pair: when each side may take its step k (pure state machines, no ROS).
+"""The lock-step of the sonar scenario: when each node may take its step k (pure state machines, no ROS).
 
 The closed loop of ``experiments.run_closed_loop`` alternates target step k (x_{k-1} → x_k, using
-the observer's ping and position at t_{k-1}) and observer step k (measuring x_k). Over messages
-that arrive in any order, each node keeps the alternation with one of these gates; both work on
-integer stamp keys (the nanoseconds of the message stamps), so "the message of t_k" is an exact
-comparison:
+the observer's ping and position at t_{k-1}) and the reading of x_k. Three nodes run it: the smart
+target, the simulated sonar (``sonar_sim``: the observer's route, its pings, its readings) and the
+estimator (``sonar_observer``, which only sees the readings and the navigation). Over messages that
+arrive in any order, the two simulators keep the alternation with these gates; they work on integer
+stamp keys (the nanoseconds of the message stamps), so "the message of t_k" is an exact comparison:
 
-- ``TruthGate`` (the observer): the target's truth sets the time. The first truth the observer
-  accepts is its step 1 and fixes its step grid (that stamp + j·T); step j is taken when the truth
-  of grid point j has arrived, strictly in order, and carries that truth's own stamp. No clock
-  origin is shared by convention, so the two nodes can be started in any order, any time apart
-  (with wall-time origins of their own they could wait for each other forever).
+- ``TruthGate`` (the simulated sonar): the target's truth sets the time. The first truth accepted is
+  step 1 and fixes the step grid (that stamp + j·T); step j is taken when the truth of grid point j
+  has arrived, strictly in order, and carries that truth's own stamp. No clock origin is shared by
+  convention, so the nodes can be started in any order, any time apart.
+- ``CommandGate`` (the simulated sonar): step k's reading waits for the observer's request made after
+  its step k−1 (``SonarModeCommand`` stamped t_{k-1}), so the sonar pings when the filter asked.
 - ``TargetGate`` (the smart target): step k is taken when its time has come and, with
-  ``sync_observer``, the observer's Odometry stamped t_{k-1} has arrived (the observer publishes
-  its ping before its Odometry, so the ping of t_{k-1} is known by then). Without it, step k takes
+  ``sync_observer``, the observer's navigation stamped t_{k-1} has arrived (the sonar publishes its
+  ping before the navigation, so the ping of t_{k-1} is known by then). Without it, step k takes
   a ping of t_{k-1} only if it has arrived, and the latest observer position.
 
-The target's step k never waits for the observer's step k (only k−1), and the observer waits only
-for truths, so the pair cannot deadlock.
+The target's step k waits for the sonar's step k−1, the sonar's step k for the target's step k and
+the estimator's step k−1, and the estimator for nothing but readings, so the loop cannot deadlock.
 """
 
 from __future__ import annotations
@@ -25,6 +27,8 @@ from __future__ import annotations
 from collections import deque
 
 import numpy as np
+
+from track_core.sonar.models import SensorMode
 
 WINDOW = 64  # truths held ahead of the next step; a stamp further ahead is refused
 
@@ -133,3 +137,66 @@ class TargetGate:
             self.observer = {k: v for k, v in self.observer.items() if k >= cutoff}
             out.append((t, pinged, obs))
         return out
+
+
+class CommandGate:
+    """The sonar simulator's side: step k's reading obeys the observer's request made after step k−1.
+
+    ``lockstep`` (deterministic runs): the reading of step k waits for the request stamped t_{k-1}
+    (the first step for any request, the observer's start request stamped 0 among them), so the
+    simulated sonar pings exactly when the filter asked. Without it, a step takes the latest request
+    received, or ``initial`` before any, like a real sonar driver. ``force`` takes the waiting step
+    with the latest request (the observer is gone: the caller's timeout).
+    """
+
+    def __init__(self, lockstep: bool, initial: SensorMode) -> None:
+        self.lockstep = bool(lockstep)
+        self.initial = initial
+        self.commands: dict[int, SensorMode] = {}  # request stamp key → mode
+        self.latest: tuple[int, SensorMode] | None = None  # the request with the largest stamp
+        self.pending: deque[tuple[int, int, np.ndarray]] = deque()  # steps due: (k, stamp key, truth)
+        self.prev_key: int | None = None  # stamp of the last step taken
+
+    def add_step(self, k: int, key: int, x: np.ndarray) -> list[tuple[int, int, np.ndarray, SensorMode]]:
+        self.pending.append((k, key, x))
+        return self._ready()
+
+    def add_command(self, key: int, mode: SensorMode) -> list[tuple[int, int, np.ndarray, SensorMode]]:
+        self.commands[key] = mode
+        if self.latest is None or key >= self.latest[0]:
+            self.latest = (key, mode)
+        return self._ready()
+
+    def waiting(self) -> int | None:
+        """The stamp key of the request the next step waits for (lockstep), else None."""
+        if not (self.lockstep and self.pending):
+            return None
+        return -1 if self.prev_key is None else self.prev_key
+
+    def force(self) -> list[tuple[int, int, np.ndarray, SensorMode]]:
+        """Take the first waiting step with the latest request (or ``initial``), then whatever is ready."""
+        if not self.pending:
+            return []
+        return [self._take(self.latest[1] if self.latest else self.initial), *self._ready()]
+
+    def _ready(self) -> list[tuple[int, int, np.ndarray, SensorMode]]:
+        out = []
+        while self.pending:
+            if not self.lockstep:
+                mode = self.latest[1] if self.latest else self.initial
+            elif self.prev_key is None:
+                if self.latest is None:
+                    break
+                mode = self.latest[1]
+            elif self.prev_key in self.commands:
+                mode = self.commands[self.prev_key]
+            else:
+                break  # the observer's request after the last step has not come yet
+            out.append(self._take(mode))
+        return out
+
+    def _take(self, mode: SensorMode) -> tuple[int, int, np.ndarray, SensorMode]:
+        k, key, x = self.pending.popleft()
+        self.prev_key = key
+        self.commands = {c: m for c, m in self.commands.items() if c >= key}
+        return k, key, x, mode

@@ -99,6 +99,8 @@ import numpy as np
 from track_core.filters import (
     check_covariance,
     cholesky_jitter,
+    cv_process_noise,
+    cv_transition,
     effective_sample_size,
     gaussian_logpdf,
     kf_predict,
@@ -154,6 +156,8 @@ def rb_ukf(
     *,
     h: Callable[[np.ndarray], np.ndarray] | None = None,
     R: np.ndarray | None = None,
+    F: np.ndarray | None = None,
+    Q: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Algorithm 2 for a batch: linear prediction (eqs. 1–4), sigma points, unscented update.
 
@@ -161,11 +165,12 @@ def rb_ukf(
     measurement noise R (the paper's listing omits it; without R the update is not a UKF).
     ``h``/``R`` replace the sonar model (eq. 5/6 of ``mode``, with a wrapped bearing residual) by
     another measurement function z = h(x) + v, v ~ N(0, R), plain residual; the unit tests use a
-    linear h to check that the update is exactly the Kalman update.
+    linear h to check that the update is exactly the Kalman update. ``F``/``Q`` replace eqs. 3–4 of
+    the period T (a step over another interval).
     """
     mode = SensorMode.parse(mode)
     w = weights or unscented_weights(4, params.ukf_alpha, params.ukf_beta, params.ukf_kappa)
-    mu_p, P_p = kf_predict(x, P, params.F, params.Q)
+    mu_p, P_p = kf_predict(x, P, params.F if F is None else F, params.Q if Q is None else Q)
     P_p = np.broadcast_to(P_p, (*mu_p.shape[:-1], 4, 4))
     z = np.atleast_1d(np.asarray(z, dtype=float))
     if h is not None:
@@ -181,19 +186,23 @@ def rb_ukf(
 
 def rb_ukf_innovation(x: np.ndarray, P: np.ndarray, z: np.ndarray, mode: SensorMode, observer_xy: np.ndarray,
                       params: SonarParams, weights: UnscentedWeights, *,
-                      mu_p: np.ndarray | None = None, P_p: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
+                      mu_p: np.ndarray | None = None, P_p: np.ndarray | None = None,
+                      F: np.ndarray | None = None, Q: np.ndarray | None = None,
+                      R: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
     """``rb_ukf`` that also returns the innovation ν (N, m) and its covariance S = P_u + R (N, m, m).
 
     ν and S give each Gaussian particle's predictive likelihood N(ν; 0, S), the weight of the
     Rao-Blackwellised ('rb') filter. ``mu_p`` (N, 4) and ``P_p`` (N, 4, 4) replace the predicted mean
-    F x and covariance F P Fᵀ + Q (a target model with a commanded manoeuvre).
+    F x and covariance F P Fᵀ + Q (a target model with a commanded manoeuvre); ``F``/``Q`` eqs. 3–4 of
+    another interval than T, ``R`` the reading's own noise covariance instead of Table 1's.
     """
-    mu_lin, P_lin = kf_predict(x, P, params.F, params.Q)
+    mu_lin, P_lin = kf_predict(x, P, params.F if F is None else F, params.Q if Q is None else Q)
     mu_p = mu_lin if mu_p is None else mu_p
     P_p = P_lin if P_p is None else P_p
     P_p = np.broadcast_to(P_p, (*mu_p.shape[:-1], 4, 4))
     obs = np.asarray(observer_xy, dtype=float)
-    return unscented_update(mu_p, P_p, z, lambda chi: measure(chi, obs, mode), params.R(mode), weights, residual)
+    return unscented_update(mu_p, P_p, z, lambda chi: measure(chi, obs, mode), params.R(mode) if R is None else R,
+                            weights, residual)
 
 
 @dataclass(frozen=True)
@@ -268,6 +277,10 @@ class SSPF:
         self._w = unscented_weights(4, self.params.ukf_alpha, self.params.ukf_beta, self.params.ukf_kappa)
         self._F, self._Q = self.params.F, self.params.Q
         self._L_Q = cholesky_jitter(self._Q)
+        self._T_model = (self.params.T, self._F, self._Q, self._L_Q)  # eqs. 3-4 over the period T
+        self._dt = self.params.T  # the interval of the step being taken
+        self.t = 0.0  # time of the filter state since the prior [s]
+        self.predictions = 0  # predict-only steps (no reading)
         self._prior: tuple[np.ndarray, np.ndarray] | None = None
         self.particles: np.ndarray | None = None
         self.P: np.ndarray | None = None
@@ -290,6 +303,8 @@ class SSPF:
             raise ValueError(f'prior mean must be 4 finite numbers [x, vx, y, vy], got {mean!r}')
         cov = check_covariance(cov, 'prior covariance')
         self.k = 0
+        self.t = 0.0
+        self.predictions = 0
         self.weights = None
         self.repairs = 0
         self.moves = 0
@@ -362,10 +377,14 @@ class SSPF:
         self.weights = None
         self._cruise = np.hypot(self.particles[:, 1], self.particles[:, 3])
 
-    def step(self, z: np.ndarray, mode: SensorMode | str, observer_xy: np.ndarray) -> SonarEstimate:
+    def step(self, z: np.ndarray, mode: SensorMode | str, observer_xy: np.ndarray, dt: float | None = None,
+             R: np.ndarray | None = None) -> SonarEstimate:
         """One iteration of Algorithm 3 with the reading ``z`` taken by sensor ``mode`` from ``observer_xy``.
 
-        ``z`` is [bearing] (passive) or [bearing, range] (active), bearing from north in rad.
+        ``z`` is [bearing] (passive) or [bearing, range] (active), bearing from north in rad. ``dt`` is
+        the time since the last step (default: the period T); eqs. 3–4 are the constant-velocity model
+        of any interval, so a reading at an irregular time is predicted over its own interval. ``R``
+        is the reading's noise covariance (default: Table 1's σ_b, σ_d).
         """
         if self.particles is None:
             raise RuntimeError('SSPF.step called before initialize()')
@@ -375,6 +394,8 @@ class SSPF:
         if z.shape != (m,) or not np.all(np.isfinite(z)):
             raise ValueError(f'{mode.value} measurement must be {m} finite number(s), got {z!r}')
         obs = np.asarray(observer_xy, dtype=float)[:2]
+        self._use_interval(dt)
+        self._R = self.params.R(mode) if R is None else _reading_noise(R, mode)
         if self.proposal == 'rb':
             return self._step_rb(z, mode, obs)
         if self.proposal == 'bootstrap':
@@ -383,7 +404,7 @@ class SSPF:
         x_new, P_tilde, e, L, log_trans = self._propose(z, mode, obs)
 
         # w ∝ p(z|x) p(x|x_prev) / q(x); constants common to all particles dropped.
-        R = self.params.R(mode)
+        R = self._R
         nu = residual(z, measure(x_new, obs, mode))
         log_lik = -0.5 * np.sum(nu**2 / np.diag(R), axis=-1)
         log_q = (-0.5 * np.sum(e * e, axis=-1) - np.sum(np.log(np.diagonal(L, axis1=-2, axis2=-1)), axis=-1)
@@ -423,6 +444,7 @@ class SSPF:
             log.warning('k=%d: particle cloud collapsed (ESS %.2f); re-spread with the UKF covariance',
                         self.k + 1, ess)
         self.k += 1
+        self.t += self._dt
         next_mode = self.scheduler.decide(cov)
         self.estimate = SonarEstimate(self.k, mean, cov, mode, next_mode, ess, repaired)
         log.debug('k=%d mode=%s ess=%.1f next=%s', self.k, mode.value, ess, next_mode.value)
@@ -440,7 +462,7 @@ class SSPF:
         """
         mu_p, P_p = self._smart_prediction(obs) if self.target_model is not None else (None, None)
         x_post, P_post, nu, S = rb_ukf_innovation(self.particles, self.P, z, mode, obs, self.params, self._w,
-                                                  mu_p=mu_p, P_p=P_p)
+                                                  mu_p=mu_p, P_p=P_p, F=self._F, Q=self._Q, R=self._R)
         self._prev = (obs.copy(), mode is SensorMode.ACTIVE)
         n = x_post.shape[0]  # N, or 1 while the mixture is merged
         if n == 1 and self.target_model is None:  # merged: one UKF step, no weights
@@ -449,6 +471,7 @@ class SSPF:
             if self.merge:
                 self._merge_or_split(mean, cov, obs)
             self.k += 1
+            self.t += self._dt
             self.estimate = SonarEstimate(self.k, mean, cov, mode, self.scheduler.decide(cov), 1.0)
             return self.estimate
         prev_w = np.full(n, 1.0 / n) if self.weights is None else self.weights
@@ -477,10 +500,66 @@ class SSPF:
         if self.merge and self.target_model is None:
             self._merge_or_split(mean, cov, obs)
         self.k += 1
+        self.t += self._dt
         next_mode = self.scheduler.decide(cov)
         self.estimate = SonarEstimate(self.k, mean, cov, mode, next_mode, ess)
         log.debug('k=%d mode=%s ess=%.1f next=%s', self.k, mode.value, ess, next_mode.value)
         return self.estimate
+
+    def predict(self, dt: float | None = None, observer_xy: np.ndarray | None = None) -> SonarEstimate:
+        """A step with no reading: every particle predicted over ``dt`` (default T), weights unchanged.
+
+        The sensor gave nothing (a lost contact, a late message), so the posterior is the prediction
+        of eqs. 1–4 (or of the smart-target model, ``observer_xy`` being where the last ping came from
+        when the last step pinged); nothing is selected or moved. The scheduler still decides (eq. 7 on
+        the predicted covariance), so the request for the next reading is made at every step. Counted
+        in ``predictions``.
+        """
+        if self.particles is None:
+            raise RuntimeError('SSPF.predict called before initialize()')
+        self._use_interval(dt)
+        F, Q = self._F, self._Q
+        if self._prior is not None:  # 'transition'/'propagated' before the first reading: the prior itself
+            m0, P0 = self._prior
+            self._prior = (F @ m0, F @ P0 @ F.T + Q)
+            mean, cov = self._prior
+        elif self.proposal == 'rb':
+            if self.target_model is not None:
+                obs = self._prev[0] if self._prev is not None else np.zeros(2)
+                mu_p, P_p = self._smart_prediction(obs if observer_xy is None else np.asarray(observer_xy, float))
+                if P_p is None:
+                    P_p = kf_predict(self.particles, self.P, F, Q)[1]
+                self._prev = (self._prev[0], False) if self._prev is not None else None  # the ping is drawn once
+                self.particles, self.P = mu_p, np.asarray(P_p).copy()
+            else:
+                self.particles, self.P = kf_predict(self.particles, self.P, F, Q)
+            mean, cov = mixture_mean_cov(self.particles, self.P, self.weights)
+        else:
+            n = self.particles.shape[0]
+            self.particles = self.particles @ F.T + self.rng.standard_normal((n, 4)) @ self._L_Q.T
+            if self.proposal == 'propagated':
+                self.P = F @ self.P @ F.T + Q
+            mean, cov = weighted_mean_cov(self.particles, self.weights)
+        self.k += 1
+        self.t += self._dt
+        self.predictions += 1
+        prev = self.estimate
+        mode = prev.mode if prev is not None else self.scheduler.next_mode
+        ess = prev.ess if prev is not None else float(self.n)
+        self.estimate = SonarEstimate(self.k, mean, cov, mode, self.scheduler.decide(cov), ess)
+        return self.estimate
+
+    def _use_interval(self, dt: float | None) -> None:
+        """Eqs. 3–4 (F, Q and Q's Cholesky factor) for a step of ``dt`` seconds (None: the period T)."""
+        T = self.params.T if dt is None else float(dt)
+        if not (math.isfinite(T) and T > 0):
+            raise ValueError(f'step interval dt must be a finite number > 0 (s), got {dt!r}')
+        if self._T_model[0] == T:
+            _, self._F, self._Q, self._L_Q = self._T_model
+        else:
+            self._F, self._Q = cv_transition(T), cv_process_noise(T, self.params.q_s)
+            self._L_Q = cholesky_jitter(self._Q)
+        self._dt = T
 
     @property
     def components(self) -> int:
@@ -530,7 +609,7 @@ class SSPF:
         x = self.particles @ self._F.T
         x += self.rng.standard_normal((n, 4)) @ self._L_Q.T
         nu = residual(z, measure(x, obs, mode))
-        log_w = -0.5 * (nu * nu) @ (1.0 / np.diag(self.params.R(mode)))
+        log_w = -0.5 * (nu * nu) @ (1.0 / np.diag(self._R))
         if self.weights is not None:
             log_w += np.log(self.weights)
         w, _ = normalize_log_weights(log_w)
@@ -541,6 +620,7 @@ class SSPF:
             self.particles, self.weights = x, w
         mean, cov = weighted_mean_cov(self.particles, self.weights)
         self.k += 1
+        self.t += self._dt
         next_mode = self.scheduler.decide(cov)
         self.estimate = SonarEstimate(self.k, mean, cov, mode, next_mode, ess)
         return self.estimate
@@ -560,7 +640,7 @@ class SSPF:
         as None).
         """
         tm = self.target_model
-        t_prev = self.k * self.params.T
+        t_prev = self.t
         prev_obs, pinged = self._prev if self._prev is not None else (obs, False)
         if pinged:
             r = np.hypot(self.particles[:, 0] - prev_obs[0], self.particles[:, 2] - prev_obs[1])
@@ -568,8 +648,8 @@ class SSPF:
             self._last_heard = np.where(heard, t_prev, self._last_heard)
         evading = (t_prev - self._last_heard) < tm.quiet_period
         if self.prediction == 'linear':
-            return evasive_transition(self.particles, evading, prev_obs, self._cruise, tm, self.params.T), None
-        f = batched_transition(evading, prev_obs, self._cruise, tm, self.params.T)
+            return evasive_transition(self.particles, evading, prev_obs, self._cruise, tm, self._dt), None
+        f = batched_transition(evading, prev_obs, self._cruise, tm, self._dt)
         return unscented_predict(self.particles, self.P, f, self._Q, self._w)
 
     def _propose(self, z: np.ndarray, mode: SensorMode, obs: np.ndarray):
@@ -580,7 +660,8 @@ class SSPF:
             # exactly; one RB-UKF on the whole prior gives the proposal for all N particles.
             m0, P0 = self._prior
             self._prior = None
-            x_tilde, P_tilde = rb_ukf(m0[None], P0[None], z, mode, obs, self.params, self._w)
+            x_tilde, P_tilde = rb_ukf(m0[None], P0[None], z, mode, obs, self.params, self._w, R=self._R,
+                                      F=self._F, Q=self._Q)
             L = cholesky_jitter(P_tilde)
             e = self.rng.standard_normal((self.n, 4))
             x_new = x_tilde + e @ L[0].T
@@ -590,7 +671,8 @@ class SSPF:
             log_trans = gaussian_logpdf(x_new - m_p, self._F @ P0 @ self._F.T + self._Q)
         else:
             # RB-UKF per particle (all at once), then x ~ N(x̃, P̃).
-            x_tilde, P_tilde = rb_ukf(x_prev, self.P, z, mode, obs, self.params, self._w)
+            x_tilde, P_tilde = rb_ukf(x_prev, self.P, z, mode, obs, self.params, self._w, R=self._R,
+                                      F=self._F, Q=self._Q)
             L = cholesky_jitter(P_tilde)
             e = self.rng.standard_normal((self.n, 4))
             x_new = x_tilde + np.einsum('nij,nj->ni', L, e)
@@ -600,6 +682,15 @@ class SSPF:
                          - 2.0 * np.log(2.0 * np.pi))
 
         return x_new, P_tilde, e, L, log_trans
+
+
+def _reading_noise(R: np.ndarray, mode: SensorMode) -> np.ndarray:
+    """A reading's own noise covariance, checked: (1, 1) passive or (2, 2) active, positive definite."""
+    m = 2 if mode is SensorMode.ACTIVE else 1
+    R = check_covariance(np.atleast_2d(np.asarray(R, dtype=float)), 'reading covariance R')
+    if R.shape != (m, m) or np.any(np.diag(R) <= 0):
+        raise ValueError(f'{mode.value} reading covariance must be {m}x{m} positive definite, got {R!r}')
+    return R
 
 
 def collapsed(cov: np.ndarray, Q: np.ndarray | None = None) -> bool:

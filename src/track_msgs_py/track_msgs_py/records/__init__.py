@@ -35,6 +35,7 @@ Every one we publish starts with float32 x, y, z (``clouds.points_to_pointcloud2
 from __future__ import annotations
 
 import dataclasses
+import math
 import types
 import typing
 from collections.abc import Mapping
@@ -52,6 +53,14 @@ from track_msgs_py.diagnostics import DIAG_WARN as DIAG_WARN
 
 class RecordError(ValueError):
     """A message does not hold a valid record; the text is one line naming the key."""
+
+
+def finite_value(record: str, name: str, value: float) -> float:
+    """``value`` as a float, or ``RecordError`` naming the record and the field when it is not finite."""
+    value = float(value)
+    if not math.isfinite(value):
+        raise RecordError(f'{record}: non-finite {name}={value}')
+    return value
 
 
 def read_cloud(kind: str, msg, required: tuple[str, ...]) -> dict[str, np.ndarray]:

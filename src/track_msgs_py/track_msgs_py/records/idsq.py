@@ -1,5 +1,6 @@
-"""IDSQ records: the protocol messages (``track_msgs`` ``IdsqHandoff``, ``IdsqAck``, ``IdsqRevoke``,
-``IdsqLeaderEvent``), the leader's belief cloud (``/idsq/belief``) and the sensor layout (``/idsq/layout``).
+"""IDSQ records: a sensor's reading (``track_msgs/IdsqReading``), the protocol messages (``track_msgs``
+``IdsqHandoff``, ``IdsqAck``, ``IdsqRevoke``, ``IdsqLeaderEvent``), the leader's belief cloud
+(``/idsq/belief``) and the sensor layout (``/idsq/layout``).
 
 One record per layout, each with ``to_msg``/``from_msg``; ``from_msg`` raises ``RecordError`` with one
 line, which a node passes to its ``refuse``. The protocol messages:
@@ -7,6 +8,12 @@ line, which a node passes to its ``refuse``. The protocol messages:
 =====================  ===========================================  =============================================
 record                 topic (``topics.py``), message               mapping
 =====================  ===========================================  =============================================
+``IdsqReading``        ``/idsq/sensor_<id>/reading`` (and           ``amplitude`` as is (eq. 5's z); ``direction``
+                       ``/idsq/election``), ``track_msgs/           REP-103 (counter-clockwise from the x axis of
+                       IdsqReading``                                ``header.frame_id``, which must be ``map``),
+                                                                    read as the paper's θ = wrap(π/2 − direction)
+                                                                    (clockwise from north, eq. 11) by ``bearing``;
+                                                                    ``t`` = header.stamp, the time of the step
 ``IdsqHandoff``        ``/idsq/sensor_<receiver>/handoff``,         field for field the package of
                        ``track_msgs/IdsqHandoff``                   ``track_core.idsq.handoff.Package`` (u32 cells,
                                                                     f32 mass: the receiver's belief is the one the
@@ -63,20 +70,22 @@ from std_msgs.msg import Header
 from track_msgs.msg import IdsqAck as IdsqAckMsg
 from track_msgs.msg import IdsqHandoff as IdsqHandoffMsg
 from track_msgs.msg import IdsqLeaderEvent as IdsqLeaderEventMsg
+from track_msgs.msg import IdsqReading as IdsqReadingMsg
 from track_msgs.msg import IdsqRevoke as IdsqRevokeMsg
 from track_msgs_py.clouds import XYZ, pack_cloud, pointcloud2_to_table, points_to_pointcloud2
 from track_msgs_py.records import RecordError, read_cloud
 from track_msgs_py.stamps import sec_to_stamp, stamp_to_sec
-from track_msgs_py.topics import FRAME_MAP, idsq_ack_topic, idsq_handoff_topic, idsq_revoke_topic
+from track_msgs_py.topics import FRAME_MAP, idsq_ack_topic, idsq_handoff_topic, idsq_reading_topic, idsq_revoke_topic
 
 if TYPE_CHECKING:
     from track_core.idsq.handoff import Handoff, Package, Unusable
     from track_core.idsq.network import SensorLayout
+    from track_core.idsq.readings import Reading
 
 MAX_REASON = 1000  # characters of a nack's reason (it goes into one log line of the sender)
-#: The per-sensor protocol topics: kind → (message type, topic of sensor k).
+#: The per-sensor topics: kind → (message type, topic of sensor k) (the protocol's three, and the readings).
 PROTOCOL = {'handoff': (IdsqHandoffMsg, idsq_handoff_topic), 'ack': (IdsqAckMsg, idsq_ack_topic),
-            'revoke': (IdsqRevokeMsg, idsq_revoke_topic)}
+            'revoke': (IdsqRevokeMsg, idsq_revoke_topic), 'reading': (IdsqReadingMsg, idsq_reading_topic)}
 
 
 def _header(t: float, frame_id: str = '') -> Header:
@@ -96,6 +105,90 @@ def _one_line(kind: str, name: str, text: str) -> None:
     if len(text) > MAX_REASON or not text.isprintable():
         raise RecordError(f'{kind}: {name} must be one printable line of at most {MAX_REASON} characters '
                           f'(got {len(text)})')
+
+
+# --- the reading --------------------------------------------------------------------------------
+
+READING_TYPES = {IdsqReadingMsg.ACOUSTIC: False, IdsqReadingMsg.DOA: True}  # type code → is DOA
+
+
+@dataclass(frozen=True)
+class IdsqReading:
+    """One sensor's reading of one step at time ``t`` [s], as ``track_msgs/IdsqReading`` carries it:
+    ``amplitude`` (NaN if none; an acoustic sensor's measurement, eq. 5), and for a DOA sensor the
+    REP-103 ``direction`` [rad] in ``frame_id`` and its ``direction_std`` [rad] (NaN for an acoustic one).
+
+    The tracker's DOA likelihood uses the Fig. 6 σ(r) of its own parameters (``sigma_doa_deg``,
+    ``r_near``, ``r_far``): ``direction_std`` is what the front end claims, carried for the record
+    and checked (finite, > 0), not a weight."""
+
+    KIND = 'idsq reading'
+
+    t: float
+    sensor: int
+    is_doa: bool
+    amplitude: float
+    direction: float = math.nan
+    direction_std: float = math.nan
+    frame_id: str = FRAME_MAP
+
+    @classmethod
+    def of_reading(cls, t: float, r: Reading, frame_id: str = FRAME_MAP) -> Self:
+        """The message of the core's reading ``r`` (its bearing θ turned into a REP-103 direction)."""
+        from track_core.idsq.readings import direction_of_bearing
+
+        if not r.is_doa:
+            return cls(t, r.sensor, False, r.amplitude, frame_id=frame_id)
+        return cls(t, r.sensor, True, r.amplitude, direction_of_bearing(r.bearing), r.bearing_std, frame_id)
+
+    @property
+    def bearing(self) -> float:
+        """The paper's θ (eq. 11: clockwise from north) of the direction; NaN for an acoustic reading."""
+        from track_core.idsq.readings import bearing_of_direction
+
+        return bearing_of_direction(self.direction) if self.is_doa else math.nan
+
+    @property
+    def z(self) -> float:
+        """What the sensor leads with: θ for a DOA reading (eq. 11), the amplitude otherwise (eq. 6)."""
+        return self.bearing if self.is_doa else self.amplitude
+
+    def problem(self, sensor: int, is_doa: bool) -> str | None:
+        """Why sensor ``sensor`` (DOA or not) cannot use this reading (another sensor's, another type), else None."""
+        if self.sensor != sensor:
+            return f'sensor_id: {self.sensor} is not this sensor ({sensor})'
+        if self.is_doa != is_doa:
+            return (f'type: {"DOA" if self.is_doa else "ACOUSTIC"} reading for '
+                    f'{"a DOA" if is_doa else "an acoustic"} sensor')
+        return None
+
+    def to_msg(self) -> IdsqReadingMsg:
+        return IdsqReadingMsg(header=_header(self.t, self.frame_id), sensor_id=int(self.sensor),
+                              type=IdsqReadingMsg.DOA if self.is_doa else IdsqReadingMsg.ACOUSTIC,
+                              amplitude=float(self.amplitude), direction=float(self.direction),
+                              direction_std=float(self.direction_std))
+
+    @classmethod
+    def from_msg(cls, msg: IdsqReadingMsg, frame_id: str = FRAME_MAP) -> Self:
+        """``RecordError`` (one line) for an unknown type, an acoustic reading without a finite amplitude, a
+        DOA one without a finite direction and a finite positive std, an infinite amplitude, or a DOA
+        direction in another frame than ``frame_id`` (rotate it into map first; an empty one is map)."""
+        if msg.type not in READING_TYPES:
+            raise RecordError(f'{cls.KIND}: type={msg.type} is neither ACOUSTIC (0) nor DOA (1)')
+        doa = READING_TYPES[msg.type]
+        amp, d, sd = float(msg.amplitude), float(msg.direction), float(msg.direction_std)
+        if math.isinf(amp) or (not doa and math.isnan(amp)):
+            raise RecordError(f'{cls.KIND}: amplitude={amp} must be finite' + ('' if doa else ' (an acoustic reading)'))
+        frame = msg.header.frame_id or frame_id
+        if doa:
+            if not math.isfinite(d):
+                raise RecordError(f'{cls.KIND}: direction={d} must be finite (a DOA reading)')
+            if not (math.isfinite(sd) and sd > 0.0):
+                raise RecordError(f'{cls.KIND}: direction_std={sd} must be finite and > 0 (a DOA reading)')
+            if frame != frame_id:
+                raise RecordError(f'{cls.KIND}: header.frame_id={frame!r}: the direction must be in {frame_id!r}')
+            return cls(stamp_to_sec(msg.header.stamp), int(msg.sensor_id), True, amp, d, sd, frame)
+        return cls(stamp_to_sec(msg.header.stamp), int(msg.sensor_id), False, amp, frame_id=frame)
 
 
 # --- the handoff --------------------------------------------------------------------------------

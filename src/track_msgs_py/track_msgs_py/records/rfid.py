@@ -44,7 +44,7 @@ from track_core.rfid.protocol import Command, CommandKind, StepResult
 from track_core.rfid.signal import PhaseStream
 from track_msgs import msg as tm
 from track_msgs_py.clouds import points_to_pointcloud2
-from track_msgs_py.records import RecordError, read_cloud
+from track_msgs_py.records import RecordError, finite_value, read_cloud
 from track_msgs_py.stamps import stamp_to_sec, stamped_header
 from track_msgs_py.topics import FRAME_MAP
 
@@ -60,12 +60,6 @@ def _kind(record: str, value: int) -> CommandKind:
         return _KINDS[value]
     except KeyError:
         raise RecordError(f'{record}: kind {value} is not one of {_KIND_WORDS}') from None
-
-
-def _finite(record: str, name: str, value: float) -> float:
-    if not math.isfinite(value):
-        raise RecordError(f'{record}: non-finite {name}={value}')
-    return value
 
 
 @dataclass(frozen=True)
@@ -96,8 +90,8 @@ class RfidCommand:
         kind = _kind('rfid command', msg.kind)
         if msg.seq < 1:
             raise RecordError(f'rfid command: seq {msg.seq} < 1')
-        _finite('rfid command', 'angle_deg', msg.angle_deg)
-        return cls(msg.seq, kind, _finite('rfid command', 'angle', msg.angle), msg.repeat, msg.reason)
+        finite_value('rfid command', 'angle_deg', msg.angle_deg)
+        return cls(msg.seq, kind, finite_value('rfid command', 'angle', msg.angle), msg.repeat, msg.reason)
 
 
 def read_command(msg: tm.RfidCommand) -> Command:
@@ -148,10 +142,10 @@ class RfidStep:
     def from_msg(cls, msg: tm.RfidStep) -> Self:
         """``RecordError`` with one line for an unknown kind, a non-finite duration or known dφ std ≤ 0."""
         kind = _kind('rfid step result', msg.kind)
-        duration = _finite('rfid step result', 'duration', msg.duration)
+        duration = finite_value('rfid step result', 'duration', msg.duration)
         dphi_std = None
         if msg.dphi_std_known:
-            dphi_std = _finite('rfid step result', 'dphi_std', msg.dphi_std)
+            dphi_std = finite_value('rfid step result', 'dphi_std', msg.dphi_std)
             if dphi_std <= 0.0:
                 raise RecordError(f'rfid step result: dphi_std={dphi_std} is not > 0')
         return cls(msg.seq, kind, msg.dphi if msg.dphi_known else None, msg.turn if msg.turn_known else None,

@@ -9,7 +9,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from track_core.sonar import DEFAULT_P_D, SmartTargetParams, desired_covariance
-from track_core.sonar.scenario import DEFAULT_LEGS
 from track_core.sonar.scheduler import DELTA
 from track_core.sonar.sspf import PREDICTIONS, TRACKERS
 from track_nodes.base import ParameterError, param
@@ -22,7 +21,8 @@ _SMART = SmartTargetParams()
 class SonarObserverParams:
     """Parameters of ``sonar_observer``."""
 
-    seed: int = param(0, 'seed of the measurement noise and of the particle filter (two spawned streams)', 0, 2**31 - 1)
+    seed: int = param(0, 'seed of the particle filter (the second of two spawned streams; sonar_sim draws the first)',
+                      0, 2**31 - 1)
     tracker: str = param('ss-pf', 'ss-pf: eq. 7 scheduling; papf: passive only; acpf: active only', choices=TRACKERS)
     delta: float = param(DELTA, 'threshold δ of eq. 7 (Table 1: 5) [m²]', 0.0, 1e12, live=True)
     P_D: list[float] = param([float(v) for v in np.diag(DEFAULT_P_D)], 'desired covariance P_D of eq. 7 in [x, vx, y, '
@@ -47,24 +47,26 @@ class SonarObserverParams:
                                       'again [s]', 0.0, 1e6)
     n_particles: int = param(200, 'number of particles N (Table 1: 200)', 1, 1_000_000)
     regularize: bool = param(True, 'Liu-West move after resampling (track_core.sonar.sspf; not in the paper)')
-    period: float = param(1.0, 'sampling period T (Table 1: 1 s) [s]', 1e-3, 60.0)
+    period: float = param(1.0, 'scheduling period T (Table 1: 1 s): a predict-only step for each period without a '
+                          'contact; the prior is one period before the first contact [s]', 1e-3, 60.0)
     q_s: float = param(1.0, 'process-noise intensity q_s of the filter model (Table 1: 1) [m²/s³]', 1e-9, 1e3)
-    sigma_b_deg: float = param(1.0, 'bearing noise std σ_b (Table 1: 1°) [deg]', 1e-6, 180.0)
-    sigma_d: float = param(5.0, 'range noise std σ_d of the active sonar (Table 1: 5 m) [m]', 1e-6, 1e6)
-    prior_mean: list[float] = param([300.0, 12.25, 300.0, -12.25], 'prior mean m₀ = [x, vx, y, vy] at t = 0 [m, m/s]')
+    prior_mean: list[float] = param([300.0, 12.25, 300.0, -12.25], 'prior mean m₀ = [x, vx, y, vy] one period '
+                                    'before the first contact [m, m/s]')
     prior_pos_std: float = param(20.0, 'prior position std per axis [m]', 1e-6, 1e6)
     prior_vel_std: float = param(2.0, 'prior velocity std per axis [m/s]', 1e-6, 1e6)
-    start: list[float] = param([0.0, 0.0], 'observer start position [x, y] in map [m]')
-    speed: float = param(10.0, 'observer speed [m/s]', 0.0, 1e3)
-    heading0_deg: float = param(90.0, 'observer initial heading, clockwise from north [deg]', -360.0, 360.0)
-    legs: list[float] = param([float(v) for leg in DEFAULT_LEGS for v in leg], 'observer legs, flat [duration s, turn '
-                              'rate deg/s, ...]; the last leg extends past its duration')
-    max_time: float = param(0.0, 'stop after step k with k·T > max_time (trajectory time) [s]; 0 = never', 0.0, 1e9)
+    world_frame: str = param('map', 'world frame: of the navigation, of true bearings and of the estimate')
+    body_frame: str = param('base_link', "the ship's body frame: a contact in it is a bearing relative to the "
+                            "ship's heading")
+    nav_wait: float = param(1.0, 'node-clock seconds a contact waits for a navigation fix at or after its stamp, '
+                            'then the last fix is extrapolated [s]', 0.0, 1e6, live=True)
+    nav_max_age: float = param(2.0, 'the last navigation fix may be this much older than a contact [s]', 0.0, 1e6,
+                               live=True)
+    coast_after: float = param(2.0, 'node-clock seconds past a due period without a contact before a predict-only '
+                               'step is taken; 0 = only when the next contact comes (lock-step runs) [s]', 0.0, 1e6,
+                               live=True)
     track_id: str = param('sonar_track', 'child_frame_id of the estimate')
-    observer_id: str = param('sonar_observer', 'child_frame_id of the observer odometry')
-    stamp_lead: float = param(3.0, 'look-ahead tolerance: refuse truths stamped more than this ahead of the node clock '
-        '(a few periods; also a late truth of a run before a clock jump) [s]', 1e-3, 1e9, live=True)
-
+    stamp_lead: float = param(3.0, 'look-ahead tolerance: refuse contacts and fixes stamped more than this ahead of '
+                              'the node clock [s]', 1e-3, 1e9, live=True)
 
 
 

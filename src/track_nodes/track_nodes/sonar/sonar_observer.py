@@ -1,48 +1,40 @@
-"""``sonar_observer``: the observer AUV of the sonar paper, with passive/active sonar and a particle filter.
+"""``sonar_observer``: the SS-PF of the sonar paper on a real sonar's contacts and the own ship's navigation.
 
-For every target truth (``/sonar/target/truth``), in step order, the observer
+Inputs (what a sonar driver and a navigation system publish; ``sonar_sim`` stands in for both):
 
-1. is at ``ObserverTrajectory.state(k·T)`` (constant speed, straight legs and constant-rate turns);
-2. simulates, for the truth of step k (stamped t_k), the sonar reading the scheduler chose for
-   this step (``simulate_measurement``: eq. 5 passive bearing, or
-   eq. 6 active bearing + range, Table 1 noise, its own seeded Generator);
-3. runs one step of the tracker (``make_tracker``: ``ss-pf`` with the eq. 7 covariance-control
-   scheduler, or the ``papf``/``acpf`` baselines; its own seeded Generator);
-4. publishes, in this order:
-   - ``/sonar/ping`` (geometry_msgs/PointStamped at the observer position), only when it pinged;
-   - ``/sonar/estimate`` (nav_msgs/Odometry with the particle covariance, ``child_frame_id`` =
-     ``track_id``; position–velocity cross-covariances are dropped, see track_msgs_py.odometry);
-   - ``/sonar/particles`` (geometry_msgs/PoseArray, one pose per selected particle, identity
-     orientation like our Odometry tracks: particles carry no heading; weights are equal after
-     the selection step, so no weight field is needed; one pose, the mean, while the filter's
-     mixture is merged into one Gaussian (``track_core.sonar.sspf``), when ``ess`` is 1 too);
-   - ``/sonar/mode`` (diagnostic_msgs/DiagnosticArray, one status ``<node name>/sensor_mode``;
-     message = the mode used at t_k; values ``mode``, ``next_mode`` (the scheduler's choice for
-     t_{k+1}), ``step``, ``ess``, and for ss-pf ``distance`` = ‖P_D − Cov‖ of eq. 7: ``records.sonar.SonarMode``);
-   - ``/sonar/markers`` (visualization_msgs/MarkerArray: the 2σ position ellipse, ns
-     ``sonar_estimate``, id 0: ``track_msgs_py.markers.sonar``);
-   - ``/sonar/observer/odom`` (nav_msgs/Odometry of the observer, zero covariance) last: it tells
-     the smart target that step k is complete (see ``smart_target`` for the ordering rule), just after
-     the same pose on ``/tf`` as map → ``observer_id`` (the AUV's body frame, identity orientation like
-     the Odometry: the CV state carries no heading). The estimate's ``child_frame_id`` names the track,
-     not a frame, and is not broadcast.
+- ``/sonar/contacts`` (``track_msgs/SonarContact``): one message per listen (passive: bearing) or ping
+  (active: bearing and range), at any times, with the reading's stds (its noise R of eqs. 5-6). The
+  bearing is REP-103 in ``header.frame_id``: ``world_frame`` (a true bearing) or ``body_frame`` (relative
+  to the ship's heading at the contact's stamp); another frame is refused, naming it;
+- ``/sonar/observer/odom`` (nav_msgs/Odometry, REP-105: pose in ``world_frame``, twist in
+  ``child_frame_id``): where the observer is; interpolated to each contact's stamp.
 
-Determinism rule (``track_core.sonar.lockstep.TruthGate``): the target's truth sets the time. The
-first truth accepted is step 1 and fixes the step grid (its stamp + k·T); step k is taken when the
-truth of grid point k has arrived, strictly in order, and everything published for it carries that
-truth's stamp exactly. The target's step k never depends on the observer's step k (only on k−1),
-so there is no deadlock, and the measurement and filter draws depend only on the seed and the truth
-sequence. Replaying a recorded ``/sonar/target/truth`` into a fresh observer with the same
-parameters therefore reproduces every estimate bit for bit. No clock origin is shared by
-convention: the two nodes start in any order, any time apart (the truth is transient-local, so an
-observer started late still gets the step the target waits on). A truth off the grid, already
-received, too far ahead or stamped beyond the horizon of the node's clock is refused. A jump of
-the clock (``track_nodes.base.timejump``: a bag replayed in a loop, a simulator reset) starts a
-new run: the tracker at its prior with its Generators seeded again, and the step grid forgotten; a
-truth of the old run still queued then lies ahead of the clock by more than ``stamp_lead`` and is
-refused, so it cannot fix the new grid.
-The measurements are simulated here from the truth, so there is no report another publisher could
-inject and no innovation gate.
+How the two streams become filter steps is ``track_core.sonar.contacts.ContactSequencer``: a contact is
+a step at its own stamp (eqs. 3-4 over the actual interval); a period T without a contact is a
+predict-only step (counted: ``predictions``), taken when the next contact comes or, with ``coast_after``,
+when the node's clock is that far past the due period (a sensor that stopped); a contact waits up to
+``nav_wait`` for the navigation fix after it; a contact not after the filter's time, or stamped more than
+``stamp_lead`` ahead of the node clock, is refused with its reason. The prior (``prior_mean``, stds) is
+the target one period before the first contact.
+
+Outputs, per filter step, stamped exactly with the step's time:
+
+- ``/sonar/estimate`` (nav_msgs/Odometry with the particle covariance, ``child_frame_id`` =
+  ``track_id``; position–velocity cross-covariances are dropped, see track_msgs_py.odometry);
+- ``/sonar/particles`` (geometry_msgs/PoseArray, one pose per selected particle, identity orientation;
+  one pose, the mean, while the filter's mixture is merged into one Gaussian, ``track_core.sonar.sspf``);
+- ``/sonar/mode`` (diagnostic_msgs/DiagnosticArray, one status ``<node name>/sensor_mode``; message = the
+  mode of the step's reading (for a predict-only step, of the last one); values ``mode``, ``next_mode``,
+  ``step``, ``ess``, and for ss-pf ``distance`` = ‖P_D − Cov‖ of eq. 7: ``records.sonar.SonarMode``);
+- ``/sonar/markers`` (visualization_msgs/MarkerArray: the 2σ position ellipse, ``markers.sonar``);
+- ``/sonar/mode_command`` (``track_msgs/SonarModeCommand``, latched) last: eq. 7's request for the next
+  reading, which the sonar driver obeys; also once at start, stamped 0 (Algorithm 3's first mode).
+
+Determinism: the filter's draws come from its seeded Generator (the second of
+``SeedSequence(seed).spawn(2)``) and its steps from the contacts' stamps, so replaying recorded contacts
+and navigation into a fresh observer with the same parameters reproduces every estimate bit for bit. A
+jump of the clock (a bag replayed in a loop, a simulator reset) starts a new run: the tracker at its
+prior with its Generator seeded again, the contacts and fixes forgotten.
 
 Target model (``target_model``, read-only). ``cv``: the paper's constant-velocity model (eqs. 1-4).
 ``smart``: the SS-PF knows what its own pings do to a ``smart_target`` (``SSPF(target_model=...)``,
@@ -52,9 +44,7 @@ from the observer towards ``model_evade_speed`` with bounded turn rate and accel
 (``smart_target.evasive_transition``). The model's parameters are this node's ``model_*`` parameters
 (the observer cannot read the target's): a scenario sets them to its ``smart_target``'s values, as
 ``config/maritime.yaml`` does. ``prediction`` picks how each particle's Gaussian crosses the manoeuvre:
-``unscented`` (its sigma points through it; where the commanded speed and heading are reached the
-velocity spread contracts) or ``linear`` (its mean through it, F P Fᵀ + Q as for the CV model, so eq. 7
-sees the CV model's covariance growth).
+``unscented`` (its sigma points through it) or ``linear`` (its mean through it, F P Fᵀ + Q).
 
 Parameters are checked at start; δ < 0, N < 1 or a P_D that is not symmetric PSD (4 values: a
 diagonal; 16: a row-major 4×4 matrix) stop the node with one line.
@@ -62,47 +52,44 @@ diagonal; 16: a row-major 4×4 matrix) stop the node with one line.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
-from geometry_msgs.msg import PointStamped, PoseArray
+from geometry_msgs.msg import PoseArray
 from nav_msgs.msg import Odometry
 from visualization_msgs.msg import MarkerArray
 
-from track_core.sonar import (
-    CovarianceScheduler,
-    ObserverTrajectory,
-    Scenario,
-    SensorMode,
-    SonarParams,
-    make_tracker,
-    simulate_measurement,
-)
-from track_core.sonar.lockstep import TruthGate
+from track_core.sonar import CovarianceScheduler, Scenario, SensorMode, SonarParams, make_tracker
+from track_core.sonar.contacts import ContactSequencer, Dropped, Step
+from track_msgs import msg as tm
 from track_msgs_py.diagnostics import DIAG_OK, diagnostic_array
 from track_msgs_py.markers.sonar import estimate_markers
-from track_msgs_py.odometry import cv_state_to_odometry, odometry_to_cv_state, positions_to_pose_array
-from track_msgs_py.qos import ESTIMATE_QOS, SENSOR_QOS, TRUTH_QOS
-from track_msgs_py.records.sonar import SonarMode
+from track_msgs_py.odometry import cv_state_to_odometry, positions_to_pose_array
+from track_msgs_py.qos import ESTIMATE_QOS, SENSOR_QOS, STATIC_QOS
+from track_msgs_py.records import RecordError
+from track_msgs_py.records.sonar import SonarMode, contact_from_msg, fix_from_odometry, mode_command_to_msg
 from track_msgs_py.stamps import ns_to_stamp, stamp_to_ns
-from track_msgs_py.tf import frame_pair_problem, odometry_transform
 from track_msgs_py.topics import (
-    FRAME_MAP,
-    KNOWN_FRAMES,
+    SONAR_CONTACTS,
     SONAR_ESTIMATE,
     SONAR_MARKERS,
     SONAR_MODE,
+    SONAR_MODE_COMMAND,
     SONAR_OBSERVER,
     SONAR_PARTICLES,
-    SONAR_PING,
-    SONAR_TRUTH,
 )
-from track_msgs_py.validate import InputPolicy, clock_now, odometry_bounds_problem, odometry_problem, stamp_problem
+from track_msgs_py.validate import (
+    InputPolicy,
+    clock_now,
+    header_problem,
+    odometry_bounds_problem,
+    odometry_problem,
+    stamp_problem,
+)
 from track_nodes.base import ParameterError, TrackNode
 from track_nodes.sonar.observer_params import SonarObserverParams, p_d, target_model_of
 
-WAIT_WARN = 10.0  # s of the node's clock (sim time under use_sim_time) without a truth before a warning
+WAIT_WARN = 10.0  # s of the node's clock (sim time under use_sim_time) without a contact before a warning
+TICK = 0.1  # s of the node's clock between checks of held contacts and due periods
 
 
 class SonarObserverNode(TrackNode):
@@ -116,125 +103,141 @@ class SonarObserverNode(TrackNode):
         m0 = np.asarray(p.prior_mean, dtype=float)
         if m0.shape != (4,) or not np.all(np.isfinite(m0)):
             raise ParameterError(f'parameter prior_mean={list(p.prior_mean)!r} is invalid: allowed 4 finite numbers')
-        legs = np.asarray(p.legs, dtype=float)
-        if legs.size == 0 or legs.size % 2 or not np.all(np.isfinite(legs)) or np.any(legs[::2] <= 0):
-            raise ParameterError(f'parameter legs={list(p.legs)!r} is invalid: allowed pairs [duration > 0 s, '
-                             'turn rate deg/s, ...]')
-        start = np.asarray(p.start, dtype=float)
-        if start.shape != (2,) or not np.all(np.isfinite(start)):
-            raise ParameterError(f'parameter start={list(p.start)!r} is invalid: allowed 2 finite numbers [x, y]')
-        problem = frame_pair_problem(FRAME_MAP, p.observer_id)
-        if problem:
-            raise ParameterError(f'parameter observer_id={p.observer_id!r}: {problem}')
-        self.sonar = SonarParams(T=p.period, q_s=p.q_s, sigma_b=math.radians(p.sigma_b_deg), sigma_d=p.sigma_d,
-                                 n_particles=p.n_particles)
-        self.trajectory = ObserverTrajectory(start=(float(start[0]), float(start[1])), speed=p.speed,
-                                             heading0_deg=p.heading0_deg,
-                                             legs=tuple((float(d), float(r)) for d, r in legs.reshape(-1, 2)))
+        for name in ('world_frame', 'body_frame'):
+            if not getattr(p, name) or getattr(p, name).startswith('/'):
+                raise ParameterError(f'parameter {name}={getattr(p, name)!r} is invalid: allowed a frame name '
+                                     '(not empty, no leading /)')
+        if p.world_frame == p.body_frame:
+            raise ParameterError(f'parameters world_frame and body_frame are both {p.world_frame!r}: allowed two '
+                                 'different frames')
+        self.sonar = SonarParams(T=p.period, q_s=p.q_s, n_particles=p.n_particles)
         self._prior = (P_D, m0, Scenario(params=self.sonar, prior_pos_std=p.prior_pos_std,
                                          prior_vel_std=p.prior_vel_std).prior_cov)
-        self._start_run()
         self.rejected = 0
-        self._waiting_logged = False
-        self.pub_ping = self.create_publisher(PointStamped, SONAR_PING, ESTIMATE_QOS)
+        self.dropped = 0
         self.pub_est = self.create_publisher(Odometry, SONAR_ESTIMATE, ESTIMATE_QOS)
         self.pub_particles = self.create_publisher(PoseArray, SONAR_PARTICLES, SENSOR_QOS)
         self.pub_mode = self.create_publisher(DiagnosticArray, SONAR_MODE, ESTIMATE_QOS)
         self.pub_markers = self.create_publisher(MarkerArray, SONAR_MARKERS, ESTIMATE_QOS)
-        self.pub_odom = self.create_publisher(Odometry, SONAR_OBSERVER, ESTIMATE_QOS)
-        self.advertise_transforms()
-        self.sub_truth = self.create_subscription(Odometry, SONAR_TRUTH, self._on_truth, TRUTH_QOS)
-        # On the node's clock: a slow lock-step run (sim time) waits on its target for long wall times.
-        self.last_truth: float | None = self._clock_s() or None  # None: the sim clock has not started
+        self.pub_command = self.create_publisher(tm.SonarModeCommand, SONAR_MODE_COMMAND, STATIC_QOS)
+        self._start_run()
+        self.sub_nav = self.create_subscription(Odometry, SONAR_OBSERVER, self._on_nav, ESTIMATE_QOS)
+        self.sub_contact = self.create_subscription(tm.SonarContact, SONAR_CONTACTS, self._on_contact, ESTIMATE_QOS)
+        # On the node's clock: a slow lock-step run (sim time) waits on its sonar for long wall times.
+        self.last_contact: float | None = self._clock_s() or None  # None: the sim clock has not started
         self.wait_timer = self.create_timer(WAIT_WARN, self._check_waiting)
+        self.tick_timer = self.create_timer(TICK, self._tick)
 
     def _start_run(self) -> None:
-        """A fresh run: seeded Generators, the tracker at its prior, the truth gate at step 1."""
+        """A fresh run: the tracker at its prior with its Generator seeded, no contact or fix, the start request."""
         p, (P_D, m0, prior_cov) = self.p, self._prior
-        noise_ss, filter_ss = np.random.SeedSequence(p.seed).spawn(2)
-        self.noise_rng = np.random.default_rng(noise_ss)
+        _, filter_ss = np.random.SeedSequence(p.seed).spawn(2)
         self.tracker = make_tracker(p.tracker, self.sonar, np.random.default_rng(filter_ss), P_D=P_D,
                                     delta=p.delta, metric=p.metric, regularize=p.regularize,
                                     initial_pings=p.initial_pings, target_model=target_model_of(p),
                                     prediction=p.prediction)
         self.tracker.initialize(m0, prior_cov)
-        self.gate = TruthGate(round(p.period * 1e9))  # step k = the truth of grid point k (track_core.sonar.lockstep)
-        self.pings = 0
-        self.k = 0  # steps taken
+        self.sequencer = ContactSequencer(self.tracker, round(p.period * 1e9), nav_wait_ns=round(p.nav_wait * 1e9),
+                                          nav_max_age_ns=round(p.nav_max_age * 1e9),
+                                          coast_after_ns=round(p.coast_after * 1e9))
+        self.k = 0
+        self.pings = 0  # active readings taken
+        self.pub_command.publish(mode_command_to_msg(0, self.tracker.next_mode, None))
 
     def reset_time_state(self) -> tuple[str, ...]:
-        """A new run from step 1 (as a fresh node: a replayed run reproduces its estimates again)."""
+        """A new run (as a fresh node: a replayed run reproduces its estimates again)."""
         self._start_run()
-        self.last_truth = self._clock_s()  # the wait for a truth restarts on the new clock
-        return ('tracker (at its prior, seeded again)', 'truth gate (step grid)')
+        self.last_contact = self._clock_s()
+        return ('tracker (at its prior, seeded again)', 'contacts and navigation')
 
     def apply_params(self, changed: set[str]) -> None:
         scheduler = getattr(self.tracker, 'scheduler', None)
         if 'delta' in changed and isinstance(scheduler, CovarianceScheduler):  # eq. 7 from the next step on
             scheduler.delta = float(self.p.delta)
+        seq = self.sequencer
+        seq.nav_wait_ns, seq.nav_max_age_ns = round(self.p.nav_wait * 1e9), round(self.p.nav_max_age * 1e9)
+        seq.coast_after_ns = round(self.p.coast_after * 1e9)
 
     # -- inputs ---------------------------------------------------------------------------
-    def _on_truth(self, msg: Odometry) -> None:
+    def _policy_problem(self, key: int) -> str | None:
+        return stamp_problem(key * 1e-9, clock_now(self.get_clock().now().nanoseconds),
+                             InputPolicy(lead=self.p.stamp_lead))
+
+    def _on_nav(self, msg: Odometry) -> None:
         key = stamp_to_ns(msg.header.stamp)
-        reason = (odometry_problem(msg, KNOWN_FRAMES) or odometry_bounds_problem(msg, pose_covariance=False)
-                  or stamp_problem(key * 1e-9, clock_now(self.get_clock().now().nanoseconds),
-                                   InputPolicy(lead=self.p.stamp_lead))
-                  or self.gate.problem(key))
+        reason = (odometry_problem(msg, (self.p.world_frame,)) or odometry_bounds_problem(msg, pose_covariance=False)
+                  or self._policy_problem(key))
+        fix = None if reason else fix_from_odometry(msg)
+        reason = reason or self.sequencer.nav.problem(fix)
         if reason:
             self.rejected += 1
-            self.refuse(SONAR_TRUTH, reason)
+            self.refuse(SONAR_OBSERVER, reason)
             return
-        _, x, _ = odometry_to_cv_state(msg)
-        self.last_truth = self._clock_s()
-        for k, key_k, x_true in self.gate.add_truth(key, x):
-            if self.p.max_time > 0 and k * self.p.period > self.p.max_time + 1e-9:
-                return
-            self._step(k, key_k, x_true)
-        stalled = self.gate.stalled()
-        if stalled is not None:
-            self.get_logger().warning(f'waiting for {self.sub_truth.topic_name} stamped {stalled} ns (lost?); '
-                                      f'{len(self.gate.truth)} later truths are held')
+        self._publish(self.sequencer.add_fix(fix, self._now_ns()))
+
+    def _on_contact(self, msg: tm.SonarContact) -> None:
+        key = stamp_to_ns(msg.header.stamp)
+        frames = (self.p.world_frame, self.p.body_frame)
+        reason = header_problem(msg.header, frames) or self._policy_problem(key)
+        contact = None
+        if not reason:
+            try:
+                contact = contact_from_msg(msg, relative=msg.header.frame_id == self.p.body_frame)
+            except RecordError as exc:
+                reason = str(exc)
+        reason = reason or self.sequencer.contact_problem(contact)
+        if reason:
+            self.rejected += 1
+            self.refuse(SONAR_CONTACTS, reason)
+            return
+        self.last_contact = self._clock_s()
+        self._publish(self.sequencer.add_contact(contact, self._now_ns()))
+
+    def _tick(self) -> None:
+        if self.get_clock().now().nanoseconds > 0:  # sim time: nothing is due before the first /clock
+            self._publish(self.sequencer.tick(self._now_ns()))
+
+    def _now_ns(self) -> int:
+        return self.get_clock().now().nanoseconds
 
     def _clock_s(self) -> float:
         return self.get_clock().now().nanoseconds * 1e-9
 
     def _check_waiting(self) -> None:
         now = self._clock_s()
-        if self.last_truth is None or now < self.last_truth:  # the clock started (0 -> /clock) or went back
-            self.last_truth = now or None
+        if self.last_contact is None or now < self.last_contact:  # the clock started (0 -> /clock) or went back
+            self.last_contact = now or None
             return
-        if now - self.last_truth >= WAIT_WARN:
-            self.get_logger().warning(f'no truth on {self.sub_truth.topic_name} for {WAIT_WARN:g} s '
-                                      '(is smart_target running?)', throttle_duration_sec=60.0)
+        if now - self.last_contact >= WAIT_WARN:
+            self.get_logger().warning(f'no contact on {self.sub_contact.topic_name} for {WAIT_WARN:g} s '
+                                      '(is the sonar driver or sonar_sim running?)', throttle_duration_sec=60.0)
 
     # -- one step -------------------------------------------------------------------------
-    def _step(self, k: int, key: int, x_true: np.ndarray) -> None:
-        """Step k on the truth stamped ``key`` [ns]: every message carries that exact stamp."""
-        self.k = k
-        t, stamp = key * 1e-9, ns_to_stamp(key)
-        obs_state = self.trajectory.state(k * self.p.period)  # trajectory time since step 0
-        obs_xy = obs_state[[0, 2]]
-        mode = self.tracker.next_mode
-        z = simulate_measurement(self.noise_rng, x_true, obs_xy, mode, self.sonar)
-        est = self.tracker.step(z, mode, obs_xy)
-        if mode is SensorMode.ACTIVE:
-            self.pings += 1
-            ping = PointStamped()
-            ping.header.frame_id = FRAME_MAP
-            ping.point.x, ping.point.y = float(obs_xy[0]), float(obs_xy[1])
-            self.pub_ping.publish(_stamped(ping, stamp))
-        self.pub_est.publish(_stamped(cv_state_to_odometry(t, est.mean, est.cov, FRAME_MAP, self.p.track_id), stamp))
-        self.pub_particles.publish(_stamped(positions_to_pose_array(t, self.tracker.particles[:, [0, 2]]), stamp))
+    def _publish(self, results: list[Step | Dropped]) -> None:
+        for r in results:
+            if isinstance(r, Dropped):
+                self.dropped += 1
+                self.refuse(SONAR_CONTACTS, f'contact stamped {r.key} ns dropped: {r.reason}')
+            else:
+                self._step(r)
+
+    def _step(self, step: Step) -> None:
+        """Publish filter step ``step``: every message carries its exact stamp."""
+        est, key = step.estimate, step.key
+        self.k = est.k
+        self.pings += step.contact is not None and step.contact.mode is SensorMode.ACTIVE
+        t, stamp, world = key * 1e-9, ns_to_stamp(key), self.p.world_frame
+        self.pub_est.publish(_stamped(cv_state_to_odometry(t, est.mean, est.cov, world, self.p.track_id), stamp))
+        self.pub_particles.publish(_stamped(positions_to_pose_array(t, self.tracker.particles[:, [0, 2]], world),
+                                            stamp))
         distance = None
         if isinstance(self.tracker.scheduler, CovarianceScheduler):
             distance = self.tracker.scheduler.distance(est.cov)
         mode_rec = SonarMode(est.mode.value, est.next_mode.value, est.k, est.ess, distance)
         status = mode_rec.to_status(f'{self.get_name()}/sensor_mode', DIAG_OK, est.mode.value)
         self.pub_mode.publish(_stamped(diagnostic_array(t, [status]), stamp))
-        self.pub_markers.publish(_stamped(estimate_markers(t, est.mean, est.cov), stamp))
-        odom = _stamped(cv_state_to_odometry(t, obs_state, np.zeros((4, 4)), FRAME_MAP, self.p.observer_id), stamp)
-        self.send_transforms(odometry_transform(odom))
-        self.pub_odom.publish(odom)  # last: the target's step k+1 waits for it
+        self.pub_markers.publish(_stamped(estimate_markers(t, est.mean, est.cov, world), stamp))
+        self.pub_command.publish(mode_command_to_msg(key, est.next_mode, distance))  # last: the sonar waits for it
 
 
 def _stamped(msg, stamp):

@@ -1,0 +1,86 @@
+"""Live AIS and the map datum ⇄ messages: the datum as a NavSatFix, a report as a TrackArray, ships as statuses.
+
+=====================  =================================  ====================================================
+data                   message type                       fields
+=====================  =================================  ====================================================
+the map datum          sensor_msgs/NavSatFix              ``header.stamp`` ← when it was fixed, ``frame_id``
+(origin lat0, lon0)    (on ``map_datum``, latched)        ``map`` (the frame whose origin it is),
+                                                          ``latitude``/``longitude`` ← lat0/lon0,
+                                                          ``altitude`` 0 (on the ellipsoid),
+                                                          ``status.status`` STATUS_FIX, covariance unknown
+one AIS report         track_msgs/TrackArray (one track)  ``header`` ← report time, ``map``; ``tracks[0]``:
+(``StateReport``)                                         ``id`` ← MMSI (decimal), ``source`` ← node name,
+                                                          x, vx, y, vy and the 4×4 covariance; velocity not
+                                                          estimated (0, variance 1e6) when SOG or COG is not
+                                                          available
+ships' static data     diagnostic_msgs/DiagnosticArray    one status per MMSI, ``name`` ← the MMSI (the track
+                       (on ``<prefix>/ships``, latched)   id), ``message`` ← ship name, values ``name``,
+                                                          ``ship_type``, ``callsign``, ``reports``
+=====================  =================================  ====================================================
+
+Track.msg has no slot for a ship's name or type, so they travel beside the tracks on a latched
+topic keyed by the same id (the MMSI): a late subscriber (a recorder, Foxglove) gets the whole
+table at once, and a bag holds it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from sensor_msgs.msg import NavSatFix, NavSatStatus
+
+from track_msgs_py.covariance import NOT_ESTIMATED_VARIANCE
+from track_msgs_py.diagnostics import DIAG_OK, diagnostic_array, diagnostic_status
+from track_msgs_py.stamps import stamp_to_sec, stamped_header
+from track_msgs_py.topics import FRAME_MAP
+from track_msgs_py.track_arrays import tracks_to_array
+
+
+def datum_to_navsatfix(t: float, lat0: float, lon0: float, frame_id: str = FRAME_MAP) -> NavSatFix:
+    """The origin of ``frame_id`` on WGS-84 as a NavSatFix (table above)."""
+    msg = NavSatFix(header=stamped_header(t, frame_id), latitude=float(lat0), longitude=float(lon0), altitude=0.0)
+    msg.status.status = NavSatStatus.STATUS_FIX
+    msg.status.service = NavSatStatus.SERVICE_GPS
+    msg.position_covariance_type = NavSatFix.COVARIANCE_TYPE_UNKNOWN
+    return msg
+
+
+def navsatfix_problem(msg: NavSatFix) -> str | None:
+    """Why a NavSatFix gives no position (no fix, non-finite or out-of-range latitude/longitude), else None."""
+    if msg.status.status < NavSatStatus.STATUS_FIX:
+        return f'status.status: {msg.status.status} (no fix)'
+    lat, lon = msg.latitude, msg.longitude
+    if not (math.isfinite(lat) and -90.0 < lat < 90.0):
+        return f'latitude: {lat!r} is not in (-90, 90)'
+    if not (math.isfinite(lon) and -180.0 <= lon <= 180.0):
+        return f'longitude: {lon!r} is not in [-180, 180]'
+    return None
+
+
+def navsatfix_to_datum(msg: NavSatFix) -> tuple[float, float, float, str]:
+    """(stamp [s], lat0, lon0, frame_id) of a datum message."""
+    return stamp_to_sec(msg.header.stamp), float(msg.latitude), float(msg.longitude), msg.header.frame_id
+
+
+def report_to_array(t: float, report, source: str, frame_id: str = FRAME_MAP):
+    """One ``track_core.ais.live.StateReport`` at ``t`` → a TrackArray of one track, id = the MMSI."""
+    x = np.zeros(4)
+    P = np.zeros((4, 4))
+    x[[0, 2]] = report.z
+    P[np.ix_([0, 2], [0, 2])] = report.R
+    if report.v is None:
+        P[1, 1] = P[3, 3] = NOT_ESTIMATED_VARIANCE
+    else:
+        x[[1, 3]] = report.v
+        P[np.ix_([1, 3], [1, 3])] = report.Pv
+    return tracks_to_array(t, [str(report.mmsi)], [source], x[None], P[None], frame_id)
+
+
+def ships_to_diagnostics(t: float, ships, hardware_id: str = ''):
+    """Ships (``track_core.ais.live.Ship``) with static data → one DiagnosticArray (table above)."""
+    return diagnostic_array(t, [
+        diagnostic_status(str(s.mmsi), DIAG_OK, s.name, {'name': s.name, 'ship_type': s.ship_type,
+                                                         'callsign': s.callsign, 'reports': s.reports},
+                          hardware_id)
+        for s in ships])
