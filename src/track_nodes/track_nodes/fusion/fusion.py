@@ -15,6 +15,15 @@ the node clock; a bad one is refused with one throttled line per reason and coun
   kept for such sources; that frame_id names no frame (no viewer can draw it), so our own sources
   of many tracks (``ais_source``) publish a TrackArray.
 
+Frames. Every input is scored in ``world_frame`` (``map``). An input in another frame (a radar's
+own frame, ``odom``, ``utm``) is moved into it at its stamp through a transform buffer fed by
+``/tf`` and ``/tf_static`` (``track_msgs_py.tf_buffer``, pytransform3d): position, covariance
+and, for a frame that moves (a radar on a ship), the velocity with the frame's own motion. An input
+whose frame is not on the tree, or whose transform is older than its stamp by more than
+``tf_tolerance`` (or older than the ``tf_history`` kept), is refused with the frame's name and
+counted. Odometry is read per REP-105 (pose in ``header.frame_id``, twist in ``child_frame_id``,
+``track_msgs_py.odometry``).
+
 Pairs within one source are not scored unless ``same_source_pairs``. Velocities with
 ``not_estimated`` variance are ignored (the track is held like a position report).
 
@@ -63,20 +72,20 @@ from track_msgs_py.odometry import odometry_to_cv_state, pose_cov_to_position
 from track_msgs_py.qos import ESTIMATE_QOS
 from track_msgs_py.records.fusion import FusedTracks, FusionPairs
 from track_msgs_py.stamps import stamp_to_sec
+from track_msgs_py.tf import TF, TF_QOS, TF_STATIC, TF_STATIC_QOS, frame_id_problem
+from track_msgs_py.tf_buffer import TransformBuffer, move_cv_states
 from track_msgs_py.topics import (
     FUSION_ASSOCIATIONS,
     FUSION_FUSED,
     FUSION_MARKERS,
     FUSION_SCORES,
-    KNOWN_FRAMES,
     split_track_frame_id,
 )
-from track_msgs_py.track_arrays import array_to_tracks, track_problems
+from track_msgs_py.track_arrays import array_to_tracks, position_tracks, track_problems
 from track_msgs_py.validate import (
     InputPolicy,
     StampMonotonic,
     clock_now,
-    frame_problem,
     odometry_bounds_problem,
     odometry_problem,
     pose_cov_bounds_problem,
@@ -139,6 +148,12 @@ class FusionNode(TrackNode):
         self.pub_fused = self.create_publisher(FusedTrackArray, FUSION_FUSED, ESTIMATE_QOS)
         self.pub_markers = self.create_publisher(MarkerArray, FUSION_MARKERS, ESTIMATE_QOS)
         self.timer = self.create_timer(1.0 / p.rate, self.tick) if p.schedule == 'timer' else None
+        self.tf = TransformBuffer(history=p.tf_history, tolerance=p.tf_tolerance)
+        from tf2_msgs.msg import TFMessage
+
+        self.sub_tf = self.create_subscription(TFMessage, TF, lambda m: self._on_tf(TF, m, False), TF_QOS)
+        self.sub_tf_static = self.create_subscription(TFMessage, TF_STATIC, lambda m: self._on_tf(TF_STATIC, m, True),
+                                                      TF_STATIC_QOS)
 
     def _track_sub(self, cls, topic: str, handler: str, qos):
         """A track topic's subscription; the handler is looked up at call time (tests wrap it)."""
@@ -159,13 +174,15 @@ class FusionNode(TrackNode):
         if 'rate' in changed and self.timer is not None:
             self.timer.timer_period_ns = round(1e9 / p.rate)
         self.markers.lifetime = 2.0 / min(p.rate, p.display_rate)
+        self.tf.tolerance = float(p.tf_tolerance)
 
     def reset_time_state(self) -> tuple[str, ...]:
         self.core.reset()
         self.stamps.reset()
         self.shard.clear()
         self._displayed = None
-        return ('tracks', 'pair windows', 'stamp schedule', 'stamp watermarks')
+        self.tf.clear()
+        return ('tracks', 'pair windows', 'stamp schedule', 'stamp watermarks', 'transform buffer')
 
     @property
     def next_k(self) -> int | None:
@@ -183,13 +200,39 @@ class FusionNode(TrackNode):
     def _stamp_problem(self, msg) -> str | None:
         return stamp_problem(stamp_to_sec(msg.header.stamp), clock_now(self.get_clock().now().nanoseconds), self.policy)
 
+    def _on_tf(self, topic: str, msg, static: bool) -> None:
+        for reason in self.tf.add(msg, static):
+            self.refuse(topic, reason)
+
+    def _to_world(self, frame: str, t: float, x: np.ndarray, P: np.ndarray):
+        """CV states (n, 4) and covariances in ``frame`` at ``t`` → in the world frame, or a reason."""
+        world = self.p.world_frame
+        if frame == world:
+            return x, P, None
+        reason = frame_id_problem(frame, 'header.frame_id')
+        T = None
+        if reason is None:
+            T, reason = self.tf.lookup(world, frame, t)
+        if reason is not None:
+            return None, None, reason
+        x, P = move_cv_states(T, x, P, self.tf.motion(world, frame, t))
+        return x, P, None
+
     def _on_track_array(self, topic: str, msg: TrackArray) -> None:
-        reason = frame_problem(msg.header.frame_id, KNOWN_FRAMES) or self._stamp_problem(msg)
+        reason = self._stamp_problem(msg)
         if reason:
             self._drop(topic, reason)
             return
         t, ids, _, x, P = array_to_tracks(msg)
         bad = track_problems(ids, x, P, self.policy)
+        if msg.header.frame_id != self.p.world_frame:
+            ok = np.array([k not in bad for k in range(len(ids))], dtype=bool)
+            x, P = x.copy(), P.copy()
+            moved_x, moved_P, reason = self._to_world(msg.header.frame_id, t, x[ok], P[ok])
+            if reason:
+                self._drop(topic, reason)
+                return
+            x[ok], P[ok] = moved_x, moved_P
         inside = self.region.contains_all(x[:, 0], x[:, 2])
         held = self.shard.held
         for k, local in enumerate(ids):
@@ -207,12 +250,15 @@ class FusionNode(TrackNode):
 
     def _on_odometry(self, topic: str, msg: Odometry) -> None:
         track_id = f'{topic}/{msg.child_frame_id}' if msg.child_frame_id else topic
-        reason = (odometry_problem(msg, KNOWN_FRAMES) or odometry_bounds_problem(msg, self.policy)
+        reason = (odometry_problem(msg, None) or odometry_bounds_problem(msg, self.policy)
                   or self._stamp_problem(msg) or self.stamps.msg_problem(track_id, msg))
+        t, x, P = odometry_to_cv_state(msg) if not reason else (0.0, None, None)
+        if not reason:
+            x, P, reason = self._to_world(msg.header.frame_id, t, x[None], P[None])
         if reason:
             self._drop(topic, reason)
             return
-        self._push_state(topic, track_id, *odometry_to_cv_state(msg), topic)
+        self._push_state(topic, track_id, t, x[0], P[0], topic)
 
     def _push_state(self, source: str, track_id: str, t: float, x: np.ndarray, P: np.ndarray, stream: str) -> None:
         """A CV state [x, ẋ, y, ẏ] and its covariance: held as a position when the velocity is not estimated."""
@@ -223,12 +269,14 @@ class FusionNode(TrackNode):
         self._push(source, track_id, TrackReport(t, x[[0, 2]], P[np.ix_([0, 2], [0, 2])], x[[1, 3]], Pv), stream)
 
     def _on_pose(self, topic: str, msg: PoseWithCovarianceStamped) -> None:
-        reason = (pose_cov_problem(msg, KNOWN_FRAMES) or pose_cov_bounds_problem(msg, self.policy)
+        reason = (pose_cov_problem(msg, None) or pose_cov_bounds_problem(msg, self.policy)
                   or self._stamp_problem(msg) or self.stamps.msg_problem(topic, msg))
+        if not reason:
+            t, z, R = pose_cov_to_position(msg)
+            z, R, reason = self._position_to_world(msg.header.frame_id, t, z, R)
         if reason:
             self._drop(topic, reason)
             return
-        t, z, R = pose_cov_to_position(msg)
         # One track per topic; a source publishes its tracks under one namespace (<source>/<track>).
         self._push(topic.rsplit('/', 1)[0] or topic, topic, TrackReport(t, z, R), topic)
 
@@ -239,14 +287,23 @@ class FusionNode(TrackNode):
                               '(expected "<frame>#<local id>")')
             return
         track_id = f'{topic}/{local}'
-        reason = (frame_problem(frame, KNOWN_FRAMES) or pose_cov_problem(msg, None)
-                  or pose_cov_bounds_problem(msg, self.policy) or self._stamp_problem(msg)
-                  or self.stamps.msg_problem(track_id, msg))
+        reason = (pose_cov_problem(msg, None) or pose_cov_bounds_problem(msg, self.policy)
+                  or self._stamp_problem(msg) or self.stamps.msg_problem(track_id, msg))
+        if not reason:
+            t, z, R = pose_cov_to_position(msg)
+            z, R, reason = self._position_to_world(frame, t, z, R)
         if reason:
             self._drop(topic, reason)
             return
-        t, z, R = pose_cov_to_position(msg)
         self._push(topic, track_id, TrackReport(t, z, R), topic)  # the topic is the source
+
+    def _position_to_world(self, frame: str, t: float, z: np.ndarray, R: np.ndarray):
+        """A position report in ``frame`` → the world frame (position and covariance), or a reason."""
+        x, P = position_tracks(z, R)
+        x, P, reason = self._to_world(frame, t, x, P)
+        if reason:
+            return None, None, reason
+        return x[0, [0, 2]], P[0][np.ix_([0, 2], [0, 2])], None
 
     def _push(self, source: str, track_id: str, report: TrackReport, stream: str) -> None:
         route = self.shard.route(track_id, float(report.mu[0]), float(report.mu[1]))   # another shard's track?

@@ -57,6 +57,12 @@ class FusionParams:
         '(track_core.fusion.region)', 0.0, 1e9)
     display_rate: float = param(1.0, 'rate of /fusion/markers [Hz] (at most one per scored instant)', 0.001, 100.0,
                                 live=True)
+    world_frame: str = param('map', 'the frame tracks are scored in; an input in another frame is moved into it '
+        'through /tf and /tf_static at its stamp (module docstring)')
+    tf_tolerance: float = param(0.2, 'an input stamped this much after the latest transform of its frame still uses '
+        'that transform; later, it is refused as too old [s]', 0.0, 60.0, live=True)
+    tf_history: float = param(10.0, 'seconds of /tf kept per transform (inputs older than that are refused) [s]',
+                              0.1, 3600.0)
     warn_period: float = param(5.0, 'at most one bad-input warning per topic per this many seconds',
                                0.0, 1e6, live=True)
     stamp_horizon: float = param(InputPolicy.horizon, 'refuse reports stamped more than this ahead of the node clock '

@@ -1,0 +1,155 @@
+"""fusion with inputs in any frame: a radar frame moving with its ship on /tf scores as its map-frame copy;
+a REP-105 Odometry scores as its map-frame copy; an unknown frame or a too-old transform is refused."""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import pytest
+from nav_msgs.msg import Odometry
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from tf2_msgs.msg import TFMessage
+
+from track_msgs.msg import PairScoreArray, TrackArray
+from track_msgs_py.odometry import cv_state_to_odometry
+from track_msgs_py.qos import ESTIMATE_QOS
+from track_msgs_py.records.fusion import FusionPairs
+from track_msgs_py.tf import TF_QOS, TF_STATIC_QOS, planar_transform
+from track_msgs_py.topics import FUSION_SCORES
+from track_msgs_py.track_arrays import tracks_to_array
+from track_nodes.fusion.fusion import ARRAY_QOS, FusionNode
+
+pytestmark = pytest.mark.integration
+
+DT = 0.05                         # the fusion's step for a moving frame's velocity (tf_buffer.DT)
+SHIP_V, SHIP_W = np.array([4.0, 1.5]), 0.02      # the ship's velocity [m/s] and turn rate [rad/s]
+RADAR_AT, RADAR_YAW = np.array([2.0, 1.0]), 0.5   # the radar on the ship (static)
+
+
+def _rot(a):
+    return np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+
+
+def _ship(t, t0):
+    s = t - t0
+    return np.array([100.0, 50.0]) + SHIP_V * s, 0.3 + SHIP_W * s
+
+
+def _target(t, t0):
+    """The true target in map: position, velocity and covariance of the state [x, vx, y, vy]."""
+    s = t - t0
+    p, v = np.array([400.0, 300.0]) + np.array([-3.0, 2.0]) * s, np.array([-3.0, 2.0])
+    P = np.zeros((4, 4))
+    P[np.ix_([0, 2], [0, 2])] = _rot(0.4) @ np.diag([20.0**2, 8.0**2]) @ _rot(0.4).T
+    P[np.ix_([1, 3], [1, 3])] = np.diag([0.5**2, 0.3**2])
+    return np.array([p[0], v[0], p[1], v[1]]), P
+
+
+def _in_radar(x, P, t, t0):
+    """The map state seen from the radar frame, written out here independently of the fusion's code."""
+    ship, yaw = _ship(t, t0)
+    o = ship + _rot(yaw) @ RADAR_AT                              # radar origin in map
+    R = _rot(yaw + RADAR_YAW)
+    Om = np.array([[0.0, -SHIP_W], [SHIP_W, 0.0]])
+    o_dot = SHIP_V + Om @ (_rot(yaw) @ RADAR_AT)
+    p, v = x[[0, 2]], x[[1, 3]]
+    pr = R.T @ (p - o)
+    vr = R.T @ (v - o_dot - Om @ (p - o))
+    A = np.zeros((4, 4))
+    A[np.ix_([0, 2], [0, 2])] = R.T
+    A[np.ix_([1, 3], [1, 3])] = R.T
+    A[np.ix_([1, 3], [0, 2])] = -R.T @ Om
+    return np.array([pr[0], vr[0], pr[1], vr[1]]), A @ P @ A.T
+
+
+def _fusion(ros, **extra):
+    params = {'track_array_topics': ['/a/radar', '/a/map', '/a/other', '/a/lost'],
+              'odometry_topics': ['/o/rep105', '/o/map'], 'rate': 10.0, 'stale_after': 5.0, 'window': 5,
+              'max_prediction': 30.0, **extra}
+    node = ros.add(FusionNode(node_name='fusion', context=ros.context,
+                              parameter_overrides=[Parameter(k, value=v) for k, v in params.items()]))
+    reasons: list[tuple[str, str]] = []
+    drop = node._drop
+    node._drop = lambda topic, reason: (reasons.append((topic, reason)), drop(topic, reason))
+    return node, reasons
+
+
+def test_inputs_in_a_moving_radar_frame_and_rep105_odometry_score_as_their_map_copies(ros):
+    node, reasons = _fusion(ros)
+    src = ros.add(Node('sources', context=ros.context))
+    pubs = {t: src.create_publisher(TrackArray, t, ARRAY_QOS) for t in ('/a/radar', '/a/map', '/a/other', '/a/lost')}
+    odo = {t: src.create_publisher(Odometry, t, ESTIMATE_QOS) for t in ('/o/rep105', '/o/map')}
+    tf = src.create_publisher(TFMessage, '/tf', TF_QOS)
+    tf_static = src.create_publisher(TFMessage, '/tf_static', TF_STATIC_QOS)
+    latest: dict[frozenset, float] = {}
+
+    def on_scores(msg):
+        for (a, b), score, *_ in FusionPairs.from_msg(msg).rows():
+            latest[frozenset((a, b))] = score
+
+    src.create_subscription(PairScoreArray, FUSION_SCORES, on_scores, ESTIMATE_QOS)
+    assert ros.spin_until(lambda: all(node.count_publishers(t) >= 1 for t in ('/a/radar', '/o/map'))
+                          and src.count_subscribers('/tf_static') >= 1, timeout=10)
+    tf_static.publish(TFMessage(transforms=[planar_transform(0.0, 'ship', 'radar', *RADAR_AT, RADAR_YAW)]))
+    t0 = time.time()
+    rng = np.random.default_rng(3)
+    offset = np.array([25.0, 0.0, -20.0, 0.0])      # a partial overlap of the two 2σ ellipses
+    for _ in range(20):
+        t = time.time()
+        tf.publish(TFMessage(transforms=[planar_transform(s, 'map', 'ship', *_ship(s, t0)[0], _ship(s, t0)[1])
+                                         for s in (t - DT, t)]))
+        x, P = _target(t, t0)
+        xr, Pr = _in_radar(x, P, t, t0)
+        other = x + offset + np.r_[rng.normal(0, 3), 0, rng.normal(0, 3), 0]
+        ros.spin_until(lambda: False, timeout=0.02)        # the transforms first, as on a real bus
+        pubs['/a/radar'].publish(tracks_to_array(t, ['t'], ['radar'], xr[None], Pr[None], 'radar'))
+        pubs['/a/map'].publish(tracks_to_array(t, ['t'], ['map'], x[None], P[None], 'map'))
+        pubs['/a/other'].publish(tracks_to_array(t, ['t'], ['other'], other[None], P[None], 'map'))
+        # REP-105: the pose's orientation is the heading, the twist along the body's x; its covariance in the body
+        heading = math.atan2(x[3], x[1])
+        body = cv_state_to_odometry(t, x, P, 'map', 't')
+        body.pose.pose.orientation.z, body.pose.pose.orientation.w = math.sin(heading / 2), math.cos(heading / 2)
+        Rh = _rot(heading)
+        vb = Rh.T @ x[[1, 3]]
+        body.twist.twist.linear.x, body.twist.twist.linear.y = float(vb[0]), float(vb[1])
+        cov = np.array(body.twist.covariance).reshape(6, 6)
+        cov[:2, :2] = Rh.T @ P[np.ix_([1, 3], [1, 3])] @ Rh
+        body.twist.covariance = cov.ravel().tolist()
+        odo['/o/rep105'].publish(body)
+        odo['/o/map'].publish(cv_state_to_odometry(t, x, P, 'map', 't'))
+        ros.spin_until(lambda: False, timeout=0.08)
+    pairs = {name: frozenset(ids) for name, ids in {
+        'radar-other': ('/a/radar/t', '/a/other/t'), 'map-other': ('/a/map/t', '/a/other/t'),
+        'radar-map': ('/a/radar/t', '/a/map/t'), 'rep105-other': ('/o/rep105/t', '/a/other/t'),
+        'odomap-other': ('/o/map/t', '/a/other/t')}.items()}
+    assert ros.spin_until(lambda: all(p in latest for p in pairs.values()), timeout=10), (sorted(latest), reasons)
+    s = {name: latest[p] for name, p in pairs.items()}
+    assert not [r for r in reasons if r[0] in ('/a/radar', '/o/rep105')], reasons
+    assert 0.05 < s["map-other"] < 0.99                          # an informative pair, not saturated
+    assert s['radar-other'] == pytest.approx(s['map-other'], abs=2e-3), s
+    assert s['radar-map'] > 0.99, s                                # the two copies of one track coincide
+    assert s['rep105-other'] == pytest.approx(s['odomap-other'], abs=1e-6), s
+
+
+def test_unknown_frame_and_too_old_transform_are_refused_with_the_frame(ros):
+    node, reasons = _fusion(ros, tf_tolerance=0.2)
+    src = ros.add(Node('sources', context=ros.context))
+    pub_lost = src.create_publisher(TrackArray, '/a/lost', ARRAY_QOS)
+    pub_radar = src.create_publisher(TrackArray, '/a/radar', ARRAY_QOS)
+    tf = src.create_publisher(TFMessage, '/tf', TF_QOS)
+    assert ros.spin_until(lambda: node.count_publishers('/a/lost') >= 1 and node.count_publishers('/a/radar') >= 1
+                          and src.count_subscribers('/tf') >= 1, timeout=10)
+    t = time.time()
+    x, P = _target(t, t)
+    tf.publish(TFMessage(transforms=[planar_transform(t - 1.0, 'map', 'radar', 0.0, 0.0, 0.0)]))
+    ros.spin_until(lambda: bool(node.tf.edges), timeout=5)
+    pub_lost.publish(tracks_to_array(t, ['t'], ['x'], x[None], P[None], 'nowhere'))
+    pub_radar.publish(tracks_to_array(t, ['t'], ['x'], x[None], P[None], 'radar'))     # 1 s after its transform
+    assert ros.spin_until(lambda: len(reasons) >= 2, timeout=10), reasons
+    why = dict(reasons)
+    assert "unknown frame 'nowhere'" in why['/a/lost']
+    assert 'too old' in why['/a/radar'] and "'radar'" in why['/a/radar']
+    assert node.dropped == {'/a/lost': 1, '/a/radar': 1}
