@@ -16,8 +16,11 @@ import numpy as np
 import pytest
 from rclpy.parameter import Parameter
 
+from track_core.sonar.contacts import Contact
+from track_core.sonar.models import SensorMode
 from track_msgs_py.clouds import scan_to_pointcloud2
 from track_msgs_py.odometry import cv_state_to_odometry, inputs_to_twist, odometry_to_pose, position_to_pose_cov
+from track_msgs_py.records.sonar import contact_to_msg
 from track_msgs_py.stamps import sec_to_stamp
 from track_msgs_py.topics import FRAME_MAP, track_frame_id
 from track_msgs_py.track_arrays import tracks_to_array
@@ -375,15 +378,37 @@ def _bad_odometry(k: int):
     return msg
 
 
-def test_sonar_observer_a_flood_of_bad_truth_costs_a_few_log_lines(ros, repo):
-    """Defect 9: sonar_observer logged one line per dropped truth message."""
+def _bad_contact(k: int):
+    """A contact that is wrong in one way each: NaN bearing, huge range, an unknown frame, a bad mode, a
+    zero std, a stamp far in the future."""
+    msg = contact_to_msg(Contact(10**9 * (1 + k), SensorMode.ACTIVE, 0.5, 300.0, np.diag([1e-4, 25.0])), FRAME_MAP)
+    case = k % 6
+    if case == 0:
+        msg.bearing = math.nan
+    elif case == 1:
+        msg.range = 1e308
+    elif case == 2:
+        msg.header.frame_id = 'nowhere'
+    elif case == 3:
+        msg.mode = 7
+    elif case == 4:
+        msg.bearing_std = 0.0
+    else:
+        msg.header.stamp = sec_to_stamp(2e9)
+    return msg
+
+
+def test_sonar_observer_a_flood_of_bad_contacts_and_navigation_costs_a_few_log_lines(ros, repo):
+    """Every bad contact and fix is refused with its reason, the filter untouched, the log throttled."""
     node = _sonar_nodes(ros, repo, SonarObserverNode, 'sonar_observer')
     lines = Lines(node)
-    before = frozen(node.gate)
+    before = (frozen(node.tracker.particles), node.sequencer.key, len(node.sequencer.held))
     for k in range(300):
-        node._on_truth(_bad_odometry(k))
-    assert len(lines.warnings) <= 3, lines.warnings[:5]
-    assert node.rejected == 300 and node.refusals.total() == 300 and frozen(node.gate) == before
+        node._on_contact(_bad_contact(k))
+        node._on_nav(_bad_odometry(k))
+    assert len(lines.warnings) <= 12, lines.warnings[:5]
+    assert node.rejected == 600 and node.refusals.total() == 600
+    assert (frozen(node.tracker.particles), node.sequencer.key, len(node.sequencer.held)) == before
 
 
 def test_smart_target_a_flood_of_bad_pings_and_observers_costs_a_few_log_lines(ros, repo):

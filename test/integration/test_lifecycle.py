@@ -36,7 +36,8 @@ CASES = {
     'lifecycle_fusion': ('fusion', [('report_source', 'radar'), ('report_source', 'patrol')], FUSION_SCORES,
                          '/radar/t0'),
     'lifecycle_slam': ('slam_sim', [('slam_sim', 'slam_sim')], SLAM_POSE, SLAM_SCAN),
-    'lifecycle_sonar_observer': ('sonar', [('smart_target', 'smart_target')], SONAR_ESTIMATE, None),
+    'lifecycle_sonar_observer': ('sonar', [('smart_target', 'smart_target'), ('sonar_sim', 'sonar_sim')],
+                                 SONAR_ESTIMATE, None),
     'lifecycle_rfid_guidance': ('rfid', [('rfid_reader', 'rfid_reader')], RFID_COMMAND, None),
 }
 INPUTS = 5  # input messages seen while inactive before "no output" is concluded

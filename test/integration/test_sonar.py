@@ -38,7 +38,7 @@ from track_core.sonar import (
     SonarParams,
     make_tracker,
 )
-from track_core.sonar.contacts import bearing_of_yaw, simulated_contact
+from track_core.sonar.contacts import paper_reading, simulated_contact
 from track_msgs import msg as tm
 from track_msgs_py.odometry import odometry_to_cv_state
 from track_msgs_py.qos import CLOCK_QOS, ESTIMATE_QOS, STATIC_QOS, TRUTH_QOS
@@ -121,8 +121,7 @@ def _reference_closed_loop(cfg: dict, steps: int) -> tuple[np.ndarray, np.ndarra
         obs = traj.position(k * op['period'])
         mode = trk.next_mode
         c = simulated_contact(r_noise, k * 10**9, x, obs, mode, sonar)  # a true bearing: REP-103 yaw in map
-        z = [bearing_of_yaw(c.yaw), c.range][:2 if mode is SensorMode.ACTIVE else 1]
-        est = trk.step(np.array(z, dtype=float), mode, obs, R=c.R)
+        est = trk.step(paper_reading(c), mode, obs, R=c.R)
         means.append(est.mean)
         covs.append(est.cov)
         pinged, obs_prev = mode is SensorMode.ACTIVE, obs

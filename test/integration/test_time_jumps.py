@@ -21,10 +21,13 @@ from nav_msgs.msg import Odometry
 from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
 
+from track_core.sonar.contacts import Contact
+from track_core.sonar.models import SensorMode
 from track_msgs.msg import PairScoreArray
 from track_msgs_py.clouds import scan_to_pointcloud2
-from track_msgs_py.odometry import cv_state_to_odometry, inputs_to_twist, position_to_pose_cov
+from track_msgs_py.odometry import inputs_to_twist, position_to_pose_cov
 from track_msgs_py.records import diagnostic_values
+from track_msgs_py.records.sonar import contact_to_msg, fix_to_odometry
 from track_msgs_py.stamps import sec_to_stamp
 from track_msgs_py.topics import DEMO_REPORTS, DEMO_TRACK, DIAGNOSTICS, FRAME_MAP
 from track_nodes.bag.player import PlayerNode
@@ -200,7 +203,9 @@ def _feed_slam(node, t: float) -> None:
 
 
 def _feed_sonar(node, t: float) -> None:
-    node._on_truth(cv_state_to_odometry(t, np.array([0.0, 1.0, 0.0, 1.0]), np.zeros((4, 4)), FRAME_MAP))
+    node._on_nav(fix_to_odometry(round(t * 1e9), np.zeros(2), np.array([1.0, 0.0]), FRAME_MAP, 'sonar_observer'))
+    contact = Contact(round(t * 1e9), SensorMode.PASSIVE, 0.7, math.nan, np.array([[1e-4]]))
+    node._on_contact(contact_to_msg(contact, FRAME_MAP))
 
 
 def _make(ros, repo, name: str):
@@ -246,7 +251,8 @@ def test_every_estimator_starts_again_after_the_clock_goes_back(ros, repo, name)
 LOOPS = {  # scenario: (estimator class, its section in config/<scenario>.yaml, topics played, output, type)
     'fusion': (FusionNode, 'fusion', ['/radar/t0', '/radar/t1', '/radar/t2', '/patrol/t0', '/patrol/t1'],
                '/fusion/scores', PairScoreArray),
-    'sonar': (SonarObserverNode, 'sonar_observer', ['/sonar/target/truth'], '/sonar/estimate', Odometry),
+    'sonar': (SonarObserverNode, 'sonar_observer', ['/sonar/contacts', '/sonar/observer/odom'], '/sonar/estimate',
+              Odometry),
     'slam_sim': (SlamNode, 'slam', ['/slam/inputs', '/slam/scan'], '/slam/pose', Odometry),
 }
 

@@ -72,6 +72,13 @@ class Contact:
     relative: bool = False  # measured in the ship's body frame: add the ship's heading
 
 
+def paper_reading(c: Contact, heading: float = 0.0) -> np.ndarray:
+    """The reading z of eqs. 5–6 of a contact: [bearing] or [bearing, range], the bearing from north in the
+    world frame (a relative contact turned by the ship's ``heading``, REP-103 yaw)."""
+    b = float(bearing_of_yaw(c.yaw + heading if c.relative else c.yaw))
+    return np.array([b, c.range]) if c.mode is SensorMode.ACTIVE else np.array([b])
+
+
 def simulated_contact(rng: np.random.Generator, key: int, x_true: np.ndarray, observer_xy: np.ndarray,
                       mode: SensorMode, params: SonarParams, heading: float | None = None) -> Contact:
     """The eq. 5 or eq. 6 reading of the true state with Table 1's noise (``models.simulate_measurement``:
@@ -234,10 +241,7 @@ class ContactSequencer:
         dt_ns = self.period_ns if self.key is None else c.key - self.key
         if abs(dt_ns - self.period_ns) <= SNAP_NS:
             dt_ns = self.period_ns
-        yaw = c.yaw + heading if c.relative else c.yaw
-        b = float(bearing_of_yaw(yaw))
-        z = np.array([b, c.range]) if c.mode is SensorMode.ACTIVE else np.array([b])
-        est = self.tracker.step(z, c.mode, obs_xy, dt=dt_ns / 1e9, R=c.R)
+        est = self.tracker.step(paper_reading(c, heading), c.mode, obs_xy, dt=dt_ns / 1e9, R=c.R)
         self.key = c.key
         self.updates += 1
         out.append(Step(c.key, est, np.asarray(obs_xy, dtype=float), c))

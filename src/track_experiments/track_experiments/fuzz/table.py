@@ -21,6 +21,7 @@ from track_msgs_py.topics import (
     RFID_COMMAND,
     RFID_STEP,
     SLAM_POSE,
+    SONAR_CONTACTS,
     SONAR_ESTIMATE,
     SONAR_TARGET_STATUS,
 )
@@ -52,6 +53,7 @@ def _idsq_nodes(n: int) -> tuple[tuple[str, str], ...]:
 
 
 # The search must outlast the attack: found within 1 mm only (in practice never), no step limit.
+SONAR_NODES = (('smart_target', 'smart_target'), ('sonar_sim', 'sonar_sim'), ('sonar_observer', 'sonar_observer'))
 RFID_ENDLESS = {'rfid_reader': {'found_radius': 1e-3}, 'rfid_guidance': {'max_steps': 1_000_000}}
 FUSION_FAST = {'radar': {'period': 0.05}, 'patrol': {'period': 0.1}, 'fusion': {'rate': 20.0}}
 
@@ -67,14 +69,14 @@ def cases() -> dict[str, FuzzCase]:
                  'fusion', (FUSION_SCORES,), overrides=FUSION_FAST),
         FuzzCase('fusion_ais', 'ais', (('ais_source', 'radar'), ('ais_source', 'patrol'), ('fusion', 'fusion')),
                  'fusion', (FUSION_SCORES,), sim_rate=5.0),
-        FuzzCase('fusion_maritime', 'maritime', (('smart_target', 'smart_target'), ('sonar_observer', 'sonar_observer'),
-                                                 ('report_source', 'radar'), ('fusion', 'fusion')),
+        FuzzCase('fusion_maritime', 'maritime', (('smart_target', 'smart_target'), ('sonar_sim', 'sonar_sim'),
+                                                 ('sonar_observer', 'sonar_observer'), ('report_source', 'radar'),
+                                                 ('fusion', 'fusion')),
                  'fusion', (FUSION_SCORES,)),
         FuzzCase('slam', 'slam_sim', (('slam_sim', 'slam_sim'), ('slam', 'slam')), 'slam', (SLAM_POSE,)),
-        FuzzCase('sonar_observer', 'sonar', (('smart_target', 'smart_target'), ('sonar_observer', 'sonar_observer')),
-                 'sonar_observer', (SONAR_ESTIMATE,), sim_rate=2.0),
-        FuzzCase('smart_target', 'sonar', (('smart_target', 'smart_target'), ('sonar_observer', 'sonar_observer')),
-                 'smart_target', (SONAR_TARGET_STATUS,), sim_rate=2.0),
+        FuzzCase('sonar_observer', 'sonar', SONAR_NODES, 'sonar_observer', (SONAR_ESTIMATE,), sim_rate=2.0),
+        FuzzCase('sonar_sim', 'sonar', SONAR_NODES, 'sonar_sim', (SONAR_CONTACTS,), sim_rate=2.0),
+        FuzzCase('smart_target', 'sonar', SONAR_NODES, 'smart_target', (SONAR_TARGET_STATUS,), sim_rate=2.0),
         FuzzCase('acoustic_sensor', 'idsq', idsq, acoustic, (IDSQ_LEADER,), min_output=4, sim_rate=1.0,
                  attack_span=15.0),
         FuzzCase('doa_sensor', 'idsq', idsq, doa, (IDSQ_LEADER,), min_output=4, sim_rate=1.0,

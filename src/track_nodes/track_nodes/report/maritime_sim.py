@@ -6,10 +6,12 @@ file's parameters, with the same cores, seeds and lock-step as the nodes:
 - ``smart_target`` (``SmartTarget``, ``default_rng(seed)``): step k (truth stamped t_k = k·T) moves
   x_{k-1} → x_k with the ping and position of the observer at t_{k-1} (``TargetGate`` with
   ``sync_observer``: step 1 has neither, so the observer is taken at the origin and unpinged);
-- ``sonar_observer`` (``make_tracker`` on the second of ``SeedSequence(seed).spawn(2)``, noise on
-  the first, with its ``target_model``, ``prediction`` and ``model_*`` parameters, ``target_model_of``):
-  step k measures x_k from ``ObserverTrajectory.state(k·T)`` in the mode its tracker chose at k − 1,
-  and its estimate is stamped t_k;
+- ``sonar_sim`` (noise on the first of ``SeedSequence(seed).spawn(2)``): step k reads x_k from
+  ``ObserverTrajectory.state(k·T)`` in the mode the observer asked for after step k − 1, a contact in
+  the world frame (``contacts.simulated_contact``: the REP-103 yaw the message carries);
+- ``sonar_observer`` (``make_tracker`` on the second of ``SeedSequence(seed).spawn(2)``, with its
+  ``target_model``, ``prediction`` and ``model_*`` parameters, ``target_model_of``): step k takes that
+  contact (``contacts.paper_reading``, its own noise R), and its estimate is stamped t_k;
 - the ``radar`` ``report_source`` (``CVTarget``, truth and noise seeds): the decoy's truth and its
   report with the 2σ ellipse at every t_k (dropouts drawn as the node does).
 
@@ -31,7 +33,8 @@ import yaml
 from track_core.demo import CVTarget
 from track_core.geofeasibility.ellipse import ellipse_to_gaussian
 from track_core.sonar import SmartTarget, SonarParams
-from track_core.sonar.models import SensorMode, simulate_measurement
+from track_core.sonar.contacts import paper_reading, simulated_contact
+from track_core.sonar.models import SensorMode
 from track_core.sonar.scenario import ObserverTrajectory, Scenario
 from track_core.sonar.sspf import make_tracker
 from track_nodes.fusion.report_source import ReportSourceParams
@@ -39,6 +42,7 @@ from track_nodes.launch.scenario import section_node
 from track_nodes.report import maritime as mar
 from track_nodes.sonar.observer_params import SonarObserverParams, p_d, smart_target_params, target_model_of
 from track_nodes.sonar.smart_target import SmartTargetNodeParams
+from track_nodes.sonar.sonar_sim import SonarSimParams
 
 
 def _params(cls, entry: dict):
@@ -55,13 +59,22 @@ def sections(scenario: str | Path | dict) -> dict[str, dict]:
 
 def seed_scenario(seed: int) -> dict:
     """The parsed maritime scenario of seed s: ``maritime_yaml(seed=s)`` (sensor layout and noise) with
-    ``smart_target`` seed s + 2 and ``sonar_observer`` seed s + 3 (s = 1 is ``config/maritime.yaml``)."""
+    ``smart_target`` seed s + 2, ``sonar_sim`` and ``sonar_observer`` seed s + 3 (s = 1 is ``config/maritime.yaml``)."""
     from track_nodes.launch.generate import maritime_yaml
 
     cfg = yaml.safe_load(maritime_yaml(seed=seed))
-    for node, offset in (('smart_target', 2), ('sonar_observer', 3)):
+    for node, offset in (('smart_target', 2), ('sonar_sim', 3), ('sonar_observer', 3)):
         cfg[f'/**/{node}']['ros__parameters']['seed'] = seed + offset
     return cfg
+
+
+def _sonar_sim(sp: SonarSimParams) -> tuple[SonarParams, ObserverTrajectory, np.random.Generator]:
+    """``sonar_sim``'s setup and ``_start_run``: its noise model, the observer's route, its noise Generator."""
+    legs = np.asarray(sp.legs, dtype=float).reshape(-1, 2)
+    traj = ObserverTrajectory(start=(float(sp.start[0]), float(sp.start[1])), speed=sp.speed,
+                              heading0_deg=sp.heading0_deg, legs=tuple((float(a), float(b)) for a, b in legs))
+    return (SonarParams(T=sp.period, sigma_b=math.radians(sp.sigma_b_deg), sigma_d=sp.sigma_d), traj,
+            np.random.default_rng(np.random.SeedSequence(sp.seed).spawn(2)[0]))
 
 
 def simulate(scenario: str | Path | dict, n_steps: int | None = None) -> dict:
@@ -69,6 +82,7 @@ def simulate(scenario: str | Path | dict, n_steps: int | None = None) -> dict:
     sec = sections(scenario)
     tp = _params(SmartTargetNodeParams, sec['smart_target'])
     op = _params(SonarObserverParams, sec['sonar_observer'])
+    sp = _params(SonarSimParams, sec['sonar_sim'])
     rp = _params(ReportSourceParams, sec['radar'])
     T = float(tp.period)
     if n_steps is None:
@@ -77,15 +91,11 @@ def simulate(scenario: str | Path | dict, n_steps: int | None = None) -> dict:
     target = SmartTarget(np.asarray(tp.x0, dtype=float), sonar=SonarParams(T=T, q_s=tp.q_s),
                          params=smart_target_params(tp))
     t_rng = np.random.default_rng(tp.seed)
+    sim_sonar, traj, o_rng = _sonar_sim(sp)
     # sonar_observer (node setup and _start_run)
-    sonar = SonarParams(T=op.period, q_s=op.q_s, sigma_b=math.radians(op.sigma_b_deg), sigma_d=op.sigma_d,
-                        n_particles=op.n_particles)
-    legs = np.asarray(op.legs, dtype=float).reshape(-1, 2)
-    traj = ObserverTrajectory(start=(float(op.start[0]), float(op.start[1])), speed=op.speed,
-                              heading0_deg=op.heading0_deg, legs=tuple((float(a), float(b)) for a, b in legs))
+    sonar = SonarParams(T=op.period, q_s=op.q_s, n_particles=op.n_particles)
     prior_cov = Scenario(params=sonar, prior_pos_std=op.prior_pos_std, prior_vel_std=op.prior_vel_std).prior_cov
-    noise_ss, filter_ss = np.random.SeedSequence(op.seed).spawn(2)
-    o_rng = np.random.default_rng(noise_ss)
+    filter_ss = np.random.SeedSequence(op.seed).spawn(2)[1]
     tracker = make_tracker(op.tracker, sonar, np.random.default_rng(filter_ss), P_D=p_d(op.P_D), delta=op.delta,
                            metric=op.metric, regularize=op.regularize, initial_pings=op.initial_pings,
                            target_model=target_model_of(op), prediction=op.prediction)
@@ -105,11 +115,11 @@ def simulate(scenario: str | Path | dict, n_steps: int | None = None) -> dict:
     for k in range(1, n_steps + 1):
         x = target.step(t_rng, pinged, obs_prev)
         detections = target.detections
-        state = traj.state(k * op.period)
+        state = traj.state(k * sp.period)
         obs_xy = state[[0, 2]]
         mode = tracker.next_mode
-        z = simulate_measurement(o_rng, x, obs_xy, mode, sonar)
-        e = tracker.step(z, mode, obs_xy)
+        c = simulated_contact(o_rng, round(t[k - 1] * 1e9), x, obs_xy, mode, sim_sonar)
+        e = tracker.step(paper_reading(c), mode, obs_xy, R=c.R)
         truth.append(x[[0, 2]])
         est.append(e.mean[[0, 2]])
         cov.append(e.cov[[0, 2]][:, [0, 2]])

@@ -1,4 +1,4 @@
-"""``sonar_observer``: the "no truth" warning runs on the node's clock (sim time under use_sim_time);
+"""``sonar_observer``: the "no contact" warning runs on the node's clock (sim time under use_sim_time);
 the target model of its parameters (``target_model_of``), as the node and the maritime replay use it.
 
 The check is called on a stand-in for the node (no rclpy.init, no DDS): its clock is an rclpy
@@ -44,9 +44,9 @@ def _node(sim_time: float):
         raise AssertionError('the wait check read the wall clock')
 
     node = SimpleNamespace(get_clock=lambda: clock, get_logger=lambda: log, steady_now=wall,
-                           sub_truth=SimpleNamespace(topic_name='/sonar/target/truth'))
+                           sub_contact=SimpleNamespace(topic_name='/sonar/contacts'))
     node._clock_s = lambda: SonarObserverNode._clock_s(node)
-    node.last_truth = node._clock_s() or None
+    node.last_contact = node._clock_s() or None
     return node, clock, log
 
 
@@ -54,33 +54,33 @@ def _at(clock: ROSClock, t: float) -> None:
     clock.set_ros_time_override(Time(nanoseconds=round(t * 1e9)))
 
 
-def test_a_slow_run_whose_truths_come_every_sim_second_never_warns():
+def test_a_slow_run_whose_contacts_come_every_sim_second_never_warns():
     node, clock, log = _node(EPOCH)
     for k in range(1, 40):  # whatever wall time passes between the steps: only the sim clock counts
         _at(clock, EPOCH + k)
-        node.last_truth = node._clock_s()  # what _on_truth does
+        node.last_contact = node._clock_s()  # what _on_contact does
         SonarObserverNode._check_waiting(node)
     assert log.warnings == []
 
 
-def test_ten_sim_seconds_without_a_truth_warn():
+def test_ten_sim_seconds_without_a_contact_warn():
     node, clock, log = _node(EPOCH)
     _at(clock, EPOCH + WAIT_WARN - 0.5)
     SonarObserverNode._check_waiting(node)
     assert log.warnings == []
     _at(clock, EPOCH + WAIT_WARN)
     SonarObserverNode._check_waiting(node)
-    assert len(log.warnings) == 1 and 'no truth on /sonar/target/truth for 10 s' in log.warnings[0]
+    assert len(log.warnings) == 1 and 'no contact on /sonar/contacts for 10 s' in log.warnings[0]
 
 
 def test_the_first_clock_after_start_is_not_ten_seconds_of_waiting():
     """Created before /clock (ROS time 0), the node starts waiting at the first sim time, not at 0."""
     node, clock, log = _node(0.0)
-    assert node.last_truth is None
+    assert node.last_contact is None
     SonarObserverNode._check_waiting(node)  # no /clock yet
     _at(clock, EPOCH)  # the first /clock: the overdue timer fires at once
     SonarObserverNode._check_waiting(node)
-    assert log.warnings == [] and node.last_truth == EPOCH
+    assert log.warnings == [] and node.last_contact == EPOCH
     _at(clock, EPOCH + WAIT_WARN)
     SonarObserverNode._check_waiting(node)
     assert len(log.warnings) == 1
