@@ -26,6 +26,7 @@ from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.serialization import deserialize_message
+from rclpy.time import Time
 from rosbags.rosbag2 import Reader
 from rosgraph_msgs.msg import Clock
 
@@ -310,3 +311,48 @@ def test_bad_parameter_stops_the_shim_with_one_line(tmp_path, prefix, env_factor
 def test_bad_p_d_in_process(ros, value, words):
     with pytest.raises(ParameterError, match=words):
         SonarObserverNode(context=ros.context, parameter_overrides=[Parameter('P_D', value=value)])
+
+
+# --- bring your own sonar -------------------------------------------------------------------------
+
+def test_a_driver_of_your_own_gets_an_estimate_for_every_contact_and_through_a_gap(ros, repo):
+    """docs/examples/sonar_driver.py (irregular contacts, a 10 s gap, REP-105 navigation, no truth topic)
+    into a sonar_observer with its defaults: an estimate at every contact's stamp, predict-only estimates
+    published live during the gap (before the next contact), and a track near the example's target."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location('sonar_driver', repo / 'docs/examples/sonar_driver.py')
+    example = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(example)
+    sim = [Parameter('use_sim_time', value=True)]
+    observer = ros.add(SonarObserverNode(context=ros.context, parameter_overrides=[
+        *sim, Parameter('prior_mean', value=[400.0, -3.0, 300.0, 2.0])]))
+    driver = ros.add(example.SonarDriverExample(duration=40.0, context=ros.context, parameter_overrides=sim))
+    estimates: list[Odometry] = []
+    ros.add(Node('byo_sink', context=ros.context)).create_subscription(
+        Odometry, SONAR_ESTIMATE, estimates.append, ESTIMATE_QOS)
+    clock = ros.add(Node('byo_clock', context=ros.context)).create_publisher(Clock, CLOCK, CLOCK_QOS)
+    assert ros.spin_until(lambda: driver.pub_contact.get_subscription_count() > 0
+                          and observer.pub_est.get_subscription_count() > 0, timeout=30)
+    start = 1_000 * 10**9
+    seq = observer.sequencer
+    for i in range(0, 42 * 20):
+        now = start + i * 50_000_000
+        clock.publish(Clock(clock=Time(nanoseconds=now).to_msg()))
+        assert ros.spin_until(lambda now=now: driver.get_clock().now().nanoseconds == now
+                              and observer.get_clock().now().nanoseconds == now
+                              and seq.updates + len(seq.held) + observer.rejected + observer.dropped
+                              == len(driver.sent), timeout=30), f'tick {i}'
+    assert ros.spin_until(lambda: len(estimates) >= seq.updates + seq.predictions, timeout=30)
+    assert observer.rejected == observer.dropped == 0 and seq.updates == len(driver.sent) > 25
+    stamps = [stamp_to_ns(m.header.stamp) for m in estimates]
+    assert set(driver.sent) <= set(stamps)  # an estimate at every contact
+    t = [(s - driver.t0) * 1e-9 for s in stamps]
+    in_gap = [i for i, ti in enumerate(t) if example.GAP[0] + 1 < ti < example.GAP[1] - 1]
+    after = next(i for i, ti in enumerate(t) if ti > example.GAP[1] and stamps[i] in driver.sent)
+    assert len(in_gap) >= 7 and max(in_gap) < after  # predicted live, one per period, before the next contact
+    assert seq.predictions >= 9
+    _, x, _ = odometry_to_cv_state(estimates[-1])
+    err = np.hypot(*(x[[0, 2]] - example.SonarDriverExample.target(t[-1])))
+    print(f'contacts {seq.updates}, predict-only steps {seq.predictions}, final position error {err:.2f} m')
+    assert err < 25.0, err
