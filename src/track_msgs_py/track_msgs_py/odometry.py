@@ -96,9 +96,10 @@ def orientation_matrix(q) -> np.ndarray | None:
     """Rotation matrix (3×3) of a ``geometry_msgs/Quaternion``, normalised; ``None`` for the identity and for
     the unset all-zero quaternion (which many drivers leave in a message without an orientation)."""
     x, y, z, w = float(q.x), float(q.y), float(q.z), float(q.w)
-    if x == 0.0 and y == 0.0 and z == 0.0:
+    n = x * x + y * y + z * z + w * w
+    if (x == 0.0 and y == 0.0 and z == 0.0) or not n > 0.0:  # identity, unset, or too small to mean a rotation
         return None
-    s = 2.0 / (x * x + y * y + z * z + w * w)
+    s = 2.0 / n
     return np.array([
         [1.0 - s * (y * y + z * z), s * (x * y - z * w), s * (x * z + y * w)],
         [s * (x * y + z * w), 1.0 - s * (x * x + z * z), s * (y * z - x * w)],

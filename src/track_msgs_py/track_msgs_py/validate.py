@@ -167,8 +167,10 @@ def quaternion_problem(field: str, q) -> str | None:
     reason = finite_problem(field, x=q.x, y=q.y, z=q.z, w=q.w)
     if reason:
         return reason
+    if q.x == 0.0 and q.y == 0.0 and q.z == 0.0 and q.w == 0.0:
+        return None
     norm = math.sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w)
-    if norm != 0.0 and abs(norm - 1.0) > QUATERNION_NORM_TOL:
+    if not abs(norm - 1.0) <= QUATERNION_NORM_TOL:
         return f'{field}: not a unit quaternion (norm {norm:.6g})'
     return None
 

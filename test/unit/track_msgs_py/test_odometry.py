@@ -152,3 +152,7 @@ def test_a_quaternion_that_is_not_unit_is_refused():
     assert 'not a unit quaternion' in odometry_problem(msg, {'map'})
     msg.pose.pose.orientation.w = 0.0
     assert odometry_problem(msg, {'map'}) is None
+    msg.pose.pose.orientation.z = 1e-200  # its square underflows: no rotation to read, refused
+    assert 'not a unit quaternion' in odometry_problem(msg, {'map'})
+    _, x, _ = odometry_to_cv_state(msg)  # and read without a division by zero
+    assert np.all(np.isfinite(x))

@@ -82,6 +82,7 @@ def test_a_bad_contact_is_refused_naming_the_field(field, value, words):
 
 def test_a_passive_contact_ignores_its_range_fields():
     msg = contact_to_msg(_contact(SensorMode.PASSIVE), 'map')
+    assert (msg.range, msg.range_std) == (0.0, 0.0)
     msg.range, msg.range_std = math.inf, -3.0
     assert contact_from_msg(msg, relative=True).relative
 
@@ -89,7 +90,7 @@ def test_a_passive_contact_ignores_its_range_fields():
 def test_mode_command_round_trip():
     msg = mode_command_to_msg(5 * 10**9, SensorMode.PASSIVE, 12.5)
     assert mode_command_from_msg(msg) == (5 * 10**9, SensorMode.PASSIVE) and msg.distance == 12.5
-    assert math.isnan(mode_command_to_msg(0, SensorMode.ACTIVE, None).distance)
+    assert mode_command_to_msg(0, SensorMode.ACTIVE, None).distance == -1.0
     msg.mode = 9
     with pytest.raises(RecordError, match='mode 9'):
         mode_command_from_msg(msg)

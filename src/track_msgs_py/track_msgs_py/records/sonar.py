@@ -54,6 +54,7 @@ class SonarTargetStatus(StatusRecord):
 MODE_VALUES = {SensorMode.PASSIVE: tm.SonarContact.PASSIVE, SensorMode.ACTIVE: tm.SonarContact.ACTIVE}
 _MODES = {v: k for k, v in MODE_VALUES.items()}
 MAX_BEARING_STD = math.pi  # a bearing std beyond half a turn says nothing
+NO_DISTANCE = -1.0  # SonarModeCommand.distance at start and for a fixed schedule (no eq. 7 distance)
 
 
 def _mode(kind: str, value: int) -> SensorMode:
@@ -68,8 +69,7 @@ def contact_to_msg(c: Contact, frame_id: str) -> tm.SonarContact:
     std = np.sqrt(np.diag(c.R))
     return tm.SonarContact(header=Header(stamp=ns_to_stamp(c.key), frame_id=frame_id), mode=MODE_VALUES[c.mode],
                            bearing=float(c.yaw), bearing_std=float(std[0]),
-                           range=float(c.range) if active else math.nan,
-                           range_std=float(std[1]) if active else math.nan)
+                           range=float(c.range) if active else 0.0, range_std=float(std[1]) if active else 0.0)
 
 
 def contact_from_msg(msg: tm.SonarContact, relative: bool, policy: InputPolicy = DEFAULT_POLICY) -> Contact:
@@ -96,9 +96,10 @@ def contact_from_msg(msg: tm.SonarContact, relative: bool, policy: InputPolicy =
 
 
 def mode_command_to_msg(key: int, mode: SensorMode, distance: float | None) -> tm.SonarModeCommand:
-    """The scheduler's request for the next reading, stamped with the filter time ``key`` [ns] (0: at start)."""
+    """The scheduler's request for the next reading, stamped with the filter time ``key`` [ns] (0: at start);
+    ``distance`` None (at start, a fixed schedule) is written as ``NO_DISTANCE``."""
     return tm.SonarModeCommand(header=Header(stamp=ns_to_stamp(key)), mode=MODE_VALUES[mode],
-                               distance=math.nan if distance is None else float(distance))
+                               distance=NO_DISTANCE if distance is None else float(distance))
 
 
 def mode_command_from_msg(msg: tm.SonarModeCommand) -> tuple[int, SensorMode]:
