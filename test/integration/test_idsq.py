@@ -11,6 +11,11 @@
   are refused with a warning and a nack; a sensor refusing every handoff makes its senders re-select.
 - The recorded protocol topics (track_msgs IdsqHandoff, IdsqAck, IdsqLeaderEvent) decode with rosbags
   from the schemas the bag embeds.
+- Readings: the sensors hear only their readings (no truth subscription); a missing reading makes its
+  leader lead the step predict-only after ``reading_timeout`` and hand on, a late one is dropped
+  (both counted); recorded readings replayed with the player into a fresh network (no vehicle_sim)
+  give its estimates bit for bit; the "bring your own sensor" example of docs/USAGE.md (a DOA front
+  end and microphones, no truth anywhere) gets a track.
 """
 
 from __future__ import annotations
@@ -57,8 +62,10 @@ from track_msgs_py.topics import (
     IDSQ_HANDOFF_REGEX,
     IDSQ_LAYOUT,
     IDSQ_LEADER,
+    IDSQ_TRUTH,
     idsq_ack_topic,
     idsq_handoff_topic,
+    idsq_reading_topic,
     idsq_revoke_topic,
 )
 from track_nodes.bag.check import check_bag
@@ -105,7 +112,7 @@ class Network:
         self.clock = self.probe.create_publisher(Clock, CLOCK, CLOCK_QOS)
         self.step = -1
         assert ros.spin_until(lambda: all(s.layout is not None for s in self.sensors.values())
-                              and self.vehicle.pub_truth.get_subscription_count() >= len(self.sensors)
+                              and all(p.get_subscription_count() > 0 for p in self.vehicle.pub_readings)
                               and self.estimates_matched(), timeout=20), 'network not ready'
 
     def estimates_matched(self) -> bool:
@@ -494,7 +501,7 @@ def test_a_handoff_of_step_0xffffffff_is_refused_and_the_sensor_still_leads(ros,
     net = Network(ros, k8_file)
     net.run_to(3)
     node = net.sensors[receiver]
-    assert ros.spin_until(lambda: all(3 in s.core.truth and not s.core.outgoing for s in net.sensors.values()))
+    assert ros.spin_until(lambda: all(3 in s.core.readings and not s.core.outgoing for s in net.sensors.values()))
     before = _ledger_state(node)
     acks: list = []  # the replies to the bad handoff (transient-local also brings older ones)
     net.probe.create_subscription(tm.IdsqAck, idsq_ack_topic(sender), lambda m: acks.extend(
@@ -514,3 +521,174 @@ def test_a_handoff_of_step_0xffffffff_is_refused_and_the_sensor_still_leads(ros,
     assert net.led[j] == receiver and not [e for e in net.events if e.event == 'reselect']
     np.testing.assert_array_equal(net.track()[0], means)
     assert [e.leader for e in net.events if e.event == 'step'] == leaders
+
+
+# --- readings: missing, late, replayed, brought by the user -------------------------------------------------
+
+def test_no_sensor_subscribes_to_a_truth(ros, k8_file):
+    net = Network(ros, k8_file)
+    for k, node in net.sensors.items():
+        subs = {t for t, _ in node.get_subscriber_names_and_types_by_node(node.get_name(), node.get_namespace())}
+        assert idsq_reading_topic(k) in subs and not any('truth' in t for t in subs), subs
+    assert net.vehicle.count_subscribers(IDSQ_TRUTH) == 0
+
+
+def test_a_missing_reading_is_led_predict_only_and_a_late_one_is_dropped(ros, k8_file):
+    """The reading of step 6 never reaches its leader: after reading_timeout (0.3 s) it leads the step
+    predict-only (updated false, z NaN) and hands on; the track before it is the core loop's, after it
+    still near the vehicle. The reading sent afterwards is refused as late, once, and changes nothing."""
+    gap = 6
+    ref_means, _, leaders = reference_track(1, 8, K8_STEPS)
+    victim = leaders[gap]
+    over = [Parameter('reading_timeout', value=0.3)]
+    net = Network(ros, k8_file, {f'sensor_{k}': over for k in range(8)})
+    publish = net.vehicle._publish_readings
+    dropped = []
+
+    def dropping(t, readings):
+        dropped.extend((t, r) for r in readings if (r.step, r.sensor) == (gap, victim))
+        publish(t, [r for r in readings if (r.step, r.sensor) != (gap, victim)])
+
+    net.vehicle._publish_readings = dropping
+    net.run_to(K8_STEPS - 1)
+    means, _ = net.track()
+    node = net.sensors[victim]
+    assert dropped and node.missed == 1 and node.late == 0 and node.core.missed == [gap]
+    np.testing.assert_array_equal(means[:gap], ref_means[:gap])
+    (ev,) = [e for e in net.events if e.event == 'step' and e.step == gap]
+    assert ev.leader == victim and ev.updated is False and math.isnan(ev.z)
+    assert any(f'no reading of step {gap}' in w.msg for w in net.warnings if w.name == f'sensor_{victim}')
+    err = _error(means, 8)
+    assert err[gap:].mean() < 35.0 and err[gap:].max() < 80.0, np.round(err, 1)
+    before = _ledger_state(node)
+    t, r = dropped[0]
+    from track_msgs_py.records.idsq import IdsqReading
+    late = net.probe.create_publisher(tm.IdsqReading, idsq_reading_topic(victim), HANDOFF_QOS)
+    assert ros.spin_until(lambda: late.get_subscription_count() > 0)
+    late.publish(IdsqReading.of_reading(t, r).to_msg())
+    assert ros.spin_until(lambda: node.late == 1)
+    assert node.refusals.counts == {(node.resolved(idsq_reading_topic(victim)), 'late'): 1}
+    assert _changed(before, node) == ['late']  # the counter only
+
+
+def test_a_hostile_reading_is_refused_and_changes_nothing(ros, k8_file):
+    """NaN, another sensor's, the wrong type, off the step grid, absurdly far ahead: one throttled line
+    each kind, counted, the ledger unchanged."""
+    from track_msgs_py.records.idsq import IdsqReading
+    net = Network(ros, k8_file)
+    net.run_to(1)
+    k = int(np.flatnonzero(net.vehicle.layout.is_doa)[0])
+    node = net.sensors[k]
+    assert ros.spin_until(lambda: all(1 in s.core.readings and not s.core.outgoing for s in net.sensors.values()))
+    before = _ledger_state(node)
+    pub = net.probe.create_publisher(tm.IdsqReading, idsq_reading_topic(k), HANDOFF_QOS)
+    assert ros.spin_until(lambda: pub.get_subscription_count() > 0)
+    t = EPOCH + 3 * DT
+    bad = [IdsqReading(t, k, True, 3.0, math.nan, 0.05).to_msg(),           # NaN direction
+           IdsqReading(t, k + 1, True, 3.0, 0.5, 0.05).to_msg(),            # another sensor's
+           IdsqReading(t, k, False, 3.0).to_msg(),                          # an acoustic reading
+           IdsqReading(t + 0.1, k, True, 3.0, 0.5, 0.05).to_msg(),          # off the step grid
+           IdsqReading(EPOCH + 1e6, k, True, 3.0, 0.5, 0.05).to_msg()]      # 2e6 steps ahead
+    for m in bad:
+        pub.publish(m)
+    assert ros.spin_until(lambda: node.refusals.total() == len(bad)), node.refusals.counts
+    kinds = {kind for _, kind in node.refusals.counts}
+    assert kinds == {'idsq reading', 'sensor_id', 'type', 'header.stamp', 'step'}, kinds
+    assert _ledger_state(node) == before, _changed(before, node)
+
+
+def _changed(before: bytes, node) -> list[str]:
+    import pickle
+    old, new = pickle.loads(before), pickle.loads(_ledger_state(node))
+    return [k for k in new if pickle.dumps(old.get(k)) != pickle.dumps(new[k])]
+
+
+def test_recorded_readings_replay_bit_for_bit_into_a_fresh_network(ros, k8_file, tmp_path):
+    """K = 8, 20 steps: the layout and the readings recorded (the project's recorder, wall-time stamps)
+    from a run with vehicle_sim, played with track-play into fresh sensor nodes of the same scenario
+    file and no simulator: the same /idsq/estimate, means and covariances bit for bit."""
+    from track_nodes.bag.recorder import RecorderNode
+
+    net = Network(ros, k8_file)
+    bag = tmp_path / 'readings'
+    rec = ros.add(RecorderNode(context=ros.context, parameter_overrides=[
+        Parameter('bag', value=str(bag)), Parameter('flush_period', value=0.2), Parameter('clock', value='wall'),
+        Parameter('regex', value=r'^/idsq/(layout|sensor_\d+/reading)$')]))
+    topics = {IDSQ_LAYOUT, *(idsq_reading_topic(k) for k in range(8))}
+    assert ros.spin_until(lambda: topics <= set(rec.subscriptions_by_topic), timeout=20)
+    net.run_to(K8_STEPS - 1)
+    first = {k: (v.pose.pose.position.x, v.pose.pose.position.y, tuple(v.pose.covariance))
+             for k, v in net.estimates.items()}
+    assert ros.spin_until(lambda: all(rec.message_counts().get(idsq_reading_topic(k), 0) >= K8_STEPS
+                                      for k in range(8)) and rec.message_counts().get(IDSQ_LAYOUT, 0) >= 1), \
+        rec.message_counts()
+    for node in [*net.nodes.values(), rec]:  # the first network and the simulator go; the bag is closed
+        ros.nodes.remove(node)
+        ros.executor.remove_node(node)
+        node.destroy_node()
+    fresh = {}
+    for spec in load_scenario(str(k8_file)).nodes:
+        if spec.executable != 'vehicle_sim':
+            fresh[spec.name] = ros.add(spec.node_class()(
+                node_name=spec.name, context=ros.context, parameter_overrides=[Parameter('use_sim_time', value=True)],
+                cli_args=['--ros-args', '--params-file', str(k8_file)]))
+    net.estimates.clear()  # the probe's collector takes the fresh network's estimates
+    player = subprocess.Popen([sys.executable, '-m', 'track_nodes.bag.player', str(bag), '--rate', '2',
+                               '--wait-subscribers', '60'], env=ros.env, stdout=subprocess.PIPE,
+                              stderr=subprocess.PIPE, text=True)
+    try:
+        assert ros.spin_until(lambda: len(net.estimates) >= K8_STEPS, timeout=120), sorted(net.estimates)
+    finally:
+        _, err = player.communicate(timeout=120)
+    assert player.returncode == 0, err[-2000:]
+    got = {k: (v.pose.pose.position.x, v.pose.pose.position.y, tuple(v.pose.covariance))
+           for k, v in net.estimates.items()}
+    assert got == first
+    assert all(n.missed == n.late == n.unheard == n.refused == 0 for n in fresh.values())
+
+
+def _usage_example(repo) -> str:
+    """The adapter example of docs/USAGE.md's IDSQ section (its one python block)."""
+    text = (repo / 'docs/USAGE.md').read_text()
+    section = text.split('## Bring your own sensor: the IDSQ field', 1)[1].split('\n## ', 1)[0]
+    return section.split('```python\n', 1)[1].split('```', 1)[0]
+
+
+def test_the_usage_example_front_end_gets_a_track_without_any_truth(ros, repo, tmp_path):
+    """docs/USAGE.md's example: microphones and a DOA front end giving unit direction vectors, adapted to
+    IdsqReading for a field of 8 sensor nodes (their default parameters, volatile readings); no truth
+    topic exists, and the network tracks the example's source."""
+    import ast
+
+    code = _usage_example(repo)
+    script = tmp_path / 'front_end.py'
+    script.write_text(code)
+    tree = ast.parse(code)
+    consts = {t.id: ast.literal_eval(n.value) for n in tree.body if isinstance(n, ast.Assign)
+              for t in n.targets if isinstance(t, ast.Name) and t.id in ('FIELD', 'STEPS', 'DT', 'SPEED')}
+    from track_nodes.idsq.sensor import AcousticSensorNode, DoaSensorNode
+    sensors = {}
+    for k, (x, y, kind) in enumerate(consts['FIELD']):
+        cls = DoaSensorNode if kind == 'doa' else AcousticSensorNode
+        sensors[k] = ros.add(cls(node_name=f'sensor_{k}', context=ros.context, parameter_overrides=[
+            Parameter('id', value=k), Parameter('position', value=[float(x), float(y)]),
+            Parameter('dt', value=float(consts['DT']))]))
+    probe = ros.add(Node('byo_probe', context=ros.context))
+    est: dict[int, np.ndarray] = {}
+    probe.create_subscription(Odometry, IDSQ_ESTIMATE, lambda m: est.update(
+        {len(est): np.array([m.pose.pose.position.x, m.pose.pose.position.y])}), ESTIMATE_QOS)
+    proc = subprocess.Popen([sys.executable, str(script)], env=ros.env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    try:
+        assert ros.spin_until(lambda: len(est) >= consts['STEPS'] or proc.poll() not in (None, 0), timeout=120), \
+            (len(est), proc.poll())
+    finally:
+        _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 0, err[-2000:]
+    topics = {t for t, _ in probe.get_topic_names_and_types()}
+    assert not any('truth' in t for t in topics), topics
+    truth = np.array([[75.0, consts['SPEED'] * consts['DT'] * s] for s in range(consts['STEPS'])])
+    err_m = np.hypot(*(np.array([est[s] for s in range(consts['STEPS'])]) - truth).T)
+    print(f'usage example: {len(est)} estimates, RMSE {np.sqrt(np.mean(err_m ** 2)):.1f} m, max {err_m.max():.1f} m')
+    assert np.sqrt(np.mean(err_m[4:] ** 2)) < 30.0, np.round(err_m, 1)
+    assert all(n.missed == n.late == n.refused == 0 for n in sensors.values())

@@ -1,6 +1,6 @@
-"""IDSQ records: the protocol messages (track_msgs IdsqHandoff, IdsqAck, IdsqRevoke, IdsqLeaderEvent)
-round-trip exactly, also through CDR (rclpy.serialization), and hostile ones are refused with one line;
-the belief cloud and the sensor layout round-trip exactly."""
+"""IDSQ records: a sensor's reading (track_msgs IdsqReading) and the protocol messages (IdsqHandoff,
+IdsqAck, IdsqRevoke, IdsqLeaderEvent) round-trip exactly, also through CDR (rclpy.serialization), and
+hostile ones are refused with one line; the belief cloud and the sensor layout round-trip exactly."""
 
 from __future__ import annotations
 
@@ -12,12 +12,14 @@ import pytest
 from rclpy.serialization import deserialize_message, serialize_message
 
 from track_msgs.msg import IdsqLeaderEvent as IdsqLeaderEventMsg
+from track_msgs.msg import IdsqReading as IdsqReadingMsg
 from track_msgs_py.records import RecordError
 from track_msgs_py.records.idsq import (
     LAYOUT_FIELDS,
     IdsqAck,
     IdsqHandoff,
     IdsqLeaderEvent,
+    IdsqReading,
     IdsqRevoke,
     layout_to_pointcloud2,
     pointcloud2_to_layout,
@@ -28,6 +30,70 @@ from track_msgs_py.records.idsq import (
 def cdr(msg):
     """Serialise and deserialise: what a subscriber or a bag reader gets."""
     return deserialize_message(serialize_message(msg), type(msg))
+
+
+# --- the reading ----------------------------------------------------------------------------------
+
+@pytest.mark.parametrize('through_cdr', [False, True])
+def test_a_reading_round_trips_and_its_direction_is_rep103(through_cdr):
+    """A DOA bearing θ (clockwise from north) travels as a REP-103 direction (counter-clockwise from east):
+    north-east (θ = π/4) is π/4 either way, east (θ = π/2) is 0, north-west (θ = -π/4) is 3π/4; the record
+    reads it back to θ within an ulp, as ``readings.as_received`` says, and every field exactly."""
+    from track_core.idsq.readings import Reading, as_received
+
+    for theta, direction in ((math.pi / 4, math.pi / 4), (math.pi / 2, 0.0), (-math.pi / 4, 3 * math.pi / 4),
+                             (math.pi, -math.pi / 2)):
+        rec = IdsqReading.of_reading(1000.5, Reading(3, 7, True, 12.5, theta, 0.05))
+        assert rec.direction == pytest.approx(direction, abs=1e-15) and rec.amplitude == 12.5
+        msg = rec.to_msg()
+        back = IdsqReading.from_msg(cdr(msg) if through_cdr else msg)
+        assert back == rec and back.bearing == as_received(theta) == back.z
+        assert abs(back.bearing - theta) <= 4.5e-16 and msg.type == IdsqReadingMsg.DOA
+    ac = IdsqReading.of_reading(1000.5, Reading(3, 2, False, 9.75))
+    msg = ac.to_msg()
+    back = IdsqReading.from_msg(cdr(msg) if through_cdr else msg)
+    assert back == dataclasses.replace(ac) and back.z == 9.75 and math.isnan(back.direction)
+    assert msg.type == IdsqReadingMsg.ACOUSTIC and msg.header.frame_id == 'map'
+
+
+def _reading(**fields) -> IdsqReadingMsg:
+    msg = IdsqReading(1000.5, 4, True, 3.0, 0.5, 0.05).to_msg()
+    for k, v in fields.items():
+        setattr(msg, k, v)
+    return msg
+
+
+@pytest.mark.parametrize(('fields', 'words'), [
+    ({'type': 7}, 'type=7 is neither'),
+    ({'direction': math.nan}, 'direction=nan must be finite'),
+    ({'direction_std': 0.0}, 'direction_std=0.0 must be finite and > 0'),
+    ({'direction_std': math.inf}, 'direction_std=inf'),
+    ({'amplitude': math.inf}, 'amplitude=inf must be finite'),
+    ({'type': IdsqReadingMsg.ACOUSTIC, 'amplitude': math.nan}, 'amplitude=nan must be finite (an acoustic'),
+])
+def test_a_hostile_reading_is_refused_with_one_line(fields, words):
+    with pytest.raises(RecordError) as exc:
+        IdsqReading.from_msg(_reading(**fields))
+    assert words in str(exc.value) and '\n' not in str(exc.value) and str(exc.value).startswith('idsq reading: ')
+
+
+def test_a_doa_reading_in_another_frame_is_refused_and_one_without_a_frame_is_map():
+    msg = _reading()
+    msg.header.frame_id = 'doa_array_4'
+    with pytest.raises(RecordError, match="frame_id='doa_array_4'"):
+        IdsqReading.from_msg(msg)
+    msg.header.frame_id = ''
+    assert IdsqReading.from_msg(msg).frame_id == 'map'
+
+
+def test_a_reading_for_another_sensor_or_type_names_the_problem():
+    """The sensor-specific checks (the stamp's step and the horizon are the ledger's: ``reading_problem``)."""
+    doa = IdsqReading.from_msg(_reading())
+    assert doa.problem(4, True) is None and math.isnan(IdsqReading.from_msg(_reading(amplitude=math.nan)).amplitude)
+    assert doa.problem(5, True) == 'sensor_id: 4 is not this sensor (5)'
+    assert doa.problem(4, False) == 'type: DOA reading for an acoustic sensor'
+    ac = IdsqReading(1.0, 4, False, 2.0)
+    assert ac.problem(4, True) == 'type: ACOUSTIC reading for a DOA sensor'
 
 
 # --- ack and revoke -------------------------------------------------------------------------------

@@ -15,22 +15,41 @@ Protocol (Table 1 of Liu, Reich, Zhao 2002, one leader at a time):
   belief (*busy*) or has led a later step (*stale*). The sender gets an ack or a nack with the
   reason (at the address the message carries; bytes whose header is unreadable go unanswered).
   A handoff whose step is more than ``STEP_WINDOW`` away from the sensor's horizon
-  (``horizon``: the latest complete truth step, led step or pending step; -1 at the start) is
-  refused too (*window*): its truth would never come, and the sensor would stay busy for good.
-  A truth step more than ``TRUTH_WINDOW`` after the horizon is refused by ``truth_problem``
+  (``horizon``: the latest reading step, led step or pending step; -1 at the start) is
+  refused too (*window*): its reading would never come, and the sensor would stay busy for good.
+  A reading more than ``READING_WINDOW`` steps after the horizon is refused by ``reading_problem``
   (an absurd stamp maps to a huge step; buffering it would evict the real ones). Refusals
   change nothing but the ``refused`` counter.
-- The accepted belief p(x⁽ᵗ⁾|z̄⁽ᵗ⁾) is held until the truth of step t + 1 is known; the sensor
-  then leads step t + 1 with ``leader_step``: diffuse, sense (its own measurement simulated from
-  the truth, see *Randomness*), update, MI of each neighbour except the previous leader
-  (triplet rule), choose the next leader, encode the handoff (``Led``, then ``Send``).
-- Start (§5.1): with the truth of step 0 every sensor computes every sensor's step-0 amplitude
-  reading (a function of the seed, the sensor and the step only); the acoustic sensor with the
-  highest reading leads step 0 from the uniform belief. All sensors agree without messages;
-  this stands in for the election the paper does not describe. ``SensorSetup.start`` = 'election'
-  (beyond the paper; ``start_belief``): the start leader also keeps the step-0 amplitude readings of
-  its radio neighbours, which its election compared with its own (a DOA array is a set of
-  microphones too), and leads step 0 from the uniform belief updated with each of them (eq. 6, as a
+- Readings (``on_reading``): the sensor's own front end (or the simulator standing in for it,
+  ``readings.FieldSimulator``) gives one reading per step, z of eq. 6 (amplitude) or eq. 11 (the
+  bearing θ, clockwise from north); the sensor buffers them whether it leads or not. It never sees
+  the truth.
+- The accepted belief p(x⁽ᵗ⁾|z̄⁽ᵗ⁾) is held until the reading of step t + 1 is in; the sensor
+  then leads step t + 1 with ``leader_step``: diffuse, update with its reading of that step, MI of
+  each neighbour except the previous leader (triplet rule), choose the next leader, encode the
+  handoff (``Led``, then ``Send``).
+- A missing reading (beyond the paper): a front end that is late or silent must not stop the
+  track. The node waits for the reading of the step it holds a belief for up to its
+  ``reading_timeout`` (a steady-clock timer), then calls ``reading_missed``: the sensor leads the
+  step *predict-only* (Table 1 step 1, the belief diffused, no update; eq. 3 with no z), picks the
+  next leader by MI as usual and hands on; counted in ``missed``. Handing on without a
+  measurement keeps the chain, its timing and the MI choice; selecting another sensor instead
+  would need a second handoff round for a reading the next leader gives anyway one step later.
+  A reading that comes after its step was led without it is dropped, counted in ``late`` (one
+  warning line, through the node's refusal channel). Reading order does not matter otherwise:
+  a reading of a later step never makes an earlier one missing (two front ends may interleave).
+- Start (§5.1): the acoustic sensor with the highest step-0 amplitude leads step 0 from the uniform
+  belief. Every sensor tells the others its step-0 amplitude (``on_election``; on DDS each node
+  relays its own step-0 reading's amplitude on the shared election topic), and each decides
+  ``start_leader`` on the same K numbers: all agree without further messages; this stands in for
+  the election the paper does not describe. The election closes when all K amplitudes are in, or
+  when the node's ``reading_timeout`` after its first election message calls
+  ``election_timeout``: it then decides on those it has (counted in ``unheard``); sensors that
+  heard different subsets may disagree (two start leaders, whose chains the first handoffs'
+  *busy* rule merges, or none, and the track starts at the next election). ``SensorSetup.start`` =
+  'election' (beyond the paper; ``start_belief``): the start leader also keeps the step-0 amplitude
+  readings of its radio neighbours, which its election compared with its own (a DOA array is a set
+  of microphones too), and leads step 0 from the uniform belief updated with each of them (eq. 6, as a
   leader's own reading). One amplitude reading bounds the range only (a disk of radius a_hi/z), and a
   near DOA leader's bearing at step 1 then favours the far end of its ray (its near-field σ(r) is
   wide, the wedge grows with r): the belief sat 30-50 m off for 2-3 steps. The neighbours' disks
@@ -71,17 +90,17 @@ Protocol (Table 1 of Liu, Reich, Zhao 2002, one leader at a time):
   executor delay does not count) is refused as *expired*: its sender has re-selected by then.
   This assumes host clocks agree to well within ``ack_timeout``; where they do not, the revoke
   still ends the chain.
-- Several sources (beyond the paper): each truth topic carries one or more sources (one child
-  frame each); a step is sensed once every topic has delivered it, and each sensor hears the
-  loudest source at its position, the nearest one (same amplitude A, A/r falls with range).
-- Time: step s of the truth is stamped (s + 1)·Δt, and every leader output of step s carries
-  that stamp; a leader that falls behind uses the buffered truth, so the track does not
+- Several sources (beyond the paper, the simulator's business: ``readings.FieldSimulator``): each
+  sensor hears the loudest source at its position, the nearest one (same amplitude A, A/r falls
+  with range).
+- Time: the reading of step s is stamped (s + 1)·Δt, and every leader output of step s carries
+  that stamp; a leader that falls behind uses the buffered readings, so the track does not
   depend on timing.
 
-Randomness: the measurement of sensor k at step s uses one standard normal drawn from
-``SeedSequence(seed, spawn_key=(3, k, s))`` (``measurement_normal``), the ``random`` selection
-baseline a Generator from ``spawn_key=(4, k, s)`` (``selection_rng``): nothing depends on the
-process a sensor runs in or on callback order. (The core experiments draw one (T, K) matrix
+Randomness: the simulated reading of sensor k at step s uses one standard normal drawn from
+``SeedSequence(seed, spawn_key=(3, k, s))`` (``readings.measurement_normal``), the ``random``
+selection baseline a Generator from ``spawn_key=(4, k, s)`` (``selection_rng``): nothing depends on
+the process a sensor runs in or on callback order. (The core experiments draw one (T, K) matrix
 per run instead; keys 0-2 are theirs.)
 """
 
@@ -102,16 +121,18 @@ from track_core.idsq.handoff import (
     read_package,
     validate_handoff,
 )
-from track_core.idsq.models import SimNoise, TrackerParams, amplitude_reading, loudest_source, simulate_measurement
-from track_core.idsq.network import SensorLayout
+from track_core.idsq.models import SimNoise, TrackerParams, loudest_source
+from track_core.idsq.network import SensorLayout, start_leader
 from track_core.idsq.network import handoff_targets as core_handoff_targets
-from track_core.idsq.simulation import scenario_of, start_leader_at
+from track_core.idsq.readings import MEASUREMENT_KEY, as_received, field_readings, measurement_normal, sensor_reading
+from track_core.idsq.simulation import scenario_of
 from track_core.idsq.tracker import LeaderStepResult, leader_step, update
 
-MEASUREMENT_KEY, SELECTION_KEY = 3, 4
-MAX_TRUTH = 4096  # buffered truth steps per sensor (the §5.1 track has 72)
-STEP_WINDOW = 256  # a handoff's step is within this many steps of the sensor's horizon (the truth QoS depth)
-TRUTH_WINDOW = MAX_TRUTH  # a truth step at most this far after the horizon (an absurd stamp is a huge step)
+__all__ = ['MEASUREMENT_KEY', 'measurement_normal']  # (re-exported: the draws' home is readings.py)
+SELECTION_KEY = 4
+MAX_READINGS = 4096  # buffered reading steps per sensor (the §5.1 track has 72)
+STEP_WINDOW = 256  # a handoff's step is within this many steps of the sensor's horizon (the reading QoS depth)
+READING_WINDOW = MAX_READINGS  # a reading at most this many steps after the horizon (an absurd stamp is a huge step)
 
 
 # --- time, randomness, start, order ------------------------------------------------------------
@@ -127,15 +148,9 @@ def stamp_of_step(step: int, dt: float, origin: float = 0.0) -> float:
 
 
 def step_of_stamp(t: float, dt: float, origin: float = 0.0) -> int | None:
-    """Tracker step of a truth stamp, or ``None`` when ``t`` is not origin + (s + 1)·Δt for an s >= 0."""
+    """Tracker step of a reading's stamp, or ``None`` when ``t`` is not origin + (s + 1)·Δt for an s >= 0."""
     s = round((t - origin) / dt) - 1
     return s if s >= 0 and abs(stamp_of_step(s, dt, origin) - t) <= 1e-6 else None
-
-
-def measurement_normal(seed: int, sensor: int, step: int) -> float:
-    """The standard normal of sensor ``sensor``'s measurement at ``step`` (independent of process layout)."""
-    ss = np.random.SeedSequence(int(seed), spawn_key=(MEASUREMENT_KEY, int(sensor), int(step)))
-    return float(np.random.default_rng(ss).standard_normal())
 
 
 def selection_rng(seed: int, sensor: int, step: int) -> np.random.Generator:
@@ -149,28 +164,41 @@ loudest = loudest_source  # (sources (2,) or (M, 2), sensor (2,)) → the neares
 STARTS = ('uniform', 'election')
 
 
-def start_belief(layout: SensorLayout, leader: int, truth0: np.ndarray, noise: SimNoise, seed: int, grid: GridSpec,
-                 p: TrackerParams, start: str = 'uniform') -> SparseBelief:
+def start_belief(layout: SensorLayout, leader: int, amplitudes: np.ndarray, grid: GridSpec, p: TrackerParams,
+                 start: str = 'uniform') -> SparseBelief:
     """The belief the start leader leads step 0 from: 'uniform' (§5.1), or 'election' (module docstring):
     the uniform belief updated (``tracker.update``, eq. 6) with the step-0 amplitude reading of each
-    radio neighbour of ``leader`` (``SensorLayout.neighbours``), drawn as in ``start_leader_of``."""
+    radio neighbour of ``leader`` (``SensorLayout.neighbours``; ``amplitudes`` (K,), NaN where the
+    election did not hear one: left out)."""
     if start not in STARTS:
         raise ValueError(f'start={start!r} must be one of {STARTS}')
     belief = uniform_belief(grid)
     if start == 'uniform':
         return belief
     for k in np.asarray(layout.neighbours[leader]).tolist():
-        pos = layout.positions[k]
-        z = amplitude_reading(loudest_source(truth0, pos), pos, noise, measurement_normal(seed, k, 0))
-        belief, _ = update(belief, z, pos, False, p)
+        if np.isfinite(amplitudes[k]):
+            belief, _ = update(belief, float(amplitudes[k]), layout.positions[k], False, p)
     return belief
 
 
+def elected(layout: SensorLayout, amplitudes: np.ndarray) -> int | None:
+    """§5.1 start leader (``network.start_leader``) from the step-0 amplitudes (K,) the election heard,
+    NaN for a sensor not heard (it cannot win); ``None`` when none was heard."""
+    amp = np.asarray(amplitudes, dtype=float)
+    if not np.isfinite(amp).any():
+        return None
+    return start_leader(layout, np.where(np.isfinite(amp), amp, -np.inf))
+
+
+def start_amplitudes(layout: SensorLayout, truth0: np.ndarray, noise: SimNoise, seed: int) -> np.ndarray:
+    """(K,) every sensor's simulated step-0 amplitude (``readings.field_readings``): what the election hears."""
+    return np.array([r.amplitude for r in field_readings(truth0, layout, 0, noise, seed)])
+
+
 def start_leader_of(layout: SensorLayout, truth0: np.ndarray, noise: SimNoise, seed: int) -> int:
-    """§5.1 start as every sensor computes it: ``start_leader_at`` on the step-0 readings drawn with
-    ``measurement_normal``. ``truth0``: one source (2,) or several (M, 2), each sensor hears its loudest."""
-    normals = [measurement_normal(seed, k, 0) for k in range(layout.n)]  # one seeded draw per sensor
-    return start_leader_at(layout, truth0, noise, np.array(normals))
+    """§5.1 start as the sensors decide it on the simulated step-0 amplitudes. ``truth0``: one source (2,)
+    or several (M, 2), each sensor hears its loudest."""
+    return start_leader(layout, start_amplitudes(layout, truth0, noise, seed))
 
 
 def protocol_track(seed: int, n_sensors: int, n_steps: int, doa_fraction: float = 0.3, cell: float = 5.0,
@@ -178,24 +206,29 @@ def protocol_track(seed: int, n_sensors: int, n_steps: int, doa_fraction: float 
                    noise: SimNoise | None = None) -> tuple[np.ndarray, np.ndarray, list[int]]:
     """The track a network of nodes must publish, computed with the core alone: (means (T, 2),
     covariances (T, 2, 2), leader of each step) of the ``scenario_of(seed, n_sensors, doa_fraction)``
-    field, each step led by ``leader_step`` with this module's per-(sensor, step) draws and handed on
-    as the float32 body a node receives (``decode_handoff``). No ack is lost and no leader fails:
-    what a network with one process per sensor, on any number of hosts, records bit for bit."""
+    field, each step led by ``leader_step`` with the simulator's per-(sensor, step) readings as the
+    leader receives them (``readings.as_received``: the REP-103 round trip of a bearing) and handed on
+    as the float32 body a node receives (``decode_handoff``). No ack is lost, no reading is missing and
+    no leader fails: what a network with one process per sensor, on any number of hosts, records bit for bit."""
     sc, layout, truth = scenario_of(seed, n_sensors, doa_fraction)
     tp, noise = tracker or TrackerParams(), noise or SimNoise()
     belief = uniform_belief(GridSpec.for_field(sc.width, sc.height, cell))
     leader, prev = start_leader_of(layout, truth[0], noise, seed), None
     means, covs, leaders = [], [], []
     for s in range(n_steps):
-        z = simulate_measurement(truth[s], layout.positions[leader], bool(layout.is_doa[leader]), noise,
-                                 measurement_normal(seed, leader, s))
-        out = leader_step(belief, z, leader, layout, tp, step=s, previous=prev)
+        r = sensor_reading(truth[s], layout.positions[leader], bool(layout.is_doa[leader]), leader, s, noise, seed)
+        out = leader_step(belief, received_z(r), leader, layout, tp, step=s, previous=prev)
         means.append(out.estimate.mean)
         covs.append(out.estimate.cov)
         leaders.append(leader)
         belief = decode_handoff(out.payload).belief()
         prev, leader = leader, out.next_leader
     return np.array(means), np.array(covs), leaders
+
+
+def received_z(r) -> float:
+    """The z a sensor leads with from the simulated reading ``r`` (``readings.Reading``), as the message gives it."""
+    return as_received(r.bearing) if r.is_doa else r.amplitude
 
 
 def handoff_targets(layout: SensorLayout, k: int) -> set[int]:
@@ -323,7 +356,7 @@ Effect = Reply | Send | Disarm | Led | Reselect | SelfLead | Log | Revoke | Void
 
 @dataclass
 class Pending:
-    """A belief p(x⁽ᵗ⁻¹⁾|z̄) waiting for the truth of ``step`` = t, to be led by this sensor."""
+    """A belief p(x⁽ᵗ⁻¹⁾|z̄) waiting for the reading of ``step`` = t, to be led by this sensor."""
 
     belief: SparseBelief
     step: int
@@ -351,12 +384,11 @@ class SensorSetup:
     is_doa: bool
     grid: GridSpec
     tracker: TrackerParams
-    noise: SimNoise
-    seed: int = 0
+    seed: int = 0  # of the ``random`` selection baseline (``selection_rng``)
     selection: str = 'mi'
-    truth_topics: tuple[str, ...] = ('truth',)  # names of the truth streams (the node's topics)
     ack_timeout: float = 2.0  # only named in the timeout warning; the node's timer measures it
     start: str = 'uniform'  # the start leader's belief at step 0 (``start_belief``)
+    reading_timeout: float = 10.0  # only named in the warnings; the node's timers measure it
 
 
 class HandoffLedger:
@@ -367,13 +399,13 @@ class HandoffLedger:
     """
 
     def __init__(self, setup: SensorSetup) -> None:
-        if not setup.truth_topics:
-            raise ValueError('truth_topics is empty: allowed one or more topics')
         self.s = setup
         self.me = setup.me
         self.layout: SensorLayout | None = None
-        self.truth: dict[int, np.ndarray] = {}  # step → (M, 2) source positions, once every topic has it
-        self._sources: dict[int, dict[tuple[str, str], np.ndarray]] = {}  # step → (topic, child) → xy
+        self.readings: dict[int, float] = {}  # step → this sensor's z (eq. 6 amplitude or eq. 11 bearing θ)
+        self.election: dict[int, float] = {}  # sensor → its step-0 amplitude, as heard
+        self.missed: list[int] = []  # steps led predict-only: no reading within the timeout
+        self.late = self.unheard = 0  # readings after their step was led without them; sensors the election missed
         self.inbox: list[tuple[Handoff | Unusable | Revocation, float | None]] = []
         self.pending: Pending | None = None
         self.outgoing: dict[int, Outgoing] = {}  # step → handoff awaiting its ack (several if acks lag)
@@ -395,33 +427,78 @@ class HandoffLedger:
         self.layout = layout
         return self.advance()
 
-    def on_truth(self, step: int, topic: str, child: str, xy: np.ndarray) -> list[Effect]:
-        """Source ``child`` of ``topic`` is at ``xy`` at ``step``."""
-        if step in self.truth:
-            return []  # this step was complete already: a source repeating it does not change it
-        got = self._sources.setdefault(step, {})
-        got[(topic, child)] = xy
-        if {tp for tp, _ in got} >= set(self.s.truth_topics):  # every topic has delivered this step
-            del self._sources[step]
-            self.truth[step] = np.array([got[k] for k in sorted(got)])
-            if len(self.truth) > MAX_TRUTH:
-                del self.truth[min(self.truth)]
-        while len(self._sources) > MAX_TRUTH:
-            del self._sources[min(self._sources)]
+    def on_reading(self, step: int, z: float, amplitude: float = float('nan')) -> list[Effect]:
+        """This sensor's reading of ``step``: ``z`` (eq. 6 amplitude, or for a DOA sensor the eq. 11 bearing θ,
+        clockwise from north) and its ``amplitude`` (both types; at step 0 this sensor's own election entry)."""
+        if step in self.readings:
+            return []  # a repeated reading does not change the one held
+        if step in self.missed:
+            self.late += 1
+            why = f'late: the reading of step {step} came after the step was led without it'
+            return [Log('warning', f'{why}; dropped', ('reading', why))]
+        self.readings[step] = float(z)
+        if len(self.readings) > MAX_READINGS:
+            del self.readings[min(self.readings)]
+        if step == 0 and np.isfinite(amplitude):
+            self.election.setdefault(self.me, float(amplitude))
         return self.advance()
 
-    def horizon(self) -> int:
-        """The latest step this sensor knows of: complete truth, led or pending (-1 before any)."""
-        return max(max(self.truth, default=-1), self.last_led, -1 if self.pending is None else self.pending.step)
+    def on_field(self, readings: list) -> list[Effect]:
+        """One step of a whole field's readings (``readings.Reading``, as ``FieldSimulator`` gives them):
+        what this sensor's node receives of them, the others' step-0 amplitudes (the election) first,
+        then its own reading (its bearing after the message's round trip, ``received_z``)."""
+        fx: list[Effect] = []
+        for r in readings:
+            if r.step == 0 and r.sensor != self.me:
+                fx += self.on_election(r.sensor, r.amplitude)
+        for r in readings:
+            if r.sensor == self.me:
+                fx += self.on_reading(r.step, received_z(r), r.amplitude)
+        return fx
 
-    def truth_problem(self, step: int | None, t: float, dt: float) -> str | None:
-        """Why a truth stamped ``t`` (``step`` = ``step_of_stamp(t, dt)``) is refused: not on a step, or
+    def on_election(self, sensor: int, amplitude: float) -> list[Effect]:
+        """Sensor ``sensor``'s step-0 amplitude, as it told the field (the first one heard counts)."""
+        if sensor in self.election or not np.isfinite(amplitude):
+            return []
+        self.election[int(sensor)] = float(amplitude)
+        return self.advance()
+
+    def election_timeout(self) -> list[Effect]:
+        """The node's election timer expired: decide the start on the amplitudes heard (module docstring)."""
+        if self.start_checked or self.layout is None or not self.election:
+            return []
+        self.unheard = self.layout.n - sum(1 for k in self.election if k < self.layout.n)
+        return [Log('warning', f'election: {self.unheard} of {self.layout.n} step-0 amplitudes not heard within '
+                               f'{self.s.reading_timeout:g} s; deciding on the others'), *self.advance(True)]
+
+    def reading_missed(self, step: int) -> list[Effect]:
+        """The node's reading timer of ``step`` expired: lead it predict-only if still waiting for it."""
+        if self.layout is None or self.pending is None or self.pending.step != step or step in self.readings:
+            return []
+        pend, self.pending = self.pending, None
+        self.missed.append(step)
+        del self.missed[:-STEP_WINDOW]
+        return [Log('warning', f'no reading of step {step} within {self.s.reading_timeout:g} s: leading it '
+                               'predict-only (diffused, no update)'), *self._lead(pend), *self.advance()]
+
+    def waiting_for(self) -> int | None:
+        """The step whose reading this sensor waits for to lead it (the node times it), else ``None``."""
+        if self.layout is None or self.pending is None or self.pending.step in self.readings:
+            return None
+        return self.pending.step
+
+    def horizon(self) -> int:
+        """The latest step this sensor knows of: a reading, led or pending (-1 before any)."""
+        return max(max(self.readings, default=-1), self.last_led, -1 if self.pending is None else self.pending.step)
+
+    def reading_problem(self, step: int | None, t: float, dt: float) -> str | None:
+        """Why a reading stamped ``t`` (``step`` = ``step_of_stamp(t, dt)``) is refused: not on a step, or
         too far after the horizon (an absurd stamp is a huge step); else ``None``."""
         if step is None:
             return f'header.stamp: {t:.9f} s is not (s + 1)·dt for dt={dt} s'
         h = self.horizon()
-        if step > h + TRUTH_WINDOW:
-            return f'step: truth step {step} is more than {TRUTH_WINDOW} after step {h}'
+        if step > h + READING_WINDOW:
+            return f'step: reading of step {step} is more than {READING_WINDOW} after step {h}'
         return None
 
     def on_handoff(self, item: Handoff | Unusable | Revocation | bytes, age: float | None = None) -> list[Effect]:
@@ -472,24 +549,26 @@ class HandoffLedger:
         return fx + self._send_next(out, 'timeout') + self.advance()
 
     # -- the state machine -------------------------------------------------------------------------
-    def advance(self) -> list[Effect]:
-        """Answer the buffered handoffs, apply the start rule, lead every step whose truth is known."""
+    def advance(self, close_election: bool = False) -> list[Effect]:
+        """Answer the buffered handoffs, apply the start rule once the election is complete (or
+        ``close_election``), lead every step whose reading is in."""
         if self.layout is None:
             return []
         fx: list[Effect] = []
         while self.inbox:
             fx += self._receive(*self.inbox.pop(0))
-        if not self.start_checked and 0 in self.truth:
+        n = self.layout.n
+        if not self.start_checked and (close_election or all(k in self.election for k in range(n))):
             self.start_checked = True
-            if start_leader_of(self.layout, self.truth[0], self.s.noise, self.s.seed) == self.me:
+            amps = np.array([self.election.get(k, np.nan) for k in range(n)])
+            if elected(self.layout, amps) == self.me:
                 fx.append(Log('info', f'sensor {self.me} has the highest amplitude at step 0: leading from a '
                                       + ('uniform belief' if self.s.start == 'uniform' else
                                          "belief holding its neighbours' election readings")))
                 if self.pending is None:
-                    self.pending = Pending(start_belief(self.layout, self.me, self.truth[0], self.s.noise,
-                                                        self.s.seed, self.s.grid, self.s.tracker, self.s.start),
-                                           0, None)
-        while self.pending is not None and self.pending.step in self.truth:
+                    self.pending = Pending(start_belief(self.layout, self.me, amps, self.s.grid, self.s.tracker,
+                                                        self.s.start), 0, None)
+        while self.pending is not None and self.pending.step in self.readings:
             pend, self.pending = self.pending, None
             fx += self._lead(pend)
         return fx
@@ -521,10 +600,10 @@ class HandoffLedger:
         return [Reply(h.sender, h.step, None)]
 
     def _lead(self, pend: Pending) -> list[Effect]:
-        """Table 1 steps 1-5 for step ``pend.step`` (``leader_step``), then the handoff."""
-        s, step, layout, pos = self.s, pend.step, self.layout, self.s.position
-        z = simulate_measurement(loudest(self.truth[step], pos), pos, s.is_doa, s.noise,
-                                 measurement_normal(s.seed, self.me, step))
+        """Table 1 steps 1-5 for step ``pend.step`` (``leader_step``) with its reading (predict-only without:
+        ``reading_missed``), then the handoff."""
+        s, step, layout = self.s, pend.step, self.layout
+        z = self.readings.get(step)
         rng = selection_rng(s.seed, self.me, step) if s.selection == 'random' else None
         res = leader_step(pend.belief, z, self.me, layout, s.tracker, step=step, previous=pend.previous,
                           selection=s.selection, rng=rng)
@@ -539,7 +618,8 @@ class HandoffLedger:
         order = handoff_order(res.candidates, res.scores, layout.neighbours[self.me], pend.previous, self.me,
                               first=res.next_leader, last=self.suspects)
         self.outgoing[step] = out = Outgoing(step, res.belief, order)
-        return [Led(step, pend.previous, z, res, order[0]), *self._send_next(out, None)]
+        return [Led(step, pend.previous, float('nan') if z is None else z, res, order[0]),
+                *self._send_next(out, None)]
 
     def _send_next(self, out: Outgoing, why: str | None) -> list[Effect]:
         """Hand ``out`` to the next sensor in its order (``why``: reason of a re-selection)."""

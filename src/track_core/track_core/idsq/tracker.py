@@ -106,17 +106,23 @@ def select_next(posterior: SparseBelief, layout: SensorLayout, leader: int, prev
     return int(cands[int(np.argmax(scores))]), cands, scores
 
 
-def leader_step(belief: SparseBelief, z: float, leader: int, layout: SensorLayout, p: TrackerParams, *,
+def leader_step(belief: SparseBelief, z: float | None, leader: int, layout: SensorLayout, p: TrackerParams, *,
                 step: int, previous: int | None = None, selection: str = 'mi',
                 rng: np.random.Generator | None = None) -> LeaderStepResult:
     """Table 1 steps 1-5 for sensor ``leader`` holding the handed-off ``belief`` and its own ``z``.
 
     ``step`` is the time index of this measurement; the payload carries it to the next leader.
+    ``z`` None: no reading came (a silent front end): the step is predict-only, the diffused belief
+    is the posterior (eq. 3 without a likelihood), ``updated`` False, and the leader still picks
+    and hands on (``leader_protocol``, missing readings).
     """
     if not 0 <= leader < layout.n:
         raise ValueError(f'leader={leader} must be in [0, {layout.n - 1}]')
     prior = predict(belief, p)                                                             # step 1
-    post, ok = update(prior, z, layout.positions[leader], bool(layout.is_doa[leader]), p)  # steps 2-3
+    if z is None:
+        post, ok = prior, False
+    else:
+        post, ok = update(prior, z, layout.positions[leader], bool(layout.is_doa[leader]), p)  # steps 2-3
     post = post.with_motion(update_motion(belief, post, p))  # v̂ (prediction='drift' only)
     nxt, cands, scores = select_next(post, layout, leader, previous, p, selection, rng)    # step 4
     payload = encode_handoff(Handoff.from_belief(step, leader, nxt, post))            # step 5

@@ -4,25 +4,38 @@ Each instance is one sensor (``id``, ``position``, ``type``); the rest of the ne
 types, hence its §5.1 neighbours) comes from ``vehicle_sim``'s transient-local ``/idsq/layout``,
 which must agree with those three parameters (else one error line and the node stays passive).
 Its stamp is the step origin; a zero stamp means "origin pending": the sensor sets up its topics
-and holds truths until the stamped copy of the same layout comes.
-The protocol (handoffs, acks, the start rule, re-selection, randomness) is
-``track_core.idsq.leader_protocol.HandoffLedger``; this node converts messages and carries out its effects:
+and holds readings until the stamped copy of the same layout comes.
+The protocol (readings, handoffs, acks, the start rule, missing readings, re-selection) is
+``track_core.idsq.leader_protocol.HandoffLedger``; this node converts messages and carries out its effects.
+It never reads a truth: its measurements are its own front end's readings (or the simulator's,
+``vehicle_sim``, standing in for it).
 
-- in: the handoff on ``/idsq/sensor_<id>/handoff``, the replies on ``/idsq/sensor_<id>/ack`` and the
+- in: its readings on ``/idsq/sensor_<id>/reading`` (``track_msgs/IdsqReading``,
+  ``records.idsq.IdsqReading``: one per step, step s stamped origin + (s + 1)·Δt; amplitude, and for
+  a DOA sensor the REP-103 direction in map, turned into the paper's θ = wrap(π/2 − direction));
+  the step-0 amplitudes of every sensor on ``/idsq/election`` (the same message type; the start
+  rule); the handoff on ``/idsq/sensor_<id>/handoff``, the replies on ``/idsq/sensor_<id>/ack`` and the
   revokes on ``/idsq/sensor_<id>/revoke`` (``track_msgs`` ``IdsqHandoff``, ``IdsqAck``, ``IdsqRevoke``;
-  ``records.idsq``), the truth of every ``truth_topics`` topic (Odometry, one ``child_frame_id`` per
-  source; step s stamped (s + 1)·Δt);
-- out: the reply on the sender's ``/idsq/sensor_<j>/ack``; when leading a step, ``/idsq/estimate``
+  ``records.idsq``);
+- out: its own step-0 reading, relayed once on ``/idsq/election``;
+  the reply on the sender's ``/idsq/sensor_<j>/ack``; when leading a step, ``/idsq/estimate``
   (Odometry with the belief covariance), ``/idsq/belief`` (``records.idsq.IdsqBelief``), ``/idsq/markers``,
   the ``/idsq/leader`` events (``track_msgs/IdsqLeaderEvent``) and the handoff to the next sensor;
   a ``void`` event when its lead of a step was revoked (one chain: ``track_core.idsq.leader_protocol``), and
   the revokes it sends on with it.
 
 QoS: handoff, ack and revoke topics are reliable and transient-local (depth 4), so a handoff published
-while discovery is settling is delivered when they match. ``/idsq/vehicle/truth`` is reliable and
-transient-local with depth 256 (a busy leader loses no step; a late reader still gets step 0,
-which every sensor needs for the start rule); any other truth topic reliable and volatile
-(depth 256), matching an ordinary publisher such as ``smart_target``'s truth.
+while discovery is settling is delivered when they match. The readings: reliable, depth 256 (a
+busy leader loses no step), volatile by default (any reliable publisher matches, a driver's default
+QoS included) or transient-local (``reading_durability``; the scenario files: a sensor that matched
+late still gets step 0 from ``vehicle_sim``'s transient-local history). The election topic is
+reliable and transient-local (``ELECTION_QOS``): a late sensor still hears every amplitude.
+
+Missing readings (``leader_protocol``): while the sensor holds the belief of a step whose reading
+has not come, a steady-clock timer of ``reading_timeout`` runs; when it expires the step is led
+predict-only and handed on (counted: ``missed``); a reading that comes after that is dropped with
+one throttled refusal line (``late``). The election waits ``reading_timeout`` after its first
+amplitude for the rest, then decides on those heard (``unheard``).
 
 Ack timeouts run on the steady clock: an ack depends on message latency, not on simulated time
 (with ``--processes`` the /clock runs regardless of CPU load). Many sensors in one process: rclpy
@@ -30,7 +43,7 @@ rebuilds its wait set over every entity at each wait, and the default QoS-event 
 of them (a wait ten times slower with them), so endpoints are made without them; and every stamp
 is the time of its step, so the node drops the /clock subscription
 that ``use_sim_time`` made (each 0.05 s launcher tick would wake every sensor).
-Refused truths, handoffs, replies and revokes go through ``TrackNode.refuse`` (its /diagnostics publisher
+Refused readings, handoffs, replies and revokes go through ``TrackNode.refuse`` (its /diagnostics publisher
 and timer are made at the first refusal only: a network never sent bad input keeps its wait set).
 """
 
@@ -42,7 +55,7 @@ from collections import deque
 import numpy as np
 from nav_msgs.msg import Odometry
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
-from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import QoSProfile
 from sensor_msgs.msg import PointCloud2
 from visualization_msgs.msg import MarkerArray
 
@@ -50,14 +63,23 @@ from track_core.idsq import leader_protocol as protocol
 from track_msgs import msg as tm
 from track_msgs_py.covariance import NOT_ESTIMATED_VARIANCE
 from track_msgs_py.markers.idsq import sensor_markers
-from track_msgs_py.odometry import cv_state_to_odometry, odometry_to_cv_state
-from track_msgs_py.qos import ESTIMATE_QOS, HANDOFF_QOS, SENSOR_QOS, STATIC_QOS, TRUTH_QOS
+from track_msgs_py.odometry import cv_state_to_odometry
+from track_msgs_py.qos import (
+    ELECTION_QOS,
+    ESTIMATE_QOS,
+    HANDOFF_QOS,
+    READING_LATCHED_QOS,
+    READING_QOS,
+    SENSOR_QOS,
+    STATIC_QOS,
+)
 from track_msgs_py.records.idsq import (
     PROTOCOL,
     IdsqAck,
     IdsqBelief,
     IdsqHandoff,
     IdsqLeaderEvent,
+    IdsqReading,
     IdsqRevoke,
     RecordError,
     leader_event,
@@ -69,21 +91,18 @@ from track_msgs_py.topics import (
     CLOCK,
     FRAME_MAP,
     IDSQ_BELIEF,
+    IDSQ_ELECTION,
     IDSQ_ESTIMATE,
     IDSQ_LAYOUT,
     IDSQ_LEADER,
     IDSQ_MARKERS,
-    IDSQ_TRUTH,
-    KNOWN_FRAMES,
     idsq_ack_topic,
     idsq_handoff_topic,
+    idsq_reading_topic,
     idsq_revoke_topic,
 )
-from track_msgs_py.validate import odometry_problem
 from track_nodes.base import ParameterError, TrackNode
 from track_nodes.idsq.params import DoaSensorParams, SensorParams, sensor_setup
-
-SOURCE_TRUTH_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=256, reliability=ReliabilityPolicy.RELIABLE)
 
 
 class IdsqSensorNode(TrackNode):
@@ -103,14 +122,16 @@ class IdsqSensorNode(TrackNode):
         if pos.shape != (2,) or not np.all(np.isfinite(pos)):
             raise ParameterError(f'parameter position={list(p.position)!r} is invalid: allowed 2 finite numbers')
         self.id, self.position, self.is_doa = int(p.id), pos, p.type == 'doa'
-        self.truth_topics = [t for t in p.truth_topics if t]
-        if not self.truth_topics:
-            raise ParameterError('parameter truth_topics is empty: allowed one or more Odometry topics')
-        self.core = protocol.HandoffLedger(sensor_setup(p, pos, tuple(self.truth_topics)))
+        self.core = protocol.HandoffLedger(sensor_setup(p, pos))
         self.disabled = False
         self.origin: float | None = None  # the layout's stamp: step s is stamped origin + (s + 1)·dt
-        self.early: deque[tuple[Odometry, str]] = deque(maxlen=protocol.TRUTH_WINDOW)  # truths before the layout
+        # readings and election messages before the layout's origin, in their order
+        self.early: deque[tuple[tm.IdsqReading, bool]] = deque(maxlen=protocol.READING_WINDOW)
         self.ack_timers: dict[tuple[int, int], object] = {}  # (step, receiver) → steady-clock ack timer
+        self.reading_wait: tuple[int, object] | None = None  # (step, steady-clock timer) of the reading awaited
+        self.election_timer = None
+        self.relayed = False  # own step-0 reading relayed on the election topic
+        self.reading_topic = idsq_reading_topic(self.id)
         for sub in [s for s in self.subscriptions if s.topic_name == CLOCK]:
             self.destroy_subscription(sub)  # no ROS clock needed (module docstring)
         self.pubs: dict[tuple[str, int], object] = {}  # (handoff | ack | revoke, sensor) → publisher
@@ -118,10 +139,11 @@ class IdsqSensorNode(TrackNode):
         self.pub_belief = self._pub(PointCloud2, IDSQ_BELIEF, SENSOR_QOS)
         self.pub_markers = self._pub(MarkerArray, IDSQ_MARKERS, ESTIMATE_QOS)
         self.pub_leader = self._pub(tm.IdsqLeaderEvent, IDSQ_LEADER, ESTIMATE_QOS)
+        self.pub_election = self._pub(tm.IdsqReading, IDSQ_ELECTION, ELECTION_QOS)
         self._sub(PointCloud2, IDSQ_LAYOUT, self._on_layout, STATIC_QOS)
-        for topic in self.truth_topics:
-            self._sub(Odometry, topic, lambda m, topic=topic: self._on_truth(m, topic),
-                      TRUTH_QOS if topic == IDSQ_TRUTH else SOURCE_TRUTH_QOS)
+        self._sub(tm.IdsqReading, self.reading_topic, lambda m: self._on_reading(m, False),
+                  READING_LATCHED_QOS if p.reading_durability == 'transient_local' else READING_QOS)
+        self._sub(tm.IdsqReading, IDSQ_ELECTION, lambda m: self._on_reading(m, True), ELECTION_QOS)
         self._sub(tm.IdsqHandoff, idsq_handoff_topic(self.id), self._on_handoff, HANDOFF_QOS)
         self._sub(tm.IdsqAck, idsq_ack_topic(self.id), self._on_ack, HANDOFF_QOS)
         self._sub(tm.IdsqRevoke, idsq_revoke_topic(self.id), self._on_revoke, HANDOFF_QOS)
@@ -133,6 +155,9 @@ class IdsqSensorNode(TrackNode):
     refused = property(lambda self: self.core.refused)
     timeouts = property(lambda self: self.core.timeouts)
     nacks = property(lambda self: self.core.nacks)
+    missed = property(lambda self: len(self.core.missed))  # steps led predict-only (no reading in time)
+    late = property(lambda self: self.core.late)  # readings dropped: their step was led without them
+    unheard = property(lambda self: self.core.unheard)  # sensors the election decided without
 
     def _pub(self, cls, topic: str, qos: QoSProfile):
         return self.create_publisher(cls, topic, qos,
@@ -187,22 +212,41 @@ class IdsqSensorNode(TrackNode):
         if msg.header.stamp.sec == 0 and msg.header.stamp.nanosec == 0:
             return
         self.origin = stamp_to_sec(msg.header.stamp)
-        while self.early:  # the truths that came first, in their order
-            self._on_truth(*self.early.popleft())
+        while self.early:  # the readings that came first, in their order
+            self._on_reading(*self.early.popleft())
 
-    def _on_truth(self, msg: Odometry, topic: str = IDSQ_TRUTH) -> None:
-        if self.origin is None:  # steps count from the layout's stamp: hold the truth until it comes
+    def _on_reading(self, msg: tm.IdsqReading, election: bool) -> None:
+        """A reading of this sensor (``election`` False) or a sensor's step-0 amplitude (``election``)."""
+        if self.origin is None:  # steps count from the layout's stamp: hold the reading until it comes
             if not self.disabled:
-                self.early.append((msg, topic))
+                self.early.append((msg, election))
             return
-        t = stamp_to_sec(msg.header.stamp)
-        step = protocol.step_of_stamp(t, self.p.dt, self.origin)
-        reason = odometry_problem(msg, KNOWN_FRAMES) or self.core.truth_problem(step, t - self.origin, self.p.dt)
+        topic = IDSQ_ELECTION if election else self.reading_topic
+        try:
+            r = IdsqReading.from_msg(msg)
+        except RecordError as exc:
+            self.refuse(topic, str(exc))
+            return
+        t = r.t - self.origin
+        step = protocol.step_of_stamp(r.t, self.p.dt, self.origin)
+        if election:
+            reason = (f'sensor_id: {r.sensor} is not in the layout of {self.layout.n} sensors'
+                      if r.sensor >= self.layout.n else
+                      f'header.stamp: {t:.9f} s after the origin is not step 0' if step != 0 else
+                      f'amplitude={r.amplitude}: a step-0 amplitude must be finite' if not np.isfinite(r.amplitude)
+                      else None)
+        else:
+            reason = r.problem(self.id, self.is_doa) or self.core.reading_problem(step, t, self.p.dt)
         if reason is not None:
             self.refuse(topic, reason)
             return
-        _, x, _ = odometry_to_cv_state(msg)
-        self._do(self.core.on_truth(step, topic, msg.child_frame_id, x[[0, 2]]))
+        if election:
+            self._do(self.core.on_election(r.sensor, r.amplitude))
+            return
+        if step == 0 and not self.relayed and np.isfinite(r.amplitude):
+            self.relayed = True  # tell the field my step-0 amplitude (the start rule)
+            self.pub_election.publish(msg)
+        self._do(self.core.on_reading(step, r.z, r.amplitude))
 
     def _on_handoff(self, msg: tm.IdsqHandoff, info) -> None:
         """(With the message info: the ledger refuses a handoff that arrived after the ack timeout.)"""
@@ -226,9 +270,48 @@ class IdsqSensorNode(TrackNode):
     def _on_ack_timeout(self, step: int, receiver: int) -> None:
         self._do(self.core.timeout(step, receiver))
 
+    def _on_reading_timeout(self, step: int) -> None:
+        self._drop_wait()
+        self._do(self.core.reading_missed(step))
+
+    def _on_election_timeout(self) -> None:
+        self._drop_timer(self.election_timer)
+        self.election_timer = None
+        self._do(self.core.election_timeout())
+
+    def _arm_timers(self) -> None:
+        """Arm (or drop) the steady-clock timers of the reading awaited and of the election (module docstring)."""
+        step = self.core.waiting_for()
+        if self.reading_wait is not None and self.reading_wait[0] != step:
+            self._drop_wait()
+        if step is not None and self.reading_wait is None:
+            timer = self.create_timer(self.p.reading_timeout, lambda s=step: self._on_reading_timeout(s),
+                                      clock=self._steady)
+            self.reading_wait = (step, timer)
+        if self.core.start_checked:
+            self._drop_timer(self.election_timer)
+            self.election_timer = None
+        elif self.core.election and self.layout is not None and self.election_timer is None:
+            self.election_timer = self.create_timer(self.p.reading_timeout, self._on_election_timeout,
+                                                    clock=self._steady)
+
+    def _drop_wait(self) -> None:
+        if self.reading_wait is not None:
+            self._drop_timer(self.reading_wait[1])
+            self.reading_wait = None
+
+    def _drop_timer(self, timer) -> None:
+        if timer is not None:
+            timer.cancel()
+            self.destroy_timer(timer)
+
     # -- effects ------------------------------------------------------------------------------------
     def _do(self, effects) -> None:
-        """Carry out the ledger's effects, in order."""
+        """Carry out the ledger's effects, in order, then re-arm the reading and election timers."""
+        self._carry_out(effects)
+        self._arm_timers()
+
+    def _carry_out(self, effects) -> None:
         for fx in effects:
             if isinstance(fx, protocol.Log) and fx.refusal is not None:  # counted, throttled, on /diagnostics
                 channel, reason = fx.refusal

@@ -1,4 +1,5 @@
-"""``vehicle_sim``: the §5.1 vehicle and sensor field of the IDSQ paper, as topics.
+"""``vehicle_sim``: the §5.1 vehicle and sensor field of the IDSQ paper, as topics, and the
+simulator that stands in for every sensor's front end.
 
 - At start it draws the sensor layout with the core's seeded §5.1 generator
   (``track_core.idsq.simulation.draw_run(Scenario(...), SeedSequence(seed)).layout``: K/4 rows ×
@@ -17,9 +18,21 @@
   stamp, and the sensors count steps from it (``ledger.step_of_stamp``), so the field also runs on
   wall time, started by hand in any order. It stops when the
   vehicle leaves the field (``Scenario.n_steps``, 72 for §5.1) or after ``max_steps``.
+- The readings (the sensors' front ends, simulated): for every step, every sensor's reading on its
+  own ``/idsq/sensor_<id>/reading`` (``track_msgs/IdsqReading``, ``records.idsq.IdsqReading``;
+  reliable, transient-local, depth 256), stamped like the truth of that step, drawn by
+  ``track_core.idsq.readings`` with the paper's noise models (§5.1: A/r + N(0, 0.05²); θ + N(0,
+  (3°)²), sent as a REP-103 direction) and the counter-based keys the sensors used when they
+  simulated their own readings (``measurement_normal(seed, sensor, step)``), so the same ``seed``
+  gives the same readings and tracks. The sensor nodes never see the truth.
+  The sources: the §5.1 vehicle this node drives (``truth_topics`` empty), or the Odometry topics in
+  ``truth_topics`` (one or more sources each, one ``child_frame_id`` per source; step s stamped
+  origin + (s + 1)·Δt): a step's readings are published once every topic has delivered it, each
+  sensor hearing its nearest source (``FieldSimulator``). A truth off the step grid or unreadable
+  is refused (``TrackNode.refuse``).
 
-With ``publish_truth:=false`` it publishes only the layout: the maritime scenario's sensors hear
-other sources (the ``truth_topics`` of ``acoustic_sensor`` / ``doa_sensor``).
+With ``publish_truth:=false`` it publishes no vehicle: the maritime scenario's sensors hear the
+sources on ``truth_topics`` (the smart target's and the decoy's truths).
 
 The sensors are separate nodes whose ``id``/``position``/``type`` parameters must match this
 layout: ``track_nodes.launch.generate.idsq_yaml`` writes a launcher scenario with all of them from the same generator
@@ -28,20 +41,31 @@ layout: ``track_nodes.launch.generate.idsq_yaml`` writes a launcher scenario wit
 
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
 from nav_msgs.msg import Odometry
+from rclpy.event_handler import PublisherEventCallbacks
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import PointCloud2
 
+from track_core.idsq.leader_protocol import stamp_of_step, step_of_stamp
+from track_core.idsq.models import DEG, SimNoise
+from track_core.idsq.readings import MAX_PENDING, FieldSimulator, Reading, field_readings
 from track_core.idsq.simulation import Scenario, scenario_of
-from track_msgs_py.odometry import cv_state_to_odometry
-from track_msgs_py.qos import STATIC_QOS, TRUTH_QOS
-from track_msgs_py.records.idsq import layout_to_pointcloud2
-from track_msgs_py.topics import FRAME_MAP, IDSQ_LAYOUT, IDSQ_TRUTH
+from track_msgs import msg as tm
+from track_msgs_py.odometry import cv_state_to_odometry, odometry_to_cv_state
+from track_msgs_py.qos import READING_LATCHED_QOS, STATIC_QOS, TRUTH_QOS
+from track_msgs_py.records.idsq import IdsqReading, layout_to_pointcloud2
+from track_msgs_py.stamps import stamp_to_sec
+from track_msgs_py.topics import FRAME_MAP, IDSQ_LAYOUT, IDSQ_TRUTH, KNOWN_FRAMES, idsq_reading_topic
+from track_msgs_py.validate import odometry_problem
 from track_nodes.base import FixedRateSteps, TrackNode, param
 
 _SC = Scenario()
+_NOISE = SimNoise()
+SOURCE_TRUTH_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=256, reliability=ReliabilityPolicy.RELIABLE)
 
 @dataclass
 class VehicleSimParams:
@@ -58,8 +82,15 @@ class VehicleSimParams:
     dt: float = param(_SC.tracker.dt, 'tracker step Δt = truth period (§5.1: 0.5 s) [s]', 1e-3, 60.0)
     max_steps: int = param(0, 'stop after this many steps; 0 = when the vehicle leaves the field', 0, 10**7)
     vehicle_id: str = param('vehicle', 'child_frame_id of the truth')
-    publish_truth: bool = param(True, 'publish the §5.1 vehicle; false: only the layout (the sensors then sense '
-        'other sources, see the truth_topics of the sensors)')
+    publish_truth: bool = param(True, 'publish the §5.1 vehicle; false: no vehicle (the sensors then hear the '
+        'sources of truth_topics)')
+    truth_topics: list[str] = param([''], 'Odometry truth topics of the sources the sensors hear (each its nearest); '
+                                    'empty: the §5.1 vehicle of this node')
+    publish_readings: bool = param(True, "publish every sensor's simulated reading per step (false: real front ends "
+                                   'publish them)')
+    amplitude: float = param(_NOISE.amplitude, 'simulated source amplitude A (§5.1: 40)', 1e-6, 1e6)
+    noise_sigma_a: float = param(_NOISE.sigma_a, 'simulated amplitude noise std (§5.1: 0.05)', 0.0, 1e3)
+    noise_sigma_doa_deg: float = param(_NOISE.sigma_doa / DEG, 'simulated DOA noise std (§5.1: 3°) [deg]', 0.0, 180.0)
 
 
 class VehicleSimNode(TrackNode):
@@ -74,8 +105,20 @@ class VehicleSimNode(TrackNode):
         n = self.truth.shape[0] if p.max_steps == 0 else min(p.max_steps, self.truth.shape[0])
         self.n_steps = n
         self.published = 0
+        self.readings_published = 0
+        self.noise = SimNoise(amplitude=p.amplitude, sigma_a=p.noise_sigma_a, sigma_doa=p.noise_sigma_doa_deg * DEG)
+        self.truth_topics = tuple(t for t in p.truth_topics if t)
+        self.origin: float | None = None  # the layout's stamp (FixedRateSteps' origin), once fixed
         self.pub_layout = self.create_publisher(PointCloud2, IDSQ_LAYOUT, STATIC_QOS)
         self.pub_truth = self.create_publisher(Odometry, IDSQ_TRUTH, TRUTH_QOS)
+        self.pub_readings = [self.create_publisher(tm.IdsqReading, idsq_reading_topic(k), READING_LATCHED_QOS,
+                                                   event_callbacks=PublisherEventCallbacks(use_default_callbacks=False))
+                             for k in range(self.layout.n)] if p.publish_readings else []
+        self.field = FieldSimulator(self.layout, self.noise, p.seed, self.truth_topics) if self.truth_topics else None
+        self.early: deque[tuple[Odometry, str]] = deque(maxlen=MAX_PENDING)  # truths before the origin
+        for topic in self.truth_topics if p.publish_readings else ():
+            self.create_subscription(Odometry, topic, lambda m, topic=topic: self._on_truth(m, topic),
+                                     TRUTH_QOS if topic == IDSQ_TRUTH else SOURCE_TRUTH_QOS)
         # The layout's stamp is the step origin the sensors count from (ledger.stamp_of_step): the
         # current whole second of node time. On a /clock that has not started yet it is 0, "origin
         # pending" (ROS time 0 is unset): the sensors set up their topics at once, so nothing is
@@ -88,7 +131,11 @@ class VehicleSimNode(TrackNode):
                                f'{n} truth steps of {p.dt:g} s')
 
     def _publish_layout(self, origin: float) -> None:
+        if origin:
+            self.origin = origin
         self.pub_layout.publish(layout_to_pointcloud2(origin, self.layout))
+        while self.origin is not None and self.early:  # the truths that came first, in their order
+            self._on_truth(*self.early.popleft())
 
     def _step(self, t: float) -> None:
         s = self.steps.k - 1
@@ -98,3 +145,30 @@ class VehicleSimNode(TrackNode):
         state = np.array([x, 0.0, y, self.p.speed])
         self.pub_truth.publish(cv_state_to_odometry(t, state, np.zeros((4, 4)), FRAME_MAP, self.p.vehicle_id))
         self.published += 1
+        if self.field is None:  # the sensors hear this vehicle
+            self._publish_readings(t, field_readings(self.truth[s], self.layout, s, self.noise, self.p.seed))
+
+    def _on_truth(self, msg: Odometry, topic: str) -> None:
+        """A source's truth of ``topic``: once every topic has delivered its step, that step's readings."""
+        if self.origin is None:  # steps count from the layout's stamp: hold the truth until it is fixed
+            self.early.append((msg, topic))
+            return
+        t = stamp_to_sec(msg.header.stamp)
+        step = step_of_stamp(t, self.p.dt, self.origin)
+        reason = odometry_problem(msg, KNOWN_FRAMES)
+        if reason is None and step is None:
+            reason = f'header.stamp: {t - self.origin:.9f} s after the origin is not (s + 1)·dt for dt={self.p.dt} s'
+        if reason is not None:
+            self.refuse(topic, reason)
+            return
+        _, x, _ = odometry_to_cv_state(msg)
+        readings = self.field.on_truth(step, topic, msg.child_frame_id, x[[0, 2]])
+        if readings:
+            self._publish_readings(stamp_of_step(step, self.p.dt, self.origin), readings)
+
+    def _publish_readings(self, t: float, readings: list[Reading]) -> None:
+        if not self.pub_readings:
+            return
+        for r in readings:
+            self.pub_readings[r.sensor].publish(IdsqReading.of_reading(t, r).to_msg())
+        self.readings_published += 1

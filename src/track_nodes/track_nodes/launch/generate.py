@@ -37,7 +37,7 @@ def idsq_yaml(seed: int = 0, n_sensors: int = 24, doa_fraction: float = 0.3, *, 
         '',
         '/**:                        # shared by vehicle_sim and every sensor',
         '  ros__parameters:',
-        f'    seed: {int(seed)}                  # layout (vehicle_sim) and measurement noise (sensors)',
+        f'    seed: {int(seed)}                  # layout and readings (vehicle_sim), random selection (sensors)',
         f'    width: {sc.width!r}',
         f'    height: {sc.height!r}',
         f'    dt: {sc.tracker.dt!r}',
@@ -45,6 +45,7 @@ def idsq_yaml(seed: int = 0, n_sensors: int = 24, doa_fraction: float = 0.3, *, 
         '    comm_range: 40.0',
         '    selection: mi             # mi | nearest | random',
         f'    ack_timeout: {float(ack_timeout)!r}          # wall seconds before a silent receiver is skipped',
+        '    reading_durability: transient_local  # a late sensor still gets vehicle_sim\'s step-0 readings',
         '',
         '/**/vehicle_sim:',
         '  ros__parameters:',
@@ -84,7 +85,7 @@ def maritime_yaml(*, seed: int = 1, n_sensors: int = 40, doa_fraction: float = 0
     sc, layout, _ = scenario_of(seed, n_sensors, doa_fraction)
     names = [f'sensor_{k}' for k in range(layout.n)]
     exes = ['doa_sensor' if d else 'acoustic_sensor' for d in layout.is_doa.tolist()]
-    nodes = ', '.join(['smart_target', 'sonar_observer', '"report_source:radar"', 'fusion', 'vehicle_sim']
+    nodes = ', '.join(['smart_target', 'sonar_sim', 'sonar_observer', '"report_source:radar"', 'fusion', 'vehicle_sim']
                       + [f'"{e}:{n}"' for e, n in zip(exes, names, strict=True)])
     text = _FIXED.format(nodes=nodes, duration=float(duration), rate=float(rate), seed=int(seed),
                          n_sensors=layout.n, doa_fraction=float(doa_fraction), width=sc.width, height=sc.height,
@@ -131,6 +132,20 @@ track_launch:
     sync_observer: {sync}        # lock-step with the observer only when both step every 1 s
     track_id: smart_target
 
+/**/sonar_sim:                    # the observer's route and sonar (a real sonar driver publishes the same)
+  ros__parameters:
+    seed: 4                    # the observer's seed: the readings it drew itself before the split
+    period: 1.0
+    sigma_b_deg: 1.0
+    sigma_d: 5.0
+    start: [60.0, -220.0]      # south of the field, following the target
+    speed: 10.0
+    heading0_deg: 0.0
+    legs: [10.0, 0.0, 6.0, 10.0, 10.0, 0.0, 6.0, -10.0, 30.0, 0.0]
+    observer_id: sonar_observer
+    contact_frame: world
+    lockstep: true
+
 /**/sonar_observer:
   ros__parameters:
     seed: 4
@@ -152,17 +167,12 @@ track_launch:
     regularize: true
     period: 1.0
     q_s: 1.0
-    sigma_b_deg: 1.0
-    sigma_d: 5.0
     prior_mean: [100.0, 0.5, -5.0, 5.0]  # truth x0 + an offset (10 m, -10 m, 0.5 m/s, -1 m/s)
     prior_pos_std: 20.0
     prior_vel_std: 2.0
-    start: [60.0, -220.0]      # south of the field, following the target
-    speed: 10.0
-    heading0_deg: 0.0
-    legs: [10.0, 0.0, 6.0, 10.0, 10.0, 0.0, 6.0, -10.0, 30.0, 0.0]
+    body_frame: sonar_observer # sonar_sim's observer_id
+    coast_after: 0.0           # lock-step: a predict-only step only when a later contact shows a gap
     track_id: sonar_track
-    observer_id: sonar_observer
 
 /**/radar:                         # coastal radar: sees only the decoy
   ros__parameters:
@@ -196,7 +206,7 @@ track_launch:
     max_prediction: 3.0
     q_s: 1.0
 
-/**/vehicle_sim:                   # publishes the layout only; the sensors hear the target and the decoy
+/**/vehicle_sim:                   # the layout, and every sensor's readings of the target and the decoy
   ros__parameters:
     seed: {seed}
     n_sensors: {n_sensors}
@@ -205,6 +215,7 @@ track_launch:
     height: {height!r}
     dt: {dt!r}
     publish_truth: false
+    truth_topics: [/sonar/target/truth, /radar/truth]   # each sensor hears the nearer source
 '''
 
 _SENSOR = '''
@@ -223,5 +234,5 @@ _SENSOR = '''
     prediction: bank
     start: election
     ack_timeout: 10.0
-    truth_topics: [/sonar/target/truth, /radar/truth]
+    reading_durability: transient_local
 '''

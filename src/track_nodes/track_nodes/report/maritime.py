@@ -7,10 +7,11 @@ What runs (``config/maritime.yaml``, written by ``scenario_yaml`` below):
   truth on ``/sonar/target/truth``.
 - ``sonar_observer`` (the AUV, SS-PF + eq. 7 covariance-control scheduling) follows it from the
   south and pings it; track ``/sonar/estimate`` (child ``sonar_track``).
-- ``vehicle_sim`` publishes only the sensor layout (``publish_truth: false``); one
-  ``acoustic_sensor``/``doa_sensor`` node per sensor, with ``truth_topics`` = the smart target's
-  and the decoy's truth: each sensor senses the loudest (nearest) source, so the network tracks
-  whatever is loudest in its field with IDSQ; track ``/idsq/estimate`` (child ``idsq_track``).
+- ``vehicle_sim`` publishes the sensor layout and no vehicle (``publish_truth: false``); it reads
+  the smart target's and the decoy's truth (its ``truth_topics``) and publishes every sensor's
+  reading, each sensor hearing the loudest (nearest) source; one ``acoustic_sensor``/``doa_sensor``
+  node per sensor takes its readings (never a truth), so the network tracks whatever is loudest in
+  its field with IDSQ; track ``/idsq/estimate`` (child ``idsq_track``).
   The sensors predict with the velocity-hypothesis bank (``prediction: bank``,
   ``track_core.idsq.prediction``) on a grid reaching 300 m north, with a 60 m radio range (the
   §5.1 40 m leaves a third of the links between adjacent columns out, ``launch.generate``).

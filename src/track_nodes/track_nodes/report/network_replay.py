@@ -1,9 +1,12 @@
 """Offline replay of the maritime IDSQ network on a recorded bag.
 
 The network is lock-stepped and seeded: its track is a function of the sources' truths, the
-sensors' parameters and the layout only. ``replay`` runs ``leader_step`` from the §5.1 start rule
-on the truths recorded in a maritime bag (the smart target's and the decoy's; each sensor hears
-its loudest), as the sensors' ledger does when no handoff fails, and ``fuse`` scores the replayed
+simulator's noise and seed (``vehicle_sim``'s section), the sensors' parameters and the layout only.
+``replay`` runs ``leader_step`` from the §5.1 start rule on the readings ``vehicle_sim`` draws from
+the truths recorded in a maritime bag (the smart target's and the decoy's; each sensor hears its
+loudest; ``track_core.idsq.readings``), each as its sensor receives it (a DOA bearing after its
+REP-103 round trip), as the sensors' ledger does when no handoff fails and no reading is missing,
+and ``fuse`` scores the replayed
 track against the recorded sonar and radar tracks with the fusion node's ``PairAssociator`` at
 the data instants. With the scenario's own settings both reproduce the bag (estimates bit for bit,
 scores to the record's 6 decimals, verdicts exactly: ``test_maritime``), so other settings
@@ -28,6 +31,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -36,41 +40,61 @@ import yaml
 from track_core.fusion import PairAssociator, TrackReport
 from track_core.idsq.handoff import decode_handoff
 from track_core.idsq.leader_protocol import (
-    loudest,
-    measurement_normal,
+    SensorSetup,
+    elected,
+    received_z,
     stamp_of_step,
+    start_amplitudes,
     start_belief,
-    start_leader_of,
 )
-from track_core.idsq.models import simulate_measurement
+from track_core.idsq.models import DEG, SimNoise
 from track_core.idsq.network import SensorLayout
+from track_core.idsq.readings import sensor_reading
 from track_core.idsq.tracker import leader_step
 from track_core.metrics import nees_or_nan
 from track_nodes.idsq.params import SENSOR_PARAMS, sensor_setup
+from track_nodes.idsq.vehicle_sim import VehicleSimParams
 from track_nodes.launch.scenario import section_node
 from track_nodes.report import maritime as mar
 
 FUSION_SOURCE = {mar.SONAR_TRACK: '/sonar/estimate', mar.NETWORK_TRACK: '/idsq/estimate', mar.RADAR_DECOY: '/radar'}
 
 
-def sensors_of(scenario: Path | dict, comm_range: float | None = None, **tracker):
-    """(SensorSetup of sensor 0 with ``tracker`` overrides, SensorLayout) of a maritime scenario file
-    (its path, or its parsed dict)."""
+@dataclass(frozen=True)
+class ReplaySetup:
+    """The sensors' setup (``SensorSetup`` of sensor 0) and the simulator's noise and seed (``vehicle_sim``)."""
+
+    sensor: SensorSetup
+    noise: SimNoise
+    seed: int
+
+    tracker = property(lambda self: self.sensor.tracker)
+    grid = property(lambda self: self.sensor.grid)
+    start = property(lambda self: self.sensor.start)
+    selection = property(lambda self: self.sensor.selection)
+
+
+def sensors_of(scenario: Path | dict, comm_range: float | None = None, **tracker) -> tuple[ReplaySetup, SensorLayout]:
+    """(ReplaySetup: sensor 0's SensorSetup with ``tracker`` overrides and vehicle_sim's noise and seed,
+    SensorLayout) of a maritime scenario file (its path, or its parsed dict)."""
     cfg = scenario if isinstance(scenario, dict) else yaml.safe_load(Path(scenario).read_text())
     entries = sorted((v['ros__parameters'] for k, v in cfg.items() if section_node(k).startswith('sensor_')),
                      key=lambda e: e['id'])
     first = entries[0]
     cls = SENSOR_PARAMS[first['type']]
     p = cls(**{f.name: first[f.name] for f in dataclasses.fields(cls) if f.name in first})
-    setup = sensor_setup(p, np.asarray(p.position, dtype=float), tuple(p.truth_topics))
+    setup = sensor_setup(p, np.asarray(p.position, dtype=float))
     setup = dataclasses.replace(setup, tracker=dataclasses.replace(setup.tracker, **tracker))
+    sim = next((v['ros__parameters'] for k, v in cfg.items() if section_node(k) == 'vehicle_sim'), {})
+    v = VehicleSimParams(**{f.name: sim[f.name] for f in dataclasses.fields(VehicleSimParams) if f.name in sim})
+    noise = SimNoise(amplitude=v.amplitude, sigma_a=v.noise_sigma_a, sigma_doa=v.noise_sigma_doa_deg * DEG)
     layout = SensorLayout(np.array([e['position'] for e in entries], dtype=float),
                           np.array([e['type'] == 'doa' for e in entries]),
                           float(p.comm_range if comm_range is None else comm_range))
-    return setup, layout
+    return ReplaySetup(setup, noise, int(v.seed)), layout
 
 
-def replay(d: dict, setup, layout: SensorLayout) -> list[dict]:
+def replay(d: dict, setup: ReplaySetup, layout: SensorLayout) -> list[dict]:
     """One row per network step: stamp, leader, estimate, belief and handoff size (``maritime.load`` data ``d``)."""
     dt, origin = setup.tracker.dt, d.get('origin', 0.0)
     by_step: dict[int, dict[str, np.ndarray]] = {}
@@ -79,14 +103,13 @@ def replay(d: dict, setup, layout: SensorLayout) -> list[dict]:
             by_step.setdefault(round((t - origin) / dt) - 1, {})[key] = xy
     steps = sorted(s for s, v in by_step.items() if s >= 0 and len(v) == 2)
     truth = {s: np.array([by_step[s][mar.RADAR_DECOY], by_step[s][mar.NETWORK_TRACK]]) for s in steps}
-    leader, prev = start_leader_of(layout, truth[steps[0]], setup.noise, setup.seed), None
-    belief = start_belief(layout, leader, truth[steps[0]], setup.noise, setup.seed, setup.grid, setup.tracker,
-                          setup.start)
+    amps = start_amplitudes(layout, truth[steps[0]], setup.noise, setup.seed)  # the election's step-0 amplitudes
+    leader, prev = elected(layout, amps), None
+    belief = start_belief(layout, leader, amps, setup.grid, setup.tracker, setup.start)
     rows = []
     for s in steps:  # the leader of each step (one after the other: a step needs the previous handoff)
         pos, doa = layout.positions[leader], bool(layout.is_doa[leader])
-        z = simulate_measurement(loudest(truth[s], pos), pos, doa, setup.noise,
-                                 measurement_normal(setup.seed, leader, s))
+        z = received_z(sensor_reading(truth[s], pos, doa, leader, s, setup.noise, setup.seed))
         res = leader_step(belief, z, leader, layout, setup.tracker, step=s, previous=prev, selection=setup.selection)
         target = by_step[s][mar.NETWORK_TRACK]
         rows.append({'t': stamp_of_step(s, dt, origin), 'leader': leader, 'doa': doa,

@@ -15,6 +15,9 @@ ledger (``python test/unit/track_core/idsq/test_leader_protocol.py --regenerate`
 this is now a regression fixture of the ledger; the replay asserts it does exactly the same, event
 by event. Regenerated 2026-12-05 when an acoustic reading above the grid's reach became clipped
 instead of skipped (``tracker.update``): exactly the 3 cases with such a reading changed.
+Since the sensors take readings instead of truths, the truth events go through the simulator
+(``readings.FieldSimulator``, the same draws) and reach the ledger as readings (``on_field``): the
+fixture still passes unchanged, the bearings' REP-103 round trip (an ulp) within its float tolerance.
 """
 
 from __future__ import annotations
@@ -31,6 +34,7 @@ from track_core.idsq import GridSpec, Handoff, SimNoise, TrackerParams, encode_h
 from track_core.idsq.grid import uniform_belief
 from track_core.idsq.handoff import decode_handoff
 from track_core.idsq.leader_protocol import (
+    READING_WINDOW,
     Disarm,
     HandoffLedger,
     Led,
@@ -45,6 +49,7 @@ from track_core.idsq.leader_protocol import (
     handoff_order,
     layout_problem,
     measurement_normal,
+    received_z,
     stamp_of_step,
     start_belief,
     start_leader_of,
@@ -52,6 +57,7 @@ from track_core.idsq.leader_protocol import (
 )
 from track_core.idsq.models import DEG
 from track_core.idsq.network import SensorLayout
+from track_core.idsq.readings import FieldSimulator, Reading, field_readings
 from track_core.idsq.simulation import scenario_of
 from track_core.idsq.tracker import leader_step
 
@@ -141,8 +147,9 @@ def replay(case: dict) -> tuple[list[str], list[list[float]], list]:
     truthb = truth + np.random.default_rng(case['bseed']).normal(0, 30.0, truth.shape)
     me = case['me']
     led = HandoffLedger(SensorSetup(me, layout.positions[me].copy(), bool(layout.is_doa[me]),
-                                    GridSpec.for_field(*FIELD, case['cell']), RECORDED_MODEL, SimNoise(),
-                                    case['seed'], case['sel'], tuple(CASES['topics'][:case['topics']]), 0.3))
+                                    GridSpec.for_field(*FIELD, case['cell']), RECORDED_MODEL,
+                                    case['seed'], case['sel'], 0.3))
+    sim = FieldSimulator(layout, SimNoise(), case['seed'], tuple(CASES['topics'][:case['topics']]))
     outs, floats = [], []
     for ev in case['events']:
         match ev:
@@ -150,7 +157,8 @@ def replay(case: dict) -> tuple[list[str], list[list[float]], list]:
                 assert layout_problem(layout, me, layout.positions[me], bool(layout.is_doa[me])) is None
                 fx = led.set_layout(layout)
             case ['t', step, ti]:
-                fx = led.on_truth(step, CASES['topics'][ti], f'c{ti}', (truth if ti == 0 else truthb)[step].copy())
+                fx = led.on_field(sim.on_truth(step, CASES['topics'][ti], f'c{ti}',
+                                               (truth if ti == 0 else truthb)[step].copy()))
             case ['h', step, sender, receiver, variant, hseed]:
                 fx = led.on_handoff(make_handoff(case['cell'], step, sender, receiver, variant, hseed))
             case ['a', step, sender, receiver, result, message]:
@@ -192,13 +200,14 @@ def test_the_fixture_exercises_every_branch():
 def _ledger(me: int, n: int = 8, seed: int = 1) -> tuple[HandoffLedger, object, np.ndarray]:
     _, layout, truth = scenario_of(seed, n, 0.3)
     led = HandoffLedger(SensorSetup(me, layout.positions[me], bool(layout.is_doa[me]), GridSpec.for_field(),
-                                    TrackerParams(), SimNoise(), seed, 'mi'))
+                                    TrackerParams(), seed, 'mi'))
     led.set_layout(layout)
     return led, layout, truth
 
 
-def _truth(led, truth, step):
-    return led.on_truth(step, 'truth', 'vehicle', truth[step])
+def _truth(led, truth, step, seed=1):
+    """The simulator's readings of ``truth[step]`` (seed ``seed``) as the ledger's node receives them."""
+    return led.on_field(field_readings(truth[step], led.layout, step, SimNoise(), seed))
 
 
 def test_start_leader_leads_step_0_and_hands_off_with_a_timer():
@@ -227,7 +236,8 @@ def test_election_start_leads_step_0_from_its_neighbours_readings():
         z = SimNoise().amplitude / np.hypot(*(truth[0] - layout.positions[start])) + SimNoise().sigma_a * \
             measurement_normal(seed, start, 0)
         for kind, errs in errors.items():
-            b0 = start_belief(layout, start, truth[0], SimNoise(), seed, grid, p, kind)
+            amps = np.array([r.amplitude for r in field_readings(truth[0], layout, 0, SimNoise(), seed)])
+            b0 = start_belief(layout, start, amps, grid, p, kind)
             res = leader_step(b0, z, start, layout, p, step=0)
             errs.append(float(np.hypot(*(res.estimate.mean - truth[0]))))
             if kind == 'uniform':
@@ -236,14 +246,14 @@ def test_election_start_leads_step_0_from_its_neighbours_readings():
                 assert np.any(np.hypot(*(b0.centers() - truth[0]).T) < grid.cell)   # the truth's cell is kept
             if seed == 1:
                 led = HandoffLedger(SensorSetup(start, layout.positions[start], bool(layout.is_doa[start]), grid,
-                                                p, SimNoise(), seed, 'mi', start=kind))
+                                                p, seed, 'mi', start=kind))
                 led.set_layout(layout)
-                (done,) = [f for f in _truth(led, truth, 0) if isinstance(f, Led)]
+                (done,) = [f for f in _truth(led, truth, 0, seed) if isinstance(f, Led)]
                 np.testing.assert_array_equal(done.result.estimate.mean, res.estimate.mean)
     assert all(e < u for e, u in zip(errors['election'], errors['uniform'], strict=True))
     assert np.mean(errors['election']) < 0.75 * np.mean(errors['uniform'])   # 18.8 against 31.0 m
     with pytest.raises(ValueError, match='start'):
-        start_belief(layout, start, truth[0], SimNoise(), 1, GridSpec.for_field(), TrackerParams(), 'bogus')
+        start_belief(layout, start, amps, GridSpec.for_field(), TrackerParams(), 'bogus')
 
 
 def test_timeouts_walk_the_order_then_the_leader_keeps_the_track():
@@ -292,16 +302,75 @@ def test_busy_and_stale_handoffs_are_refused_with_a_reason():
     assert fx[-1].refusal.startswith('stale: step 4 is not after step 4') and led.refused == 2
 
 
-def test_a_step_waits_for_every_truth_topic():
+def test_the_simulator_gives_a_step_once_every_truth_topic_has_it():
+    """``FieldSimulator``: a step's readings come once every topic delivered it, each sensor hearing its
+    nearest source; a complete step is not given again."""
     _, layout, truth = scenario_of(1, 8, 0.3)
-    start = start_leader_of(layout, np.array([truth[0], truth[0] + 50.0]), SimNoise(), 1)
-    led = HandoffLedger(SensorSetup(start, layout.positions[start], bool(layout.is_doa[start]), GridSpec.for_field(),
-                                    TrackerParams(), SimNoise(), 1, 'mi', ('/a', '/b')))
-    led.set_layout(layout)
-    assert led.on_truth(0, '/a', 'x', truth[0]) == [] and 0 not in led.truth
-    assert any(isinstance(f, Led) for f in led.on_truth(0, '/b', 'y', truth[0] + 50.0))
-    np.testing.assert_array_equal(led.truth[0], [truth[0], truth[0] + 50.0])
-    assert led.on_truth(0, '/b', 'y', truth[1]) == []  # a complete step is not changed
+    sim = FieldSimulator(layout, SimNoise(), 1, ('/a', '/b'))
+    assert sim.on_truth(0, '/a', 'x', truth[0]) == []
+    got = sim.on_truth(0, '/b', 'y', truth[0] + 50.0)
+    assert got == field_readings(np.array([truth[0], truth[0] + 50.0]), layout, 0, SimNoise(), 1)
+    assert sim.on_truth(0, '/b', 'y', truth[1]) == []  # a complete step is not changed
+    assert [r.sensor for r in got] == list(range(8)) and all(np.isnan(r.bearing) != r.is_doa for r in got)
+
+
+def test_the_election_decides_once_every_amplitude_is_in():
+    """The start rule waits for every sensor's step-0 amplitude; its own comes with its reading."""
+    _, layout, truth = scenario_of(1, 8, 0.3)
+    start = start_leader_of(layout, truth[0], SimNoise(), 1)
+    led, _, _ = _ledger(start)
+    rs = field_readings(truth[0], layout, 0, SimNoise(), 1)
+    for r in rs[:-1]:
+        if r.sensor != start:
+            assert led.on_election(r.sensor, r.amplitude) == []
+    assert led.on_reading(0, received_z(rs[start]), rs[start].amplitude) == [] and not led.start_checked
+    fx = led.on_election(rs[-1].sensor, rs[-1].amplitude) if rs[-1].sensor != start else []
+    assert any(isinstance(f, Led) for f in fx) or rs[-1].sensor == start
+    assert led.election_timeout() == []  # decided already: the timer does nothing
+
+
+def test_an_election_that_misses_a_sensor_decides_at_its_timeout():
+    """A sensor whose step-0 amplitude never comes cannot win; the others decide at the timeout, counted."""
+    _, layout, truth = scenario_of(1, 8, 0.3)
+    rs = field_readings(truth[0], layout, 0, SimNoise(), 1)
+    start = start_leader_of(layout, truth[0], SimNoise(), 1)
+    silent = next(k for k in range(8) if k != start)
+    led, _, _ = _ledger(start)
+    for r in rs:
+        if r.sensor not in (silent, start):
+            led.on_election(r.sensor, r.amplitude)
+    assert led.on_reading(0, received_z(rs[start]), rs[start].amplitude) == []
+    fx = led.election_timeout()
+    assert 'election: 1 of 8 step-0 amplitudes not heard' in fx[0].text and led.unheard == 1
+    assert any(isinstance(f, Led) and f.step == 0 for f in fx)
+
+
+def test_a_missing_reading_is_led_predict_only_and_a_late_one_dropped():
+    """The node's reading timer: the held belief is diffused without an update and handed on (counted);
+    the reading that comes afterwards is dropped with one refusal line (counted)."""
+    led, layout, _ = _ledger(0)
+    sender = int(next(j for j in range(8) if 0 in set(layout.neighbours[j].tolist())))
+    bel = encode_handoff(Handoff(3, sender, 0, GridSpec.for_field(), np.array([5, 6]), np.array([0.5, 0.5])))
+    led.on_handoff(bel)
+    assert led.waiting_for() == 4 and led.reading_missed(5) == [] and led.reading_missed(4 - 1) == []
+    fx = led.reading_missed(4)
+    assert 'no reading of step 4' in fx[0].text
+    (done,) = [f for f in fx if isinstance(f, Led)]
+    assert done.step == 4 and np.isnan(done.z) and not done.result.updated and led.missed == [4]
+    ref = leader_step(decode_handoff(bel).belief(), None, 0, layout, TrackerParams(), step=4, previous=sender)
+    np.testing.assert_array_equal(done.result.estimate.mean, ref.estimate.mean)
+    assert any(isinstance(f, Send) for f in fx) and led.waiting_for() is None
+    late = led.on_reading(4, 1.0)
+    assert late[0].refusal == ('reading', 'late: the reading of step 4 came after the step was led without it')
+    assert led.late == 1 and 4 not in led.readings and led.reading_missed(4) == []
+
+
+def test_readings_too_far_ahead_or_off_the_step_grid_are_refused():
+    led, _, _ = _ledger(0)
+    assert led.reading_problem(None, 0.3, 0.5).startswith('header.stamp: ')
+    assert 'more than' in led.reading_problem(READING_WINDOW + 1, stamp_of_step(READING_WINDOW + 1, 0.5), 0.5)
+    assert led.reading_problem(READING_WINDOW - 1, stamp_of_step(READING_WINDOW - 1, 0.5), 0.5) is None
+    assert Reading(0, 0, True, 1.0, 0.5).z == 0.5 and Reading(0, 0, False, 1.0).z == 1.0
 
 
 def test_layout_problem_names_the_disagreement():

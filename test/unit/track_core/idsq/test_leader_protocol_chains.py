@@ -8,6 +8,7 @@ import numpy as np
 from track_core.idsq import GridSpec, SimNoise, TrackerParams
 from track_core.idsq.handoff import decode_revoke, encode_revoke, peek_header
 from track_core.idsq.leader_protocol import HandoffLedger, Revoke, Send, SensorSetup, Void, start_leader_of
+from track_core.idsq.readings import field_readings
 from track_core.idsq.simulation import scenario_of
 
 N, SEED = 8, 1
@@ -18,7 +19,7 @@ def _net():
     leds = {}
     for k in range(N):
         led = HandoffLedger(SensorSetup(k, layout.positions[k], bool(layout.is_doa[k]), GridSpec.for_field(),
-                                        TrackerParams(), SimNoise(), SEED, 'mi'))
+                                        TrackerParams(), SEED, 'mi'))
         led.set_layout(layout)
         leds[k] = led
     return leds, layout, truth
@@ -41,7 +42,7 @@ def test_a_late_taker_is_revoked_and_its_chain_ends_at_the_head():
     leds, layout, truth = _net()
     s = start_leader_of(layout, truth[0], SimNoise(), SEED)
     for k in range(N):
-        leds[k].on_truth(0, 'truth', 'vehicle', truth[0])
+        leds[k].on_field(field_readings(truth[0], layout, 0, SimNoise(), SEED))
     first = leds[s].outgoing[0]
     a = first.receiver
     late_to_a = [f for f in leds[s].timeout(0, a) if isinstance(f, Send)]
@@ -54,7 +55,7 @@ def test_a_late_taker_is_revoked_and_its_chain_ends_at_the_head():
     fx = leds[a].on_handoff(encode_handoff(Handoff.from_belief(0, s, a, first.belief)))
     assert fx[0].refusal is None  # A acks
     chain, k, step = [a], a, 1
-    leds[a].on_truth(1, 'truth', 'vehicle', truth[1])
+    leds[a].on_field(field_readings(truth[1], layout, 1, SimNoise(), SEED))
     while len(chain) < 3:  # A leads 1 → C leads 2 → D holds the belief of step 3
         out = leds[k].outgoing[step]
         nxt = out.receiver
@@ -64,7 +65,7 @@ def test_a_late_taker_is_revoked_and_its_chain_ends_at_the_head():
         chain.append(nxt)
         k, step = nxt, step + 1
         if len(chain) < 3:
-            leds[k].on_truth(step, 'truth', 'vehicle', truth[step])
+            leds[k].on_field(field_readings(truth[step], layout, step, SimNoise(), SEED))
     head = chain[-1]
     assert leds[head].pending is not None and leds[head].pending.step == 3
     # the late ack: S revokes A; deliver revokes along the chain
@@ -87,7 +88,7 @@ def test_a_late_taker_is_revoked_and_its_chain_ends_at_the_head():
 def test_an_ack_of_the_kept_receiver_replayed_late_is_only_logged():
     leds, layout, truth = _net()
     s = start_leader_of(layout, truth[0], SimNoise(), SEED)
-    leds[s].on_truth(0, 'truth', 'vehicle', truth[0])
+    leds[s].on_field(field_readings(truth[0], layout, 0, SimNoise(), SEED))
     a = leds[s].outgoing[0].receiver
     leds[s].on_reply(0, s, a, 'ack')
     late = leds[s].on_reply(0, s, a, 'ack')  # a transient-local replay of the same ack
@@ -97,7 +98,7 @@ def test_an_ack_of_the_kept_receiver_replayed_late_is_only_logged():
 def test_a_revoke_from_another_sender_or_for_another_sensor_changes_nothing():
     leds, layout, truth = _net()
     s = start_leader_of(layout, truth[0], SimNoise(), SEED)
-    leds[s].on_truth(0, 'truth', 'vehicle', truth[0])
+    leds[s].on_field(field_readings(truth[0], layout, 0, SimNoise(), SEED))
     a = leds[s].outgoing[0].receiver
     from track_core.idsq.handoff import Handoff, encode_handoff
     leds[a].on_handoff(encode_handoff(Handoff.from_belief(0, s, a, leds[s].outgoing[0].belief)))
@@ -112,7 +113,7 @@ def test_a_handoff_received_after_the_ack_timeout_is_refused_as_expired():
     """(A partition that heals replays old handoffs: refused, nothing changes but the counter.)"""
     leds, layout, truth = _net()
     s = start_leader_of(layout, truth[0], SimNoise(), SEED)
-    leds[s].on_truth(0, 'truth', 'vehicle', truth[0])
+    leds[s].on_field(field_readings(truth[0], layout, 0, SimNoise(), SEED))
     out = leds[s].outgoing[0]
     from track_core.idsq.handoff import Handoff, encode_handoff
     data = encode_handoff(Handoff.from_belief(0, s, out.receiver, out.belief))
@@ -129,7 +130,7 @@ def test_a_revoke_that_overtakes_its_handoff_still_ends_the_chain():
 
     leds, layout, truth = _net()
     s = start_leader_of(layout, truth[0], SimNoise(), SEED)
-    leds[s].on_truth(0, 'truth', 'vehicle', truth[0])
+    leds[s].on_field(field_readings(truth[0], layout, 0, SimNoise(), SEED))
     first = leds[s].outgoing[0]
     a = first.receiver
     b = _sends(leds[s].timeout(0, a))[0].receiver
