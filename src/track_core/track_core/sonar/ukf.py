@@ -32,6 +32,8 @@ import numpy as np
 
 from track_core.filters import (
     check_covariance,
+    cv_process_noise,
+    cv_transition,
     gaussian_logpdf,
     kf_predict,
     mixture_mean_cov,
@@ -77,6 +79,7 @@ class UKFTracker:
         self.x: np.ndarray | None = None
         self.P: np.ndarray | None = None
         self.k = 0
+        self.predictions = 0
         self.p_evade = 0.0
         self.estimate: SonarEstimate | None = None
 
@@ -88,6 +91,7 @@ class UKFTracker:
         self.x = np.asarray(mean, dtype=float).copy()
         self.P = check_covariance(cov, 'prior covariance').copy()
         self.k = 0
+        self.predictions = 0
         self.p_evade = 0.0
         self._cruise = float(np.hypot(self.x[1], self.x[3]))
         self._heard_t = np.empty(0)  # recent ping times ...
@@ -96,22 +100,51 @@ class UKFTracker:
         self.scheduler.reset()
         self.estimate = None
 
-    def step(self, z: np.ndarray, mode: SensorMode | str, observer_xy: np.ndarray) -> SonarEstimate:
+    def step(self, z: np.ndarray, mode: SensorMode | str, observer_xy: np.ndarray, dt: float | None = None,
+             R: np.ndarray | None = None) -> SonarEstimate:
+        """``SSPF.step``'s interface: a reading ``z`` over ``dt`` (default T) with its noise ``R`` (default
+        Table 1's); the smart-target model takes readings every period with Table 1's noise only."""
         if self.x is None or self.P is None:
             raise RuntimeError('UKFTracker.step called before initialize()')
         mode = SensorMode.parse(mode)
         z = np.atleast_1d(np.asarray(z, dtype=float))
         obs = np.asarray(observer_xy, dtype=float)[:2]
         if self.target_model is None:
-            x_p, P_p = kf_predict(self.x, self.P, self.params.F, self.params.Q)
+            F, Q = self._model(dt)
+            x_p, P_p = kf_predict(self.x, self.P, F, Q)
             self.x, self.P, _, _ = unscented_update(x_p, P_p, z, lambda chi: measure(chi, obs, mode),
-                                                    self.params.R(mode), self._w, residual)
+                                                    self.params.R(mode) if R is None else np.asarray(R, float),
+                                                    self._w, residual)
         else:
+            if dt is not None or R is not None:
+                raise ValueError('the UKF peer with the smart-target model takes a reading every period T only')
             self._step_smart(z, mode, obs)
         self.k += 1
         next_mode = self.scheduler.decide(self.P)
         self.estimate = SonarEstimate(self.k, self.x.copy(), self.P.copy(), mode, next_mode, 1.0)
         return self.estimate
+
+    def predict(self, dt: float | None = None, observer_xy: np.ndarray | None = None) -> SonarEstimate:
+        """``SSPF.predict``: a step with no reading, eqs. 1–4 over ``dt`` (CV model only)."""
+        if self.x is None or self.P is None:
+            raise RuntimeError('UKFTracker.predict called before initialize()')
+        if self.target_model is not None:
+            raise ValueError('the UKF peer with the smart-target model takes a reading every period T only')
+        self.x, self.P = kf_predict(self.x, self.P, *self._model(dt))
+        self.k += 1
+        self.predictions += 1
+        prev = self.estimate
+        mode = prev.mode if prev is not None else self.scheduler.next_mode
+        self.estimate = SonarEstimate(self.k, self.x.copy(), self.P.copy(), mode, self.scheduler.decide(self.P), 1.0)
+        return self.estimate
+
+    def _model(self, dt: float | None) -> tuple[np.ndarray, np.ndarray]:
+        """Eqs. 3–4 over ``dt`` (None: the period T)."""
+        if dt is None or dt == self.params.T:
+            return self.params.F, self.params.Q
+        if not (math.isfinite(dt) and dt > 0):
+            raise ValueError(f'step interval dt must be a finite number > 0 (s), got {dt!r}')
+        return cv_transition(dt), cv_process_noise(dt, self.params.q_s)
 
     def _step_smart(self, z: np.ndarray, mode: SensorMode, obs: np.ndarray) -> None:
         """Evade/cruise hypotheses from the last-heard distribution, UKF-updated, weighted, merged."""

@@ -333,3 +333,22 @@ def test_a_wide_prior_carries_its_weights_until_they_degenerate():
     assert carried > 0
     f.initialize(m0, narrow)  # the paper's prior: selection at every step, as Algorithm 3
     assert f.resample_threshold == 1.0
+
+
+def test_predict_only_steps_compose_and_leave_the_weights_alone():
+    """Two predict-only steps over 0.4 s and 0.9 s are one over 1.3 s (eqs. 3-4 compose); counted; no draw."""
+    from track_core.sonar import Scenario, SonarParams, make_tracker
+
+    p = SonarParams()
+    trks = [make_tracker('ss-pf', p, np.random.default_rng(3)) for _ in range(2)]
+    for trk in trks:
+        trk.initialize(np.array([300.0, 12.0, 300.0, -12.0]), Scenario(params=p).prior_cov)
+    state = trks[0].rng.bit_generator.state
+    trks[0].predict(0.4)
+    trks[0].predict(0.9)
+    trks[1].predict(1.3)
+    np.testing.assert_allclose(trks[0].particles, trks[1].particles, rtol=1e-12)
+    np.testing.assert_allclose(trks[0].P, trks[1].P, rtol=1e-9, atol=1e-9)
+    assert trks[0].predictions == 2 and trks[0].t == 1.3 and trks[0].rng.bit_generator.state == state
+    with pytest.raises(ValueError, match='dt'):
+        trks[0].predict(-1.0)

@@ -51,3 +51,27 @@ def test_evade_probability_follows_pings_and_the_quiet_period():
 def test_stonesoup_peer_has_no_smart_model():
     with pytest.raises(ValueError, match="target_model needs peer='ukf'"):
         make_ukf('ss-pf', peer='stonesoup-ukf', target_model=SmartTargetParams())
+
+
+def test_the_ukf_peer_takes_any_interval_and_predict_only_steps_like_the_ss_pf():
+    """Eqs. 3-4 compose: two predictions over 0.4 s and 0.9 s are one over 1.3 s; dt = T and Table 1's R
+    are the default step, bit for bit."""
+    from track_core.sonar import Scenario, SensorMode, SonarParams
+    from track_core.sonar.ukf import make_ukf
+
+    p = SonarParams()
+    a, b, c = (make_ukf('ss-pf', p) for _ in range(3))
+    for trk in (a, b, c):
+        trk.initialize(np.array([300.0, 12.0, 300.0, -12.0]), Scenario(params=p).prior_cov)
+    a.predict(0.4)
+    a.predict(0.9)
+    b.predict(1.3)
+    np.testing.assert_allclose(a.x, b.x, rtol=1e-12)
+    np.testing.assert_allclose(a.P, b.P, rtol=1e-9)
+    assert a.predictions == 2 and a.k == 2
+    z = np.array([0.8, 420.0])
+    e1 = c.step(z, SensorMode.ACTIVE, np.zeros(2))
+    d = make_ukf('ss-pf', p)
+    d.initialize(np.array([300.0, 12.0, 300.0, -12.0]), Scenario(params=p).prior_cov)
+    e2 = d.step(z, SensorMode.ACTIVE, np.zeros(2), dt=p.T, R=p.R(SensorMode.ACTIVE))
+    np.testing.assert_array_equal(e1.mean, e2.mean)
