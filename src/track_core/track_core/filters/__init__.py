@@ -27,7 +27,7 @@ __all__ = [
 # Particle-filter and unscented blocks (added with the sonar system; shared by every system).
 from track_core.filters.angles import circular_mean, invert_pose, wrap_angle
 from track_core.filters.densities import cholesky_jitter, gaussian_logpdf
-from track_core.filters.particles import bimodality_coefficient, mixture_mean_cov, weighted_mean_cov
+from track_core.filters.particles import bimodality_coefficient, liu_west_move, mixture_mean_cov, weighted_mean_cov
 from track_core.filters.resampling import (
     effective_sample_size,
     normalize_log_weights,
@@ -49,6 +49,7 @@ __all__ += [
     'effective_sample_size',
     'gaussian_logpdf',
     'invert_pose',
+    'liu_west_move',
     'mixture_mean_cov',
     'normalize_log_weights',
     'sigma_points',

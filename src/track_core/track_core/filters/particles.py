@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from track_core.filters.densities import cholesky_jitter
 from track_core.filters.gaussian import symmetrize
 
 
@@ -51,3 +52,19 @@ def bimodality_coefficient(x: np.ndarray, weights: np.ndarray | None = None) -> 
     skew = float(w @ u**3) / var**1.5
     kurt = float(w @ u**4) / var**2
     return (skew**2 + 1.0) / kurt
+
+
+def liu_west_move(x: np.ndarray, rng: np.random.Generator, mean: np.ndarray | None = None,
+                  cov: np.ndarray | None = None) -> np.ndarray:
+    """The Liu–West shrinkage move of equally weighted samples ``x`` (N, n): x ← a x + (1 − a) x̄ + h L e.
+
+    h = (4 / (N (n + 2)))^{1/(n + 4)} is Silverman's bandwidth, a = √(1 − h²) and L Lᵀ the samples'
+    covariance (``mean``/``cov`` when the caller has them), so the moved cloud keeps the samples' mean and
+    covariance while resampled duplicates are spread apart again (Liu & West 2001).
+    """
+    n_s, dim = x.shape
+    h = (4.0 / (n_s * (dim + 2))) ** (1.0 / (dim + 4))
+    a = np.sqrt(1.0 - h**2)
+    if mean is None or cov is None:
+        mean, cov = weighted_mean_cov(x)
+    return a * x + (1 - a) * mean + h * rng.standard_normal((n_s, dim)) @ cholesky_jitter(cov).T

@@ -104,6 +104,7 @@ from track_core.filters import (
     effective_sample_size,
     gaussian_logpdf,
     kf_predict,
+    liu_west_move,
     mixture_mean_cov,
     normalize_log_weights,
     symmetrize,
@@ -422,11 +423,7 @@ class SSPF:
             self.weights = None
             mean, cov = weighted_mean_cov(self.particles)
             if self.regularize:
-                h = (4.0 / (self.n * (4 + 2))) ** (1.0 / (4 + 4))
-                a = np.sqrt(1.0 - h**2)
-                Lc = cholesky_jitter(cov)
-                self.particles = (a * self.particles + (1 - a) * mean
-                                  + h * self.rng.standard_normal((self.n, 4)) @ Lc.T)
+                self.particles = liu_west_move(self.particles, self.rng, mean, cov)
                 mean, cov = weighted_mean_cov(self.particles)
         else:
             self.particles, self.P, self.weights = x_new, P_keep, w
@@ -487,10 +484,7 @@ class SSPF:
             self.weights = None
             if self.regularize and ess < self.move_threshold * n:
                 # Only a degenerate selection needs the move: it shrinks every mean towards the centre.
-                h = (4.0 / (n * (4 + 2))) ** (1.0 / (4 + 4))
-                a = np.sqrt(1.0 - h**2)
-                m_bar, B = weighted_mean_cov(m)
-                m = a * m + (1 - a) * m_bar + h * self.rng.standard_normal((n, 4)) @ cholesky_jitter(B).T
+                m = liu_west_move(m, self.rng)
                 self.moved = True
                 self.moves += 1
             self.particles, self.P = m, P

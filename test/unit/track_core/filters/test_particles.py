@@ -47,3 +47,18 @@ def test_bimodality_coefficient_gaussian_uniform_two_modes():
     w = np.r_[np.ones(10_000), np.zeros(10_000)]
     assert abs(bimodality_coefficient(two, w) - 1 / 3) < 0.03
     assert np.isnan(bimodality_coefficient(np.ones((5, 2))))
+
+
+def test_liu_west_move_keeps_the_clouds_mean_and_covariance_and_spreads_duplicates():
+    from track_core.filters import liu_west_move, weighted_mean_cov
+
+    rng = np.random.default_rng(4)
+    base = rng.multivariate_normal([1.0, -2.0, 3.0], [[4.0, 1.0, 0.0], [1.0, 2.0, 0.5], [0.0, 0.5, 1.0]], size=500)
+    x = base[rng.integers(0, 50, size=20_000)]  # a resampled cloud: 50 distinct values
+    m0, c0 = weighted_mean_cov(x)
+    moved = liu_west_move(x, np.random.default_rng(5))
+    m1, c1 = weighted_mean_cov(moved)
+    se = np.sqrt(np.diag(c0) / x.shape[0])
+    assert np.all(np.abs(m1 - m0) < 4 * se)  # the mean, within its sampling error
+    np.testing.assert_allclose(c1, c0, rtol=0.05, atol=0.05)  # the covariance, within 5 %
+    assert np.unique(moved[:, 0]).size == x.shape[0]  # duplicates spread apart
