@@ -1,4 +1,4 @@
-"""The node layer's import rules (docs/DESIGN.md, "Three layers; imports point down only").
+"""The node layer's import rules (docs/DESIGN.md, "Four layers; imports point down only").
 
 - No node module imports another node module (a node is an adapter over the core; what two nodes
   share lives in track_core, track_msgs_py or a non-node module such as ``track_nodes.base``).
