@@ -20,7 +20,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PointStamped
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
@@ -43,7 +42,7 @@ from track_core.sonar.contacts import paper_reading, simulated_contact
 from track_msgs import msg as tm
 from track_msgs_py.odometry import odometry_to_cv_state
 from track_msgs_py.qos import CLOCK_QOS, ESTIMATE_QOS, STATIC_QOS, TRUTH_QOS
-from track_msgs_py.records.sonar import SonarMode
+from track_msgs_py.records.sonar import SonarFilterStatus
 from track_msgs_py.stamps import sec_to_stamp, stamp_to_ns
 from track_msgs_py.topics import (
     CLOCK,
@@ -85,7 +84,7 @@ class Sink:
     def __init__(self, ros, raw: bool = False) -> None:
         self.node = ros.add(Node('sonar_sink', context=ros.context))
         types = {SONAR_TRUTH: Odometry, SONAR_ESTIMATE: Odometry, SONAR_OBSERVER: Odometry,
-                 SONAR_PING: PointStamped, SONAR_MODE: DiagnosticArray, SONAR_TARGET_STATUS: DiagnosticArray,
+                 SONAR_PING: PointStamped, SONAR_MODE: tm.SonarFilterStatus, SONAR_TARGET_STATUS: tm.SonarTargetStatus,
                  SONAR_CONTACTS: tm.SonarContact, SONAR_MODE_COMMAND: tm.SonarModeCommand}
         self.msgs: dict[str, list] = {t: [] for t in types}
         qos = {SONAR_TRUTH: TRUTH_QOS, SONAR_MODE_COMMAND: STATIC_QOS}  # transient-local, as published
@@ -186,8 +185,8 @@ def test_nodes_equal_the_core_closed_loop(in_process_run, repo):
     ping_steps = [round(stamp_to_ns(m.header.stamp) / 1e9) for m in sink.msgs[SONAR_PING]]
     assert ping_steps == [k + 1 for k in np.flatnonzero(active)]
     assert (target.target.detections, target.target.mode) == (ref_target.detections, ref_target.mode)
-    modes = [SonarMode.from_status(m.status[0]).mode for m in sink.msgs[SONAR_MODE]]
-    assert modes == ['active' if a else 'passive' for a in active]
+    modes = [SonarFilterStatus.from_msg(m).mode for m in sink.msgs[SONAR_MODE]]
+    assert modes == [SensorMode.ACTIVE if a else SensorMode.PASSIVE for a in active]
 
 
 # --- launcher, recording and replay -------------------------------------------------------------
@@ -243,7 +242,7 @@ def test_replaying_the_measurements_reproduces_the_estimates(sonar_bag, ros, rep
     try:
         ros.spin_until(lambda: len(sink.msgs[SONAR_ESTIMATE]) >= RECORD_S or player.poll() is not None, timeout=180)
         ros.spin_until(lambda: all(len(sink.msgs[t]) >= len(recorded[t])
-                                   for t in (SONAR_ESTIMATE, SONAR_MODE, SONAR_MODE_COMMAND)), timeout=5)
+                                   for t in (SONAR_ESTIMATE, SONAR_MODE, SONAR_MODE_COMMAND)), timeout=30)
     finally:
         _, err = player.communicate(timeout=30)
     assert player.returncode == 0, err

@@ -1,4 +1,4 @@
-"""Sonar records: the observer's mode and the smart target's status round-trip with the wire keys; a sonar
+"""Sonar records: the observer's filter status and the smart target's status round-trip through CDR; a sonar
 driver's contact, the mode request and the navigation convert both ways, and bad contacts are refused."""
 
 from __future__ import annotations
@@ -12,9 +12,9 @@ from rclpy.serialization import deserialize_message, serialize_message
 from track_core.sonar.contacts import Contact
 from track_core.sonar.models import SensorMode
 from track_msgs import msg as tm
-from track_msgs_py.records import RecordError, diagnostic_values
+from track_msgs_py.records import RecordError
 from track_msgs_py.records.sonar import (
-    SonarMode,
+    SonarFilterStatus,
     SonarTargetStatus,
     contact_from_msg,
     contact_to_msg,
@@ -26,22 +26,26 @@ from track_msgs_py.records.sonar import (
 from track_msgs_py.stamps import stamp_to_ns
 
 
-def test_mode_round_trip_with_and_without_distance():
-    rec = SonarMode('active', 'passive', 12, 187.25000000000003, 3.5)
-    st = rec.to_status('obs/sensor_mode', message='active')
-    assert diagnostic_values(st) == {'mode': 'active', 'next_mode': 'passive', 'step': '12',
-                                     'ess': '187.25000000000003', 'distance': '3.5'}
-    assert SonarMode.from_status(st) == rec
-    base = SonarMode('passive', 'passive', 1, 200.0)
-    assert 'distance' not in base.to_values() and SonarMode.from_values(base.to_values()) == base
+@pytest.mark.parametrize('distance', [3.5, None])
+def test_filter_status_round_trip_through_cdr(distance):
+    rec = SonarFilterStatus(SensorMode.ACTIVE, SensorMode.PASSIVE, False, 12, 187.25000000000003, distance)
+    msg = deserialize_message(serialize_message(rec.to_msg(5 * 10**9)), tm.SonarFilterStatus)
+    assert stamp_to_ns(msg.header.stamp) == 5 * 10**9 and SonarFilterStatus.from_msg(msg) == rec
+    msg.next_mode = 4
+    with pytest.raises(RecordError, match='mode 4'):
+        SonarFilterStatus.from_msg(msg)
 
 
-def test_target_status_round_trip():
+def test_target_status_round_trip_through_cdr():
     rec = SonarTargetStatus('evade', True, 9, 4)
-    assert rec.to_values() == {'mode': 'evade', 'heard': 'true', 'pings': '9', 'detections': '4'}
-    assert SonarTargetStatus.from_status(rec.to_status('smart_target', message='evade')) == rec
-    with pytest.raises(RecordError, match='detections'):
-        SonarTargetStatus.from_values({'mode': 'cruise', 'heard': 'false', 'pings': '1', 'detections': 'x'})
+    msg = deserialize_message(serialize_message(rec.to_msg(3.0, 'smart_target')), tm.SonarTargetStatus)
+    assert msg.target_id == 'smart_target' and msg.mode == tm.SonarTargetStatus.EVADE
+    assert SonarTargetStatus.from_msg(msg) == rec
+    msg.mode = 3
+    with pytest.raises(RecordError, match='mode 3'):
+        SonarTargetStatus.from_msg(msg)
+    with pytest.raises(RecordError, match='sprint'):
+        SonarTargetStatus('sprint', False, 0, 0).to_msg(1.0, 't')
 
 
 # --- a sonar driver's messages ------------------------------------------------------------------------

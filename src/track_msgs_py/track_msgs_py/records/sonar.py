@@ -1,9 +1,9 @@
-"""Typed records of the sonar pair (the sonar paper): the observer's sensor mode, the target's status.
+"""Typed records of the sonar scenario: the observer's filter, the target's status, the driver's messages.
 
-- ``SonarMode``: ``/sonar/mode``, one status ``<observer>/sensor_mode`` per step: the mode used at
-  t_k, the scheduler's choice for t_{k+1}, the step, the ESS and, for ss-pf, the eq. 7 distance
-  ‖P_D − Cov‖ (absent for the baselines);
-- ``SonarTargetStatus``: ``/sonar/target/status``, one status named ``track_id`` per step: the
+- ``SonarFilterStatus``: ``/sonar/mode`` (``track_msgs/SonarFilterStatus``) per filter step: the reading
+  it took, eq. 7's request for the next, whether it took a contact, the step, the ESS and, for ss-pf,
+  the eq. 7 distance ‖P_D − Cov‖ (-1 for the baselines);
+- ``SonarTargetStatus``: ``/sonar/target/status`` (``track_msgs/SonarTargetStatus``) per target step: the
   smart target's mode (naive|cruise|evade), whether it heard a ping at this step, and its counts;
 - a sonar driver's messages: ``track_msgs/SonarContact`` ⇄ ``track_core.sonar.contacts.Contact``
   (bearing REP-103 in the contact's frame, the stds as the reading's noise R), the scheduler's
@@ -23,30 +23,60 @@ from track_core.sonar.contacts import Contact, Fix
 from track_core.sonar.models import SensorMode
 from track_msgs import msg as tm
 from track_msgs_py.odometry import odometry_to_cv_state, orientation_matrix, yaw_to_quaternion
-from track_msgs_py.records import RecordError, StatusRecord, finite_value
-from track_msgs_py.stamps import ns_to_stamp, stamp_to_ns
+from track_msgs_py.records import RecordError, finite_value
+from track_msgs_py.stamps import ns_to_stamp, stamp_to_ns, stamped_header
 from track_msgs_py.validate import DEFAULT_POLICY, InputPolicy
 
+TARGET_MODES = ('naive', 'cruise', 'evade')  # SonarTargetStatus.mode 0, 1, 2 (``SmartTarget.mode``)
+
 
 @dataclass(frozen=True)
-class SonarMode(StatusRecord):
-    KIND = 'sonar mode'
+class SonarFilterStatus:
+    """``/sonar/mode``: the observer's filter after one step (``track_msgs/SonarFilterStatus``)."""
 
-    mode: str
-    next_mode: str
+    mode: SensorMode  # the reading the step took (a predict-only step: the last one's)
+    next_mode: SensorMode  # eq. 7's request
+    updated: bool  # False: a predict-only step
     step: int
     ess: float
-    distance: float | None = None
+    distance: float | None = None  # None: a fixed schedule
+
+    def to_msg(self, key: int) -> tm.SonarFilterStatus:
+        return tm.SonarFilterStatus(header=Header(stamp=ns_to_stamp(key)), mode=MODE_VALUES[self.mode],
+                                    next_mode=MODE_VALUES[self.next_mode], updated=self.updated, step=self.step,
+                                    ess=float(self.ess),
+                                    distance=NO_DISTANCE if self.distance is None else float(self.distance))
+
+    @classmethod
+    def from_msg(cls, msg: tm.SonarFilterStatus) -> SonarFilterStatus:
+        """``RecordError`` with one line for an unknown mode or a non-finite number."""
+        kind = 'sonar filter status'
+        d = finite_value(kind, 'distance', msg.distance)
+        return cls(_mode(kind, msg.mode), _mode(kind, msg.next_mode), bool(msg.updated), int(msg.step),
+                   finite_value(kind, 'ess', msg.ess), None if d < 0 else d)
 
 
 @dataclass(frozen=True)
-class SonarTargetStatus(StatusRecord):
-    KIND = 'sonar target status'
+class SonarTargetStatus:
+    """``/sonar/target/status``: the smart target after one step (``track_msgs/SonarTargetStatus``)."""
 
-    mode: str
+    mode: str  # naive | cruise | evade
     heard: bool
     pings: int
     detections: int
+
+    def to_msg(self, t: float, target_id: str) -> tm.SonarTargetStatus:
+        if self.mode not in TARGET_MODES:
+            raise RecordError(f'sonar target status: mode {self.mode!r} is not one of {TARGET_MODES}')
+        return tm.SonarTargetStatus(header=stamped_header(t, ''), target_id=target_id,
+                                    mode=TARGET_MODES.index(self.mode), heard=self.heard, pings=self.pings,
+                                    detections=self.detections)
+
+    @classmethod
+    def from_msg(cls, msg: tm.SonarTargetStatus) -> SonarTargetStatus:
+        if msg.mode >= len(TARGET_MODES):
+            raise RecordError(f'sonar target status: mode {msg.mode} is not NAIVE, CRUISE or EVADE (0-2)')
+        return cls(TARGET_MODES[msg.mode], bool(msg.heard), int(msg.pings), int(msg.detections))
 
 
 # --- a sonar driver's messages: contacts in, the scheduler's request out --------------------------

@@ -108,9 +108,8 @@ def load(bag: Path) -> dict:
     d['pings'] = np.array([[m.point.x, m.point.y] for m in msgs.get(SONAR_PING, [])]).reshape(-1, 2)
     from track_msgs_py.records.sonar import SonarTargetStatus
     detections = 0
-    for arr in msgs.get(SONAR_TARGET_STATUS, []):
-        for st in arr.status:
-            detections = SonarTargetStatus.from_status(st).detections
+    for msg in msgs.get(SONAR_TARGET_STATUS, []):
+        detections = SonarTargetStatus.from_msg(msg).detections
     d['detections'] = detections
     layout = msgs.get(IDSQ_LAYOUT, [])
     d['sensors'] = pointcloud2_to_table(layout[-1]) if layout else None

@@ -26,11 +26,10 @@ def sonar_metrics(bag: Path) -> list[str]:
     est = [odometry_to_cv_state(m) for m in msgs.get(SONAR_ESTIMATE, [])]
     pings = len(msgs.get(SONAR_PING, []))
     detections, modes = 0, []
-    for arr in msgs.get(SONAR_TARGET_STATUS, []):
-        for st in arr.status:
-            rec = SonarTargetStatus.from_status(st)
-            detections = rec.detections
-            modes.append(rec.mode)
+    for msg in msgs.get(SONAR_TARGET_STATUS, []):
+        rec = SonarTargetStatus.from_msg(msg)
+        detections = rec.detections
+        modes.append(rec.mode)
     if not truth or not est:
         return ['sonar: no truth/estimate pairs recorded']
     it, ie = match_stamps(np.array([s[0] for s in truth]), np.array([s[0] for s in est]))

@@ -5,9 +5,8 @@ stamps t_k = origin + k·T) and publishes
 
 - ``/sonar/target/truth`` (nav_msgs/Odometry, zero covariance, ``child_frame_id`` = ``track_id``;
   transient-local ``TRUTH_QOS``, so an observer started later still gets the step this node waits on),
-- ``/sonar/target/status`` (diagnostic_msgs/DiagnosticArray, one status named ``track_id`` with the
-  values ``mode`` naive|cruise|evade, ``heard`` true|false, ``pings``, ``detections``:
-  ``track_msgs_py.records.sonar.SonarTargetStatus``).
+- ``/sonar/target/status`` (``track_msgs/SonarTargetStatus``: ``target_id`` = ``track_id``, ``mode``
+  naive|cruise|evade, ``heard``, ``pings``, ``detections``; ``track_msgs_py.records.sonar.SonarTargetStatus``).
 
 It subscribes to the observer's active-ping events (``/sonar/ping``, geometry_msgs/PointStamped)
 and to the observer's Odometry (``/sonar/observer/odom``): the range between the two sets the
@@ -33,13 +32,12 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PointStamped
 from nav_msgs.msg import Odometry
 
 from track_core.sonar import SmartTarget, SmartTargetParams, SonarParams
 from track_core.sonar.lockstep import TargetGate
-from track_msgs_py.diagnostics import DIAG_OK, diagnostic_array
+from track_msgs import msg as tm
 from track_msgs_py.odometry import cv_state_to_odometry, odometry_to_cv_state
 from track_msgs_py.qos import ESTIMATE_QOS, TRUTH_QOS
 from track_msgs_py.records.sonar import SonarTargetStatus
@@ -93,7 +91,7 @@ class SmartTargetNode(TrackNode):
         self.gate = TargetGate(p.sync_observer, round(2e9 * p.period))
         self.rejected = 0
         self.pub_truth = self.create_publisher(Odometry, SONAR_TRUTH, TRUTH_QOS)  # late observers get it
-        self.pub_status = self.create_publisher(DiagnosticArray, SONAR_TARGET_STATUS, ESTIMATE_QOS)
+        self.pub_status = self.create_publisher(tm.SonarTargetStatus, SONAR_TARGET_STATUS, ESTIMATE_QOS)
         # Ping subscription first: when both are ready at once the executor serves it first.
         self.sub_ping = self.create_subscription(PointStamped, SONAR_PING, self._on_ping, ESTIMATE_QOS)
         self.sub_obs = self.create_subscription(Odometry, SONAR_OBSERVER, self._on_observer, ESTIMATE_QOS)
@@ -134,8 +132,7 @@ class SmartTargetNode(TrackNode):
         x = tgt.step(self.rng, pinged, obs_xy)
         self.pub_truth.publish(cv_state_to_odometry(t, x, np.zeros((4, 4)), FRAME_MAP, self.p.track_id))
         rec = SonarTargetStatus(tgt.mode, tgt.detections > before, tgt.pings, tgt.detections)
-        status = rec.to_status(self.p.track_id, DIAG_OK, tgt.mode)
-        self.pub_status.publish(diagnostic_array(t, [status]))
+        self.pub_status.publish(rec.to_msg(t, self.p.track_id))
 
 
 def _ns(t: float) -> int:

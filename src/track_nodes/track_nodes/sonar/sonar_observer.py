@@ -23,9 +23,9 @@ Outputs, per filter step, stamped exactly with the step's time:
   ``track_id``; position–velocity cross-covariances are dropped, see track_msgs_py.odometry);
 - ``/sonar/particles`` (geometry_msgs/PoseArray, one pose per selected particle, identity orientation;
   one pose, the mean, while the filter's mixture is merged into one Gaussian, ``track_core.sonar.sspf``);
-- ``/sonar/mode`` (diagnostic_msgs/DiagnosticArray, one status ``<node name>/sensor_mode``; message = the
-  mode of the step's reading (for a predict-only step, of the last one); values ``mode``, ``next_mode``,
-  ``step``, ``ess``, and for ss-pf ``distance`` = ‖P_D − Cov‖ of eq. 7: ``records.sonar.SonarMode``);
+- ``/sonar/mode`` (``track_msgs/SonarFilterStatus``): the reading the step took (for a predict-only step,
+  the last one's), eq. 7's request for the next, whether it took a contact, the step, the ESS, and for
+  ss-pf ``distance`` = ‖P_D − Cov‖ of eq. 7 (``records.sonar.SonarFilterStatus``);
 - ``/sonar/markers`` (visualization_msgs/MarkerArray: the 2σ position ellipse, ``markers.sonar``);
 - ``/sonar/mode_command`` (``track_msgs/SonarModeCommand``, latched) last: eq. 7's request for the next
   reading, which the sonar driver obeys; also once at start, stamped 0 (Algorithm 3's first mode).
@@ -53,7 +53,6 @@ diagonal; 16: a row-major 4×4 matrix) stop the node with one line.
 from __future__ import annotations
 
 import numpy as np
-from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseArray
 from nav_msgs.msg import Odometry
 from visualization_msgs.msg import MarkerArray
@@ -61,12 +60,11 @@ from visualization_msgs.msg import MarkerArray
 from track_core.sonar import CovarianceScheduler, Scenario, SensorMode, SonarParams, make_tracker
 from track_core.sonar.contacts import ContactSequencer, Dropped, Step
 from track_msgs import msg as tm
-from track_msgs_py.diagnostics import DIAG_OK, diagnostic_array
 from track_msgs_py.markers.sonar import estimate_markers
 from track_msgs_py.odometry import cv_state_to_odometry, positions_to_pose_array
 from track_msgs_py.qos import ESTIMATE_QOS, SENSOR_QOS, STATIC_QOS
 from track_msgs_py.records import RecordError
-from track_msgs_py.records.sonar import SonarMode, contact_from_msg, fix_from_odometry, mode_command_to_msg
+from track_msgs_py.records.sonar import SonarFilterStatus, contact_from_msg, fix_from_odometry, mode_command_to_msg
 from track_msgs_py.stamps import ns_to_stamp, stamp_to_ns
 from track_msgs_py.topics import (
     SONAR_CONTACTS,
@@ -117,7 +115,7 @@ class SonarObserverNode(TrackNode):
         self.dropped = 0
         self.pub_est = self.create_publisher(Odometry, SONAR_ESTIMATE, ESTIMATE_QOS)
         self.pub_particles = self.create_publisher(PoseArray, SONAR_PARTICLES, SENSOR_QOS)
-        self.pub_mode = self.create_publisher(DiagnosticArray, SONAR_MODE, ESTIMATE_QOS)
+        self.pub_mode = self.create_publisher(tm.SonarFilterStatus, SONAR_MODE, ESTIMATE_QOS)
         self.pub_markers = self.create_publisher(MarkerArray, SONAR_MARKERS, ESTIMATE_QOS)
         self.pub_command = self.create_publisher(tm.SonarModeCommand, SONAR_MODE_COMMAND, STATIC_QOS)
         self._start_run()
@@ -233,9 +231,8 @@ class SonarObserverNode(TrackNode):
         distance = None
         if isinstance(self.tracker.scheduler, CovarianceScheduler):
             distance = self.tracker.scheduler.distance(est.cov)
-        mode_rec = SonarMode(est.mode.value, est.next_mode.value, est.k, est.ess, distance)
-        status = mode_rec.to_status(f'{self.get_name()}/sensor_mode', DIAG_OK, est.mode.value)
-        self.pub_mode.publish(_stamped(diagnostic_array(t, [status]), stamp))
+        status = SonarFilterStatus(est.mode, est.next_mode, step.contact is not None, est.k, est.ess, distance)
+        self.pub_mode.publish(status.to_msg(key))
         self.pub_markers.publish(_stamped(estimate_markers(t, est.mean, est.cov, world), stamp))
         self.pub_command.publish(mode_command_to_msg(key, est.next_mode, distance))  # last: the sonar waits for it
 
