@@ -39,6 +39,7 @@ setup(
             'track-dataset = track_nodes.bag.dataset:main',
             'track-foxglove = track_nodes.foxglove.bridge:main',
             'track-summary = track_nodes.report.summary:main',
+            'track-nmea-play = track_nodes.fusion.nmea_play:main',
         ],
     },
 )

@@ -242,3 +242,70 @@ def test_a_source_on_another_export_with_a_column_mapping(ros, repo):
         assert np.all(np.abs(rep.truth).max(0) < [3e3, 6e4])       # in this traffic's own tangent plane
     finally:
         node.destroy_node()
+
+
+def _datum_sink(ros):
+    from sensor_msgs.msg import NavSatFix
+    from tf2_msgs.msg import TFMessage
+
+    from track_msgs_py.tf import TF_STATIC_QOS
+    from track_msgs_py.topics import MAP_DATUM, TF_STATIC
+
+    got = {'datum': [], 'tf_static': []}
+    sink = ros.add(Node('datum_sink', context=ros.context))
+    sink.create_subscription(NavSatFix, MAP_DATUM, got['datum'].append, STATIC_QOS)
+    sink.create_subscription(TFMessage, TF_STATIC, got['tf_static'].append, TF_STATIC_QOS)
+    return got
+
+
+def test_sources_share_the_run_datum_and_a_second_origin_is_refused(ros, tmp_path):
+    """The first source's datum (its file's centroid) is the run's, latched with earth → map; a source on another
+    file takes it (its reports projected about it); a source with another origin refuses its reports, naming both."""
+    from track_core.ais import read_ais
+    from track_core.ais.datum import Datum
+    from track_msgs.msg import TrackArray
+    from track_msgs_py.track_arrays import array_to_tracks
+
+    got = _datum_sink(ros)
+    short = {'duration': 20.0, 'period': 1.0, 'dropout': 0.0}
+    first = ros.add(AisSourceNode(node_name='radar', context=ros.context, parameter_overrides=[
+        Parameter(k, value=v) for k, v in {**short, 'offset': 0.5}.items()]))
+    assert ros.spin_until(lambda: first.next > 0 and got['datum'] and got['tf_static'], timeout=15)
+    lat0, lon0 = read_ais(None).centroid()
+    run = got['datum'][-1]
+    assert (run.latitude, run.longitude) == (lat0, lon0) and first.map_datum.datum.same_as(lat0, lon0)
+    earth = [tr for m in got['tf_static'] for tr in m.transforms if tr.child_frame_id == 'map']
+    assert earth and earth[-1].header.frame_id == 'earth'
+    np.testing.assert_allclose([earth[-1].transform.translation.x, earth[-1].transform.translation.y],
+                               Datum(lat0, lon0).earth_pose()[0][:2])
+
+    # a source on another file, no origin: the run's datum, not its own centroid (8 km away)
+    csv = tmp_path / 'near.csv'
+    csv.write_text('ts;ship;lon;lat\n' + ''.join(f'{1700000000 + 10 * k};{m};{lon};{lat}\n' for k in range(40)
+                                                  for m, lat, lon in ((211000001, 50.70, -1.45),
+                                                                      (211000002, 50.72, -1.40))))
+    reports = []
+    other_file = ros.add(AisSourceNode(node_name='near', context=ros.context, parameter_overrides=[
+        Parameter(k, value=v) for k, v in {**short, 'offset': 2.0, 'file': str(csv), 'prefix': '/ais/near',
+                                           'columns': 'time=ts;mmsi=ship;lat=lat;lon=lon;cog=;sog=;'
+                                                      'time_format=epoch_s;delimiter=semicolon'}.items()]))
+    ros.add(Node('near_sink', context=ros.context)).create_subscription(
+        TrackArray, '/ais/near/reports', reports.append, ESTIMATE_QOS)
+    assert ros.spin_until(lambda: len(reports) >= 2, timeout=15)
+    assert other_file.sim_datum.same_as(lat0, lon0) and other_file.map_datum.conflict is None
+    want = Datum(lat0, lon0).forward([50.70, 50.72], [-1.45, -1.40])
+    for msg in reports:
+        _, _, _, x, _ = array_to_tracks(msg)
+        assert all(np.min(np.linalg.norm(want - x[k, [0, 2]], axis=1)) < 100.0 for k in range(len(x)))
+
+    # a source with an explicit other origin: refused, one line naming both datums
+    refused = []
+    ros.add(Node('elsewhere_sink', context=ros.context)).create_subscription(
+        TrackArray, '/ais/elsewhere/reports', refused.append, ESTIMATE_QOS)
+    other = ros.add(AisSourceNode(node_name='elsewhere', context=ros.context, parameter_overrides=[
+        Parameter(k, value=v) for k, v in {**short, 'offset': 2.0, 'origin': [50.0, -1.0],
+                                           'prefix': '/ais/elsewhere'}.items()]))
+    assert ros.spin_until(lambda: other.next > 2 and other.pub.get_subscription_count() > 0, timeout=15)
+    reason = other.map_datum.problem()
+    assert '(50.0000000°, -1.0000000°)' in reason and f'({lat0:.7f}°, {lon0:.7f}°)' in reason
+    assert list(other.refusals.by_key()) == ['/ais/elsewhere/reports datum'] and refused == []

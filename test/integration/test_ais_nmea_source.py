@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import socket
 
+import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray
 from pyais.encode import encode_dict
@@ -127,3 +128,32 @@ def test_a_stopped_feed_is_reported(ros):
 def test_datum_message_round_trip():
     msg = datum_to_navsatfix(12.5, *ORIGIN)
     assert (msg.latitude, msg.longitude, msg.header.frame_id) == (*ORIGIN, 'map')
+
+
+def test_a_capture_played_over_udp_keeps_its_spacing_on_the_run_clock(ros, tmp_path):
+    """nmea_player plays a timed capture at its pace, restamped on its clock: the source stamps each report with
+    the play time (stamp:=receiver), so the reports keep the capture's spacing to the millisecond."""
+    from track_msgs_py.stamps import stamp_to_sec
+    from track_nodes.fusion.nmea_play import NmeaPlayerNode
+
+    t0 = 1452603731.0
+    lines, times = [], []
+    for k, (mmsi, (lat, lon)) in enumerate(list(SHIPS.items()) * 2):
+        t = t0 + 0.25 * k + (0.5 if k >= len(SHIPS) else 0.0)
+        times.append(t)
+        lines += [f'{t:.3f} {s}' for s in _nmea({'type': 1, 'mmsi': mmsi, 'lat': lat, 'lon': lon, 'speed': 8.0,
+                                                  'course': 30.0, 'heading': 511, 'accuracy': 1})]
+    capture = tmp_path / 'capture.nmea'
+    capture.write_text('\n'.join(lines) + '\n')
+    port = _free_port()
+    source = _node(ros, udp_port=port, origin=list(ORIGIN), stamp='receiver', datum_wait=0.0)
+    got = _sink(ros)
+    player = ros.add(NmeaPlayerNode(node_name='nmea_player', context=ros.context, parameter_overrides=[
+        Parameter('file', value=str(capture)), Parameter('port', value=port), Parameter('tick', value=0.05),
+        Parameter('duration', value=10.0)]))
+    assert ros.spin_until(lambda: len(got['tracks']) >= len(lines), timeout=20), (len(got['tracks']), player.sent)
+    stamps = np.array([stamp_to_sec(m.header.stamp) for m in got['tracks']])
+    np.testing.assert_allclose(np.diff(stamps), np.diff(times), atol=2e-3)        # the capture's spacing
+    assert stamps[0] == pytest.approx(player.steps.origin, abs=2e-3)               # its first line at the origin
+    assert {m.tracks[0].id for m in got['tracks']} == {str(m) for m in SHIPS}
+    assert source.published == len(lines) and not source.refusals.total()

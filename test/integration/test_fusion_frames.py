@@ -8,6 +8,7 @@ import time
 
 import numpy as np
 import pytest
+from geometry_msgs.msg import PoseWithCovarianceStamped
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -153,3 +154,55 @@ def test_unknown_frame_and_too_old_transform_are_refused_with_the_frame(ros):
     assert "unknown frame 'nowhere'" in why['/a/lost']
     assert 'too old' in why['/a/radar'] and "'radar'" in why['/a/radar']
     assert node.dropped == {'/a/lost': 1, '/a/radar': 1}
+
+
+def test_a_navsatfix_enters_through_the_run_datum_with_its_covariance(ros):
+    """A GNSS fix is refused until a datum is on map_datum, then placed where the datum's projection puts it, with
+    its east/north covariance turned to grid north; it scores against a map-frame copy of itself as one ship."""
+    from sensor_msgs.msg import NavSatFix
+
+    from track_core.ais.datum import Datum
+    from track_msgs_py.ais import datum_to_navsatfix
+    from track_msgs_py.odometry import position_to_pose_cov
+    from track_msgs_py.qos import STATIC_QOS
+    from track_msgs_py.stamps import sec_to_stamp
+
+    node, reasons = _fusion(ros, track_array_topics=[''], odometry_topics=[''], navsatfix_topics=['/gps/fix'],
+                            pose_topics=['/radar/own'])
+    src = ros.add(Node('sources', context=ros.context))
+    fix_pub = src.create_publisher(NavSatFix, '/gps/fix', ESTIMATE_QOS)
+    pose_pub = src.create_publisher(PoseWithCovarianceStamped, '/radar/own', ESTIMATE_QOS)
+    datum_pub = src.create_publisher(NavSatFix, '/map_datum', STATIC_QOS)
+    assert ros.spin_until(lambda: node.count_publishers('/gps/fix') >= 1 and node.count_publishers('/radar/own') >= 1,
+                          timeout=10)
+    lat, lon, cov = 50.80, -0.80, np.array([[16.0, 6.0], [6.0, 36.0]])     # 28 km east of the origin below
+
+    def fix(t, covariance_type=NavSatFix.COVARIANCE_TYPE_KNOWN):
+        msg = NavSatFix(latitude=lat, longitude=lon, altitude=3.0, position_covariance_type=covariance_type)
+        msg.header.stamp, msg.header.frame_id = sec_to_stamp(t), 'gps'
+        msg.status.status = 0
+        msg.position_covariance = [cov[0, 0], cov[0, 1], 0.0, cov[1, 0], cov[1, 1], 0.0, 0.0, 0.0, 100.0]
+        return msg
+
+    fix_pub.publish(fix(time.time()))
+    assert ros.spin_until(lambda: reasons, timeout=10)
+    assert reasons[0][0] == '/gps/fix' and 'no map datum known yet (none on /map_datum)' in reasons[0][1]
+    datum = Datum(50.8, -1.2)
+    datum_pub.publish(datum_to_navsatfix(time.time(), 50.8, -1.2))
+    assert ros.spin_until(lambda: node.map_datum.datum is not None, timeout=10)
+    fix_pub.publish(fix(time.time(), NavSatFix.COVARIANCE_TYPE_UNKNOWN))
+    assert ros.spin_until(lambda: len(reasons) >= 2, timeout=10)
+    assert 'position_covariance_type: unknown' in reasons[1][1]
+    t = time.time()
+    fix_pub.publish(fix(t))
+    assert ros.spin_until(lambda: '/gps/fix' in node.core.table.latest, timeout=10), reasons
+    report = node.core.table.latest['/gps/fix']
+    z, R = datum.forward(lat, lon), datum.to_map_covariance(lat, lon, cov)
+    np.testing.assert_allclose(report.mu, z, atol=1e-6)
+    np.testing.assert_allclose(report.R, R, atol=1e-9)
+    assert abs(R[0, 1] - cov[0, 1]) > 0.05                          # γ = 0.31° turned it (an independent check:
+    assert np.trace(R) == pytest.approx(np.trace(cov))              # test_datum.py's Jacobian)
+    assert node.core.source['/gps/fix'] == '/gps'
+    pose_pub.publish(position_to_pose_cov(t, z, R, 'map'))          # the same ship seen by a radar in map
+    assert ros.spin_until(lambda: ('/gps/fix', '/radar/own') in node.core.history
+                          or ('/radar/own', '/gps/fix') in node.core.history, timeout=10)

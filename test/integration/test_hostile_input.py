@@ -1,5 +1,6 @@
-"""Hostile input refused by ``demo_tracker``, ``fusion``, ``slam``, ``sonar_observer``
-and ``smart_target`` without changing their state, and without one log line per bad message.
+"""Hostile input refused by ``demo_tracker``, ``fusion``, ``slam``, ``sonar_observer``,
+``smart_target`` and ``ais_nmea_source`` (its NMEA lines over UDP) without changing their state, and
+without one log line per bad message.
 
 The callbacks are called directly (deterministic; the subscription path is the one the scenario
 tests exercise). After every refused message the node's core state is compared bit for bit with
@@ -15,9 +16,11 @@ from dataclasses import fields, is_dataclass
 import numpy as np
 import pytest
 from rclpy.parameter import Parameter
+from sensor_msgs.msg import NavSatFix
 
 from track_core.sonar.contacts import Contact
 from track_core.sonar.models import SensorMode
+from track_msgs_py.ais import datum_to_navsatfix
 from track_msgs_py.clouds import scan_to_pointcloud2
 from track_msgs_py.odometry import cv_state_to_odometry, inputs_to_twist, odometry_to_pose, position_to_pose_cov
 from track_msgs_py.records.sonar import contact_to_msg
@@ -186,12 +189,13 @@ POSE_TOPICS = ['/radar/t0', '/patrol/t0']
 
 def _fusion(ros, **params):
     over = {'pose_topics': POSE_TOPICS, 'odometry_topics': ['/odo'], 'pose_track_topics': ['/ais/reports'],
-            'track_array_topics': ['/arrays'],
+            'track_array_topics': ['/arrays'], 'navsatfix_topics': ['/gps/fix'],
             'stale_after': 1e5, 'max_prediction': 1e5, **params}
     node = ros.add(FusionNode(context=ros.context,
                               parameter_overrides=[Parameter(k, value=v) for k, v in over.items()]))
     scores = []
     node.pub_scores.publish = scores.append
+    node.map_datum._on_datum(datum_to_navsatfix(1.0, 50.8, -1.2))   # the run's datum, as if latched
     return node, scores
 
 
@@ -212,11 +216,22 @@ def _array(t, x=(1.0, 0.5, 2.0, -0.5), P=None):
     return tracks_to_array(t, ['s1'], ['radar'], np.asarray(x, float)[None], np.asarray(P, float)[None])
 
 
+def _fix(t, lat=50.81, lon=-1.19, cov=((4.0, 0.5), (0.5, 3.0)), kind=NavSatFix.COVARIANCE_TYPE_KNOWN):
+    msg = NavSatFix(latitude=float(lat), longitude=float(lon), position_covariance_type=kind)
+    msg.header.stamp, msg.header.frame_id = sec_to_stamp(t), 'gps'
+    msg.status.status = 0     # STATUS_FIX (the message's default is STATUS_UNKNOWN)
+    c = np.eye(3)
+    c[:2, :2] = cov
+    msg.position_covariance = c.ravel().tolist()
+    return msg
+
+
 PATHS = {  # fusion input path → (callback, valid message at t, track id)
     'track_array': (lambda n, m: n._on_track_array('/arrays', m), _array, '/arrays/s1'),
     'pose': (lambda n, m: n._on_pose('/radar/t0', m), _report, '/radar/t0'),
     'odometry': (lambda n, m: n._on_odometry('/odo', m), _odometry, '/odo/ship1'),
     'pose_track': (lambda n, m: n._on_pose_track('/ais/reports', m), _ais, '/ais/reports/r017'),
+    'navsatfix': (lambda n, m: n._on_navsatfix('/gps/fix', m), _fix, '/gps/fix'),
 }
 
 
@@ -254,6 +269,11 @@ def test_fusion_hostile_magnitudes_and_variances_are_refused_on_every_input_path
         wrong_frame = _array(t0 + 0.05)
         wrong_frame.header.frame_id = 'odom'
         hostile.append(wrong_frame)
+    elif path == 'navsatfix':   # NaN, huge or unprojectable lat/lon; degenerate, huge or no covariance
+        t = t0 + 0.05
+        hostile = [_fix(t, lat=np.nan), _fix(t, lon=1e308), _fix(t, lat=-1e30), _fix(t, lat=0.0, lon=88.8),
+                   _fix(t, kind=NavSatFix.COVARIANCE_TYPE_UNKNOWN), _fix(t, cov=((np.nan, 0.0), (0.0, 1.0)))]
+        hostile += [_fix(t, cov=np.diag([v, v])) for v in HOSTILE_VARIANCES]
     else:
         hostile = _hostile_reports(t0 + 0.05)
         for m in hostile if path == 'pose_track' else ():
@@ -426,3 +446,105 @@ def test_smart_target_a_flood_of_bad_pings_and_observers_costs_a_few_log_lines(r
         node._on_observer(_bad_odometry(k))
     assert len(lines.warnings) <= 6, lines.warnings[:8]
     assert node.rejected == 600 and node.refusals.total() == 600 and frozen(node.gate) == before
+
+
+# --- ais_nmea_source ------------------------------------------------------------------------------------
+
+def _nmea_lines(fields: dict) -> list[bytes]:
+    from pyais.encode import encode_dict
+
+    return [x.encode() for x in encode_dict(fields, talker_id='AI', sentence_type='VDM')]
+
+
+NMEA_OK = {'msg_type': 1, 'mmsi': 235000001, 'lat': 50.8, 'lon': -1.2, 'speed': 8.0, 'course': 30.0,
+           'accuracy': 1}
+
+
+def _nmea_source(ros, **params):
+    from track_nodes.fusion.ais_nmea_source import AisNmeaSourceNode
+
+    over = {'udp_port': _free_udp_port(), 'udp_address': '127.0.0.1', 'origin': [50.8, -1.2], 'stamp': 'receiver',
+            'datum_wait': 0.0, **params}
+    node = ros.add(AisNmeaSourceNode(context=ros.context,
+                                     parameter_overrides=[Parameter(k, value=v) for k, v in over.items()]))
+    assert ros.spin_until(lambda: node.datum is not None, timeout=5)
+    out = []
+    node.pub.publish = out.append
+    return node, out
+
+
+def _nmea_state(node):
+    return frozen((node.ships.ships, node.published, node.datum.lat0, node.datum.lon0))
+
+
+def test_nmea_nan_huge_and_out_of_range_sentences_are_refused_and_the_feed_goes_on(ros):
+    """NaN/huge receiver times, out-of-range or "not available" positions, broken sentences: each refused with its
+    reason, the ship table and the output untouched; a valid report after them is published."""
+    from pyais import TagBlock
+
+    node, out = _nmea_source(ros)
+    lines = Lines(node)
+    t0 = _now(node)
+    (good,) = _nmea_lines(NMEA_OK)
+    node._line(f'{t0:.3f} '.encode() + good, node.steady_now(), node.in_udp)
+    assert len(out) == 1
+    before = _nmea_state(node)
+    huge = b'\\' + TagBlock.create(receiver_timestamp='1e308') + b'\\' + good
+    hostile = [b'1e300 ' + good, huge, good[:-2] + b'ZZ', good[:25], b'nan', b'!AIVDM,1,1,,A,' + b'\xff' * 30,
+               b'x' * 5000]
+    hostile += _nmea_lines({**NMEA_OK, 'lat': 91.0}) + _nmea_lines({**NMEA_OK, 'lon': 181.0})   # not available
+    hostile += _nmea_lines({**NMEA_OK, 'lat': 100.0}) + _nmea_lines({**NMEA_OK, 'lon': -200.0})  # out of range
+    hostile += _nmea_lines({**NMEA_OK, 'mmsi': 0})
+    hostile.append(f'{t0 - 3600:.3f} '.encode() + good)           # older than the ship's last report
+    for bad in hostile:
+        node._line(bad, node.steady_now(), node.in_udp)
+        assert _nmea_state(node) == before, bad
+    assert len(out) == 1 and node.refusals.total() == len(hostile), node.refusals.by_key()
+    assert len(lines.warnings) <= len({k for _, k in node.refusals.counts}) + 1
+    node._line(f'{t0 + 1:.3f} '.encode() + good, node.steady_now(), node.in_udp)
+    assert len(out) == 2 and node.published == 2
+
+
+def test_nmea_a_wrong_file_path_stops_the_node_with_one_line(ros):
+    from track_nodes.base import ParameterError
+    from track_nodes.fusion.ais_nmea_source import AisNmeaSourceNode
+
+    with pytest.raises(ParameterError, match=r"parameter file='/nonexistent/capture.nmea': No such file"):
+        AisNmeaSourceNode(context=ros.context, parameter_overrides=[
+            Parameter('udp_port', value=0), Parameter('file', value='/nonexistent/capture.nmea')])
+
+
+def test_nmea_a_udp_flood_is_read_in_bounded_bites_with_bounded_memory(ros):
+    """5000 datagrams of garbage and orphan first fragments: refused or dropped and counted, a few log lines,
+    the fragment buffer at its bound, the ship table untouched; valid reports after the flood still go out."""
+    import socket
+
+    from pyais.encode import encode_dict
+
+    node, out = _nmea_source(ros, udp_port=_free_udp_port(), max_pending=16, max_datagrams=200)
+    lines = Lines(node)
+    before = _nmea_state(node)
+    first_parts = [encode_dict({'msg_type': 5, 'mmsi': 235000000 + k, 'shipname': 'X'}, talker_id='AI',
+                               sentence_type='VDM', seq_id=k % 10, radio_channel='AB'[k % 2])[0].encode()
+                   for k in range(20)]
+    flood = [b'garbage %d' % k if k % 2 else first_parts[k % 20] for k in range(5000)]
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as tx:
+        for data in flood:
+            tx.sendto(data, ('127.0.0.1', node.udp_port))
+        # the kernel's socket buffer drops most of a burst: what arrives is read max_datagrams a poll
+        assert ros.spin_until(lambda: node.decoder.sentences >= 200, timeout=20), node.decoder.sentences
+        assert len(node.decoder.pending) <= 16 and _nmea_state(node) == before
+        t = _now(node)
+        (good,) = _nmea_lines(NMEA_OK)
+        tx.sendto(f'{t + 10:.3f} '.encode() + good, ('127.0.0.1', node.udp_port))
+        assert ros.spin_until(lambda: len(out) == 1, timeout=20), node.decoder.sentences
+    assert node.refusals.total() >= node.decoder.sentences // 2 - 1
+    assert len(lines.warnings) <= 3, lines.warnings[:5]
+
+
+def _free_udp_port() -> int:
+    import socket
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(('127.0.0.1', 0))
+        return s.getsockname()[1]

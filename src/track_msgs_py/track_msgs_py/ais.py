@@ -16,7 +16,19 @@ one AIS report         track_msgs/TrackArray (one track)  ``header`` ← report 
 ships' static data     diagnostic_msgs/DiagnosticArray    one status per MMSI, ``name`` ← the MMSI (the track
                        (on ``<prefix>/ships``, latched)   id), ``message`` ← ship name, values ``name``,
                                                           ``ship_type``, ``callsign``, ``reports``
+the map in the earth   geometry_msgs/TransformStamped     ``earth`` (ECEF, REP-105) → ``map``: translation ←
+(``Datum.earth_pose``) (on ``/tf_static``)                the origin's ECEF point, rotation ← its east, north,
+                                                          up axes; stamped when the datum was fixed
+a GNSS position        sensor_msgs/NavSatFix (an input)   ``header.stamp`` → t; ``latitude``/``longitude`` →
+(t, z, R in map)                                          z through the datum; ``position_covariance`` (ENU
+                                                          about the fix, row-major) east/north block → R,
+                                                          turned by the meridian convergence; altitude and
+                                                          ``header.frame_id`` (the antenna) not read
 =====================  =================================  ====================================================
+
+A NavSatFix input needs a fix (``status.status`` ≥ STATUS_FIX) and a covariance: one of type
+``COVARIANCE_TYPE_UNKNOWN`` is refused (a position without an uncertainty cannot be scored), as are
+non-finite or out-of-range latitude/longitude and a covariance outside the ``InputPolicy`` bounds.
 
 Track.msg has no slot for a ship's name or type, so they travel beside the tracks on a latched
 topic keyed by the same id (the MMSI): a late subscriber (a recorder, Foxglove) gets the whole
@@ -28,13 +40,17 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from geometry_msgs.msg import TransformStamped
 from sensor_msgs.msg import NavSatFix, NavSatStatus
 
 from track_msgs_py.covariance import NOT_ESTIMATED_VARIANCE
 from track_msgs_py.diagnostics import DIAG_OK, diagnostic_array, diagnostic_status
-from track_msgs_py.stamps import stamp_to_sec, stamped_header
+from track_msgs_py.stamps import sec_to_stamp, stamp_to_sec, stamped_header
 from track_msgs_py.topics import FRAME_MAP
 from track_msgs_py.track_arrays import tracks_to_array
+from track_msgs_py.validate import DEFAULT_POLICY, InputPolicy, variance_problem
+
+FRAME_EARTH = 'earth'   # REP-105's earth-centred, earth-fixed frame
 
 
 def datum_to_navsatfix(t: float, lat0: float, lon0: float, frame_id: str = FRAME_MAP) -> NavSatFix:
@@ -61,6 +77,42 @@ def navsatfix_problem(msg: NavSatFix) -> str | None:
 def navsatfix_to_datum(msg: NavSatFix) -> tuple[float, float, float, str]:
     """(stamp [s], lat0, lon0, frame_id) of a datum message."""
     return stamp_to_sec(msg.header.stamp), float(msg.latitude), float(msg.longitude), msg.header.frame_id
+
+
+def datum_to_transform(t: float, datum, frame_id: str = FRAME_MAP, earth: str = FRAME_EARTH) -> TransformStamped:
+    """The pose of ``frame_id`` in ``earth`` (ECEF) for a ``track_core.ais.datum.Datum`` (table above)."""
+    trans, q = datum.earth_pose()
+    msg = TransformStamped(child_frame_id=frame_id)
+    msg.header.stamp, msg.header.frame_id = sec_to_stamp(t), earth
+    v, r = msg.transform.translation, msg.transform.rotation
+    v.x, v.y, v.z = (float(c) for c in trans)
+    r.x, r.y, r.z, r.w = (float(c) for c in q)
+    return msg
+
+
+def navsatfix_en_covariance(msg: NavSatFix) -> np.ndarray:
+    """The east/north block (2, 2) of a NavSatFix's position covariance (ENU, row-major) [m²]."""
+    c = np.asarray(msg.position_covariance, float).reshape(3, 3)
+    return c[:2, :2]
+
+
+def navsatfix_position_problem(msg: NavSatFix, policy: InputPolicy = DEFAULT_POLICY) -> str | None:
+    """Why a NavSatFix is no usable position report (no fix, bad latitude/longitude, no covariance), else None."""
+    reason = navsatfix_problem(msg)
+    if reason is None and msg.position_covariance_type == NavSatFix.COVARIANCE_TYPE_UNKNOWN:
+        reason = 'position_covariance_type: unknown (a position without an uncertainty cannot be scored)'
+    if reason is None:
+        reason = variance_problem('position_covariance', navsatfix_en_covariance(msg), policy)
+    return reason
+
+
+def navsatfix_to_position(msg: NavSatFix, datum) -> tuple[float, np.ndarray, np.ndarray]:
+    """(t, z (2,), R (2, 2)) in map of a NavSatFix, through the run's ``Datum`` (table above)."""
+    lat, lon = float(msg.latitude), float(msg.longitude)
+    with np.errstate(invalid='ignore', over='ignore'):   # a fix a quarter of the globe away: inf, refused by bounds
+        z = np.asarray(datum.forward(lat, lon), float)
+        R = datum.to_map_covariance(lat, lon, navsatfix_en_covariance(msg))
+    return stamp_to_sec(msg.header.stamp), z, 0.5 * (R + R.T)
 
 
 def report_to_array(t: float, report, source: str, frame_id: str = FRAME_MAP):

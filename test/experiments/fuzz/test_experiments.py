@@ -42,7 +42,7 @@ def _log_bound(res: FuzzResult) -> int:
 
 def _mark(name: str, check: str):
     marks = []
-    if CASES[name].scenario == 'ais':
+    if CASES[name].scenario in ('ais', 'ais_live'):
         marks.append(pytest.mark.skipif(not default_path().is_file(), reason='shared AIS data not found'))
     return pytest.param(name, id=name, marks=marks)
 

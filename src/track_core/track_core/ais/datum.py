@@ -17,6 +17,28 @@ positions agree.
 
 Within a few km of the origin this map and the tangent plane of ``projection.LocalTangentPlane`` agree to
 millimetres; at 30 km they differ by about ρ³/(6R²) ≈ 0.1 m (the test measures it).
+
+A position's covariance given in east/north metres on the earth (a GNSS fix's ``NavSatFix``
+covariance is in the local ENU tangent plane of the fix) is turned into ``map`` by the same
+convergence γ (``Datum.to_map_covariance``): the projection is conformal, so the only change is
+that rotation (and a scale within 10⁻³ of 1, which we neglect).
+
+The map in the earth (``Datum.earth_pose``): REP-105's ``earth`` frame is ECEF; the pose of ``map``
+in it is the origin's ECEF position (PROJ, EPSG:4978) with the axes east, north, up at the origin,
+as ``navsat_transform`` publishes its ``utm`` → ``map`` link. That rigid transform places a map point
+exactly at the origin and along its axes; away from it the map (a projection onto the ellipsoid)
+and this plane part by the ellipsoid's drop below the plane, ρ²/(2R) (70 m down at 30 km, so use it
+to place the map on a globe, not to convert a ship's position: ``Datum.forward``/``inverse`` do that).
+
+One datum per run (``RunDatum``): each node that turns latitude/longitude into ``map`` metres keeps
+this node's view of the run's datum. The first datum heard on the latched topic, or this node's
+own (its ``origin`` parameter, or its first fix), is the run's; a datum published earlier wins over a
+later one (the earlier stamp, then the smaller latitude, then longitude: a rule every node applies
+alike, so two nodes that published at once agree which one lost). A node whose own datum lost has
+a ``conflict``: it refuses its input with a reason naming both datums rather than publish a second
+``map`` that looks like the first. That rule holds for ``SETTLE_S`` after a node fixed or took its
+datum; later a different datum, however it is stamped, is refused: one message on the topic must
+not stop a running picture.
 """
 
 from __future__ import annotations
@@ -26,10 +48,13 @@ import math
 import numpy as np
 from pyproj import CRS, Geod, Transformer
 from pyproj.exceptions import ProjError
+from scipy.spatial.transform import Rotation
 
 _GEOD = Geod(ellps='WGS84')
 NORTH_STEP_DEG = 1e-5   # the step north that measures the meridian convergence [deg]
 DATUM_MATCH_M = 0.01   # two origins closer than this on the ground are the same datum [m]
+SETTLE_S = 2.0         # a node's datum is the run's this long after it fixed or took it [s]: DDS delivers a
+                       # latched datum in well under a second, so nodes started together have settled by then
 
 
 class Datum:
@@ -85,9 +110,118 @@ class Datum:
         v = np.asarray(speed, float)
         return np.stack([v * np.sin(bearing), v * np.cos(bearing)], -1)
 
+    def to_map_covariance(self, lat_deg, lon_deg, cov_en) -> np.ndarray:
+        """(…, 2, 2) covariances in east/north [m²] at the points → in map (rotated by the convergence γ).
+
+        A course c is the grid bearing c − γ (``to_map_velocity``), so a vector with true east/north
+        components e is rot(γ)·e in map (rot: anticlockwise) and its covariance rot(γ) C rot(γ)ᵀ.
+        """
+        g = self.convergence(lat_deg, lon_deg)
+        c, s = np.cos(g), np.sin(g)
+        rot = np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)
+        cov = np.asarray(cov_en, float)
+        return rot @ cov @ np.swapaxes(rot, -1, -2)
+
+    def earth_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        """The pose of ``map`` in REP-105's ``earth`` (ECEF) frame: translation [m] (3,), quaternion (x, y, z, w).
+
+        Module docstring: exact at the origin and along its axes; a placement on the globe, not a
+        conversion of positions.
+        """
+        to_ecef = Transformer.from_crs('EPSG:4326', 'EPSG:4978', always_xy=True)
+        t = np.array(to_ecef.transform(self.lon0, self.lat0, 0.0), float)
+        phi, lam = math.radians(self.lat0), math.radians(self.lon0)
+        east = [-math.sin(lam), math.cos(lam), 0.0]
+        north = [-math.sin(phi) * math.cos(lam), -math.sin(phi) * math.sin(lam), math.cos(phi)]
+        up = [math.cos(phi) * math.cos(lam), math.cos(phi) * math.sin(lam), math.sin(phi)]
+        q = Rotation.from_matrix(np.array([east, north, up]).T).as_quat()   # columns: map's axes in ECEF
+        return t, q
+
     def distance_to(self, lat0: float, lon0: float) -> float:
         """Ground distance [m] from this datum's origin to (lat0, lon0) (WGS-84 geodesic, pyproj.Geod)."""
         return float(_GEOD.inv(self.lon0, self.lat0, lon0, lat0)[2])
 
     def same_as(self, lat0: float, lon0: float, tol_m: float = DATUM_MATCH_M) -> bool:
         return self.distance_to(lat0, lon0) <= tol_m
+
+
+class RunDatum:
+    """One node's view of the run's one datum: its own origin, the datums heard, a conflict (module docstring).
+
+    ``origin`` (lat, lon) is this node's own datum (a parameter), or None: the run's datum when
+    one is heard, else this node's first fix (``fix``). With ``fallback`` the origin is no demand
+    (a file's centroid): a datum heard before the node fixes its own is taken instead. The node
+    publishes a datum it fixes; it reports what ``hear`` returns and refuses its input while
+    ``conflict`` is set.
+
+    Settling: ``settle`` seconds (on the caller's monotonic clock ``now``) after this node fixed,
+    took or first agreed with a datum, that datum is the run's for this node, whatever is heard
+    later: the earlier-stamp rule only settles nodes that fixed theirs at about the same time, and
+    a different datum published once the run is going (a stray node, hostile input) is refused,
+    not obeyed. Without ``now`` the datum never settles.
+    """
+
+    def __init__(self, origin: tuple[float, float] | None = None, *, fallback: bool = False,
+                 settle: float = SETTLE_S) -> None:
+        self.origin = None if origin is None else (float(origin[0]), float(origin[1]))
+        self.fallback = fallback
+        self.settle = float(settle)
+        self.datum: Datum | None = None
+        self.stamp = math.inf          # when this node's datum was published (inf: not published)
+        self.taken = False             # the datum was heard, not fixed here
+        self.conflict: str | None = None
+        self.settled_at = math.inf     # from this time on [now] the datum is settled
+
+    def _settle_from(self, now: float | None) -> None:
+        if now is not None and self.settled_at == math.inf:
+            self.settled_at = float(now) + self.settle
+
+    def fix(self, lat: float, lon: float, t: float, now: float | None = None) -> Datum:
+        """This node fixes the run's datum at ``t`` (its origin, or its first fix); the caller publishes it."""
+        self.datum, self.stamp, self.taken = Datum(lat, lon), float(t), False
+        self._settle_from(now)
+        return self.datum
+
+    def fix_own(self, t: float, now: float | None = None) -> Datum | None:
+        """Fix this node's ``origin`` when no datum is known yet; the datum to publish, or None."""
+        if self.datum is None and self.origin is not None:
+            return self.fix(*self.origin, t, now)
+        return None
+
+    def hear(self, t: float, lat: float, lon: float, where: str = 'map_datum',
+             now: float | None = None) -> tuple[str, str | None]:
+        """A datum published by some node at ``t``, heard at ``now``: (event, line or None).
+
+        Events: ``taken`` (this node had none: it is the run's now; a line to log), ``same``,
+        ``conflict`` (theirs is the run's and differs from this node's own: ``conflict`` holds the
+        reason; a line to log the first time), ``refused`` (theirs differs and this node's datum
+        is the run's: it was published first, or it is settled; the line is the reason to refuse it).
+        """
+        if self.datum is None and self.origin is not None and not self.fallback:
+            self.datum = Datum(*self.origin)          # not published yet: the one heard is the run's
+        if self.datum is None:
+            self.datum, self.stamp, self.taken = Datum(lat, lon), float(t), True
+            self._settle_from(now)
+            return 'taken', f'map datum {self.datum.describe()} taken from {where}'
+        if self.datum.same_as(lat, lon):
+            self._settle_from(now)
+            return 'same', None
+        theirs = f'({lat:.7f}°, {lon:.7f}°)'
+        settled = now is not None and now >= self.settled_at
+        if not settled and (t, lat, lon) < (self.stamp, self.datum.lat0, self.datum.lon0):   # theirs is the run's
+            first = self.conflict is None
+            self.conflict = (f'datum: this node\'s map datum {self.datum.describe()} differs from the run\'s '
+                             f'{theirs} on {where}')
+            line = (f'map datum conflict: this node\'s {self.datum.describe()} differs from the run\'s {theirs} on '
+                    f'{where} ({self.datum.distance_to(lat, lon):.1f} m apart): its input is refused')
+            return 'conflict', line if first else None
+        why = 'settled' if settled else 'published first'
+        return 'refused', f'datum: {theirs} differs from the run\'s {self.datum.describe()} ({why})'
+
+    def problem(self) -> str | None:
+        """Why a latitude/longitude cannot be placed in map now (a conflict, or no datum yet), else None."""
+        if self.conflict is not None:
+            return self.conflict
+        if self.datum is None:
+            return 'datum: no map datum known yet (none heard, no origin set)'
+        return None

@@ -54,12 +54,16 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from track_core.ais.projection import LocalTangentPlane, extent_problem
 from track_core.ais.reader import AisData
 from track_core.geofeasibility.ellipse import ellipse_to_gaussian
+
+if TYPE_CHECKING:   # a type only: importing PROJ is for the nodes that project through a datum
+    from track_core.ais.datum import Datum
 
 ORIENTATIONS = ('fixed', 'radial', 'random')
 CALSHOT = (50.8184, -1.3072)  # lat, lon of the former fixed radar site (Solent only)
@@ -82,8 +86,10 @@ def _hull_bearing(site: str, name: str = 'site') -> float:
 class ShipTruth:
     """Per-ship interpolated east/north positions; ``positions(t)`` is vectorised over ships and times."""
 
-    def __init__(self, data: AisData, plane: LocalTangentPlane | None = None, max_gap: float | None = None, *,
-                 gap_factor: float = GAP_FACTOR, gap_cap: float = GAP_CAP) -> None:
+    def __init__(self, data: AisData, plane: LocalTangentPlane | Datum | None = None, max_gap: float | None = None,
+                 *, gap_factor: float = GAP_FACTOR, gap_cap: float = GAP_CAP) -> None:
+        """``plane``: the projection to map (``forward``, ``inverse``, ``lat0``, ``lon0``): a node's run
+        datum (``datum.Datum``), or the tangent plane at the data centroid (the default)."""
         if max_gap is not None and not max_gap > 0:
             raise ValueError(f'max_gap must be > 0 s or None (derived per ship), got {max_gap}')
         if not gap_factor > 0 or not gap_cap > 0:

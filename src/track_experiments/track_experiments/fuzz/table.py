@@ -58,6 +58,18 @@ RFID_ENDLESS = {'rfid_reader': {'found_radius': 1e-3}, 'rfid_guidance': {'max_st
 FUSION_FAST = {'radar': {'period': 0.05}, 'patrol': {'period': 0.1}, 'fusion': {'rate': 20.0}}
 
 
+def _ais_live_overrides() -> dict[str, dict[str, Any]]:
+    """The live AIS feed on a free UDP port (a scenario running beside the fuzzer keeps 10110), and a NavSatFix
+    input on the fusion node, so its GNSS path and its map_datum subscription are attacked too."""
+    import socket
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(('127.0.0.1', 0))
+        port = s.getsockname()[1]
+    return {'nmea_player': {'port': port}, 'ais_nmea_source': {'udp_port': port},
+            'fusion': {'navsatfix_topics': ['/gps/fix']}}
+
+
 def cases() -> dict[str, FuzzCase]:
     idsq = _idsq_nodes(24)
     doa = next(name for exe, name in idsq if exe == 'doa_sensor')
@@ -69,6 +81,9 @@ def cases() -> dict[str, FuzzCase]:
                  'fusion', (FUSION_SCORES,), overrides=FUSION_FAST),
         FuzzCase('fusion_ais', 'ais', (('ais_source', 'radar'), ('ais_source', 'patrol'), ('fusion', 'fusion')),
                  'fusion', (FUSION_SCORES,), sim_rate=5.0),
+        FuzzCase('fusion_ais_live', 'ais_live', (('nmea_player', 'nmea_player'), ('ais_nmea_source', 'ais_nmea_source'),
+                                                 ('ais_source', 'radar'), ('fusion', 'fusion')),
+                 'fusion', (FUSION_SCORES,), overrides=_ais_live_overrides(), sim_rate=5.0),
         FuzzCase('fusion_maritime', 'maritime', (('smart_target', 'smart_target'), ('sonar_sim', 'sonar_sim'),
                                                  ('sonar_observer', 'sonar_observer'), ('report_source', 'radar'),
                                                  ('fusion', 'fusion')),

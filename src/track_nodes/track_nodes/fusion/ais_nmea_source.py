@@ -21,10 +21,11 @@ receiving ship's own reports). Static and voyage data (types 5, 19, 24: name, ty
 go to the latched ``ais/nmea/ships`` (DiagnosticArray, one status per MMSI, republished at most
 every ``ships_period`` s when something changed): Track.msg has no slot for them.
 
-The datum (``track_core.ais.datum``): ``origin`` [lat, lon], or ``[0.0]``: the datum already on
-``map_datum`` (latched), else this node's first fix. The node first listens on ``map_datum`` for
-``datum_wait`` seconds (reading no input meanwhile; UDP datagrams wait in the socket), then
-publishes the datum it uses there (NavSatFix, transient-local) unless it took the run's, so every
+The datum (``track_core.ais.datum``, wired by ``track_nodes.fusion.map_datum``): ``origin`` [lat,
+lon], or ``[0.0]``: the datum already on ``map_datum`` (latched), else this node's first fix. The
+node first listens on ``map_datum`` for ``datum_wait`` seconds (reading no input meanwhile; UDP
+datagrams wait in the socket), then publishes the datum it uses there (NavSatFix,
+transient-local) and as ``earth`` → ``map`` on ``/tf_static``, unless it took the run's, so every
 node and every bag agrees where ``map`` is. Two datums that differ (by more than 1 cm) conflict:
 the one heard first is the run's (two published at once: the earlier header stamp, then the
 smaller latitude, then longitude); a node whose ``origin`` is not the run's datum refuses every
@@ -49,22 +50,16 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from diagnostic_msgs.msg import DiagnosticArray
-from sensor_msgs.msg import NavSatFix
 
 from track_core.ais.datum import Datum
 from track_core.ais.live import FeedWatch, ShipTable, position_problem, state_report
 from track_msgs.msg import TrackArray
-from track_msgs_py.ais import (
-    datum_to_navsatfix,
-    navsatfix_problem,
-    navsatfix_to_datum,
-    report_to_array,
-    ships_to_diagnostics,
-)
+from track_msgs_py.ais import report_to_array, ships_to_diagnostics
 from track_msgs_py.diagnostics import DIAG_OK, DIAG_WARN, diagnostic_array, diagnostic_status
 from track_msgs_py.qos import ESTIMATE_QOS, STATIC_QOS
-from track_msgs_py.topics import AIS_NMEA, DIAGNOSTICS, MAP_DATUM
+from track_msgs_py.topics import AIS_NMEA, DIAGNOSTICS
 from track_nodes.base import ParameterError, TrackNode, param
+from track_nodes.fusion.map_datum import MapDatumLink
 from track_nodes.fusion.nmea import Decoder, Position, Static
 
 MAX_DATAGRAM = 65535
@@ -122,16 +117,11 @@ class AisNmeaSourceNode(TrackNode):
         self.ships = ShipTable(max_ships=p.max_ships, forget_after=p.forget_after)
         self.watch = FeedWatch(p.silence)
         self.published = 0
-        self.datum: Datum | None = None
-        self.datum_stamp = math.inf
-        self.conflict: str | None = None
-        self.origin = _origin(p.origin)
+        self.map_datum = MapDatumLink(self, _origin(p.origin))
         self.ready = False
         self.pub = self.create_publisher(TrackArray, f'{prefix}/tracks', ESTIMATE_QOS)
         self.pub_ships = self.create_publisher(DiagnosticArray, f'{prefix}/ships', STATIC_QOS)
-        self.pub_datum = self.create_publisher(NavSatFix, MAP_DATUM, STATIC_QOS)
         self.pub_health = self.create_publisher(DiagnosticArray, DIAGNOSTICS, 10)
-        self.sub_datum = self.create_subscription(NavSatFix, MAP_DATUM, self._on_datum, STATIC_QOS)
         self.sock = self._open_udp() if p.udp_port else None
         self.lines = self._open_file(p.file) if p.file else None
         self.started = self.steady_now()
@@ -163,18 +153,25 @@ class AisNmeaSourceNode(TrackNode):
         return f
 
     @property
+    def datum(self) -> Datum | None:
+        return self.map_datum.datum
+
+    @property
+    def conflict(self) -> str | None:
+        return self.map_datum.conflict
+
+    @property
     def udp_port(self) -> int:
         """The port the socket is bound to (a ``udp_port`` test may ask the system for a free one)."""
         return self.sock.getsockname()[1] if self.sock is not None else 0
 
-    def _poll(self) -> None:  # noqa: PLR0912 - the datum wait, then each input in turn
+    def _poll(self) -> None:
         now = self.steady_now()
         if not self.ready:   # first hear the run's datum, if there is one (a latched message takes a moment)
             if now - self.started < self.p.datum_wait:
                 return
             self.ready = True
-            if self.datum is None and self.origin is not None:
-                self._fix_datum(*self.origin)
+            self.map_datum.fix_own()
         if self.sock is not None:
             for _ in range(self.p.max_datagrams):
                 try:
@@ -230,7 +227,7 @@ class AisNmeaSourceNode(TrackNode):
         if reason is None:
             reason = self.conflict or self.ships.order_problem(r.fields.mmsi, t)
         if reason is None and self.datum is None:   # the first fix sets the run's datum
-            self._fix_datum(r.fields.lat, r.fields.lon)
+            self.map_datum.fix(r.fields.lat, r.fields.lon)
         if reason is not None:
             self.refuse(stream, reason)
             return
@@ -238,40 +235,6 @@ class AisNmeaSourceNode(TrackNode):
         self.ships.position(r.fields.mmsi, t, now)
         self.pub.publish(report_to_array(t, report, self.get_name()))
         self.published += 1
-
-    # -- the datum -------------------------------------------------------------------------------
-    def _fix_datum(self, lat: float, lon: float) -> None:
-        self.datum = Datum(lat, lon)
-        self.datum_stamp = self.get_clock().now().nanoseconds * 1e-9
-        self.pub_datum.publish(datum_to_navsatfix(self.datum_stamp, lat, lon))
-        self.get_logger().info(f'map datum {self.datum.describe()} published on {self.resolved(MAP_DATUM)}')
-
-    def _on_datum(self, msg: NavSatFix) -> None:
-        reason = navsatfix_problem(msg)
-        if reason:
-            self.refuse(MAP_DATUM, reason)
-            return
-        t, lat, lon, _ = navsatfix_to_datum(msg)
-        if self.datum is None and self.origin is not None and not self.ready:
-            self.datum = Datum(*self.origin)       # not published yet: the run's datum is the one heard
-        if self.datum is None:
-            self.datum, self.datum_stamp = Datum(lat, lon), t
-            self.get_logger().info(f'map datum {self.datum.describe()} taken from {self.resolved(MAP_DATUM)}')
-            return
-        if self.datum.same_as(lat, lon):
-            return
-        theirs = f'({lat:.7f}°, {lon:.7f}°)'
-        if (t, lat, lon) < (self.datum_stamp, self.datum.lat0, self.datum.lon0):   # theirs is the run's
-            if self.conflict is None:
-                self.get_logger().error(
-                    f'map datum conflict: this node\'s {self.datum.describe()} differs from the run\'s {theirs} on '
-                    f'{self.resolved(MAP_DATUM)} ({self.datum.distance_to(lat, lon):.1f} m apart): every report '
-                    'is refused')
-            self.conflict = (f'datum: this node\'s map datum {self.datum.describe()} differs from the run\'s '
-                             f'{theirs} on {self.resolved(MAP_DATUM)}')
-        else:
-            self.get_logger().warning(f'map datum {theirs} published later by another node differs from this '
-                                      f'node\'s {self.datum.describe()}: that node refuses its reports')
 
     # -- outputs -----------------------------------------------------------------------------
     def _publish_ships(self, now: float) -> None:

@@ -2,13 +2,13 @@
 
 At start the node reads the AIS file (``file``; default the Solent file under
 ``track_core.data.data_dir('ais_solent')``; bad rows are skipped, counted and logged in one
-line), projects it to east/north metres in the tangent plane at the data centroid
-(``track_core.ais.projection``; every source uses the same origin, so their ``map`` frames
-agree) and simulates this source's reports (``track_core.ais.sources``) for the data window
-[``start``, ``start`` + ``duration``] seconds after the first AIS report. The whole second of node
-time at the first timer tick (the origin) is data time ``start``: a report of data time τ is stamped
-origin + τ − ``start`` and published when the node clock reaches its stamp, so the replay runs as
-fast as ``/clock`` (the launcher's ``--rate``).
+line), projects it to east/north metres through the run's map datum (``track_core.ais.datum``:
+transverse Mercator about one origin, PROJ) and simulates this source's reports
+(``track_core.ais.sources``) for the data window [``start``, ``start`` + ``duration``] seconds
+after the first AIS report. The whole second of node time at the first timer tick (the origin) is
+data time ``start``: a report of data time τ is stamped origin + τ − ``start`` and published when
+the node clock reaches its stamp, so the replay runs as fast as ``/clock`` (the launcher's
+``--rate``).
 
 The source reports every ship it sees at ``offset + k·period`` (node time), each report missing
 with probability ``dropout``, as the true position plus Gaussian noise with its own 2σ ellipse
@@ -33,6 +33,15 @@ Topics (``prefix`` e.g. ``/ais/radar``, see ``track_msgs_py.topics``):
   track id ``<prefix>/reports/<local id>``, values ``mmsi`` and ``reports``
   (``track_msgs_py.records.fusion.AisTruthEntry``).
 
+The datum (``track_nodes.fusion.map_datum``). ``origin`` [lat, lon] is this node's datum; a run
+whose datum (latched on ``map_datum``, published earlier by another node) differs is a conflict:
+the node refuses every report instant with a reason naming both. ``[0.0]``: the run's datum when
+one is heard before this node's first report, else the data centroid (median latitude and
+longitude), which the node then publishes on ``map_datum`` and as ``earth`` → ``map`` on
+``/tf_static``. Two sources of one file share the centroid, so their ``map`` frames agree; a
+source of another file takes the first one's datum (its reports re-simulated about it, the same
+seed), as long as it hears it before its first report.
+
 The stamps ``offset + k·period`` let a fusion node that ticks at multiples of its own period
 see one fresh instant per tick: with ``offset`` = 4.5 s, ``period`` = 5 s and a fusion tick
 every 5 s with ``stale_after`` = 1 s, each tick scores exactly the reports stamped 0.5 s
@@ -48,7 +57,8 @@ import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from visualization_msgs.msg import MarkerArray
 
-from track_core.ais import LocalTangentPlane, ShipTruth, SourceModel, read_ais, simulate_source
+from track_core.ais import ShipTruth, SourceModel, read_ais, simulate_source
+from track_core.ais.datum import Datum
 from track_core.ais.sources import ORIENTATIONS
 from track_msgs.msg import TrackArray
 from track_msgs_py.diagnostics import diagnostic_array
@@ -58,6 +68,7 @@ from track_msgs_py.records.fusion import AisTruthEntry
 from track_msgs_py.topics import FRAME_MAP, ais_markers_topic, ais_reports_topic, ais_truth_topic
 from track_msgs_py.track_arrays import position_tracks, tracks_to_array
 from track_nodes.base import FixedRateSteps, ParameterError, TrackNode, param
+from track_nodes.fusion.map_datum import MapDatumLink
 
 
 @dataclass
@@ -69,7 +80,8 @@ class AisSourceParams:
         'see track_core.ais.reader)')
     start: float = param(0.0, 'data time replayed at node time 0 [s after the first AIS report]', 0.0, 1e7)
     duration: float = param(600.0, 'length of the replayed data window [s]', 1.0, 1e7)
-    origin: list[float] = param([0.0], 'projection origin [lat, lon] in degrees; [0.0]: the data centroid (median)')
+    origin: list[float] = param([0.0], 'map datum [lat, lon] in degrees; [0.0]: the one on map_datum when heard '
+                                'before the first report, else the data centroid (median)')
     max_gap: float = param(0.0, 'a ship is unknown inside a gap between its AIS reports longer than this [s]; '
         '0: derived per ship from its report interval', 0.0, 1e6)
     period: float = param(5.0, 'report interval [s]', 1e-3, 3600.0)
@@ -121,22 +133,23 @@ class AisSourceNode(TrackNode):
             self.get_logger().info(f'AIS file {data.path}: {data.describe()}')
         for line in data.warnings:
             self.get_logger().warning(line)
-        origin = data.centroid() if list(p.origin) == [0.0] else _latlon('origin', p.origin)
+        centroid = list(p.origin) == [0.0]
+        origin = data.centroid() if centroid else _latlon('origin', p.origin)
+        self.data = data
+        self.model = SourceModel(name=self.get_name(), id_prefix=p.id_prefix, period=p.period, offset=p.offset,
+                                 sigma_major=p.sigma_major, sigma_minor=p.sigma_minor, orientation=p.orientation,
+                                 bearing_deg=p.bearing_deg,
+                                 site=(f'hull:{p.site_bearing_deg:g}' if list(p.site) == [0.0]
+                                       else _latlon('site', p.site)),
+                                 max_range=p.max_range or None, dropout=p.dropout)
         try:
-            truth = ShipTruth(data, LocalTangentPlane(*origin), max_gap=p.max_gap or None)
-        except ValueError as exc:  # a file reaching further than one flat projection holds (projection.py)
+            self._simulate(Datum(*origin))
+        except ValueError as exc:  # a file reaching further than one projection holds (projection.py)
             raise ParameterError(f'parameter file={p.file!r}: {exc}') from None
-        if p.start >= truth.t_end:
-            raise ParameterError(f'parameter start={p.start} is after the end of the data ({truth.t_end:.0f} s)')
-        model = SourceModel(name=self.get_name(), id_prefix=p.id_prefix, period=p.period, offset=p.offset,
-                            sigma_major=p.sigma_major, sigma_minor=p.sigma_minor, orientation=p.orientation,
-                            bearing_deg=p.bearing_deg,
-                            site=f'hull:{p.site_bearing_deg:g}' if list(p.site) == [0.0] else _latlon('site', p.site),
-                            max_range=p.max_range or None, dropout=p.dropout)
-        self.reports = rep = simulate_source(truth, model, np.random.default_rng(p.seed), p.start,
-                                             p.start + p.duration)
-        self.stamps = rep.t - p.start
+        rep = self.reports
         self.next = 0
+        self.map_datum = MapDatumLink(self, origin, fallback=centroid)
+        self.datum_problem: str | None = None
         rgba = [float(c) for c in p.marker_rgba]
         if len(rgba) != 4 or not all(0.0 <= c <= 1.0 for c in rgba):
             raise ParameterError(f'parameter marker_rgba={list(p.marker_rgba)} is invalid: allowed [r, g, b, a] '
@@ -150,6 +163,36 @@ class AisSourceNode(TrackNode):
         if p.publish_truth:
             self.pub_truth = self.create_publisher(DiagnosticArray, ais_truth_topic(p.prefix), STATIC_QOS)
         self.steps = FixedRateSteps(self, p.tick, self._step, max_time=p.duration, on_origin=self._publish_truth)
+
+    def _simulate(self, datum: Datum) -> None:
+        """This source's reports of the ships projected through ``datum`` (same seed: the same noise draws)."""
+        p = self.p
+        truth = ShipTruth(self.data, datum, max_gap=p.max_gap or None)
+        if p.start >= truth.t_end:
+            raise ParameterError(f'parameter start={p.start} is after the end of the data ({truth.t_end:.0f} s)')
+        self.sim_datum = datum
+        self.reports = simulate_source(truth, self.model, np.random.default_rng(p.seed), p.start,
+                                       p.start + p.duration)
+        self.stamps = self.reports.t - p.start
+
+    def _check_datum(self) -> str | None:
+        """Before a report goes out: the run's datum fixed (ours, when none was heard), the reports about it."""
+        link = self.map_datum
+        if link.datum is None:
+            link.fix_own()
+        reason = link.problem() or self.datum_problem
+        if reason is None and not link.datum.same_as(self.sim_datum.lat0, self.sim_datum.lon0):
+            if self.next:    # reports already out about the other datum: keep them apart (RunDatum)
+                reason = self.datum_problem = (f'datum: the reports are projected about {self.sim_datum.describe()}, '
+                                               f'not the run\'s {link.datum.describe()}')
+            else:
+                try:
+                    self._simulate(link.datum)
+                    self.get_logger().info(f'reports projected about the run\'s map datum {link.datum.describe()}')
+                    self._publish_truth(self.steps.origin or 0.0)    # the local ids of the new reports
+                except ValueError as exc:
+                    reason = self.datum_problem = f'datum: the run\'s {link.datum.describe()}: {exc}'
+        return reason
 
     def _publish_truth(self, origin: float) -> None:
         """The local track → MMSI table, once, stamped at the origin (the whole second of the first clock reading)."""
@@ -166,10 +209,15 @@ class AisSourceNode(TrackNode):
         origin = self.steps.origin or 0.0
         rep, k = self.reports, self.next
         while k < len(rep) and origin + self.stamps[k] <= t + 1e-9:
+            reason = self._check_datum()
+            rep = self.reports            # re-simulated about the run's datum before the first report
             end = k + 1
             while end < len(rep) and self.stamps[end] == self.stamps[k]:   # one array per report instant
                 end += 1
-            self._publish(origin + float(self.stamps[k]), slice(k, end))
+            if reason is None:
+                self._publish(origin + float(self.stamps[k]), slice(k, end))
+            else:
+                self.refuse(self.topic, reason)
             k = end
         self.next = k
 

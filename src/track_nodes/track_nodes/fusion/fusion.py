@@ -13,7 +13,13 @@ the node clock; a bad one is refused with one throttled line per reason and coun
 - ``pose_track_topics`` (PoseWithCovarianceStamped of many tracks of one source, the topic: local
   id in ``header.frame_id`` as ``"<frame>#<local id>"``, ``topics.track_frame_id``): an older input
   kept for such sources; that frame_id names no frame (no viewer can draw it), so our own sources
-  of many tracks (``ais_source``) publish a TrackArray.
+  of many tracks (``ais_source``) publish a TrackArray;
+- ``navsatfix_topics`` (sensor_msgs/NavSatFix, one track per topic, its namespace the source): a
+  GNSS fix (the own ship's GPS, a buoy) placed in ``map`` through the run's datum
+  (``track_nodes.fusion.map_datum``: the one latched on ``map_datum``; the fusion node never fixes
+  one), with its east/north position covariance turned by the meridian convergence
+  (``track_msgs_py.ais.navsatfix_to_position``). Refused with a reason while no datum is known or
+  the run's datums conflict, and when the fix has no covariance (``COVARIANCE_TYPE_UNKNOWN``).
 
 Frames. Every input is scored in ``world_frame`` (``map``). An input in another frame (a radar's
 own frame, ``odom``, ``utm``) is moved into it at its stamp through a transform buffer fed by
@@ -61,11 +67,13 @@ import numpy as np
 from geometry_msgs.msg import PoseWithCovarianceStamped
 from nav_msgs.msg import Odometry
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import NavSatFix
 from visualization_msgs.msg import MarkerArray
 
 from track_core.fusion import Instant, PairAssociator, TrackReport
 from track_core.fusion.region import Region, ShardInput
 from track_msgs.msg import FusedTrackArray, PairScoreArray, TrackArray
+from track_msgs_py.ais import navsatfix_position_problem, navsatfix_to_position
 from track_msgs_py.covariance import not_estimated
 from track_msgs_py.markers.fusion import FusionMarkers
 from track_msgs_py.odometry import odometry_to_cv_state, pose_cov_to_position
@@ -85,6 +93,7 @@ from track_msgs_py.track_arrays import array_to_tracks, position_tracks, track_p
 from track_msgs_py.validate import (
     InputPolicy,
     StampMonotonic,
+    bound_problem,
     clock_now,
     odometry_bounds_problem,
     odometry_problem,
@@ -93,6 +102,7 @@ from track_msgs_py.validate import (
     stamp_problem,
 )
 from track_nodes.base import ParameterError, TrackNode
+from track_nodes.fusion.map_datum import MapDatumLink
 from track_nodes.fusion.params import FusionParams
 
 # Best effort accepts both reliable and best-effort publishers; depth covers a few rate periods.
@@ -113,17 +123,17 @@ class FusionNode(TrackNode):
 
     def setup(self) -> None:
         p = self.p
-        arrays, odo, pose, multi = ([t for t in ts if t] for ts in (p.track_array_topics, p.odometry_topics,
-                                                                      p.pose_topics, p.pose_track_topics))
-        if not (arrays or odo or pose or multi):
-            raise ParameterError('parameters track_array_topics, odometry_topics, pose_topics and pose_track_topics '
-                                 'are all empty: nothing to fuse')
+        arrays, odo, pose, multi, fixes = ([t for t in ts if t] for ts in (
+            p.track_array_topics, p.odometry_topics, p.pose_topics, p.pose_track_topics, p.navsatfix_topics))
+        if not (arrays or odo or pose or multi or fixes):
+            raise ParameterError('parameters track_array_topics, odometry_topics, pose_topics, pose_track_topics and '
+                                 'navsatfix_topics are all empty: nothing to fuse')
         try:
             self.region = Region.parse(p.region, p.region_margin)
         except ValueError as exc:
             raise ParameterError(f'parameter region: {exc}') from None
         self.shard = ShardInput(self.region)
-        streams = tuple(self.resolve_topic_name(t) for t in (*arrays, *odo, *pose, *multi))
+        streams = tuple(self.resolve_topic_name(t) for t in (*arrays, *odo, *pose, *multi, *fixes))
         self.core = PairAssociator(p.method, p.threshold, p.combine, p.window, n_samples=p.n_samples,
                                    same_source_pairs=p.same_source_pairs, stale_after=p.stale_after,
                                    max_prediction=p.max_prediction, q_s=p.q_s, seed=p.seed,
@@ -143,6 +153,8 @@ class FusionNode(TrackNode):
         self.subs += [self._track_sub(Odometry, t, '_on_odometry', TRACK_QOS) for t in odo]
         self.subs += [self._track_sub(PoseWithCovarianceStamped, t, '_on_pose', TRACK_QOS) for t in pose]
         self.subs += [self._track_sub(PoseWithCovarianceStamped, t, '_on_pose_track', TRACKS_QOS) for t in multi]
+        self.map_datum = MapDatumLink(self, publish=False) if fixes else None
+        self.subs += [self._track_sub(NavSatFix, t, '_on_navsatfix', TRACK_QOS) for t in fixes]
         self.pub_scores = self.create_publisher(PairScoreArray, FUSION_SCORES, ESTIMATE_QOS)
         self.pub_assoc = self.create_publisher(PairScoreArray, FUSION_ASSOCIATIONS, ESTIMATE_QOS)
         self.pub_fused = self.create_publisher(FusedTrackArray, FUSION_FUSED, ESTIMATE_QOS)
@@ -296,6 +308,20 @@ class FusionNode(TrackNode):
             self._drop(topic, reason)
             return
         self._push(topic, track_id, TrackReport(t, z, R), topic)  # the topic is the source
+
+    def _on_navsatfix(self, topic: str, msg: NavSatFix) -> None:
+        reason = (navsatfix_position_problem(msg, self.policy) or self._stamp_problem(msg)
+                  or self.map_datum.problem())
+        if not reason:
+            t, z, R = navsatfix_to_position(msg, self.map_datum.datum)
+            reason = bound_problem('latitude/longitude in map', self.policy.world_bound, x=z[0], y=z[1])
+        if not reason:
+            z, R, reason = self._position_to_world(self.map_datum.frame_id, t, z, R)
+        reason = reason or self.stamps.msg_problem(topic, msg)   # last: only a usable fix moves the watermark
+        if reason:
+            self._drop(topic, reason)
+            return
+        self._push(topic.rsplit('/', 1)[0] or topic, topic, TrackReport(t, z, R), topic)
 
     def _position_to_world(self, frame: str, t: float, z: np.ndarray, R: np.ndarray):
         """A position report in ``frame`` → the world frame (position and covariance), or a reason."""

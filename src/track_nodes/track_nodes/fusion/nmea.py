@@ -45,6 +45,7 @@ from track_core.ais.live import POSITION_TYPES, STATIC_TYPES, PositionFields
 
 MAX_LINE = 1024           # longer lines are refused before parsing (a sentence is at most 82 characters)
 MS_THRESHOLD = 1e11       # a c: value above this is in milliseconds
+MAX_RECEIVER_TIME = 2.0**31   # a receiver time at or beyond this cannot stamp a message (int32 seconds)
 
 
 @dataclass(frozen=True)
@@ -98,6 +99,44 @@ def _parse_time(text: str) -> float | None:
     return d.timestamp()
 
 
+def split_line(line: bytes) -> tuple[float | None, bytes, str | None]:  # noqa: PLR0911 - one reason per way
+    """A line → (receiver time [s UNIX] or None, the sentence ``!...*hh``, None), or a reason it is no sentence.
+
+    The receiver time is the tag block's ``c:``, else a timestamp before the sentence, else one after
+    its checksum (module docstring). Used by the decoder and by ``nmea_play``, which paces a capture by it.
+    """
+    if len(line) > MAX_LINE:
+        return None, b'', f'line: {len(line)} bytes, longer than {MAX_LINE}'
+    if not line.isascii():
+        return None, b'', 'line: non-ASCII bytes'
+    line = line.strip()
+    t = None
+    if line.startswith(b'\\'):
+        end = line.find(b'\\', 1)
+        if end < 0:
+            return None, b'', 'tag_block: not closed by "\\"'
+        tb = TagBlock(line[1:end])
+        tb.init()
+        if not tb.is_valid:
+            return None, b'', f'tag_block: checksum or format wrong in {line[:end + 1].decode()!r}'
+        if tb.receiver_timestamp is not None:
+            t = _number_time(str(tb.receiver_timestamp))
+        line = line[end + 1:]
+    start = line.find(b'!')
+    if start < 0:
+        return t, b'', f'sentence: no "!" (not an AIS sentence): {line[:40].decode()!r}'
+    if start > 0:   # a receiver timestamp before the sentence
+        t = _parse_time(line[:start].decode()) if t is None else t
+    line = line[start:]
+    star = line.rfind(b'*')
+    if star < 0 or len(line) < star + 3:
+        return t, b'', f'sentence: truncated (no "*hh" checksum): {line[:60].decode()!r}'
+    tail = line[star + 3:].lstrip(b',').strip()
+    if tail and t is None:   # a receiver timestamp after the checksum
+        t = _number_time(tail.decode())
+    return t, line[:star + 3], None
+
+
 @dataclass
 class _Group:
     first: float
@@ -134,36 +173,12 @@ class Decoder:
         return out, reasons
 
     # -- one line --------------------------------------------------------------------------
-    def _line(self, line: bytes, now: float):  # noqa: PLR0911, PLR0912 - one reason per way a line fails
-        if len(line) > MAX_LINE:
-            return [], f'line: {len(line)} bytes, longer than {MAX_LINE}'
-        if not line.isascii():
-            return [], 'line: non-ASCII bytes'
-        t = None
-        if line.startswith(b'\\'):
-            end = line.find(b'\\', 1)
-            if end < 0:
-                return [], 'tag_block: not closed by "\\"'
-            tb = TagBlock(line[1:end])
-            tb.init()
-            if not tb.is_valid:
-                return [], f'tag_block: checksum or format wrong in {line[:end + 1].decode()!r}'
-            if tb.receiver_timestamp is not None:
-                t = _number_time(str(tb.receiver_timestamp))
-            line = line[end + 1:]
-        start = line.find(b'!')
-        if start < 0:
-            return [], f'sentence: no "!" (not an AIS sentence): {line[:40].decode()!r}'
-        if start > 0:   # a receiver timestamp before the sentence
-            t = _parse_time(line[:start].decode()) if t is None else t
-        line = line[start:]
-        star = line.rfind(b'*')
-        if star < 0 or len(line) < star + 3:
-            return [], f'sentence: truncated (no "*hh" checksum): {line[:60].decode()!r}'
-        tail = line[star + 3:].lstrip(b',').strip()
-        if tail and t is None:   # a receiver timestamp after the checksum
-            t = _number_time(tail.decode())
-        sentence = line[:star + 3]
+    def _line(self, line: bytes, now: float):
+        t, sentence, reason = split_line(line)
+        if reason is None and t is not None and not t < MAX_RECEIVER_TIME:
+            reason = f'receiver_time: {t:.6g} s is beyond what a ROS stamp holds (2^31 s, in 2038)'
+        if reason is not None:
+            return [], reason
         if sentence[3:6] not in (b'VDM', b'VDO'):
             return [], f'sentence: {sentence[:6].decode()!r} is not !AIVDM or !AIVDO'
         try:

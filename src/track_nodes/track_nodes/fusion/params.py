@@ -20,6 +20,8 @@ class FusionParams:
     pose_topics: list[str] = param([''], 'PoseWithCovarianceStamped track topics (one track per topic)')
     pose_track_topics: list[str] = param([''], 'PoseWithCovarianceStamped topics of many tracks of one source '
         '(header.frame_id = "<frame>#<local id>", track id = topic/<local id>)')
+    navsatfix_topics: list[str] = param([''], 'sensor_msgs/NavSatFix position topics (a GNSS fix, e.g. the own '
+        'ship), one track per topic, placed in map through the run\'s datum on map_datum (none yet: refused)')
     rate: float = param(2.0, 'scoring rate [Hz]', 0.01, 100.0, live=True)
     method: str = param('exact', 'geofeasibility score', choices=('exact', 'glr', 'glr_thresholded', 'mc'))
     n_samples: int = param(500, 'Monte-Carlo samples per pair (method mc)', 10, 1_000_000)

@@ -1,4 +1,9 @@
-"""Summary of the ais scenario: the recorded same-ship verdicts against the MMSI."""
+"""Summary of the ais scenarios: the recorded same-ship verdicts against the MMSI.
+
+Truth of a simulated source: its ``/ais/<source>/truth`` table. A live AIS source
+(``ais_nmea_source``, ``/ais/<prefix>/tracks``) needs none: its track id is the MMSI, so a live track
+is its own truth, and the summary also counts its tracks and reports per MMSI.
+"""
 
 from __future__ import annotations
 
@@ -14,6 +19,24 @@ from track_msgs_py.topics import FUSION_SCORES
 from track_nodes.report.read import read_topics, topics_matching
 
 
+def _live_tracks(msgs, topics, mmsi: dict[str, int], ships_by_source: dict[str, set[int]]) -> list[str]:
+    """A live source's tracks are their own truth (track id = MMSI): added to ``mmsi``; one line per topic."""
+    lines = []
+    for topic in topics:
+        reports: dict[int, int] = defaultdict(int)
+        for arr in msgs.get(topic, []):
+            for track in arr.tracks:
+                if track.id.isdigit():
+                    reports[int(track.id)] += 1
+                    mmsi[f'{topic}/{track.id}'] = int(track.id)
+                    ships_by_source[topic].add(int(track.id))
+        if reports:
+            n = np.array(list(reports.values()))
+            lines.append(f'  {topic}: {len(reports)} tracks, one per MMSI; {int(n.sum())} reports, '
+                         f'{int(np.median(n))} per MMSI (median; {int(n.min())}–{int(n.max())})')
+    return lines
+
+
 def ais_metrics(bag: Path) -> list[str]:
     """AIS scenario: the recorded same-ship verdicts against the MMSI, for the fusion's method.
 
@@ -25,7 +48,8 @@ def ais_metrics(bag: Path) -> list[str]:
     right / declared, recall = right / same-ship pairs that were scored at least once.
     """
     truth_topics = topics_matching(bag, lambda topic: topic.startswith('/ais/') and topic.endswith('/truth'))
-    msgs = read_topics(bag, {*truth_topics, FUSION_SCORES})
+    live_topics = topics_matching(bag, lambda topic: topic.startswith('/ais/') and topic.endswith('/tracks'))
+    msgs = read_topics(bag, {*truth_topics, *live_topics, FUSION_SCORES})
     mmsi: dict[str, int] = {}
     ships_by_source: dict[str, set[int]] = defaultdict(set)
     for topic in truth_topics:
@@ -33,6 +57,7 @@ def ais_metrics(bag: Path) -> list[str]:
             for st in arr.status:
                 mmsi[st.name] = AisTruthEntry.from_status(st).mmsi
                 ships_by_source[topic].add(mmsi[st.name])
+    live_lines = _live_tracks(msgs, live_topics, mmsi, ships_by_source)
     pairs: dict[tuple[str, str], list] = {}
     methods, evaluations = set(), 0
     for arr in msgs.get(FUSION_SCORES, []):
@@ -72,7 +97,7 @@ def ais_metrics(bag: Path) -> list[str]:
     lines = [f'ais: method {"/".join(sorted(methods))}; '
              + ', '.join(f'{t.split("/")[2]} {len(ships_by_source[t])} tracks' for t in sources)
              + f'; {len(both)} ships seen by both; {evaluations} pair evaluations, {len(keys)} track pairs, '
-             f'{int(same.sum())} of them the same ship']
+             f'{int(same.sum())} of them the same ship', *live_lines]
     rule = f'short-pair rule (k ≥ 1, (k + {SHORT_PAIR_WEIGHT:g}·{SHORT_PAIR_RATE:g})/(n + {SHORT_PAIR_WEIGHT:g}) ≥ 1/2)'
     for label, d in ((rule, declared), ('one-to-one', matched)):
         m = metrics(d)
