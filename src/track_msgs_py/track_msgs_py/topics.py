@@ -135,10 +135,9 @@ TOPICS.update({
     SONAR_TRUTH: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
                            'true state of the smart target (zero covariance), stamped t_k = k·T; '
                            'child_frame_id = target id'),
-    SONAR_TARGET_STATUS: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'estimate',
-                                   'smart target after step k: one status "<target id>", values mode '
-                                   '(naive|cruise|evade), heard (a ping at t_{k-1} was detected: true|false), '
-                                   'pings, detections (totals so far)'),
+    SONAR_TARGET_STATUS: TopicSpec('track_msgs/msg/SonarTargetStatus', 'estimate',
+                                   'smart target after step k: target_id, mode (naive|cruise|evade), heard (a ping '
+                                   'at t_{k-1} was detected), pings, detections (totals so far)'),
     SONAR_OBSERVER: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
                               "the observer ship's navigation (REP-105: heading in the pose, forward speed in "
                               'child_frame_id); sonar_sim publishes it at t_k last in its step, so it also marks '
@@ -148,9 +147,9 @@ TOPICS.update({
                               'yaw, yaw rate); child_frame_id = track id'),
     SONAR_PARTICLES: TopicSpec('geometry_msgs/msg/PoseArray', 'sensor',
                                'selected particles after step k (positions, identity orientation, equal weights)'),
-    SONAR_MODE: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'estimate',
-                          'sensor schedule: one status "<node>/sensor_mode", message = mode used at t_k, values '
-                          'mode, next_mode (eq. 7 choice for t_{k+1}), step, ess, distance (‖P_D − Cov‖, ss-pf)'),
+    SONAR_MODE: TopicSpec('track_msgs/msg/SonarFilterStatus', 'estimate',
+                          'the filter after each step: mode of its reading, next_mode (eq. 7 request), updated '
+                          '(false: predict-only), step, ess, distance (‖P_D − Cov‖, ss-pf; -1 otherwise)'),
     SONAR_PING: TopicSpec('geometry_msgs/msg/PointStamped', 'estimate',
                           'active-ping event: the observer pinged at header.stamp from point (x, y, 0) '
                           '(published by the sonar: sonar_sim)'),
@@ -261,9 +260,9 @@ def idsq_revoke_topic(sensor: int) -> str:
 
 TOPICS.update({
     IDSQ_TRUTH: TopicSpec('nav_msgs/msg/Odometry', 'static',
-                          'vehicle truth at tracker step s, stamped (s + 1)·Δt (zero covariance); transient-local '
-                          'with depth 256, so a late sensor still gets step 0 (start rule) and a busy leader loses '
-                          'no step; child_frame_id = vehicle id'),
+                          'vehicle truth at tracker step s, stamped (s + 1)·Δt (zero covariance), for evaluation '
+                          '(the sensors hear only their readings); transient-local with depth 256; child_frame_id = '
+                          'vehicle id'),
     IDSQ_LAYOUT: TopicSpec('sensor_msgs/msg/PointCloud2', 'static',
                            f'sensor layout, one point per sensor: {CLOUD_XYZ} 4 bytes padding and FLOAT64 id, '
                            'x_f64, y_f64 (the exact positions every sensor uses), type (0 acoustic, 1 DOA); '
@@ -351,6 +350,30 @@ TOPICS.update({
     SLAM_PARTICLES: TopicSpec('geometry_msgs/msg/PoseArray', 'sensor',
                               'PF mode only: the particle cloud after each scan (global frame, heading in the '
                               'orientation; at most max_particles_published); an empty array on leaving PF'),
+})
+
+# SLAM on any robot through standard inputs and REP-105 outputs (track_msgs_py.records.landmarks): the
+# robot's driver publishes odom (and odom → base_link on /tf), a laser driver scan; landmark_extractor
+# turns scans into landmark detections (any other front end may publish them); slam publishes map → odom.
+FRAME_ODOM = 'odom'        # REP-105: the robot's continuous odometry frame (its driver owns odom → base_link)
+SLAM_ODOM = '/odom'
+SLAM_LASER_SCAN = '/scan'
+SLAM_LANDMARKS = '/slam/landmarks'
+SLAM_LANDMARK_MAP = '/slam/landmark_map'
+TOPICS.update({
+    SLAM_ODOM: TopicSpec('nav_msgs/msg/Odometry', 'estimate',
+                         "the robot driver's odometry (REP-105): pose of base_link in odom, twist in base_link "
+                         '(v = linear.x, yaw rate = angular.z) with its covariance'),
+    SLAM_LASER_SCAN: TopicSpec('sensor_msgs/msg/LaserScan', 'sensor',
+                               'a planar laser scan (REP-117: +inf = no return), frame laser; landmark_extractor '
+                               'reads it'),
+    SLAM_LANDMARKS: TopicSpec('track_msgs/msg/LandmarkDetectionArray', 'estimate',
+                              'point landmarks of one instant in a sensor frame: range [m, to the centre], bearing '
+                              '[rad, REP-103], diameter [m], 3x3 covariance each; from landmark_extractor or any '
+                              'front end'),
+    SLAM_LANDMARK_MAP: TopicSpec('track_msgs/msg/LandmarkMap', 'static',
+                                 'the SLAM landmark map (id, x, y, 2x2 covariance per landmark) in map, beside '
+                                 '/slam/map'),
 })
 
 # Recognised maritime picture on real AIS ships. Each ``ais_source`` node is one

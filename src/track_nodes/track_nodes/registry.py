@@ -25,9 +25,11 @@ NODES = {
     'rfid_llrp_reader': 'track_nodes.rfid.rfid_llrp_reader:RfidLlrpReaderNode',
     'slam_sim': 'track_nodes.slam.slam_sim:SlamSimNode',
     'slam': 'track_nodes.slam.slam:SlamNode',
+    'landmark_extractor': 'track_nodes.slam.landmark_extractor:LandmarkExtractorNode',
     'report_source': 'track_nodes.fusion.report_source:ReportSourceNode',
     'ais_source': 'track_nodes.fusion.ais_source:AisSourceNode',
     'ais_nmea_source': 'track_nodes.fusion.ais_nmea_source:AisNmeaSourceNode',
+    'nmea_player': 'track_nodes.fusion.nmea_play:NmeaPlayerNode',
     'fusion': 'track_nodes.fusion.fusion:FusionNode',
     # bag tools that are nodes
     'recorder': 'track_nodes.bag.recorder:RecorderNode',

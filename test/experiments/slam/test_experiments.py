@@ -17,6 +17,16 @@ def test_victoria_park_quick(tmp_path):
     assert all(f.exists() for f in out.figures)
 
 
+@pytest.mark.skipif(not victoria.data_dir().is_dir(), reason='Victoria Park data not available')
+@pytest.mark.parametrize('motion', ['increments', 'twist'])
+def test_victoria_park_through_the_standard_inputs_gives_the_same_path(tmp_path, motion):
+    out = victoria_park(RunConfig(quick=True, out=tmp_path, show_progress=False,
+                                  options={'inputs': 'both', 'motion': motion}))
+    assert out.data['path_diff_max_m'] < 1e-6
+    assert out.data['gps_rmse_standard_m'] == pytest.approx(out.data['gps_rmse_m'], abs=1e-6)
+    assert out.data['landmarks_standard'] == out.data['landmarks']
+
+
 def test_loop_world_hybrid_recovers_where_ekf_fails():
     w = LoopWorld()
     loop_sim_params(w)

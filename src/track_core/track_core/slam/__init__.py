@@ -1,6 +1,8 @@
 """Hybrid SLAM: Compressed EKF that switches to particle-filter localisation (Masson, Guivant & Nebot).
 
-- ``models``: ACFR vehicle model (state at the laser) and eq. 5 range–bearing observation.
+- ``models``: the ACFR and unicycle input models (state at the laser) and eq. 5 range–bearing observation.
+- ``odometry``: wheel odometry (nav_msgs/Odometry) → unicycle inputs, the odom track and map → odom.
+- ``landmarks``: point-landmark extraction (trunks, poles) from a planar laser scan.
 - ``association``: gated nearest neighbour, ambiguity test, failure detector (§3.1).
 - ``cekf``: EKF-SLAM and the Compressed EKF (ref. [9]) in one class, ``CekfSlam``.
 - ``pf``: re-referenced, de-correlated map (eqs. 10–11), helix initialisation (eqs. 12–13),

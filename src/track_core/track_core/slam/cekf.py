@@ -65,6 +65,7 @@ from scipy.linalg import cho_factor, cho_solve
 from track_core.filters import wrap_angle
 from track_core.slam.association import Association, associate
 from track_core.slam.models import (
+    InputModel,
     VehicleParams,
     inverse_observe,
     inverse_observe_jacobians,
@@ -78,8 +79,8 @@ log = logging.getLogger(__name__)
 class SlamParams:
     """Noise, gates and CEKF partition sizes. Defaults suit the Victoria Park run."""
 
-    sigma_v: float = 0.5             # encoder speed noise [m/s]
-    sigma_steer: float = np.deg2rad(3.0)  # steering noise [rad]
+    sigma_v: float = 0.5             # σ of the first input: encoder speed (ACFR) or speed v (unicycle) [m/s]
+    sigma_steer: float = np.deg2rad(3.0)  # σ of the second input: steering [rad] (ACFR) or yaw rate ω [rad/s]
     q_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)  # additive pose noise density [·²/s]
     sigma_r: float = 0.5             # range noise [m]
     sigma_b: float = np.deg2rad(1.0)  # bearing noise [rad]
@@ -131,7 +132,7 @@ class CekfSlam:
     """
 
     def __init__(self, pose0: np.ndarray, P0: np.ndarray, params: SlamParams | None = None, *,
-                 compressed: bool = True, vehicle: VehicleParams | None = None) -> None:
+                 compressed: bool = True, vehicle: InputModel | None = None) -> None:
         P0 = np.asarray(P0, dtype=float)
         if P0.shape != (3, 3):
             raise ValueError(f'P0 shape = {P0.shape}: must be (3, 3)')
@@ -349,8 +350,13 @@ class CekfSlam:
         return self._tent.copy()
 
     # ------------------------------------------------------------------ filter steps
-    def predict(self, u: np.ndarray, dt: float) -> None:
-        """Prediction over ``dt`` with input u = (v_e, α) on A (φ ← Jφ); batched, see module docstring."""
+    def predict(self, u: np.ndarray, dt: float, Su: np.ndarray | None = None) -> None:
+        """Prediction over ``dt`` with input u on A (φ ← Jφ); batched, see module docstring.
+
+        u = (v_e, α) for the ACFR model, (v, ω) for the unicycle (``models``). Input noise: ``Su``, a
+        2×2 covariance of u for this step (an odometry message's twist covariance), else
+        diag(``sigma_v``², ``sigma_steer``²) of the parameters.
+        """
         if not dt > 0:
             return
         xa = self.xa
@@ -359,12 +365,24 @@ class CekfSlam:
         xa[0], xa[1], xa[2] = nx, ny, nph
         sv, sa, qx, qy, qp = self._su
         q00, q01, q02, q11, q12, q22 = self._q
-        self._q = [q00 + 2.0 * a * q02 + a * a * q22 + sv * g00 * g00 + sa * g01 * g01 + dt * qx,
-                   q01 + a * q12 + b * q02 + a * b * q22 + sv * g00 * g10 + sa * g01 * g11,
-                   q02 + a * q22 + sv * g00 * g20 + sa * g01 * g21,
-                   q11 + 2.0 * b * q12 + b * b * q22 + sv * g10 * g10 + sa * g11 * g11 + dt * qy,
-                   q12 + b * q22 + sv * g10 * g20 + sa * g11 * g21,
-                   q22 + sv * g20 * g20 + sa * g21 * g21 + dt * qp]
+        if Su is None:
+            self._q = [q00 + 2.0 * a * q02 + a * a * q22 + sv * g00 * g00 + sa * g01 * g01 + dt * qx,
+                       q01 + a * q12 + b * q02 + a * b * q22 + sv * g00 * g10 + sa * g01 * g11,
+                       q02 + a * q22 + sv * g00 * g20 + sa * g01 * g21,
+                       q11 + 2.0 * b * q12 + b * b * q22 + sv * g10 * g10 + sa * g11 * g11 + dt * qy,
+                       q12 + b * q22 + sv * g10 * g20 + sa * g11 * g21,
+                       q22 + sv * g20 * g20 + sa * g21 * g21 + dt * qp]
+        else:  # G Σ Gᵀ with a full 2×2 Σ: the same entries plus the cross term s01 (gᵢ₀gⱼ₁ + gᵢ₁gⱼ₀)
+            sv, sa, sc = float(Su[0, 0]), float(Su[1, 1]), float(Su[0, 1])
+            self._q = [q00 + 2.0 * a * q02 + a * a * q22 + sv * g00 * g00 + sa * g01 * g01 + 2.0 * sc * g00 * g01
+                       + dt * qx,
+                       q01 + a * q12 + b * q02 + a * b * q22 + sv * g00 * g10 + sa * g01 * g11
+                       + sc * (g00 * g11 + g01 * g10),
+                       q02 + a * q22 + sv * g00 * g20 + sa * g01 * g21 + sc * (g00 * g21 + g01 * g20),
+                       q11 + 2.0 * b * q12 + b * b * q22 + sv * g10 * g10 + sa * g11 * g11 + 2.0 * sc * g10 * g11
+                       + dt * qy,
+                       q12 + b * q22 + sv * g10 * g20 + sa * g11 * g21 + sc * (g10 * g21 + g11 * g20),
+                       q22 + sv * g20 * g20 + sa * g21 * g21 + 2.0 * sc * g20 * g21 + dt * qp]
         self._c[0] += a
         self._c[1] += b
         self._pending = True

@@ -63,7 +63,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from track_core.slam.cekf import CekfSlam, SlamParams
-from track_core.slam.models import VehicleParams
+from track_core.slam.models import InputModel, VehicleParams
 from track_core.slam.pf import (
     ParticleLocaliser,
     PFParams,
@@ -154,7 +154,7 @@ class HybridSlam:
     def __init__(self, pose0: np.ndarray, P0: np.ndarray, rng: np.random.Generator,
                  slam: SlamParams | None = None, pf: PFParams | None = None,
                  hybrid: HybridParams | None = None, *, compressed: bool = True,
-                 vehicle: VehicleParams | None = None, t0: float | None = None) -> None:
+                 vehicle: InputModel | None = None, t0: float | None = None) -> None:
         vehicle = vehicle or VehicleParams()
         self.cekf = CekfSlam(pose0, P0, slam, compressed=compressed, vehicle=vehicle)
         self.pf_params = pf or PFParams()
@@ -163,6 +163,7 @@ class HybridSlam:
         self.rng = rng
         self.t = t0
         self.u = np.zeros(2)
+        self.Su: np.ndarray | None = None   # the held input's 2×2 covariance (None: the parameters' σ)
         self.mode = 'CEKF'
         self.events: list[Event] = []
         self.ctx: _PFContext | None = None
@@ -188,9 +189,9 @@ class HybridSlam:
         dt = t - self.t
         if dt > 0:
             if self.mode == 'PF':
-                self.ctx.pf.predict(self.u, dt)
+                self.ctx.pf.predict(self.u, dt, self.Su)
             if self.mode == 'CEKF' or self.params.restore == 'update':
-                self.cekf.predict(self.u, dt)   # in PF mode: dead reckoning, the prior of the hand-over
+                self.cekf.predict(self.u, dt, self.Su)   # in PF mode: dead reckoning, the prior of the hand-over
         self.t = t
         return True
 
@@ -200,19 +201,31 @@ class HybridSlam:
             if np.isfinite(t):
                 self._last_warn = t
 
-    def process_input(self, t: float, speed: float, steer: float) -> bool:
-        """Encoder speed [m/s] and steering [rad] valid from ``t`` on (zero-order hold).
+    def process_input(self, t: float, speed: float, steer: float, cov: np.ndarray | None = None) -> bool:
+        """The input model's two inputs, valid from ``t`` on (zero-order hold): encoder speed [m/s] and
+        steering [rad] (ACFR), or speed v [m/s] and yaw rate ω [rad/s] (unicycle, ``models``).
 
-        Returns ``False`` (state untouched, throttled warning) for a non-finite value or a time
-        stamp earlier than the last processed one.
+        ``cov``: their 2×2 covariance for this hold (an odometry twist covariance); ``None`` uses the
+        parameters' σ (``SlamParams``/``PFParams`` ``sigma_v``, ``sigma_steer``). Returns ``False``
+        (state untouched, throttled warning) for a non-finite value, a covariance that is not a
+        finite symmetric PSD 2×2, or a time stamp earlier than the last processed one.
         """
         speed, steer = float(speed), float(steer)
         if not (math.isfinite(speed) and math.isfinite(steer)):
             self._warn(self.t if self.t is not None else 0.0, f'non-finite input ({speed}, {steer}): dropped')
             return False
+        if cov is not None:
+            cov = np.asarray(cov, dtype=float)
+            if (cov.shape != (2, 2) or not np.all(np.isfinite(cov))
+                    or abs(cov[0, 1] - cov[1, 0]) > 1e-9 * (abs(cov[0, 1]) + abs(cov[1, 0]) + 1e-300)
+                    or cov[0, 0] < 0 or cov[1, 1] < 0 or cov[0, 0] * cov[1, 1] < cov[0, 1] * cov[1, 0] * (1 - 1e-9)):
+                self._warn(self.t if self.t is not None else 0.0, 'input covariance not a finite PSD 2x2: dropped')
+                return False
+            cov = 0.5 * (cov + cov.T)
         if not self._advance(t):
             return False
         self.u = np.array([speed, steer])
+        self.Su = None if cov is None else cov.copy()
         return True
 
     def valid_observations(self, z: np.ndarray) -> np.ndarray:

@@ -10,6 +10,25 @@ Vehicle (data README, Masson/Guivant/Nebot §4): state ``(x, y, φ)`` at the las
 discretised by one explicit Euler step of length ``dt`` (the ACFR convention; inputs arrive
 every 25 ms on the real run).
 
+Input models (two, named; ``INPUT_MODELS``). The filter's state is always the laser *position*
+with the robot's heading, and both models have the same structure: the rates depend on the pose
+only through φ, and φ̇ not on the pose, so F = ∂x⁺/∂x = I + v e₃ᵀ (what the CEKF's batched
+prediction needs, ``cekf.py``).
+
+- ``VehicleParams`` (``'acfr'``): the ACFR car above, u = (encoder speed v_e, steering angle α),
+  with the geometry L, H, a, b as parameters.
+- ``UnicycleParams`` (``'unicycle'``): any unicycle or differential-drive robot, u = (v, ω) = the
+  forward speed and yaw rate of ``base_link`` (``nav_msgs/Odometry``'s twist, REP-105), with the
+  laser a ahead and b left of ``base_link``:
+
+      ẋ = v cos φ − ω (a sin φ + b cos φ),  ẏ = v sin φ + ω (a cos φ − b sin φ),  φ̇ = ω
+
+  (d/dt of p + R(φ)(a, b)). The ACFR car is this model at its rear-axle centre with
+  v = v_c and ω = (v_c/L) tan α (``acfr_to_unicycle``), so both give the same prediction.
+
+Input noise: ``σ_u`` = (σ of u₀, σ of u₁) from the parameters, or a full 2×2 covariance per input
+(``process_noise(..., Su=...)``; an odometry message's twist covariance).
+
 Observation (eq. 5): ``z_r = |m − p|``, ``z_β = atan2(m_y − y, m_x − x) − φ + π/2``. This is
 *exactly* the data set's bearing convention (0 = vehicle's right, π/2 ahead, π left), so the
 Victoria Park bearings enter unchanged; the vehicle-frame bearing of the README is ``z_β − π/2``.
@@ -38,7 +57,7 @@ from track_core.filters import wrap_angle
 
 @dataclass(frozen=True)
 class VehicleParams:
-    """ACFR utility-vehicle geometry (metres)."""
+    """The ``'acfr'`` input model: ACFR utility-vehicle geometry (metres); inputs (encoder speed, steering)."""
 
     L: float = 2.83
     H: float = 0.76
@@ -52,10 +71,61 @@ class VehicleParams:
             raise ValueError(f'H = {self.H} m: must be in [0, L)')
 
 
-def _rates(pose: np.ndarray, u: np.ndarray, vp: VehicleParams):
+@dataclass(frozen=True)
+class UnicycleParams:
+    """Unicycle / differential-drive robot (module docstring): inputs (v [m/s], ω [rad/s]) of base_link;
+    the laser (the state's position) ``a`` ahead and ``b`` left of base_link [m]."""
+
+    a: float = 0.0
+    b: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.a) and math.isfinite(self.b)):
+            raise ValueError(f'laser offset ({self.a}, {self.b}) m: must be finite')
+
+
+#: input model name -> its parameter class (the ``slam`` node's ``input_model``)
+INPUT_MODELS = {'acfr': VehicleParams, 'unicycle': UnicycleParams}
+InputModel = VehicleParams | UnicycleParams
+
+
+def acfr_to_unicycle(ve, alpha, vp: VehicleParams = VehicleParams()):
+    """ACFR inputs (encoder speed, steering) → (v, ω) of the rear-axle centre and ∂(v, ω)/∂(v_e, α) (..., 2, 2).
+
+    v = v_e / (1 − tan α · H/L), ω = v tan α / L (the data README's model, module docstring): the
+    twist a wheel-odometry driver of the car would publish for base_link at the rear-axle centre.
+    Σ_(v,ω) = J Σ_(v_e,α) Jᵀ then gives the ACFR filter's process noise exactly (chain rule).
+    """
+    ve, alpha = np.asarray(ve, dtype=float), np.asarray(alpha, dtype=float)
+    t = np.tan(alpha)
+    den = 1.0 - t * vp.H / vp.L
+    v = ve / den
+    w = v * t / vp.L
+    t_al = 1.0 + t * t
+    v_ve, v_al = 1.0 / den, ve * (vp.H / vp.L) * t_al / den**2
+    J = np.stack([np.stack([v_ve, v_al], -1), np.stack([v_ve * t / vp.L, (v_al * t + v * t_al) / vp.L], -1)], -2)
+    return v, w, J
+
+
+def _unicycle_rates(pose: np.ndarray, u: np.ndarray, vp: UnicycleParams):
+    phi = pose[..., 2]
+    v, w = u[..., 0], u[..., 1]
+    c, s = np.cos(phi), np.sin(phi)
+    ax = vp.a * s + vp.b * c
+    ay = vp.a * c - vp.b * s
+    f = np.stack([v * c - w * ax, v * s + w * ay, w + 0.0 * c], axis=-1)
+    f_phi = np.stack([-v * s - w * ay, v * c - w * ax, np.zeros_like(ax)], axis=-1)
+    one = np.ones_like(ax)
+    f_u = np.stack([np.stack([c, -ax], -1), np.stack([s, ay], -1), np.stack([0.0 * one, one], -1)], axis=-2)
+    return f, f_phi, f_u
+
+
+def _rates(pose: np.ndarray, u: np.ndarray, vp: InputModel):
     """Continuous-time rates f, ∂f/∂φ and ∂f/∂u (last axes (3,), (3,), (3, 2))."""
     pose = np.asarray(pose, dtype=float)
     u = np.asarray(u, dtype=float)
+    if isinstance(vp, UnicycleParams):
+        return _unicycle_rates(pose, u, vp)
     phi = pose[..., 2]
     ve, al = u[..., 0], u[..., 1]
     t = np.tan(al)
@@ -80,8 +150,8 @@ def _rates(pose: np.ndarray, u: np.ndarray, vp: VehicleParams):
     return f, f_phi, f_u
 
 
-def vehicle_step(pose: np.ndarray, u: np.ndarray, dt: float, vp: VehicleParams = VehicleParams()) -> np.ndarray:
-    """One Euler step of the ACFR model; heading wrapped to (−π, π]."""
+def vehicle_step(pose: np.ndarray, u: np.ndarray, dt: float, vp: InputModel = VehicleParams()) -> np.ndarray:
+    """One Euler step of the input model ``vp`` (ACFR or unicycle); heading wrapped to (−π, π]."""
     f, _, _ = _rates(pose, u, vp)
     out = np.asarray(pose, dtype=float) + dt * f
     out[..., 2] = wrap_angle(out[..., 2])
@@ -89,7 +159,7 @@ def vehicle_step(pose: np.ndarray, u: np.ndarray, dt: float, vp: VehicleParams =
 
 
 def vehicle_jacobians(pose: np.ndarray, u: np.ndarray, dt: float,
-                      vp: VehicleParams = VehicleParams()) -> tuple[np.ndarray, np.ndarray]:
+                      vp: InputModel = VehicleParams()) -> tuple[np.ndarray, np.ndarray]:
     """``F = ∂x⁺/∂x`` (..., 3, 3) and ``G = ∂x⁺/∂u`` (..., 3, 2) of ``vehicle_step``."""
     _, f_phi, f_u = _rates(pose, u, vp)
     F = np.broadcast_to(np.eye(3), (*f_phi.shape[:-1], 3, 3)).copy()
@@ -98,14 +168,17 @@ def vehicle_jacobians(pose: np.ndarray, u: np.ndarray, dt: float,
 
 
 def vehicle_step_scalar(x: float, y: float, phi: float, ve: float, al: float, dt: float,
-                        vp: VehicleParams) -> tuple[float, ...]:
+                        vp: InputModel) -> tuple[float, ...]:
     """``vehicle_step`` + ``vehicle_jacobians`` for one pose in plain floats (the per-input hot path).
 
     Returns ``(x⁺, y⁺, φ⁺, F02, F12, G00, G01, G10, G11, G20, G21)``: the Euler step (heading
     wrapped to (−π, π]), the two non-trivial entries of F = ∂x⁺/∂x (F = I except F[0,2], F[1,2])
     and G = ∂x⁺/∂u row by row. Same arithmetic as the array version (tested against it); about
     20× faster than numpy for a single 3-vector, which matters at 40 inputs per second.
+    With ``UnicycleParams`` the inputs are (v, ω) (module docstring): ``ve`` = v, ``al`` = ω.
     """
+    if isinstance(vp, UnicycleParams):
+        return _unicycle_step_scalar(x, y, phi, ve, al, dt, vp)
     t = math.tan(al)
     hl = vp.H / vp.L
     den = 1.0 - t * hl
@@ -130,12 +203,27 @@ def vehicle_step_scalar(x: float, y: float, phi: float, ve: float, al: float, dt
             dt * k_ve, dt * k_al)
 
 
+def _unicycle_step_scalar(x: float, y: float, phi: float, v: float, w: float, dt: float,
+                         vp: UnicycleParams) -> tuple[float, ...]:
+    """``vehicle_step_scalar`` for the unicycle model (same return layout)."""
+    c, s = math.cos(phi), math.sin(phi)
+    ax = vp.a * s + vp.b * c
+    ay = vp.a * c - vp.b * s
+    ph = phi + dt * w
+    if not -math.pi < ph <= math.pi:
+        ph = math.pi - (math.pi - ph) % (2.0 * math.pi)
+    return (x + dt * (v * c - w * ax), y + dt * (v * s + w * ay), ph,
+            dt * (-v * s - w * ay), dt * (v * c - w * ax),
+            dt * c, -dt * ax, dt * s, dt * ay, 0.0, dt)
+
+
 def process_noise(pose: np.ndarray, u: np.ndarray, dt: float, sigma_u: tuple[float, float],
                   q_pose: tuple[float, float, float] = (0.0, 0.0, 0.0),
-                  vp: VehicleParams = VehicleParams()) -> np.ndarray:
-    """Q = G diag(σ_v², σ_α²) Gᵀ + dt·diag(q_pose) for one step (3×3 for a single pose)."""
+                  vp: InputModel = VehicleParams(), Su: np.ndarray | None = None) -> np.ndarray:
+    """Q = G Σ_u Gᵀ + dt·diag(q_pose) for one step (3×3 for a single pose); Σ_u = ``Su`` (2×2) when given,
+    else diag(σ_u²)."""
     _, G = vehicle_jacobians(pose, u, dt, vp)
-    Su = np.diag(np.square(sigma_u))
+    Su = np.diag(np.square(sigma_u)) if Su is None else np.asarray(Su, dtype=float)
     return G @ Su @ np.swapaxes(G, -1, -2) + dt * np.diag(q_pose)
 
 

@@ -54,7 +54,7 @@ from track_core.filters import (
     weighted_mean_cov,
     wrap_angle,
 )
-from track_core.slam.models import VehicleParams, observe, observe_jacobians, vehicle_step
+from track_core.slam.models import InputModel, observe, observe_jacobians, vehicle_step
 
 
 def _rot(g: float) -> np.ndarray:
@@ -181,8 +181,8 @@ class PFParams:
     n_particles: int = 3000
     oversample: int = 4
     jitter: tuple[float, float, float] = (0.2, 0.2, np.deg2rad(0.5))  # per-scan propagation noise
-    sigma_v: float = 0.5
-    sigma_steer: float = np.deg2rad(3.0)
+    sigma_v: float = 0.5                 # σ of the first input (speed) [m/s]
+    sigma_steer: float = np.deg2rad(3.0)  # σ of the second input: steering [rad] (ACFR) or yaw rate [rad/s]
     sigma_r: float = 0.5
     sigma_b: float = np.deg2rad(1.0)
     clutter: float = 1e-4            # uniform density of spurious returns [1/(m·rad)]
@@ -295,7 +295,7 @@ class ParticleLocaliser:
     """SIR filter (§2.1) on a fixed de-correlated map, in the base-landmark frame."""
 
     def __init__(self, lm: np.ndarray, lm_cov: np.ndarray, params: PFParams,
-                 vehicle: VehicleParams, rng: np.random.Generator) -> None:
+                 vehicle: InputModel, rng: np.random.Generator) -> None:
         self.lm = np.asarray(lm, dtype=float)
         self.lm_cov = np.asarray(lm_cov, dtype=float)
         self.params = params
@@ -312,13 +312,17 @@ class ParticleLocaliser:
         self.particles = helix_particles(z, self.lm, self.lm_cov, prior_mean, prior_cov, n, self.rng, self.params)
         self.weights = np.full(n, 1.0 / n)
 
-    def predict(self, u: np.ndarray, dt: float) -> None:
-        """Propagate every particle with its own input-noise draw (vectorised)."""
+    def predict(self, u: np.ndarray, dt: float, Su: np.ndarray | None = None) -> None:
+        """Propagate every particle with its own input-noise draw (vectorised): N(0, ``Su``) when a 2×2
+        input covariance is given (an odometry twist covariance), else diag(``sigma_v``², ``sigma_steer``²)."""
         if dt <= 0 or self.particles.shape[0] == 0:
             return
         n = self.particles.shape[0]
-        un = np.asarray(u, dtype=float) + self.rng.standard_normal((n, 2)) * [self.params.sigma_v,
-                                                                            self.params.sigma_steer]
+        if Su is None:
+            noise = self.rng.standard_normal((n, 2)) * [self.params.sigma_v, self.params.sigma_steer]
+        else:
+            noise = self.rng.standard_normal((n, 2)) @ cholesky_jitter(np.asarray(Su, dtype=float)).T
+        un = np.asarray(u, dtype=float) + noise
         self.particles = vehicle_step(self.particles, un, dt, self.vehicle)
 
     def update(self, z: np.ndarray) -> bool:

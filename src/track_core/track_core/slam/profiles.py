@@ -62,5 +62,17 @@ def loop_sim() -> SlamProfile:
                        pose0=tuple(float(v) for v in w.start()))
 
 
+#: A unicycle / differential-drive robot with a 360° laser and wheel odometry (the ``slam`` node with
+#: ``input_model: odometry``): inputs (v, ω) with σ 0.1 m/s and 0.05 rad/s when the odometry carries no
+#: twist covariance, laser range 0.1 m and bearing 1° (an extracted pole's centre, not one beam),
+#: bearings all round ((−π, π), eq. 5 convention), trunks/poles mapped after 3 sightings. A starting
+#: point for a new robot, not fitted to any data set.
+GENERIC = SlamProfile(
+    slam=SlamParams(sigma_v=0.1, sigma_steer=0.05, sigma_r=0.1, sigma_b=np.deg2rad(1.0), max_range=30.0,
+                    init_max_range=30.0, local_radius=60.0, local_exit=20.0, min_separation=1.0, min_obs=3),
+    pf=PFParams(sigma_v=0.1, sigma_steer=0.05, sigma_r=0.1, sigma_b=np.deg2rad(1.0)),
+    hybrid=HybridParams(bearing_limits=(-np.pi, np.pi)),
+    pose0=(0.0, 0.0, 0.0))
+
 #: profile name -> a function returning it (the node's ``profile`` parameter)
-PROFILES = {'victoria_park': lambda: VICTORIA_PARK, 'loop_sim': loop_sim}
+PROFILES = {'victoria_park': lambda: VICTORIA_PARK, 'loop_sim': loop_sim, 'generic': lambda: GENERIC}

@@ -99,3 +99,42 @@ def simulate(world: LoopWorld, rng: np.random.Generator) -> SimRun:
             z[:, 1] = np.clip(z[:, 1], 0.0, np.pi)
             scans.append((k * world.dt, z, vis))
     return SimRun(np.array(ts), np.array(poses), np.array(us), scans, lm)
+
+
+def raycast_scan(pose: np.ndarray, angles: np.ndarray, walls: np.ndarray, poles: np.ndarray, radii: np.ndarray,
+                 max_range: float, sigma: float = 0.0, rng: np.random.Generator | None = None) -> np.ndarray:
+    """Ranges a planar laser at ``pose`` (x, y, heading) measures along ``angles`` (REP-103, laser frame)
+    in a world of wall segments ``walls`` (k, 2, 2) and round poles (centres (m, 2), ``radii`` (m,));
+    ``inf`` where nothing is within ``max_range``; Gaussian noise σ = ``sigma`` with ``rng``.
+
+    Vectorised over beams × objects: ray–segment and ray–circle intersections, nearest hit per beam.
+    (A test world for the landmark extractor, ``landmarks.extract``.)
+    """
+    pose = np.asarray(pose, dtype=float)
+    th = pose[2] + np.asarray(angles, dtype=float)
+    d = np.stack([np.cos(th), np.sin(th)], axis=1)                 # (B, 2) beam directions
+    o = pose[:2]
+    best = np.full(th.size, np.inf)
+    walls = np.asarray(walls, dtype=float).reshape(-1, 2, 2)
+    if walls.size:
+        a, e = walls[:, 0], walls[:, 1] - walls[:, 0]              # (k, 2)
+        den = d[:, None, 0] * e[None, :, 1] - d[:, None, 1] * e[None, :, 0]   # cross(d, e)
+        w = a - o
+        with np.errstate(divide='ignore', invalid='ignore'):
+            t = (w[None, :, 0] * e[None, :, 1] - w[None, :, 1] * e[None, :, 0]) / den
+            u = (w[None, :, 0] * d[:, None, 1] - w[None, :, 1] * d[:, None, 0]) / den
+        hit = np.isfinite(t) & (t > 0) & (u >= 0) & (u <= 1)
+        best = np.minimum(best, np.where(hit, t, np.inf).min(axis=1))
+    poles = np.asarray(poles, dtype=float).reshape(-1, 2)
+    if poles.size:
+        c = poles - o                                                 # (m, 2)
+        proj = d @ c.T                                                # (B, m)
+        disc = proj**2 - (np.sum(c * c, axis=1) - np.asarray(radii, dtype=float) ** 2)[None, :]
+        with np.errstate(invalid='ignore'):
+            t = proj - np.sqrt(disc)
+        hit = (disc >= 0) & (t > 0)
+        best = np.minimum(best, np.where(hit, t, np.inf).min(axis=1))
+    if sigma > 0 and rng is not None:
+        best = best + sigma * rng.standard_normal(best.size)
+    best[best > max_range] = np.inf
+    return best

@@ -116,3 +116,59 @@ def gps_rmse(t_est: np.ndarray, xy_est: np.ndarray, gps: np.ndarray, max_gps_spe
     R, t = rigid_align(est, g[:, 1:])
     err = est @ R.T + t - g[:, 1:]
     return float(np.sqrt(np.mean(np.sum(err**2, 1)))), (R, t), g
+
+
+@dataclass
+class StandardRun:
+    """The run as a robot with standard drivers would give it (``standard_stream``): wheel odometry of
+    base_link (the rear-axle centre) at every input, and point-landmark detections in the laser frame."""
+
+    odom_t: np.ndarray          # (K,) stamps of the odometry messages [s] (the input stamps)
+    odom_pose: np.ndarray       # (K, 3) base_link in odom (x, y, yaw), odom = the start pose
+    twist: np.ndarray           # (K, 2) (v, ω) of base_link from that stamp on
+    twist_cov: np.ndarray       # (K, 2, 2) their covariance
+    scan_t: np.ndarray          # (S,) scan stamps
+    detections: list            # S arrays (n, 3): range to the trunk centre [m], REP-103 bearing [rad], diameter [m]
+    laser: tuple[float, float, float]   # the laser in base_link (x ahead, y left, yaw)
+
+
+def standard_stream(vp: VictoriaPark, vehicle=None, sigma_u: tuple[float, float] = (0.5, np.deg2rad(3.0)),
+                    add_radius: bool = False) -> StandardRun:
+    """The run as ``nav_msgs/Odometry`` + landmark detections (the converter's content; what a driver of the
+    car and a trunk detector would publish).
+
+    Odometry: each input (v_e, α) becomes the twist of the rear-axle centre, (v, ω) = ``acfr_to_unicycle``,
+    with covariance J diag(σ_v², σ_α²) Jᵀ (``sigma_u``: the ``victoria_park`` profile's input noise), so a
+    unicycle filter fed with it predicts exactly as the ACFR one. The pose is the exact arc of each held
+    twist (what a good wheel-odometry driver integrates), vectorised as cumulative sums. Detections:
+    ``load``'s range (to the trunk centre when loaded with ``add_radius``), the bearing turned to REP-103
+    (eq. 5's − π/2: 0 ahead), the diameter (``add_radius``: ``vp`` holds surface ranges, add d/2). The laser
+    is (a, b, 0) in base_link.
+
+    The run's first scan (0.852 s) comes before its first input (0.973 s); the offline filter holds the
+    input (0, 0) until then, so the stream starts with the car at rest at the first scan's stamp (twist 0,
+    with the covariance of an encoder speed of 0 and steering 0), the same assumption; otherwise the
+    unicycle filter would predict that interval with its own yaw-rate noise.
+    """
+    from track_core.slam.models import VehicleParams, acfr_to_unicycle
+
+    vehicle = vehicle or VehicleParams()
+    t, ve, al = vp.inputs[:, 0], vp.inputs[:, 1], vp.inputs[:, 2]
+    if vp.scan_t.size and vp.scan_t[0] < t[0]:   # a scan before the first input: the car at rest from the start
+        t, ve, al = np.concatenate([vp.scan_t[:1], t]), np.concatenate([[0.0], ve]), np.concatenate([[0.0], al])
+    v, w, J = acfr_to_unicycle(ve, al, vehicle)
+    cov = J @ np.diag(np.square(sigma_u)) @ np.swapaxes(J, -1, -2)
+    cov = 0.5 * (cov + np.swapaxes(cov, -1, -2))                    # exactly symmetric, as a message carries it
+    dt = np.diff(t)
+    dpsi = w[:-1] * dt
+    psi = np.concatenate([[0.0], np.cumsum(dpsi)])
+    chord = v[:-1] * dt * np.sinc(dpsi / (2 * np.pi))            # 2 (v/ω) sin(ωΔt/2)
+    mid = psi[:-1] + 0.5 * dpsi
+    x = np.concatenate([[0.0], np.cumsum(chord * np.cos(mid))])
+    y = np.concatenate([[0.0], np.cumsum(chord * np.sin(mid))])
+    pose = np.stack([x, y, np.mod(psi + np.pi, 2 * np.pi) - np.pi], axis=1)
+    # add_radius: ``vp`` was loaded with raw ranges (add_radius=False); a detection's range is to the centre
+    det = [np.stack([z[:, 0] + (0.5 * d if add_radius else 0.0), z[:, 1] - np.pi / 2, d], axis=1)
+           for z, d in zip(vp.scans, vp.diameters, strict=True)]
+    return StandardRun(t.copy(), pose, np.stack([v, w], axis=1), cov, vp.scan_t.copy(), det,
+                       (vehicle.a, vehicle.b, 0.0))

@@ -20,6 +20,12 @@ to PF mode, the wall-clock ``runtime_s`` of the filter loop (loading and plottin
 the data ``duration_s``. The PNG shows the aligned path, the map and the GPS, the error against
 GPS with the filter's 3σ, and the cost of every scan update.
 
+``--set inputs=odometry`` runs the same data converted to what a robot with standard drivers gives
+(``victoria.standard_stream``: Odometry of the rear-axle centre with its twist covariance, landmark
+detections with REP-103 bearings) through the standard-input path of the ``slam`` node
+(``odometry.OdometryInputs``, the unicycle model; ``--set motion=increments|twist``); ``inputs=both``
+runs both and reports the largest difference between the two paths (equal up to rounding).
+
 On the real run the detector (relative vehicle–landmark uncertainty against trunk separation)
 fires rarely: the absolute position σ reaches ~3 m on the long northern excursion, but the
 trunks in view stay known to < 1 m relative to the vehicle, so nearest neighbour remains safe
@@ -39,9 +45,13 @@ from track_core.slam import victoria
 from track_core.slam.blas import single_threaded_blas
 from track_core.slam.cekf import SlamParams
 from track_core.slam.hybrid import HybridParams, HybridSlam
+from track_core.slam.landmarks import to_eq5_bearing
+from track_core.slam.models import UnicycleParams
+from track_core.slam.odometry import OdometryInputs
 from track_core.slam.profiles import VICTORIA_PARK, loop_sim_params
 from track_core.slam.sim import LoopWorld, simulate
-from track_experiments.cli import Outcome, RunConfig, format_table
+from track_core.slam.streams import scan_observations
+from track_experiments.cli import Outcome, RunConfig, format_table, set_keys
 from track_experiments.plotting import pyplot
 
 log = logging.getLogger(__name__)
@@ -203,9 +213,63 @@ def run_victoria(vp: victoria.VictoriaPark, rng: np.random.Generator, progress=i
             'R': R, 'tr': t, 'gps': g, 'landmarks': h.landmarks(), 'events': h.events, 'filter': h}
 
 
+def standard_events(sr: victoria.StandardRun, motion: str, bearing_limits: tuple[float, float]) -> list[tuple]:
+    """The converted run (``victoria.standard_stream``) as the ``slam`` node with ``input_model: odometry`` and
+    ``observations: detections`` feeds its filter: odometry messages through ``odometry.OdometryInputs``
+    (``motion``: increments or twist; noise = each message's twist covariance), detections through
+    ``landmarks.to_eq5_bearing`` and ``streams.scan_observations``, all in stamp order with the scan first
+    at equal stamps (the node's ``StreamMerger``)."""
+    oi = OdometryInputs(motion)
+    ev = []
+    for t, pose, (v, w), c in zip(sr.odom_t, sr.odom_pose, sr.twist, sr.twist_cov, strict=True):
+        ev += [(ti, 1, 'input', (vi, wi, ci)) for ti, vi, wi, ci, _ in oi.offer(float(t), pose, v, w, c)]
+    for t, d in zip(sr.scan_t, sr.detections, strict=True):
+        z, _ = scan_observations(d[:, 0], to_eq5_bearing(d[:, 1] + sr.laser[2]), d[:, 2], bearing_limits, 1e-6,
+                                 False)
+        ev.append((float(t), 0, 'scan', z))
+    ev.sort(key=lambda e: (e[0], e[1]))
+    return ev
+
+
+def run_victoria_standard(vp: victoria.VictoriaPark, rng: np.random.Generator, motion: str = 'increments',
+                          progress=iter) -> dict:
+    """``run_victoria`` through the standard inputs: the run converted to odometry + landmark detections
+    (``victoria.standard_stream``), the unicycle model with the laser at (a, b) of base_link."""
+    sr = victoria.standard_stream(vp)
+    with single_threaded_blas():
+        h = HybridSlam(np.zeros(3), np.diag([1e-6] * 3), rng, VICTORIA_PARK.slam, VICTORIA_PARK.pf, HybridParams(),
+                       vehicle=UnicycleParams(a=sr.laser[0], b=sr.laser[1]))
+        T, X = [], []
+        t0 = time.perf_counter()
+        for t, _, kind, payload in progress(standard_events(sr, motion, h.params.bearing_limits)):
+            if kind == 'input':
+                h.process_input(t, *payload)
+            else:
+                h.process_scan(t, payload)
+                T.append(t)
+                X.append(h.pose.copy())
+        runtime = time.perf_counter() - t0
+    T, X = np.array(T), np.array(X)
+    rmse, _, _ = victoria.gps_rmse(T, X[:, :2], vp.gps)
+    return {'t': T, 'pose': X, 'rmse': rmse, 'runtime': runtime, 'landmarks': h.landmarks(), 'events': h.events}
+
+
+@set_keys(inputs='acfr: encoder + steering into the ACFR model (the default, the published figure); odometry: the run '
+                 'converted to Odometry + landmark detections through the standard inputs (unicycle model); both: '
+                 'both, with their GPS RMSE and largest path difference',
+          motion='with odometry: increments (from the poses, the default) or twist')
 def victoria_park(cfg: RunConfig) -> Outcome:
     """The whole Victoria Park run (``--quick``: its first ``VP_QUICK_S`` seconds), see module docstring."""
+    inputs = cfg.choice('inputs', 'acfr', 'odometry', 'both')
+    motion = cfg.choice('motion', 'increments', 'twist')
     vp = victoria.load(t_max=VP_QUICK_S if cfg.quick else None)
+    if inputs == 'odometry':
+        s = run_victoria_standard(vp, np.random.default_rng(cfg.seed), motion,
+                                  progress=lambda it: cfg.progress(it, desc='victoria-park', mininterval=1.0))
+        data = {'gps_rmse_m': s['rmse'], 'landmarks': len(s['landmarks']),
+                'pf_switches': sum(e.kind == 'to_pf' for e in s['events']), 'runtime_s': s['runtime'],
+                'duration_s': vp.duration}
+        return Outcome(format_table(['quantity', 'standard inputs'], [[k, v] for k, v in data.items()]), data)
     r = run_victoria(vp, np.random.default_rng(cfg.seed),
                      progress=lambda it: cfg.progress(it, desc='victoria-park', mininterval=1.0))
     h = r['filter']
@@ -221,6 +285,17 @@ def victoria_park(cfg: RunConfig) -> Outcome:
         ['scans / inputs', f'{r["t"].size} / {vp.inputs.shape[0]}', ''],
         ['GPS fixes used', r['gps'].shape[0], ''],
         ['scan cost median / max [ms]', f'{1e3 * np.median(r["cost"]):.2f} / {1e3 * r["cost"].max():.1f}', '']])
+    if inputs == 'both':
+        st = run_victoria_standard(vp, np.random.default_rng(cfg.seed), motion,
+                                   progress=lambda it: cfg.progress(it, desc='standard inputs', mininterval=1.0))
+        diff = np.hypot(*(st['pose'][:, :2] - r['xy']).T) if st['t'].shape == r['t'].shape else np.array([np.inf])
+        data.update(gps_rmse_standard_m=st['rmse'], path_diff_max_m=float(diff.max()),
+                    landmarks_standard=len(st['landmarks']),
+                    pf_switches_standard=sum(e.kind == 'to_pf' for e in st['events']))
+        table += '\n' + format_table(['standard inputs (Odometry + detections)', 'value'], [
+            ['odometry motion', motion], ['GPS RMSE (aligned) [m]', st['rmse']],
+            ['largest path difference to the ACFR input [m]', float(diff.max())],
+            ['landmarks', len(st['landmarks'])], ['PF switches', data['pf_switches_standard']]])
     figs = _plot_victoria(cfg, r)
     return Outcome(table, data, figs)
 

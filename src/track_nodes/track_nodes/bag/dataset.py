@@ -32,6 +32,12 @@ in 1970. Every header stamp and bag (log) time is ``epoch + t`` in integer nanos
 ``epoch + t`` resolves only 2.4e-7 s near 1.8e9 s); the data time is kept in the bag's metadata:
 ``custom_data`` ``data_time_origin_ns`` (data time = stamp − origin; ``data_time_origin``).
 Messages are written in time order (a scan before an input at equal t, as ``victoria.events``).
+``--standard`` writes the run as a robot with standard drivers would give it instead of the raw inputs and
+scans (``victoria_standard_messages``): ``/odom`` (nav_msgs/Odometry: base_link at the rear-axle centre in
+``odom``, twist (v, ω) with the covariance of the encoder and steering noise), odom → base_link on ``/tf``
+and ``/slam/landmarks`` (track_msgs/LandmarkDetectionArray in ``laser``, range to the trunk centre, REP-103
+bearing, the filter's range/bearing noise as covariance), for ``slam`` with ``input_model: odometry``,
+``observations: detections`` and ``laser_pose: [3.78, 0.5, 0]``.
 ``--t-max S`` keeps only the data with t ≤ S (``victoria.load(t_max=S)``), for a short stretch.
 A wrong data path, a missing or malformed file, an existing ``--out``, a bad ``--t-max`` or ``--epoch``
 prints one line on stderr and exits with code 2. Do not commit converted bags: they are derived data.
@@ -130,18 +136,62 @@ def victoria_messages(vp, epoch_ns: int = 0):
             yield float(t), SLAM_GPS, _shifted(msg, t, epoch_ns)
 
 
+def victoria_standard_messages(vp, epoch_ns: int = 0):
+    """(t, topic, message) of the run as a robot with standard drivers gives it (``--standard``), in time order
+    (odometry before detections at equal t: the detections are placed through odom -> base_link), with the
+    GPS and map -> gps of ``victoria_messages``: ``/odom`` (nav_msgs/Odometry of base_link in odom, twist
+    with covariance, ``victoria.standard_stream``), ``/tf`` (odom -> base_link, the same pose) and
+    ``/slam/landmarks`` (track_msgs/LandmarkDetectionArray in ``laser``: range to the centre, REP-103 bearing)."""
+    import numpy as np
+
+    from track_core.slam import victoria
+    from track_core.slam.profiles import VICTORIA_PARK
+    from track_msgs_py.records.landmarks import LandmarkDetections, planar_odometry_msg
+    from track_msgs_py.tf import planar_transform, tf_message
+    from track_msgs_py.topics import (
+        FRAME_BASE,
+        FRAME_LASER,
+        FRAME_ODOM,
+        SLAM_INPUTS,
+        SLAM_LANDMARKS,
+        SLAM_ODOM,
+        SLAM_SCAN,
+        TF,
+    )
+
+    sr = victoria.standard_stream(vp, add_radius=True)
+    rest = [m for m in victoria_messages(vp, epoch_ns) if m[1] not in (SLAM_SCAN, SLAM_INPUTS)]  # GPS, map -> gps
+    R = np.diag([VICTORIA_PARK.slam.sigma_r ** 2, VICTORIA_PARK.slam.sigma_b ** 2, 0.0])  # the data give none
+    items = ([(t, 0, k) for k, t in enumerate(sr.odom_t.tolist())]
+             + [(t, 1, k) for k, t in enumerate(sr.scan_t.tolist())])
+    items.sort()
+    out = []
+    for t, kind, k in items:
+        if kind == 0:
+            pose = sr.odom_pose[k]
+            out.append((t, SLAM_ODOM, _shifted(planar_odometry_msg(t, pose, *sr.twist[k], sr.twist_cov[k], FRAME_ODOM,
+                                                                   FRAME_BASE), t, epoch_ns)))
+            out.append((t, TF, _shifted(tf_message([planar_transform(t, FRAME_ODOM, FRAME_BASE, *pose)]), t, epoch_ns)))
+        else:
+            d = sr.detections[k]
+            rec = LandmarkDetections(t, FRAME_LASER, d[:, 0], d[:, 1], d[:, 2], np.broadcast_to(R, (len(d), 3, 3)),
+                                     np.full(len(d), -1, np.int32))
+            out.append((t, SLAM_LANDMARKS, _shifted(rec.to_msg(), t, epoch_ns)))
+    yield from sorted(rest + out, key=lambda m: m[0])   # stable: map -> gps first, odometry before detections
+
+
 def write_bag(out: Path, messages, topics: dict[str, str], custom: dict[str, str] | None = None) -> dict[str, int]:
     """Write (t, topic, msg) to a new rosbag2 v9 MCAP bag at ``out``, each at its header stamp (integer ns);
     ``custom`` goes into the metadata's ``custom_data``; → message count per topic."""
     from rclpy.serialization import serialize_message
     from rosbags.rosbag2 import StoragePlugin, Writer
-    from rosbags.typesys import Stores, get_typestore
 
     from track_msgs_py.qos import qos_for_topic
     from track_msgs_py.stamps import stamp_to_ns
     from track_nodes.bag.api import qos_to_rosbags
+    from track_nodes.bag.typestore import typestore
 
-    ts = get_typestore(Stores.ROS2_JAZZY)
+    ts = typestore()   # the Jazzy types and track_msgs (the detections of --standard)
     counts = dict.fromkeys(topics, 0)
     with Writer(out, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
         embed_ros_distro(writer)
@@ -159,12 +209,13 @@ def write_bag(out: Path, messages, topics: dict[str, str], custom: dict[str, str
 
 
 def convert_victoria_park(out: Path, data: Path | None = None, t_max: float | None = None,
-                          epoch: int | None = None) -> dict[str, int]:
-    """Convert; ``epoch`` [whole s since 1970] is the bag time of data time 0 (None: the run ends now)."""
+                          epoch: int | None = None, standard: bool = False) -> dict[str, int]:
+    """Convert; ``epoch`` [whole s since 1970] is the bag time of data time 0 (None: the run ends now);
+    ``standard``: as odometry + landmark detections (``victoria_standard_messages``)."""
     import math
     import time
 
-    from track_msgs_py.topics import SLAM_GPS, SLAM_INPUTS, SLAM_SCAN, TF_STATIC, TOPICS
+    from track_msgs_py.topics import SLAM_GPS, SLAM_INPUTS, SLAM_LANDMARKS, SLAM_ODOM, SLAM_SCAN, TF, TF_STATIC, TOPICS
 
     if t_max is not None and not t_max > 0:
         raise DatasetError(f'--t-max {t_max}: must be > 0')
@@ -176,13 +227,15 @@ def convert_victoria_park(out: Path, data: Path | None = None, t_max: float | No
         out.parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise DatasetError(f'{out.parent}: cannot create the folder for --out: {one_line(exc)}') from None
-    topics = {t: TOPICS[t].msgtype for t in (SLAM_INPUTS, SLAM_SCAN, SLAM_GPS, TF_STATIC)}
+    kept = (SLAM_ODOM, TF, SLAM_LANDMARKS, SLAM_GPS, TF_STATIC) if standard else (SLAM_INPUTS, SLAM_SCAN, SLAM_GPS,
+                                                                                   TF_STATIC)
+    topics = {t: TOPICS[t].msgtype for t in kept}
     if epoch is None:  # the run ends at the conversion's whole second: every stamp is in the past
         t_end = max(float(vp.inputs[:, 0].max()), float(max(vp.scan_t)), float(vp.gps[:, 0].max(initial=0.0)))
         epoch = time.time_ns() // 1_000_000_000 - math.ceil(t_end)
     epoch_ns = int(epoch) * 1_000_000_000
-    return write_bag(out, victoria_messages(vp, epoch_ns), topics,
-                     {DATA_TIME_ORIGIN: str(epoch_ns), 'data_set': 'victoria_park'})
+    messages = victoria_standard_messages(vp, epoch_ns) if standard else victoria_messages(vp, epoch_ns)
+    return write_bag(out, messages, topics, {DATA_TIME_ORIGIN: str(epoch_ns), 'data_set': 'victoria_park'})
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -195,6 +248,10 @@ def _parser() -> argparse.ArgumentParser:
     vp.add_argument('--data', type=Path, default=None, metavar='DIR',
                     help='data folder (default: $TRACK_VICTORIA_PARK or victoria_park/ of the data folder)')
     vp.add_argument('--t-max', type=float, default=None, metavar='SECONDS', help='keep only data with t <= SECONDS')
+    vp.add_argument('--standard', action='store_true',
+                    help='write what a robot with standard drivers publishes: /odom (nav_msgs/Odometry), odom -> '
+                         'base_link on /tf and /slam/landmarks (track_msgs/LandmarkDetectionArray), for slam with '
+                         'input_model odometry and observations detections')
     vp.add_argument('--epoch', default='now', metavar='E',
                     help="bag time of the data's time 0: whole seconds since 1970 or an ISO date (UTC); 'now' "
                          '(default): the run ends at the conversion; the data time stays in the metadata '
@@ -211,7 +268,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             epoch = parse_epoch(args.epoch)
         except LaunchError as exc:
             raise DatasetError(str(exc)) from None
-        counts = convert_victoria_park(args.out, args.data, args.t_max, epoch)
+        counts = convert_victoria_park(args.out, args.data, args.t_max, epoch, args.standard)
     except DatasetError as exc:
         print(f'track-dataset: {exc}', file=sys.stderr)
         return EXIT_BAD_INPUT

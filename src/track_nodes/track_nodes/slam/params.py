@@ -5,9 +5,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from track_core.slam import HybridParams, PFParams, SlamParams
+from track_core.slam import HybridParams, PFParams, SlamParams, VehicleParams
 from track_core.slam.profiles import PROFILES
-from track_msgs_py.topics import FRAME_LASER, FRAME_MAP
+from track_msgs_py.topics import FRAME_BASE, FRAME_LASER, FRAME_MAP, FRAME_ODOM
 from track_msgs_py.validate import InputPolicy
 from track_nodes.base import group, param
 
@@ -23,7 +23,8 @@ class SlamNodeParams:
     profile: str = param('victoria_park', 'defaults of the cekf.*, pf.*, hybrid.* and pose0 parameters',
                          choices=tuple(PROFILES))
     seed: int = param(0, 'seed of the particle filter Generator', 0, 2**31 - 1)
-    pose0: list[float] = param([0.0, 0.0, 0.0], 'initial laser pose [x m, y m, heading rad] in map',
+    pose0: list[float] = param([0.0, 0.0, 0.0], 'initial pose [x m, y m, heading rad] in map: of the laser (the '
+                               'filter state) with input_model acfr, of base_frame with odometry',
                                default_from=lambda v: list(_profile(v).pose0))
     pose0_var: list[float] = param([1e-6, 1e-6, 1e-6], 'initial pose variances [m², m², rad²] (all > 0)')
     compressed: bool = param(True, 'Compressed EKF (false: the full EKF; same result, slower)')
@@ -48,8 +49,30 @@ class SlamNodeParams:
     stamp_lead: float = param(1.0, 'look-ahead tolerance: refuse messages stamped more than this ahead of the node '
                               'clock (a few input periods; also late messages of a run before a clock jump) [s]',
                               1e-3, 1e9)
-    frame_id: str = param(FRAME_MAP, 'frame of the pose, map and particles')
-    child_frame_id: str = param(FRAME_LASER, 'child_frame_id of the pose (the SLAM state is the laser pose)')
+    frame_id: str = param(FRAME_MAP, 'the map frame: frame of the pose, map and particles (parent of odom_frame)')
+    child_frame_id: str = param(FRAME_LASER, 'the laser frame (the SLAM state is its position, with the robot '
+                                'heading); detections must be in it')
+    odom_frame: str = param(FRAME_ODOM, "the robot's odometry frame (REP-105): slam broadcasts frame_id -> odom_frame")
+    base_frame: str = param(FRAME_BASE, "the robot's body frame, child of odom_frame (its driver's transform)")
+    pose_of: str = param('base', 'frame whose pose /slam/pose and its twin /slam/pose/pose carry: base (base_frame, '
+                         'REP-105) or laser (child_frame_id, the filter state)', choices=('base', 'laser'))
+    input_model: str = param('acfr', 'motion input: acfr (/slam/inputs TwistStamped = encoder speed and steering '
+                             'ANGLE of the ACFR car, geometry acfr.*) or odometry (nav_msgs/Odometry on /odom, '
+                             'unicycle / differential-drive model)', choices=('acfr', 'odometry'))
+    odometry_motion: str = param('increments', 'odometry: the motion between two messages from their poses '
+                                 '(increments) or each message\'s twist (twist)', choices=('increments', 'twist'))
+    odometry_noise: str = param('covariance', 'odometry: input noise from the twist covariance (v, yaw rate) when '
+                                'the message has one, else cekf/pf sigma_v, sigma_steer (covariance); or always '
+                                'the parameters (parameters)', choices=('covariance', 'parameters'))
+    laser_pose: list[float] = param([0.0, 0.0, 0.0], 'odometry: the laser in base_frame [x m ahead, y m left, '
+                                    'yaw rad] (acfr: at (acfr.a, acfr.b, 0))')
+    observations: str = param('scan_cloud', 'observations: scan_cloud (/slam/scan PointCloud2, bearing 0 = right) or '
+                              'detections (/slam/landmarks track_msgs/LandmarkDetectionArray, REP-103)',
+                              choices=('scan_cloud', 'detections'))
+    max_detections: int = param(10000, 'refuse a scan or detection array with more entries than this', 1, 1_000_000)
+    publish_odom_tf: bool = param(False, 'acfr inputs (no driver odometry): also broadcast odom_frame -> base_frame '
+                                  'dead-reckoned from the inputs, as a driver would; never with odometry input')
+    acfr: VehicleParams = group(VehicleParams)
     cekf: SlamParams = group(SlamParams, default_from=lambda v: _profile(v).slam)
     pf: PFParams = group(PFParams, default_from=lambda v: _profile(v).pf)
     hybrid: HybridParams = group(HybridParams, default_from=lambda v: _profile(v).hybrid)

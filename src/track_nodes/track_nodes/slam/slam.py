@@ -1,28 +1,48 @@
-"""``slam``: hybrid CEKF ⇄ particle-filter SLAM (track_core.slam.HybridSlam) on vehicle inputs and laser scans.
+"""``slam``: hybrid CEKF ⇄ particle-filter SLAM (track_core.slam.HybridSlam) on motion inputs and landmark observations.
 
-Subscribes (reliable, deep queues; see track_msgs_py.topics for the message mappings)
+Subscribes (reliable, deep queues; see track_msgs_py.topics for the message mappings) to one motion
+input, by ``input_model``:
 
-- ``/slam/inputs`` (geometry_msgs/TwistStamped): ``twist.linear.x`` = encoder speed [m/s],
-  ``twist.angular.z`` = steering ANGLE [rad]; held until the next input;
-- ``/slam/scan`` (sensor_msgs/PointCloud2, ``records.slam.SlamScan``: fields ``range``, ``bearing``,
-  ``diameter`` after the viewers' x, y, z): one scan of tree detections. With ``add_radius``
-  (default) the landmark is the trunk centre, range + diameter/2, as ``track_core.slam.victoria.load``
-  does offline.
+- ``odometry``: ``/odom`` (nav_msgs/Odometry, the robot driver's; REP-105: pose of ``base_frame`` in
+  ``odom_frame``, twist in ``base_frame``), for any unicycle / differential-drive robot
+  (``models.UnicycleParams``, the laser at ``laser_pose`` in base_link). ``odometry_motion``: the arc
+  between two messages' poses (``increments``, applied over exactly that interval) or each message's
+  twist (``twist``); the input noise is the twist covariance (v, yaw rate) when the message has one
+  (``odometry_noise``), else the ``cekf``/``pf`` σ; see ``track_core.slam.odometry``;
+- ``acfr``: ``/slam/inputs`` (geometry_msgs/TwistStamped) of the ACFR car: ``twist.linear.x`` = encoder
+  speed [m/s], ``twist.angular.z`` = steering ANGLE [rad] (never read as a yaw rate), with the
+  geometry ``acfr.L``, ``acfr.H``, ``acfr.a``, ``acfr.b``; held until the next input;
 
-and publishes
+and to one observation stream, by ``observations``:
 
-- ``/slam/pose`` (nav_msgs/Odometry, after every scan): the laser pose with its x/y/yaw covariance;
+- ``detections``: ``/slam/landmarks`` (track_msgs/LandmarkDetectionArray, ``records.landmarks``) in the
+  laser frame (``child_frame_id``): range to the landmark's centre, REP-103 bearing (0 ahead), from
+  ``landmark_extractor`` (a LaserScan) or any other front end; at most ``max_detections`` per message;
+- ``scan_cloud``: ``/slam/scan`` (sensor_msgs/PointCloud2, ``records.slam.SlamScan``: fields ``range``,
+  ``bearing`` (eq. 5: 0 = right), ``diameter`` after the viewers' x, y, z): one scan of tree detections.
+  With ``add_radius`` (default) the landmark is the trunk centre, range + diameter/2, as
+  ``track_core.slam.victoria.load`` does offline.
+
+The filter's state is the laser's position with the robot's heading (``models``). It publishes
+
+- ``/slam/pose`` (nav_msgs/Odometry, after every scan): the pose of ``base_frame`` (``pose_of: base``,
+  REP-105) or of the laser (``pose_of: laser``, the filter state) in map with its x/y/yaw covariance,
+  and its twin ``/slam/pose/pose`` (geometry_msgs/PoseWithCovarianceStamped, ``base/twins.py``);
 - ``/slam/mode`` (DiagnosticArray, ``records.slam.SlamMode``, after every scan): mode and counters;
 - ``/slam/events`` (DiagnosticArray, ``records.slam.SlamEvent``): one per mode switch, with the pose;
 - ``/slam/particles`` (geometry_msgs/PoseArray, with headings): the particle cloud after every scan the
   PF ran on (``HybridSlam.last_particles``), including the one on which it handed back to the CEKF
   (in the PF's map frame, before the hand-over update), and an empty array at the next scan;
-- ``/tf`` (map → laser, at every pose stamp and at the first input, so inputs before the first scan
-  are placed too) and ``/tf_static`` (laser → base_link, the ACFR geometry
-  of ``models.VehicleParams``: the laser a ahead and b left of the rear-axle centre). The tree is
-  map → laser → base_link, not slam_toolbox's map → odom → base_link: the filter's state is the
-  laser pose, and no node here keeps an odometry frame (raw encoder and steering inputs only).
-  Scans (``laser``) and inputs (``base_link``) are placed through it, in a replay too;
+- ``/tf``: map → odom (``frame_id`` → ``odom_frame``) at every pose stamp and at the first input,
+  ``odometry.map_to_odom`` of the estimate and the robot's odom → base_link at that stamp, as
+  slam_toolbox and robot_localization do: the node never broadcasts ``base_frame``'s parent. The
+  odom pose at a stamp comes from the Odometry messages (interpolated; ``odometry.OdomTrack``);
+  with ``acfr`` inputs, which come without driver odometry, from the node's dead reckoning of them,
+  and ``publish_odom_tf`` then broadcasts that odom → base_link too (the scenarios that replay the
+  raw ACFR inputs set it: nobody else would place base_link). ``/tf_static``: base_link → laser
+  (``laser_pose``; acfr: the laser a ahead and b left of the rear-axle centre);
+- ``/slam/landmark_map`` (track_msgs/LandmarkMap, transient-local): the landmark means and 2×2
+  covariances, with every ``/slam/map``;
 - ``/slam/map`` (visualization_msgs/MarkerArray, transient-local, ``markers.slam.map_markers``):
   landmark means and 2σ ellipses, at most every ``map_period`` seconds of data time
   (``HybridSlam.map_estimate``: exact, without a copy or a global update of the filter, but
@@ -45,6 +65,10 @@ once per reason every ``warn_throttle`` seconds, on /diagnostics; and counted in
   without ``range``/``bearing`` fields, or with observations none of which is usable, is refused whole
   before its stamp reaches the merger (an empty scan, with no observation, is a valid one);
 - an input with a non-finite value, |speed| beyond the policy's speed bound or |steering| ≥ π/2 is dropped;
+  an Odometry message with a frame other than ``odom_frame`` → ``base_frame``, a non-finite number, a
+  non-unit quaternion, a twist covariance (v, yaw rate) that is not PSD, or a stamp before the previous
+  one is refused before it changes anything; detections in another frame than the laser's, with
+  columns of different lengths, more than ``max_detections`` rows or a broken covariance, too;
 - a message whose stamp is malformed, more than ``stamp_horizon`` (or ``stamp_lead``) ahead of the node clock (once it
   reads non-zero, ``validate.clock_now``), earlier than the previous one on its topic (time went
   backwards), or earlier than data already processed (arrived more than the buffer allows), is
@@ -56,8 +80,11 @@ at ``pose0`` seeded again, the stream merger and the map schedule forgotten (``r
 
 Parameters (``slam/params.py``): the node's own, then every field of the core's ``SlamParams``,
 ``PFParams`` and ``HybridParams`` as ``cekf.*``, ``pf.*`` and ``hybrid.*``, with the defaults of
-``profile``: ``victoria_park`` or ``loop_sim`` (``track_core.slam.profiles``; the latter is the
-default ``LoopWorld`` with the ambiguity trigger on, as ``slam-loop``). Invalid values stop the node.
+``profile``: ``victoria_park``, ``loop_sim`` (``track_core.slam.profiles``; the default ``LoopWorld`` with
+the ambiguity trigger on, as ``slam-loop``) or ``generic`` (a robot with wheel odometry and a 360° laser:
+bearings all round). Every frame name is a parameter (``frame_id`` = map, ``odom_frame``, ``base_frame``,
+``child_frame_id`` = the laser); ``pose0`` is the laser's start pose with ``acfr`` inputs (the experiments'
+convention) and base_frame's with ``odometry``. Invalid values stop the node.
 """
 
 from __future__ import annotations
@@ -78,29 +105,40 @@ from visualization_msgs.msg import MarkerArray
 from track_core.filters import symmetrize
 from track_core.slam import HybridSlam
 from track_core.slam.blas import single_threaded_blas
+from track_core.slam.landmarks import to_eq5_bearing
+from track_core.slam.models import UnicycleParams, acfr_to_unicycle
+from track_core.slam.odometry import OdometryInputs, OdomTrack, base_to_sensor, map_to_odom, sensor_to_base
 from track_core.slam.streams import INPUT, SCAN, StreamMerger, scan_observations
 from track_msgs_py.markers.slam import map_markers
 from track_msgs_py.odometry import pose_to_odometry, positions_to_pose_array, twist_to_inputs
 from track_msgs_py.qos import ESTIMATE_QOS, SENSOR_QOS, STATIC_QOS
 from track_msgs_py.records import RecordError
+from track_msgs_py.records.landmarks import LandmarkDetections, LandmarkMap, PlanarOdometry
 from track_msgs_py.records.slam import SlamEvent, SlamMode, SlamScan
 from track_msgs_py.stamps import stamp_to_ns
-from track_msgs_py.tf import frame_pair_problem, odometry_transform, planar_transform
+from track_msgs_py.tf import frame_pair_problem, planar_transform
 from track_msgs_py.topics import (
-    FRAME_BASE,
     SLAM_EVENTS,
     SLAM_INPUTS,
+    SLAM_LANDMARK_MAP,
+    SLAM_LANDMARKS,
     SLAM_MAP,
     SLAM_MODE,
+    SLAM_ODOM,
     SLAM_PARTICLES,
     SLAM_POSE,
     SLAM_SCAN,
 )
-from track_msgs_py.validate import InputPolicy, clock_now, speed_steer_problem, stamp_problem
+from track_msgs_py.validate import (
+    InputPolicy,
+    clock_now,
+    odometry_bounds_problem,
+    odometry_problem,
+    speed_steer_problem,
+    stamp_problem,
+)
 from track_nodes.base import ParameterError, TrackNode, run_node, vector
 from track_nodes.slam.params import SlamNodeParams
-
-_TOPIC = {INPUT: SLAM_INPUTS, SCAN: SLAM_SCAN}
 
 
 class SlamNode(TrackNode):
@@ -117,13 +155,11 @@ class SlamNode(TrackNode):
 
     def setup(self) -> None:
         p = self.p
-        pose0, var0 = vector('pose0', p.pose0, 3), vector('pose0_var', p.pose0_var, 3, positive=True)
-        self._new_slam = lambda: HybridSlam(pose0, np.diag(var0), np.random.default_rng(p.seed), p.cekf, p.pf,
-                                            p.hybrid, compressed=p.compressed)
+        self._new_slam = self._filter_factory()
         self.slam = self._new_slam()
-        problem = frame_pair_problem(p.frame_id, p.child_frame_id) or frame_pair_problem(p.child_frame_id, FRAME_BASE)
-        if problem:
-            raise ParameterError(f'parameters frame_id={p.frame_id!r}, child_frame_id={p.child_frame_id!r}: {problem}')
+        self.odom_inputs = OdometryInputs(p.odometry_motion)
+        self.odom = OdomTrack()   # odom -> base_link over time: the driver's odometry, or dead-reckoned acfr inputs
+        self._odom_last_ns: int | None = None
         self.policy = InputPolicy(horizon=p.stamp_horizon, lead=p.stamp_lead)
         self.refusals.throttle = p.warn_throttle
         self.merger = StreamMerger(p.pause_wall, p.flush_idle, p.drain_budget, time.monotonic())
@@ -138,31 +174,69 @@ class SlamNode(TrackNode):
         self.pub_events = self.create_publisher(DiagnosticArray, SLAM_EVENTS, ESTIMATE_QOS)
         self.pub_particles = self.create_publisher(PoseArray, SLAM_PARTICLES, SENSOR_QOS)
         self.pub_map = self.create_publisher(MarkerArray, SLAM_MAP, STATIC_QOS)
+        self.pub_landmark_map = self.create_publisher(LandmarkMap.msg_type(), SLAM_LANDMARK_MAP, STATIC_QOS)
         qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=p.queue_depth,
                          reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.VOLATILE)
-        self.sub_inputs = self.create_subscription(TwistStamped, SLAM_INPUTS, self._on_input, qos)
-        self.sub_scan = self.create_subscription(PointCloud2, SLAM_SCAN, self._on_scan, qos)
-        vehicle = self.slam.vehicle  # base_link (rear-axle centre) seen from the laser: (-a, -b), same heading
-        self.add_static_transforms(planar_transform(0.0, p.child_frame_id, FRAME_BASE, -vehicle.a, -vehicle.b, 0.0))
+        if p.input_model == 'acfr':
+            self._input_topic = SLAM_INPUTS
+            self.sub_inputs = self.create_subscription(TwistStamped, SLAM_INPUTS, self._on_input, qos)
+        else:
+            self._input_topic = SLAM_ODOM
+            self.sub_inputs = self.create_subscription(Odometry, SLAM_ODOM, self._on_input, qos)
+        if p.observations == 'scan_cloud':
+            self._scan_topic = SLAM_SCAN
+            self.sub_scan = self.create_subscription(PointCloud2, SLAM_SCAN, self._on_scan, qos)
+        else:
+            self._scan_topic = SLAM_LANDMARKS
+            self.sub_scan = self.create_subscription(LandmarkDetections.msg_type(), SLAM_LANDMARKS, self._on_scan, qos)
+        # base_link -> laser: the laser's mounting (acfr: a ahead, b left of the rear-axle centre)
+        self.add_static_transforms(planar_transform(0.0, p.base_frame, p.child_frame_id, *self.laser))
         self.advertise_transforms()
         self.create_timer(min(0.1, p.flush_idle / 2), self._on_idle, clock=Clock(clock_type=ClockType.STEADY_TIME))
+
+    def _filter_factory(self):
+        """The input model, the laser's place and the frames from the parameters (checked); → a maker of the filter."""
+        p = self.p
+        pose0, var0 = vector('pose0', p.pose0, 3), vector('pose0_var', p.pose0_var, 3, positive=True)
+        if p.input_model == 'acfr':
+            vehicle = p.acfr
+            self.laser = (vehicle.a, vehicle.b, 0.0)
+        else:
+            self.laser = tuple(float(v) for v in vector('laser_pose', p.laser_pose, 3))
+            vehicle = UnicycleParams(a=self.laser[0], b=self.laser[1])
+            pose0 = base_to_sensor(pose0, self.laser[0], self.laser[1])  # pose0 is base_frame's: start the laser
+            if p.publish_odom_tf:
+                raise ParameterError('parameter publish_odom_tf=True with input_model=odometry: the driver that '
+                                     'publishes the odometry owns odom -> base_link')
+        chain = (p.frame_id, p.odom_frame, p.base_frame, p.child_frame_id)
+        problem = (frame_pair_problem(p.frame_id, p.odom_frame) or frame_pair_problem(p.odom_frame, p.base_frame)
+                   or frame_pair_problem(p.base_frame, p.child_frame_id)
+                   or (None if len(set(chain)) == 4 else 'the four frames must differ'))
+        if problem:
+            raise ParameterError(f'parameters frame_id={p.frame_id!r}, odom_frame={p.odom_frame!r}, base_frame='
+                                 f'{p.base_frame!r}, child_frame_id={p.child_frame_id!r}: {problem}')
+        return lambda: HybridSlam(pose0, np.diag(var0), np.random.default_rng(p.seed), p.cekf, p.pf, p.hybrid,
+                                  compressed=p.compressed, vehicle=vehicle)
 
     def reset_time_state(self) -> tuple[str, ...]:
         """A new run (a clock jump): the filter at pose0 (seeded again), the stream merger, the map clock."""
         self.slam = self._new_slam()
         self.merger.reset(time.monotonic())
         self._map_ns, self._map_dirty, self._pf_published, self._n_events = None, False, False, 0
-        return ('filter (at pose0, seeded again)', 'stream merger', 'map schedule')
+        self.odom_inputs.reset()
+        self.odom.reset()
+        self._odom_last_ns = None
+        return ('filter (at pose0, seeded again)', 'stream merger', 'map schedule', 'odometry')
 
     @property
     def processed_ns(self) -> int | None:  # stamp of the last event the filter took
         return self.merger.processed_ns
 
-    def _on_input(self, msg: TwistStamped) -> None:
+    def _on_input(self, msg: TwistStamped | Odometry) -> None:
         self._add_input(msg)
         self._after_message()
 
-    def _on_scan(self, msg: PointCloud2) -> None:
+    def _on_scan(self, msg) -> None:
         self._add_scan(msg)
         self._after_message()
 
@@ -194,8 +268,11 @@ class SlamNode(TrackNode):
                 taken += 1
         return taken
 
-    def _add_input(self, msg: TwistStamped) -> None:
+    def _add_input(self, msg: TwistStamped | Odometry) -> None:
         self._heard[INPUT] = time.monotonic()  # refused or not, the stream is not silent (streams: pause rule)
+        if self.p.input_model == 'odometry':
+            self._add_odometry(msg)
+            return
         _, speed, steer = twist_to_inputs(msg)
         reason = speed_steer_problem(speed, steer, self.policy)
         if reason:
@@ -204,26 +281,72 @@ class SlamNode(TrackNode):
             return
         self._offer(INPUT, msg.header.stamp, (speed, steer))
 
-    def _add_scan(self, msg: PointCloud2) -> None:
+    def _add_odometry(self, msg: Odometry) -> None:
+        """The robot's odometry (REP-105): frames, numbers and stamp checked, then its input(s) into the merger
+        (``odometry.OdometryInputs``) and its pose into the odom track; nothing changes when refused."""
+        p = self.p
+        reason = (odometry_problem(msg, {p.odom_frame})
+                  or (None if msg.child_frame_id == p.base_frame else
+                      f'child_frame_id: {msg.child_frame_id!r}, expected base_frame {p.base_frame!r}')
+                  or odometry_bounds_problem(msg, self.policy, pose_covariance=False))
+        if reason is None:
+            try:
+                odo = PlanarOdometry.from_msg(msg)
+            except RecordError as exc:
+                reason = str(exc)
+        if reason is None:
+            t_ns = stamp_to_ns(msg.header.stamp)
+            reason = stamp_problem(t_ns / 1e9, clock_now(self.get_clock().now().nanoseconds), self.policy,
+                                   required=False)
+            if reason is None and self._odom_last_ns is not None and t_ns < self._odom_last_ns:
+                reason = (f'header.stamp: {t_ns * 1e-9:.9f} s is before the previous one '
+                          f'{self._odom_last_ns * 1e-9:.9f} s (time went backwards)')
+            if reason is None and self.merger.processed_ns is not None and t_ns < self.merger.processed_ns:
+                reason = f'header.stamp: {t_ns * 1e-9:.9f} s arrived after data up to it was processed'
+        if reason is not None:
+            self.n_bad_inputs += 1
+            self.refuse(SLAM_ODOM, reason)
+            return
+        self._odom_last_ns = t_ns
+        cov = odo.cov if p.odometry_noise == 'covariance' else None
+        self.odom.add(t_ns / 1_000_000_000, odo.pose, odo.v, odo.w)
+        for _, v, w, c, stamp in self.odom_inputs.offer(t_ns / 1_000_000_000, odo.pose, odo.v, odo.w, cov,
+                                                       msg.header.stamp):
+            self._offer(INPUT, stamp, (v, w, c))
+
+    def _add_scan(self, msg) -> None:
         self._heard[SCAN] = time.monotonic()
+        p = self.p
         try:
-            scan = SlamScan.from_msg(msg)
+            if p.observations == 'scan_cloud':
+                scan = SlamScan.from_msg(msg)
+                bearing, add_radius = scan.bearing, p.add_radius
+            else:
+                scan = LandmarkDetections.from_msg(msg, p.max_detections)
+                if scan.frame_id != p.child_frame_id:
+                    raise RecordError(f'header.frame_id: {scan.frame_id!r}, detections must be in the laser frame '
+                                      f'{p.child_frame_id!r}')
+                # REP-103 in the laser frame -> eq. 5 (0 = right) about the robot heading
+                bearing, add_radius = to_eq5_bearing(scan.bearing + self.laser[2]), False
+            if scan.range.size > p.max_detections:
+                raise RecordError(f'{scan.range.size} observations, more than max_detections {p.max_detections}')
         except RecordError as exc:
             self.n_bad_scans += 1
-            self.refuse(SLAM_SCAN, f'scan: {exc}')
+            self.refuse(self._scan_topic, f'scan: {exc}')
             return
         limits = self.slam.params.bearing_limits
-        z, ok = scan_observations(scan.range, scan.bearing, scan.diameter, limits, self.p.bearing_tolerance,
-                                  self.p.add_radius, self.policy.world_bound)
+        z, ok = scan_observations(scan.range, bearing, scan.diameter, limits, self.p.bearing_tolerance,
+                                  add_radius, self.policy.world_bound)
         example = f'e.g. range {scan.range[~ok][0]:.4g}, bearing {scan.bearing[~ok][0]:.4g}' if not ok.all() else ''
         if ok.size and not ok.any():  # garbage, not an empty scan: refused before its stamp reaches the merger
             self.n_bad_scans += 1
-            self.refuse(SLAM_SCAN, f'scan: no usable observation of {ok.size} (streams.scan_observations), {example}')
+            self.refuse(self._scan_topic, f'scan: no usable observation of {ok.size} (streams.scan_observations), '
+                        f'{example}')
             return
         if self._offer(SCAN, msg.header.stamp, z) and not np.all(ok):
             bad = int(np.sum(~ok))
             self.n_dropped_obs += bad
-            self.refuse(SLAM_SCAN, f'observations dropped: {bad} of {ok.size} at t = {scan.t:.3f} s (streams.'
+            self.refuse(self._scan_topic, f'observations dropped: {bad} of {ok.size} at t = {scan.t:.3f} s (streams.'
                         f'scan_observations), {example}')
 
     def _offer(self, stream: str, stamp, payload) -> bool:
@@ -237,7 +360,8 @@ class SlamNode(TrackNode):
         if reason is None:
             return True
         self.n_refused += 1
-        self.refuse(_TOPIC[stream], reason if reason.startswith('header.') else f'header.stamp: {reason}')
+        topic = self._input_topic if stream == INPUT else self._scan_topic
+        self.refuse(topic, reason if reason.startswith('header.') else f'header.stamp: {reason}')
         return False
 
     # -- core step and outputs ------------------------------------------------------------------
@@ -247,8 +371,11 @@ class SlamNode(TrackNode):
         if stream == INPUT:
             ok = self.slam.process_input(t, *payload)
             self.n_inputs += ok
+            if ok and self.p.input_model == 'acfr':  # dead reckoning: the odometry a driver of the car would give
+                v, w, _ = acfr_to_unicycle(payload[0], payload[1], self.p.acfr)
+                self.odom.integrate(t, float(v), float(w))
             if ok and self.n_inputs == 1 and not self.n_scans:  # the tree from the data's start on
-                self.send_transforms(odometry_transform(self._pose_msg(t)))
+                self._send_tf(t)
         else:
             ok = self.slam.process_scan(t, payload)
             self.n_scans += ok
@@ -265,7 +392,7 @@ class SlamNode(TrackNode):
             self._publish_event(ev)
         self._n_events = len(s.events)
         pose = self._pose_msg(t)
-        self.send_transforms(odometry_transform(pose))
+        self._send_tf(t)
         self.pub_pose.publish(pose)
         pf_step = s.last_particles
         if pf_step is not None and pf_step.scan == s.n_scans:  # the PF ran on this scan (maybe its last)
@@ -283,9 +410,31 @@ class SlamNode(TrackNode):
         if self._map_ns is None or t_ns - self._map_ns >= round(p.map_period * 1e9):
             self._publish_map(t)
 
+    def _pose(self) -> tuple[np.ndarray, np.ndarray]:
+        """The estimate as base_frame's pose in map (``odometry.sensor_to_base``) and its covariance."""
+        s = self.slam
+        return sensor_to_base(s.pose, symmetrize(s.pose_cov), self.laser[0], self.laser[1])
+
     def _pose_msg(self, t: float) -> Odometry:
         s, p = self.slam, self.p
-        return pose_to_odometry(t, s.pose, symmetrize(s.pose_cov), p.frame_id, p.child_frame_id)
+        if p.pose_of == 'laser':
+            return pose_to_odometry(t, s.pose, symmetrize(s.pose_cov), p.frame_id, p.child_frame_id)
+        base, P = self._pose()
+        return pose_to_odometry(t, base, symmetrize(P), p.frame_id, p.base_frame)
+
+    def _send_tf(self, t: float) -> None:
+        """map -> odom from the estimate and odom -> base_link at ``t`` (``odometry.map_to_odom``), as slam_toolbox
+        and robot_localization do; with ``publish_odom_tf`` (acfr inputs, no driver) odom -> base_link too."""
+        p = self.p
+        try:
+            base_odom = self.odom.pose_at(t)
+        except LookupError:  # no odometry yet: nothing to place odom with
+            return
+        mo = map_to_odom(self._pose()[0], base_odom)
+        transforms = [planar_transform(t, p.frame_id, p.odom_frame, *mo)]
+        if p.publish_odom_tf:
+            transforms.append(planar_transform(t, p.odom_frame, p.base_frame, *base_odom))
+        self.send_transforms(*transforms)
 
     def _publish_event(self, ev) -> None:
         x, y, yaw = (float(v) for v in self.slam.pose)
@@ -298,3 +447,4 @@ class SlamNode(TrackNode):
         self._map_dirty = False
         lm, covs = self.slam.map_estimate()
         self.pub_map.publish(map_markers(t, lm, covs, self.p.frame_id, self.p.ellipse_points))
+        self.pub_landmark_map.publish(LandmarkMap(t, self.p.frame_id, np.arange(len(lm)), lm, covs).to_msg())
