@@ -9,8 +9,9 @@ Usage::
   never overwritten (one error line, exit 2). Without a name: ``bags/rosbag2_<timestamp>/``.
 - What is recorded: the listed ``topics``, plus every topic matching ``regex`` (``re.search``).
   With neither, every topic. ``/rosout``, ``/parameter_events`` and ``/track/ready`` are only recorded when listed
-  in ``topics``. The transform tree, ``/tf`` and ``/tf_static``, is recorded too whatever the
-  filter (a bag whose frames cannot be placed is of little use in RViz or Foxglove), unless
+  in ``topics``. The transform tree, ``/tf`` and ``/tf_static``, and the run's ``/map_datum`` are recorded
+  too whatever the filter (a bag whose frames cannot be placed, or whose map cannot be put on the earth, is
+  of little use in RViz or Foxglove), unless
   ``tf`` is false (``--no-tf``); a topic listed in ``topics`` is recorded even then. ``/tf_static``
   is transient-local, so a recorder started late still gets every static transform. Topics that
   appear later are found by polling the graph every ``discovery_period`` seconds; a topic is
@@ -72,7 +73,7 @@ class RecorderParams:
     bag: str = param('', "bag name (→ bags/<name>/) or a path containing '/'; empty: rosbag2_<timestamp>")
     topics: list[str] = param([''], 'topics to record (empty: only those matching regex, or all)')
     regex: str = param('', 'record every topic matching this regular expression (re.search)')
-    tf: bool = param(True, 'also record /tf and /tf_static when topics or regex select other topics')
+    tf: bool = param(True, 'also record /tf, /tf_static and /map_datum when topics or regex select other topics')
     discovery_period: float = param(0.1, 'interval between graph polls for new topics [s]', 0.01, 60.0)
     flush_period: float = param(1.0, 'interval between flushes of the pending data to the file [s]', 0.01, 3600.0)
     warn_throttle: float = param(5.0, 'at most one warning about lost messages per this many seconds [s]', 0.0, 3600.0)
@@ -279,7 +280,7 @@ def parse_cli(argv: Sequence[str]) -> list[Parameter]:
     ap.add_argument('-t', '--topics', nargs='+', default=None, metavar='TOPIC', help='topics to record')
     ap.add_argument('-e', '--regex', default=None, help='record every topic matching REGEX')
     ap.add_argument('--no-tf', dest='no_tf', action='store_true',
-                    help='do not record /tf and /tf_static (recorded by default, whatever the filter)')
+                    help='do not record /tf, /tf_static and /map_datum (recorded by default, whatever the filter)')
     ap.add_argument('--flush-period', type=float, default=None, metavar='S',
                     help='flush pending messages to the file every S seconds (default 1)')
     ap.add_argument('--clock', choices=MODES, default=None,

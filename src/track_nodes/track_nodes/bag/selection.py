@@ -1,19 +1,21 @@
-"""Which topics the recorder records: listed ``topics``, a ``regex``, and the transform tree."""
+"""Which topics the recorder records: listed ``topics``, a ``regex``, and where everything is: the transform
+tree and the run's map datum (so every bag says where its ``map`` lies on the earth)."""
 
 from __future__ import annotations
 
 import re
 from collections.abc import Sequence
 
-from track_msgs_py.topics import READY, TF, TF_STATIC
+from track_msgs_py.topics import MAP_DATUM, READY, TF, TF_STATIC
 from track_nodes.base.params import ParameterError
 
 EXCLUDED_BY_DEFAULT = ('/rosout', '/parameter_events', READY)  # READY: the nodes' start-up announcements
-TF_TOPICS = (TF, TF_STATIC)  # recorded whatever the filter, unless tf is false
+TF_TOPICS = (TF, TF_STATIC, MAP_DATUM)  # recorded whatever the filter, unless tf is false
 
 
 class TopicFilter:
-    """``topics`` (names, '/' added), every topic matching ``regex`` (all if neither), /tf and /tf_static if ``tf``."""
+    """``topics`` (names, '/' added), every topic matching ``regex`` (all if neither), /tf, /tf_static and
+    /map_datum if ``tf``."""
 
     def __init__(self, topics: Sequence[str], regex: str, tf: bool) -> None:
         self.explicit = {t if t.startswith('/') else '/' + t for t in topics if t}
@@ -40,5 +42,5 @@ class TopicFilter:
             what.append('topics ' + ', '.join(sorted(self.explicit)))
         if self.regex is not None:
             what.append(f'topics matching {self.regex.pattern!r}' if self.regex.pattern else 'all topics')
-        what.append('/tf and /tf_static' if self.tf else 'not /tf or /tf_static')
+        what.append('/tf, /tf_static and /map_datum' if self.tf else 'not /tf, /tf_static or /map_datum')
         return ' and '.join(what)
