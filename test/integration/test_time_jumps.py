@@ -125,6 +125,27 @@ def test_a_report_55_s_ahead_does_not_blank_the_track(ros):
     assert len(out) == 6 and node.rejected == 1
 
 
+def test_a_rogue_at_100_hz_does_not_take_the_track_and_a_real_jump_is_logged_and_counted(ros):
+    """Ten rogue reports 1000 m off between two honest ones (100 Hz against 10 Hz) are ten gate misses in a
+    row, but the honest source keeps coming, so the track stays; when the honest source itself jumps, the
+    track is re-initialised after gate_lost_time, with one line and a count."""
+    node, out = _demo(ros)
+    lines = Lines(node)
+    t0 = _now(node) - 20.0
+    for k in range(50):
+        t = t0 + 0.1 * k
+        node._on_report(_report(t, (1.0 + 0.05 * k, 2.0)))
+        for j in range(10):
+            node._on_report(_report(t + 0.005 + 0.0095 * j, (1001.0, 2.0)))
+    assert len(out) == 50 and node.rejected == 500 and node.reinitialisations == 0
+    assert all(abs(m.pose.pose.position.x - (1.0 + 0.05 * k)) < 20.0 for k, m in enumerate(out))
+    for k in range(50, 80):  # the target really is 1000 m away now
+        node._on_report(_report(t0 + 0.1 * k, (1001.0 + 0.05 * k, 2.0)))
+    assert node.reinitialisations == 1
+    assert abs(out[-1].pose.pose.position.x - (1001.0 + 0.05 * 79)) < 20.0
+    assert sum('re-initialised' in w for w in lines.warnings) == 1, lines.warnings
+
+
 def test_a_second_publisher_1000_m_off_is_gated_counted_and_warned_about(ros):
     node, out = _demo(ros)
     lines = Lines(node)

@@ -10,10 +10,12 @@ A gate must never lock a track out. ``InnovationGate`` therefore
 - gates only a meaningful prediction: the caller asks only once its filter is initialised, and
   after a gap longer than ``max_gap`` s the report is let through (the filter's covariance has
   grown, but a model held that long is not worth defending);
-- counts consecutive rejections: after ``max_misses`` of them in a row the track is taken as lost
-  (``lost``) and the caller re-initialises its filter on the next report, so a target that
-  really jumped (or a track predicted from a stale run) is found again. An honest source
-  interleaved with a rogue one keeps resetting that count, so the rogue never takes over;
+- counts consecutive rejections: after ``max_misses`` of them in a row, with no report accepted for
+  ``lost_time`` s, the track is taken as lost and the caller re-initialises its filter on the next
+  report, so a target that really jumped (or a track predicted from a stale run) is found again.
+  Misses alone are no evidence: a rogue publisher ten times faster than the honest source fills
+  the gap between two honest reports with ten misses. The time is: while the honest source keeps
+  coming, no report is ever that late, so the rogue never takes over;
 - keeps the outcome of the last ``window`` gated reports, so a caller can say when one source is
   rejected persistently (``persistent``).
 """
@@ -65,12 +67,13 @@ class InnovationGate:
     max_misses: int = 10
     max_gap: float = 30.0
     window: int = 20
+    lost_time: float = 0.0  # s without an accepted report before consecutive misses mean the track is lost
     misses: int = 0  # consecutive rejections
     _recent: deque = field(default_factory=deque, repr=False)
 
     def __post_init__(self) -> None:
         self.threshold = gate_threshold(self.probability, self.dim)
-        if self.max_misses < 1 or self.window < 1 or not self.max_gap > 0:
+        if self.max_misses < 1 or self.window < 1 or not self.max_gap > 0 or not 0.0 <= self.lost_time < math.inf:
             raise ValueError(f'invalid gate {self}')
 
     def set_probability(self, probability: float) -> None:
@@ -85,7 +88,7 @@ class InnovationGate:
         if d2 <= self.threshold:
             return self._record(GateDecision(True, d2, self.threshold))
         self.misses += 1
-        if self.misses >= self.max_misses:
+        if self.misses >= self.max_misses and gap >= self.lost_time:
             return self._record(GateDecision(True, d2, self.threshold, reinitialise=True))
         return self._record(GateDecision(False, d2, self.threshold))
 

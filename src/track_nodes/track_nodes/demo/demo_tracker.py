@@ -17,8 +17,10 @@ Innovation gate (``track_core.filters.gating.InnovationGate``): once the track i
 report whose Mahalanobis distance² from the prediction exceeds the χ² quantile of
 ``gate_probability`` (2 degrees of freedom) is refused (``innovation gate`` on /diagnostics); when
 at least half of the last reports were refused, a warning says the topic carries a second source
-(throttled). A lost track is not locked out: after ``gate_max_misses`` consecutive refusals, or a gap
-of more than ``gate_max_gap`` s, the tracker starts again from the report.
+(throttled). A lost track is not locked out: after ``gate_max_misses`` consecutive refusals with no
+report accepted for ``gate_lost_time`` s, or a gap of more than ``gate_max_gap`` s, the tracker starts
+again from the report, with one line and a count (``reinitialisations``). A fast second publisher
+cannot take the track over while the honest one keeps coming: its misses are many, but never that late.
 
 A jump of the clock (``track_nodes.base.timejump``: back, or forward beyond the horizon; a bag
 replayed in a loop, a simulator reset) resets the tracker, the gate and the stamp watermark.
@@ -26,6 +28,7 @@ replayed in a loop, a simulator reset) resets the tracker, the gate and the stam
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from geometry_msgs.msg import PoseWithCovarianceStamped
@@ -61,6 +64,8 @@ class DemoTrackerParams:
     gate_probability: float = param(0.9999, 'innovation gate: χ² probability of the Mahalanobis gate (2 dof)',
                                     0.5, 1.0 - 1e-12, live=True)
     gate_max_misses: int = param(10, 'consecutive gate refusals after which the track is re-initialised', 1, 1_000_000)
+    gate_lost_time: float = param(2.0, 'a track is lost only after gate_max_misses refusals with no report accepted '
+                                  'for this long [s]', 0.0, 1e9)
     gate_max_gap: float = param(30.0, 'a report after a longer gap is not gated: the track starts again [s]', 1e-3, 1e9)
 
 
@@ -73,7 +78,9 @@ class DemoTrackerNode(TrackNode):
         self.tracker = CVKalmanTracker(q_s=self.p.q_s, sigma_v0=self.p.sigma_v0)
         self.stamps = StampMonotonic()
         self.policy = InputPolicy(horizon=self.p.stamp_horizon, lead=self.p.stamp_lead)
-        self.gate = InnovationGate(self.p.gate_probability, 2, self.p.gate_max_misses, self.p.gate_max_gap)
+        self.gate = InnovationGate(self.p.gate_probability, 2, self.p.gate_max_misses, self.p.gate_max_gap,
+                                   lost_time=self.p.gate_lost_time)
+        self.reinitialisations = 0
         self.rejected = 0
         self.pub = self.create_publisher(Odometry, DEMO_TRACK, ESTIMATE_QOS)
         self.sub = self.create_subscription(PoseWithCovarianceStamped, DEMO_REPORTS, self._on_report, SENSOR_SUB_QOS)
@@ -116,4 +123,10 @@ class DemoTrackerNode(TrackNode):
                     'the recent reports: a second publisher on the topic, or a wrong report covariance?',
                     throttle_duration_sec=self.WARN_THROTTLE)
             return
+        if decision.reinitialise:
+            self.reinitialisations += 1
+            self.get_logger().warning(
+                f'{self.resolved(DEMO_REPORTS)}: track re-initialised on a report {math.sqrt(decision.d2):.3g} σ '
+                f'from it ({self.reinitialisations} so far): the target was lost or jumped',
+                throttle_duration_sec=self.WARN_THROTTLE)
         self.pub.publish(cv_state_to_odometry(t, x, P, msg.header.frame_id, self.p.track_id))

@@ -27,8 +27,11 @@ def demo_metrics(bag: Path) -> list[str]:
     err = x_true - x_est
     settled = slice(min(10, len(err) // 2), None)  # after the velocity prior is forgotten
     nees, undefined = mean_nees(err[settled], P_est[settled])
+    unmatched = len(track) - len(ie)
     return [
-        f'demo tracker: {len(ie)} estimates matched to truth',
+        f'demo tracker: {len(ie)} estimates matched to truth'
+        + (f'; left out: {unmatched} estimate(s) stamped at no truth time (reports from another publisher?)'
+           if unmatched else ''),
         f'  position RMSE {rms(err[:, [0, 2]]):.3f} m, velocity RMSE {rms(err[:, [1, 3]]):.3f} m/s',
         f'  mean NEES {nees:.2f} (4 states; ≈4 when consistent, pos–vel cross-covariance not carried by '
         'Odometry)' + (f'; left out: {undefined} estimate(s) with a singular covariance' if undefined else ''),

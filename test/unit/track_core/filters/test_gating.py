@@ -58,3 +58,27 @@ def test_persistent_rejections_are_noticed_but_an_honest_source_keeps_the_track(
     assert gate.persistent and gate.rejected_share == pytest.approx(0.5)
     gate.reset()
     assert not gate.persistent and gate.misses == 0
+
+
+def test_a_fast_rogue_cannot_take_the_track_over_while_the_honest_source_keeps_coming():
+    """Ten rogue reports between two honest ones are ten misses in a row; with ``lost_time`` they are no
+    evidence that the track is lost, because an honest report came less than ``lost_time`` ago."""
+    for lost_time, hijacked in ((0.0, True), (2.0, False)):
+        trk, gate = _tracked(), InnovationGate(max_misses=10, lost_time=lost_time)
+        taken = False
+        for k in range(30):
+            t = 1.0 + 0.1 * k
+            taken |= not trk.update_gated(t, np.array([t, 0.0]), np.eye(2), gate)[0].accepted
+            for j in range(10):  # a rogue at 100 Hz, 1000 m off
+                d = trk.update_gated(t + 0.005 + 0.0095 * j, np.array([1000.0, 0.0]), np.eye(2), gate)[0]
+                taken |= d.reinitialise
+        assert taken is hijacked
+
+
+def test_a_target_that_really_jumped_is_found_again_after_lost_time():
+    trk, gate = _tracked(), InnovationGate(max_misses=10, lost_time=2.0)
+    decisions = [trk.update_gated(2.0 + 0.1 * k, np.array([1000.0, 0.0]), np.eye(2), gate)[0] for k in range(40)]
+    first = next(k for k, d in enumerate(decisions) if d.reinitialise)
+    assert all(not d.accepted for d in decisions[:first])
+    assert (2.0 + 0.1 * first) - 0.9 >= 2.0 - 1e-9  # not before lost_time after the last accepted report (0.9 s)
+    assert np.allclose(trk.x[[0, 2]], [1000.0, 0.0], atol=5.0)
