@@ -26,3 +26,24 @@ def test_numbered_families_fold_from_fold_at(tmp_path):
     assert not any('/net/sensor_0/handoff' in ln for ln in lines)
     assert sum('/net/node_' in ln for ln in lines) == FOLD_AT - 1          # a smaller family stays listed
     assert any('/net/estimate' in ln for ln in lines)
+
+
+def test_the_demo_summary_counts_the_estimates_it_leaves_out(monkeypatch):
+    """An estimate stamped at no truth time (a hijacked track fed by another publisher) is not matched to a
+    truth: the summary says how many were left out instead of quietly scoring the rest."""
+    from pathlib import Path
+
+    import numpy as np
+
+    from track_msgs_py.odometry import cv_state_to_odometry
+    from track_msgs_py.topics import DEMO_TRACK, DEMO_TRUTH
+    from track_nodes.report import demo
+
+    truth = [cv_state_to_odometry(1.0 + k, np.array([k, 1.0, 0.0, 0.0]), np.zeros((4, 4))) for k in range(20)]
+    track = [cv_state_to_odometry(1.0 + k, np.array([k, 1.0, 0.0, 0.0]), np.eye(4)) for k in range(20)]
+    track += [cv_state_to_odometry(1.5 + k, np.array([1000.0, 0.0, 0.0, 0.0]), np.eye(4)) for k in range(3)]
+    monkeypatch.setattr(demo, 'read_topics', lambda bag, topics: {DEMO_TRUTH: truth, DEMO_TRACK: track})
+    lines = demo.demo_metrics(Path('unused'))
+    assert '20 estimates matched to truth; left out: 3 estimate(s)' in lines[0], lines
+    monkeypatch.setattr(demo, 'read_topics', lambda bag, topics: {DEMO_TRUTH: truth, DEMO_TRACK: track[:20]})
+    assert 'left out' not in demo.demo_metrics(Path('unused'))[0]
