@@ -188,6 +188,8 @@ def test_the_two_nodes_find_the_tag(search_run, repo):
     assert len(sink.msgs[RFID_PARTICLES]) == len(usable) == guide.guide.pf.n_updates
     assert len(sink.msgs[RFID_PARTICLES][-1].poses) == guide.p.n_particles
     assert sink.msgs[RFID_TAG_ESTIMATE] and all(m.header.frame_id == 'rfid_user' for m in sink.msgs[RFID_TAG_ESTIMATE])
+    sides = guide.tag_sides                   # the mirror modes of the last update, both probabilities
+    assert sides.left.probability + sides.right.probability == pytest.approx(1.0)
     last_pose = sink.msgs[RFID_USER_POSE][-1].pose.position
     assert math.hypot(last_pose.x, last_pose.y) == pytest.approx(ref.final_distance_m)
 

@@ -6,12 +6,18 @@ scripted), over real sllurp and real DDS.
   hopping over 8 channels every 0.2 s), published as a phase cloud and a step result.
 - The reader goes away and comes back on the same port: the node counts the drop, reconnects by itself,
   and the next MOVE is answered from the new connection's reads.
+- "Connected" only after the LLRP handshake: the link logs it when the reader has answered
+  GET_READER_CAPABILITIES, never at the TCP connect.
+- A TCP listener that never speaks LLRP (here one that accepts and stays silent) is refused within
+  ``handshake_s`` with one warning line, however often it is retried; the node is never ``up``.
 - No host: the node stops at start with one line.
 """
 
 from __future__ import annotations
 
 import importlib.util
+import socket
+import time
 from pathlib import Path
 
 import pytest
@@ -25,6 +31,7 @@ from track_msgs_py.qos import ESTIMATE_QOS
 from track_msgs_py.records.rfid import RfidCommand, RfidStep
 from track_msgs_py.topics import RFID_COMMAND, RFID_PHASE, RFID_STEP
 from track_nodes.base import ParameterError
+from track_nodes.rfid.llrp import LlrpLink, reader_config
 from track_nodes.rfid.rfid_llrp_reader import RfidLlrpReaderNode
 
 pytestmark = pytest.mark.integration
@@ -103,3 +110,65 @@ def test_no_host_stops_the_node_with_one_line(ros):
     with pytest.raises(ParameterError, match='parameter host is empty') as exc:
         RfidLlrpReaderNode(context=ros.context)
     assert '\n' not in str(exc.value)
+
+
+@pytest.fixture
+def silent():
+    """A TCP port that accepts connections (the kernel completes them) and never says a word."""
+    sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    sock.bind(('127.0.0.1', 0))
+    sock.listen(8)
+    yield sock.getsockname()[1]
+    sock.close()
+
+
+def _poll_until(link: LlrpLink, predicate, timeout: float) -> bool:
+    """Drive ``link.poll`` (the node's timer) until ``predicate()`` or ``timeout`` s."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline and not predicate():
+        link.poll(time.time())
+        time.sleep(0.01)
+    return bool(predicate())
+
+
+def test_connected_is_said_only_after_the_llrp_handshake(rig):
+    from sllurp.llrp import LLRPReaderState
+
+    said: list[tuple[str, int]] = []
+    link = LlrpLink('127.0.0.1', rig.port, reader_config([1], 0.0), retry_s=0.2, handshake_s=10.0,
+                    log=lambda line: said.append((line, link.client.llrp.state if link.client else -1)))
+    try:
+        assert _poll_until(link, lambda: link.up and link.queue.qsize() > 10, 60), link.last_error
+        lines = [(line, state) for line, state in said if line.startswith('connected')]
+        assert len(lines) == 1 and link.connects == 1 and link.refusals == 0, said
+        line, state = lines[0]
+        assert 'LLRP capabilities answered' in line
+        assert state >= LLRPReaderState.STATE_CONNECTED   # the reader's answer had come when it was said
+    finally:
+        link.close()
+
+
+def test_a_listener_that_never_speaks_llrp_is_refused_with_one_line(silent):
+    said, warned = [], []
+    link = LlrpLink('127.0.0.1', silent, reader_config([1], 0.0), retry_s=0.1, handshake_s=0.5,
+                    log=said.append, warn=warned.append)
+    try:
+        start = time.monotonic()
+        assert _poll_until(link, lambda: link.refusals >= 1, 30)
+        assert time.monotonic() - start < 0.5 + 10.0          # the handshake time plus a busy machine's slack
+        assert _poll_until(link, lambda: link.refusals >= 3, 30)   # retried, and refused again
+        assert not link.up and link.connects == 0 and link.client is None
+        assert not any(line.startswith('connected') for line in said), said
+        assert len(warned) == 1 and '\n' not in warned[0], warned   # one line for the whole run of refusals
+        assert f'127.0.0.1:{silent}' in warned[0] and 'no LLRP answer within 0.5 s' in warned[0]
+    finally:
+        link.close()
+
+
+def test_the_node_refuses_a_silent_listener(ros, silent):
+    node = ros.add(RfidLlrpReaderNode(context=ros.context, parameter_overrides=[
+        Parameter('host', value='127.0.0.1'), Parameter('port', value=silent), Parameter('retry_s', value=0.1),
+        Parameter('handshake_s', value=0.3)]))
+    assert ros.spin_until(lambda: node.link.refusals >= 2, timeout=30), node.link.last_error
+    assert not node.link.up and node.link.connects == 0
+    assert node.link.last_error.startswith('refused: no LLRP answer within 0.3 s')

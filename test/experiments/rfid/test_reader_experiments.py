@@ -1,6 +1,7 @@
 """Issue 14: the batch least-squares baseline, the filter's reader noise and Gaussian weights, the
 bimodal tag estimate, the guidance with an LLRP reader, and the rfid-reader experiment."""
 
+import math
 
 import numpy as np
 
@@ -26,7 +27,7 @@ def test_filter_comes_within_1p5_of_the_batch_fit():
 
 def test_reader_experiment_quick(tmp_path):
     out = reader_experiment(RunConfig(quick=True, runs=2, out=tmp_path, show_progress=False))
-    assert set(out.data) == {'moves', 'sign', 'pf_batch'}
+    assert set(out.data) == {'moves', 'sign', 'pf_batch', 'sides'}
     assert [m['config'] for m in out.data['moves']] == [r.name for r in sweep_rows()]
     for m in out.data['moves']:
         assert m['moves'] == 2 * 6 and 0.0 <= m['ours']['kept'] <= 1.0
@@ -35,6 +36,13 @@ def test_reader_experiment_quick(tmp_path):
         'student_t', 'gaussian', 'inverse_square', 'inverse_square, fixed s_θ 5.5°'}
     assert {v['mode'] for v in out.data['pf_batch'].values()} == set(PF_MODES)
     assert 'naive' in out.table and 'batch LS' in out.table
+    for m in out.data['moves']:                       # 1σ, 90 % and 2σ intervals: nested shares
+        c = [m['ours_cov1s'], m['ours_cov90'], m['ours_cov2s']]
+        assert all(math.isnan(x) for x in c) or 0.0 <= c[0] <= c[1] <= c[2] <= 1.0
+    assert 'cov 1σ %' in out.table and 'Mirror sides' in out.table
+    sides = out.data['sides']
+    assert sides['walks'] == 2 and set(sides) >= {'straight', 'turned'}
+    assert 0.0 <= sides['straight']['unknown_rate'] <= 1.0 and sides['turned']['true_mode_median_m'] >= 0.0
 
 
 def test_an_unusable_move_costs_one_step_not_the_walk():

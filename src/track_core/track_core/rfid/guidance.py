@@ -45,7 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from track_core.filters import circular_mean, wrap_angle
-from track_core.rfid.pf import PFParams, RfidParticleFilter
+from track_core.rfid.pf import PFParams, RfidParticleFilter, TagMode, TagSides
 from track_core.rfid.phase import PhaseModel
 from track_core.rfid.protocol import Command, CommandKind, StepResult, step_result_problem
 
@@ -155,6 +155,19 @@ class RfidGuidance:
             return np.full(3, np.nan)
         P, w = self.pf.particles, self.pf.weights
         return np.array([w @ P[:, 0], w @ P[:, 1], float(wrap_angle(circular_mean(P[:, 2], w) + self.pending_turn))])
+
+    def tag_sides(self) -> TagSides:
+        """The tag's two mirror modes and their probabilities in the user's frame now (the turns pending since
+        the last MOVE applied), ``unknown`` while the walk has not told the sides apart (``pf`` module doc).
+        A straight walk cannot tell them apart: a guidance that gave one point would be 2|y| off half the
+        time, so it says that the side is unknown and how likely each is (``TagSides.describe``)."""
+        sides = self.pf.tag_sides()
+        c, s = math.cos(self.pending_turn), math.sin(self.pending_turn)
+
+        def turned(m: TagMode) -> TagMode:   # the user has turned by pending_turn since: R(−turn)·(x, y)
+            return TagMode(c * m.x + s * m.y, -s * m.x + c * m.y, m.probability)
+
+        return TagSides(turned(sides.left), turned(sides.right), sides.unknown)
 
     def tag_estimate(self) -> tuple[float, float]:
         """(distance, bearing from the facing direction) of the tag; the bearing includes pending turns."""

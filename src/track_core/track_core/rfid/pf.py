@@ -86,6 +86,16 @@ Real readers (additions, off by default):
   over the heavier side and ``bimodal`` says that the mirror image (x, −y) is as plausible.
   ``tag_estimate()`` is unchanged (weighted mean distance, and the suggestion as bearing, which
   with ``suggestion='auto'`` already takes the heavier side).
+- ``tag_sides()``: both mirror modes with their probabilities, for a guidance that must say when the
+  tag's side is still unknown. Each side of the walking line (the tag left, y > 0, or right of the
+  user, in each particle's own frame) is a mode: its weighted mean in the user's frame and its
+  probability, the posterior weight on that side. ``unknown`` is ``tag_posterior``'s ``bimodal``
+  rule. Why report both rather than fold them: eq. 6 measures only the change of distance, which a
+  straight walk (eq. 20 with no turn) leaves the same for (x, y) and (x, −y), so every straight
+  MOVE weighs a particle and its mirror image alike (eq. 15) and the probability of each side stays
+  what the prior and the turns before made it. Only a turn off the line followed by a MOVE (eq. 19)
+  moves the weight from one side to the other; until then the heavier side may be the wrong one,
+  and a single point estimate would be wrong by the distance between the two modes (2|y|).
 """
 
 from __future__ import annotations
@@ -174,6 +184,41 @@ class TagEstimate:
     bearing: float
     bimodal: bool
     side_weight: float
+
+
+@dataclass(frozen=True)
+class TagMode:
+    """One mirror side's mode: the weighted mean tag position in the user's frame (x forward, y left, m) and
+    the posterior probability that the tag is on that side of the walking line."""
+
+    x: float
+    y: float
+    probability: float
+
+
+@dataclass(frozen=True)
+class TagSides:
+    """The tag's two mirror modes (``RfidParticleFilter.tag_sides``, module doc): ``left`` (y > 0) and
+    ``right``; ``unknown`` when both hold a mode (the side is not yet told apart by the walk)."""
+
+    left: TagMode
+    right: TagMode
+    unknown: bool
+
+    @property
+    def likelier(self) -> TagMode:
+        return self.left if self.left.probability >= self.right.probability else self.right
+
+    def describe(self) -> str:
+        """One line: the side, or both modes with their probabilities while it is unknown."""
+        def mode(name: str, m: TagMode) -> str:
+            return f'{name} at ({m.x:.2f}, {m.y:.2f}) m with p = {m.probability:.2f}'
+
+        if self.unknown:
+            return (f'tag side unknown (mirror images across the walking line): {mode("left", self.left)} or '
+                    f'{mode("right", self.right)}; a turn off the line tells them apart')
+        side = 'left' if self.likelier is self.left else 'right'
+        return f'tag side known: {mode(side, self.likelier)}'
 
 
 @dataclass(frozen=True)
@@ -405,6 +450,29 @@ class RfidParticleFilter:
             return math.nan, math.nan
         return float(self.weights @ np.hypot(self._P[0], self._P[1])), self.suggested_turn()
 
+    def tag_sides(self) -> TagSides:
+        """Both mirror modes of the tag in the user's frame and their probabilities (module doc).
+
+        A side with no weight has NaN coordinates and probability 0; NaN everywhere before the first update.
+        """
+        nan = TagMode(math.nan, math.nan, 0.0)
+        if not self.initialized:
+            return TagSides(nan, nan, False)
+        fx, fy, w = self._tag_in_user_frame()
+        total = float(w.sum())
+        modes = []
+        for mask in (fy > 0.0, fy <= 0.0):
+            ws = float(w[mask].sum())
+            modes.append(TagMode(float(w[mask] @ fx[mask]) / ws, float(w[mask] @ fy[mask]) / ws, ws / total)
+                         if ws > 0.0 else nan)
+        return TagSides(modes[0], modes[1], self.tag_posterior().bimodal)
+
+    def _tag_in_user_frame(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(fx, fy, w): the tag R(−a)·(0 − p) seen from each particle, and the weights."""
+        x, y, a = self._P
+        c, s = np.cos(a), np.sin(a)
+        return -(c * x + s * y), s * x - c * y, self.weights
+
     def tag_posterior(self) -> TagEstimate:
         """The tag's position in the user's frame, and whether the posterior is two-sided (module doc).
 
@@ -412,10 +480,7 @@ class RfidParticleFilter:
         """
         if not self.initialized:
             return TagEstimate(math.nan, math.nan, math.nan, math.nan, False, math.nan)
-        x, y, a = self._P
-        c, s = np.cos(a), np.sin(a)
-        fx, fy = -(c * x + s * y), s * x - c * y          # R(−a)·(0 − p): the tag seen from each particle
-        w = self.weights
+        fx, fy, w = self._tag_in_user_frame()
         left = fy > 0.0
         sides = []
         for mask in (left, ~left):

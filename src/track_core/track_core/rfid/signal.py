@@ -117,10 +117,21 @@ effect, but not the same runs).
   So the gate is learnt: ≈ 0.8 rad for t₂ noise of scale 0.03 rad, ≈ 0.15 rad (the floor) for a
   Gaussian reader of 0.015 rad. σ̂ for the end-fit window is as with ``'online'``. ``dphi_std``: each
   end value gets its own spread, the RMS residual of its end fit (n − 2 dof, over the reads the refit
-  keeps) but at least σ̂, times the fit's variance factor, times ``dphi_std_factor`` (1.15). The
-  factor is a calibration: a trimmed line fit on heavy-tailed reads has a dφ error with heavier tails
-  than the Gaussian its std implies; 1.15 brings the share of errors within ±1.645·``dphi_std`` to
-  86–93 % on the simulator's heavy-tailed, hopping and plain modes (``rfid-reader``, held-out seeds).
+  keeps) but at least σ̂, times the fit's variance factor, times ``dphi_std_factor``. The factor is
+  a calibration against the 1σ interval, the one a filter's likelihood (eq. 11's θ_d) leans on: a
+  trimmed line fit on heavy-tailed reads has a dφ error with heavier tails than the Gaussian its std
+  implies, and on light-tailed reads a lighter one. 1.0 puts the share of errors within ±``dphi_std``
+  at 65–71 % on every simulated real-reader mode without lasting steps (plain, hopping, heavy tails,
+  heavy tails with hopping; ``rfid-reader`` part 1, tuning seeds; a Gaussian gives 68.3 %); the
+  earlier 1.15, tuned to the ±1.645σ share, covered 71–78 % at 1σ: too wide for plain and hopping
+  readers. Held-out figures: docs/results/rfid.md.
+  A re-lock bridged ``'wrapped'`` lets the step's wrapped size into dφ: the reader's phase offset
+  after a re-lock is unknown, uniform over a wrap period as far as the stream can tell, so each
+  re-lock adds its variance P²/12 (P = 2π: 1.81 rad std). Without it a MOVE with a lasting step of a
+  radian claimed the read noise's hundredth of a radian (|error|/``dphi_std`` of 12–140 at the 90th
+  percentile), and a filter that believes it collapses on the wrong mode; with it, the share of such
+  MOVEs within ±2``dphi_std`` goes from 61–71 % to 88–99 % (``'join'`` keeps the step out of dφ and
+  adds nothing).
   Why this and not the alternatives, measured in ``rfid-reader`` part 1 on the heavy-tailed mode with
   hopping every 0.2 s: the 6σ̂ gate of ``'online'`` keeps ≈ 97 % of 0.5 m MOVEs and its ``dphi_std``
   covers ≈ 70 %; the learnt t gate keeps ≥ 99.5 %, and the per-end spread ≈ 90 %.
@@ -224,7 +235,7 @@ class UnwrapConfig:
     outlier_rate: float = 0.01         # robust gate: prior share of wild reads, uniform over P
     tail_dof: float = 0.0              # robust: ν of the t likelihood; 0 = learnt from the innovations
     min_tail_samples: int = 200        # robust: innovations needed before ν is learnt (before: ν = 2)
-    dphi_std_factor: float = 1.15      # robust: dphi_std scale (module doc: calibration)
+    dphi_std_factor: float = 1.0       # robust: dphi_std scale (module doc: calibration)
 
     def __post_init__(self) -> None:
         if not (0.0 < self.gate < 0.5):
@@ -618,8 +629,9 @@ def _combine(stream: PhaseStream, cfg: UnwrapConfig, noise: PhaseProcessor | Non
     hops = sum(int(segs[k][3] != segs[k + 1][3]) for k in range(len(segs) - 1))
     if noise is None:
         dphi_std = math.nan
-    elif cfg.noise == 'robust':
-        dphi_std = cfg.dphi_std_factor * math.sqrt(var)
+    elif cfg.noise == 'robust':          # re-locks bridged 'wrapped': an unknown offset, uniform over P each
+        step_var = relocks * cfg.period * cfg.period / 12.0 if cfg.step_bridge == 'wrapped' else 0.0
+        dphi_std = math.sqrt(cfg.dphi_std_factor ** 2 * var + step_var)
     else:
         dphi_std = sigma * math.sqrt(var)
     return DphiEstimate(StreamStatus.OK, cfg.sign * total, '', n, n_out, unw, acc_a, relocks, hops,

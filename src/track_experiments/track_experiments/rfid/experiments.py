@@ -39,8 +39,10 @@ Three parts, all seeded from ``--seed`` (one ``SeedSequence`` spawned per part a
    the median, 95th percentile and RMS of |dφ − dφ_true| over the MOVEs each method kept (dφ_true is
    the geometric one of the step walked, ``ReaderOutput.truth_dphi``), and for ours against naive on
    the same MOVEs (those ours kept); cov90: the share of kept MOVEs whose error is within ±1.645·``dphi_std``
-   (ours and online). The last three rows are the heavy-tailed mode (``WorldParams.noise_dof`` 2, scale
-   0.03 rad), alone, with hopping, and with hopping and lasting steps.
+   (ours and online), and for ours cov 1σ and cov 2σ, the shares within ±1 and ±2 ``dphi_std`` (a Gaussian:
+   68.3 % and 95.4 %; the filter's likelihood leans on the 1σ one). The last three rows are the
+   heavy-tailed mode (``WorldParams.noise_dof`` 2, scale 0.03 rad), alone, with hopping, and with
+   hopping and lasting steps.
 2. **Sign convention and guidance.** ``runs`` searches of Table I's setting (N = 100, the paper's
    worst-case errors) with the paper's reader, with an LLRP reader processed with its sign set, and
    with the LLRP reader's stream fed as-is (processed with the paper's sign). The same run seeds, and
@@ -59,8 +61,13 @@ Three parts, all seeded from ``--seed`` (one ``SeedSequence`` spawned per part a
    same settings, the 1/m² weights with the paper's fixed s_θ = 5.5° instead of the reader's dφ std,
    and how often ``tag_posterior`` says the posterior is bimodal.
 
-``--quick`` runs 6 trials per row, 6 searches per variant and 6 filter trials; the full run 200, 200
-and 100. ``--json`` holds ``{"moves": [...], "sign": {...}, "pf_batch": {...}}``.
+4. **Mirror sides.** Part 3's straight walk (Student-t weights), then a TURN of 60° and 3 MOVEs: after
+   each part, how often ``tag_sides`` reports the side unknown, the true side's probability, and the
+   error of the true side's mode and of the likelier one (not folded: what one point would be off by).
+
+``--quick`` runs 6 trials per row, 6 searches per variant and 6 filter trials (and 6 walks in part 4);
+the full run 200, 200 and 100 (and 100). ``--json`` holds ``{"moves": [...], "sign": {...},
+"pf_batch": {...}, "sides": {...}}``.
 
 ``--set file=LOG.csv`` (``--set epc=EPC`` to pick a tag): a recorded walk (``track_core.rfid.log``) instead of
 the simulation, processed the same ways (``log_replay``).
@@ -305,10 +312,11 @@ def _err_stats(x: np.ndarray, truth: np.ndarray, mask: np.ndarray | None = None)
             'p95': float(np.percentile(e, 95)), 'rms': float(np.sqrt(np.mean(e * e)))}
 
 
-def coverage90(x: np.ndarray, std: np.ndarray, truth: np.ndarray) -> float:
-    """Share of the kept MOVEs whose |dφ error| is within the 90 % interval ±1.645·dphi_std."""
+def coverage90(x: np.ndarray, std: np.ndarray, truth: np.ndarray, z: float = 1.645) -> float:
+    """Share of the kept MOVEs whose |dφ error| is within ±z·dphi_std (z 1.645: the 90 % interval of a Gaussian;
+    1: 68.3 %, 2: 95.4 %)."""
     ok = np.isfinite(x) & np.isfinite(std)
-    return float(np.mean(np.abs(x[ok] - truth[ok]) <= 1.645 * std[ok])) if ok.any() else math.nan
+    return float(np.mean(np.abs(x[ok] - truth[ok]) <= z * std[ok])) if ok.any() else math.nan
 
 
 def summarize_moves(r: dict) -> dict:
@@ -319,6 +327,8 @@ def summarize_moves(r: dict) -> dict:
             **{m: _err_stats(r[m], t) for m in ('ours', 'join', 'old', 'naive', 'online')},
             'naive_on_ours_kept': _err_stats(r['naive'], t, kept),
             'ours_cov90': coverage90(r['ours'], r['ours_std'], t),
+            'ours_cov1s': coverage90(r['ours'], r['ours_std'], t, 1.0),
+            'ours_cov2s': coverage90(r['ours'], r['ours_std'], t, 2.0),
             'online_cov90': coverage90(r['online'], r['online_std'], t)}
 
 
@@ -402,6 +412,63 @@ def pf_batch(seeds: list[np.random.SeedSequence], n_particles: int = PF_PARTICLE
     return out
 
 
+SIDE_TURN_DEG = 60.0                # part 4: the turn off the walking line after the straight part
+
+
+def side_trial(ss: np.random.SeedSequence, n_particles: int = PF_PARTICLES, turn_deg: float = SIDE_TURN_DEG,
+               after: int = 3) -> dict:
+    """Part 4, one walk: part 3's straight walk (hopping reader, Student-t weights), then a TURN of ``turn_deg``
+    and ``after`` MOVEs. After each part, from ``RfidParticleFilter.tag_sides``: whether the side is reported
+    unknown, the true side's probability, the error of the true side's mode and of the likelier mode (m, not
+    folded: what a guidance that gives one point would be off by)."""
+    rw, rp = (np.random.default_rng(s) for s in _children(ss, 2))
+    along, side = rw.uniform(0.0, 1.5), rw.uniform(0.5, 2.0) * rw.choice([-1.0, 1.0])
+    world = WorldParams(phase=READER, s_step=0.2, s_r=0.002, s_a=math.radians(0.5), beam_width=2.0 * math.pi,
+                        channels_hz=CHANNELS, hop_dwell_s=0.2)
+    sim = SimReader(world, rw, start=np.array([-along, -side, 0.0]), unwrap=UnwrapConfig.real_reader(READER))
+    pf = RfidParticleFilter(PFParams(n_particles=n_particles, s_step=0.2, s_r=0.002, s_a=math.radians(0.5),
+                                     weighting='student_t', reinit_factor=None, init_range=PF_INIT_RANGE,
+                                     init_boost=PF_INIT_BOOST), READER, rp)
+    seq = iter(range(1, 1000))
+
+    def move(turn: float) -> None:
+        res = sim.execute(Command(CommandKind.MOVE, seq=next(seq))).result
+        if res.ok:
+            pf.update(res.dphi, turn, dphi_std=res.dphi_std)
+        else:
+            pf.predict(turn)
+
+    def report(prefix: str) -> dict:
+        x, y, a = sim.pose
+        tx, ty = tag_in_user_frame(np.zeros(2), np.array([x, y]), a)
+        s = pf.tag_sides()
+        true, best = (s.left if ty > 0 else s.right), s.likelier
+        return {f'{prefix}_unknown': float(s.unknown), f'{prefix}_p_true': true.probability,
+                f'{prefix}_true_mode_m': math.hypot(true.x - tx, true.y - ty),
+                f'{prefix}_likelier_m': math.hypot(best.x - tx, best.y - ty)}
+
+    for _ in range(5):
+        move(0.0)
+    out = report('straight')
+    move(sim.execute(Command(CommandKind.TURN, math.radians(turn_deg), seq=next(seq))).result.turn)
+    for _ in range(after - 1):
+        move(0.0)
+    return {**out, **report('turned')}
+
+
+def side_runs(seeds: list[np.random.SeedSequence], n_particles: int = PF_PARTICLES) -> dict:
+    """Part 4 over the walks: shares and medians (``side_trial``)."""
+    r = [side_trial(s, n_particles) for s in seeds]
+    out = {'walks': len(r), 'particles': n_particles, 'turn_deg': SIDE_TURN_DEG}
+    for part in ('straight', 'turned'):
+        p = np.array([x[f'{part}_p_true'] for x in r])
+        out[part] = {'unknown_rate': float(np.mean([x[f'{part}_unknown'] for x in r])),
+                     'p_true_median': float(np.median(p)), 'p_true_above_0.9': float(np.mean(p > 0.9)),
+                     'true_mode_median_m': float(np.median([x[f'{part}_true_mode_m'] for x in r])),
+                     'likelier_median_m': float(np.median([x[f'{part}_likelier_m'] for x in r]))}
+    return out
+
+
 @set_keys(file='a reader log (CSV, track_core.rfid.log) processed instead of the simulation (none)',
           epc='the tag of the log to use (the log\'s own # epc:, or its only tag)')
 def reader_experiment(cfg: RunConfig) -> Outcome:
@@ -422,13 +489,15 @@ def reader_experiment(cfg: RunConfig) -> Outcome:
         moves.append(s)
         o, j, od, nv, on = s['ours'], s['join'], s['old'], s['naive_on_ours_kept'], s['online']
         rows.append([row.name, f"{100 * o['kept']:.1f}", f"{100 * on['kept']:.1f}", f"{100 * od['kept']:.1f}",
-                     f"{o['median']:.3f}", f"{o['rms']:.3f}", f"{100 * s['ours_cov90']:.1f}",
+                     f"{o['median']:.3f}", f"{o['rms']:.3f}", f"{100 * s['ours_cov1s']:.1f}",
+                     f"{100 * s['ours_cov2s']:.1f}", f"{100 * s['ours_cov90']:.1f}",
                      f"{100 * s['online_cov90']:.1f}", f"{nv['median']:.3f}", f"{nv['rms']:.3f}", f"{j['median']:.3f}",
                      f"{j['rms']:.3f}", f"{od['median']:.3f}", f"{s['relocks_per_move']:.2f}"])
     table = (f'MOVEs ({n_trials} walks x {MOVES_PER_TRIAL} MOVEs of 0.5 m per row); |dφ error| in rad, median and '
-             'RMS over the MOVEs kept; naive on the MOVEs ours kept; cov90: share of kept MOVEs within ±1.645 '
-             'dphi_std\n'
-             + format_table(['config', 'kept %', 'online kept %', 'old kept %', 'ours med', 'ours rms', 'cov90 %',
+             'RMS over the MOVEs kept; naive on the MOVEs ours kept; cov 1σ, 2σ, 90: share of kept MOVEs within '
+             '±1, ±2, ±1.645 dphi_std\n'
+             + format_table(['config', 'kept %', 'online kept %', 'old kept %', 'ours med', 'ours rms', 'cov 1σ %',
+                             'cov 2σ %', 'cov90 %',
                              'online cov90 %', 'naive med', 'naive rms', 'join med', 'join rms', 'old med',
                              'relocks/move'], rows))
     sign = sign_runs(ss_sign.spawn(n_search))
@@ -442,4 +511,13 @@ def reader_experiment(cfg: RunConfig) -> Outcome:
               + format_table(['mode: filter weights', 'walks', 'filter m', 'batch LS m', 'ratio', 'bimodal %'],
                              [[k, v['trials'], f"{v['pf_median_m']:.3f}", f"{v['batch_median_m']:.3f}",
                                f"{v['ratio']:.2f}", f"{100 * v['bimodal_rate']:.0f}"] for k, v in pfb.items()]))
-    return Outcome(table, {'moves': moves, 'sign': sign, 'pf_batch': pfb}, [])
+    sides = side_runs(_children(ss_pf, 2)[1].spawn(n_pf))
+    table += (f'\n\nMirror sides: part 3\'s straight walk, then a TURN of {SIDE_TURN_DEG:g}° and 3 MOVEs; '
+              f'{sides["walks"]} walks, N = {PF_PARTICLES}; errors not folded (m, median)\n'
+              + format_table(['after', 'side unknown %', 'p(true side) median', 'p(true side) > 0.9 %',
+                              'true side mode m', 'likelier mode m'],
+                             [[k, f"{100 * v['unknown_rate']:.0f}", f"{v['p_true_median']:.2f}",
+                               f"{100 * v['p_true_above_0.9']:.0f}", f"{v['true_mode_median_m']:.3f}",
+                               f"{v['likelier_median_m']:.3f}"]
+                              for k, v in ((k, sides[k]) for k in ('straight', 'turned'))]))
+    return Outcome(table, {'moves': moves, 'sign': sign, 'pf_batch': pfb, 'sides': sides}, [])

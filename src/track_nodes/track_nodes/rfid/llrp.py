@@ -9,6 +9,14 @@ node's timer, which ``drain``s it. When the reader goes away (the connection dro
 fails), the link tries again every ``retry_s`` with a fresh client (sllurp's own reconnect gives up
 after a few tries a minute apart) and counts what happened (``connects``, ``drops``, ``failures``).
 
+An accepted TCP connection is not yet a reader: anything listening on the port accepts one. The
+link is ``up`` (and says "connected") only after the LLRP handshake: the reader's answer to
+GET_READER_CAPABILITIES (sllurp's state CONNECTED, which needs the reader's connection event
+first) or, whichever comes first, its first tag report. A peer that has not answered
+``handshake_s`` after the TCP connect, or that closes the connection before answering, is refused:
+the connection is closed, counted (``failures``, ``refusals``) and retried like a failed connect,
+with one warning line per run of refusals (the next line only after a real connection).
+
 A read (LLRP TagReportData, as sllurp decodes it) → one row: arrival time (s, the link's clock),
 reader time (``LastSeenTimestampUTC`` µs → s), EPC (hex, upper case), antenna, ChannelIndex, phase
 (``ImpinjRFPhaseAngle``: 4096 units a turn → rad in [0, 2π)), RSSI (``ImpinjPeakRSSI`` / 100, else
@@ -18,6 +26,7 @@ reader time (``LastSeenTimestampUTC`` µs → s), EPC (hex, upper case), antenna
 
 from __future__ import annotations
 
+import contextlib
 import math
 import queue
 import threading
@@ -95,50 +104,97 @@ class LlrpLink:
     """One reader over LLRP (module doc); ``poll(now)`` from a timer keeps it connected."""
 
     def __init__(self, host: str, port: int, settings: dict, retry_s: float = 2.0,
-                 log: Callable[[str], None] = print) -> None:
+                 log: Callable[[str], None] = print, handshake_s: float = 5.0,
+                 warn: Callable[[str], None] | None = None) -> None:
         self.host, self.port, self.settings, self.retry_s, self.log = host, port, settings, retry_s, log
+        self.handshake_s = handshake_s
+        self.warn = warn if warn is not None else log
         self.queue: queue.SimpleQueue = queue.SimpleQueue()
-        self.client = None
+        self.client = None           # the reader, once it has answered in LLRP
+        self.pending = None          # a TCP connection waiting for its LLRP answer (module doc)
+        self.deadline = math.inf     # when ``pending`` is refused (the ``now`` clock of ``poll``)
         self.connecting = False
         self.closed = False
         self.next_try = 0.0
-        self.connects = self.drops = self.failures = self.no_phase = 0
+        self.connects = self.drops = self.failures = self.refusals = self.no_phase = 0
         self.last_error = ''
+        self._warned = False         # a refusal line since the last real connection
         self._lock = threading.Lock()
 
     @property
     def up(self) -> bool:
-        return self.client is not None and self.client.is_alive()
+        client = self.client
+        return client is not None and client.is_alive()
 
     def poll(self, now: float) -> None:
-        """Start a connect attempt when the reader is down and the retry time has come."""
+        """Refuse a connection whose LLRP answer is overdue; start a connect attempt when the reader is down
+        and the retry time has come."""
         with self._lock:
-            if self.closed or self.connecting or self.up or now < self.next_try:
+            if self.pending is not None and now >= self.deadline:
+                self._refuse(f'no LLRP answer within {self.handshake_s:g} s of the TCP connect')
+            if (self.closed or self.connecting or self.pending is not None or self.up
+                    or now < self.next_try):
                 return
             self.connecting = True
             self.next_try = now + self.retry_s
         threading.Thread(target=self._connect, name=f'llrp-{self.host}:{self.port}', daemon=True).start()
 
     def _connect(self) -> None:
-        from sllurp.llrp import LLRPReaderClient, LLRPReaderConfig
+        from sllurp.llrp import LLRPReaderClient, LLRPReaderConfig, LLRPReaderState
 
+        client = None
         try:
-            client = LLRPReaderClient(self.host, self.port, LLRPReaderConfig(dict(self.settings)))
+            client = LLRPReaderClient(self.host, self.port, LLRPReaderConfig(dict(self.settings)),
+                                      timeout=max(1.0, min(5.0, self.handshake_s)))
             client.add_tag_report_callback(self._on_tags)
             client.add_disconnected_callback(self._on_disconnected)
+            client.add_state_callback(LLRPReaderState.STATE_CONNECTED, self._on_capabilities)
+            with self._lock:   # before connect(): the reader may answer before connect() returns
+                self.pending, self.deadline = client, math.inf
             client.connect()
         except Exception as exc:   # any failure of the attempt: counted, retried
+            with self._lock:
+                if client is not None and self.pending is client:
+                    self.pending = None
+                self.connecting = False
             self.failures += 1
             self.last_error = f'{type(exc).__name__}: {exc}'
-            with self._lock:
-                self.connecting = False
             return
         with self._lock:
-            self.client, self.connecting = client, False
-            self.connects += 1
-        self.log(f'connected to the reader at {self.host}:{self.port} (connection {self.connects})')
+            self.connecting = False
+            if self.pending is client:
+                self.deadline = time.time() + self.handshake_s
 
-    def _on_tags(self, _client, tags: list[dict]) -> None:
+    def _promote(self, client, how: str) -> None:
+        """``client`` has spoken LLRP: it is the reader now (called on sllurp's socket thread)."""
+        with self._lock:
+            if client is not self.pending or self.closed:
+                return
+            self.client, self.pending, self.deadline = client, None, math.inf
+            self.connects += 1
+            self._warned = False
+        self.log(f'connected to the reader at {self.host}:{self.port} ({how}; connection {self.connects})')
+
+    def _on_capabilities(self, client, _state) -> None:
+        self._promote(client, 'LLRP capabilities answered')
+
+    def _refuse(self, reason: str) -> None:
+        """Close the pending connection and count it (``self._lock`` held)."""
+        client, self.pending, self.deadline = self.pending, None, math.inf
+        self.failures += 1
+        self.refusals += 1
+        self.last_error = f'refused: {reason}'
+        if client is not None:
+            with contextlib.suppress(Exception):   # already closed by the peer: nothing left to close
+                client.hard_disconnect()
+        if not self._warned:
+            self._warned = True
+            self.warn(f'refused {self.host}:{self.port}: {reason} (not an LLRP reader?); retrying every '
+                      f'{self.retry_s:g} s, this line once until a reader answers')
+
+    def _on_tags(self, client, tags: list[dict]) -> None:
+        if client is not self.client:
+            self._promote(client, 'first tag report')
         now = time.time()
         for tag in tags:
             row = tag_row(tag, now)
@@ -147,9 +203,15 @@ class LlrpLink:
             else:
                 self.queue.put(row)
 
-    def _on_disconnected(self, _client) -> None:
+    def _on_disconnected(self, client) -> None:
         if self.closed:
             return
+        with self._lock:
+            if client is self.pending:
+                self._refuse('the connection closed before any LLRP answer')
+                return
+            if client is not self.client:
+                return   # a refused connection's own close
         self.drops += 1
         self.log(f'the reader at {self.host}:{self.port} went away (drop {self.drops}); retrying every '
                  f'{self.retry_s:g} s')
@@ -165,6 +227,10 @@ class LlrpLink:
     def close(self) -> None:
         """Stop inventory and disconnect (bounded wait), then stop retrying."""
         self.closed = True
+        with self._lock:
+            pending, self.pending = self.pending, None
+        if pending is not None:
+            pending.hard_disconnect()
         client, self.client = self.client, None
         if client is not None and client.is_alive():
             try:

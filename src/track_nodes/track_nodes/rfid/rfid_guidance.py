@@ -18,6 +18,12 @@ Wraps ``track_core.rfid.guidance.RfidGuidance``: it consumes the step results of
 - ``/rfid/found`` (track_msgs/RfidFound: the result's seq and the search's counters) once, when a step
   result reports the user at the tag. The search then ends with DONE.
 
+The tag's side of the walking line: a straight walk cannot tell the tag from its mirror image
+(``track_core.rfid.pf``, ``tag_sides``), so ``/rfid/tag_estimate`` may be on the wrong side. After each
+filter update the node logs one info line when the side becomes unknown or known
+(``TagSides.describe``: while unknown, both modes with their probabilities); ``tag_sides`` holds the
+last report.
+
 The search also ends, as a failure, after ``max_steps`` MOVE results (repeated ones included: the
 count of ``track_core.rfid.search.run_search``), with DONE and the reason.
 
@@ -157,6 +163,7 @@ class RfidGuidanceNode(TrackNode):
         self.cmd_msg: RfidCommandMsg | None = None  # re-sent unchanged (same seq, same stamp)
         self.found = False
         self.turns = 0                           # usable TURN results
+        self.tag_sides = None                    # the last filter update's mirror modes (module doc)
 
     def reset_time_state(self) -> tuple[str, ...]:
         """A clock jump (a replayed run starting again, a simulator reset): a new search from seq 1."""
@@ -229,6 +236,10 @@ class RfidGuidanceNode(TrackNode):
         if updated:
             P = pf.particles
             self.pub_particles.publish(positions_to_pose_array(t, P[:, :2], RFID_FRAME_PF, headings=P[:, 2]))
+            sides, before = self.guide.tag_sides(), self.tag_sides
+            if before is None or sides.unknown != before.unknown:   # one line per change of what is known
+                self.get_logger().info(sides.describe())
+            self.tag_sides = sides
         d, b = self.guide.tag_estimate()
         if math.isfinite(d) and math.isfinite(b):
             msg = PointStamped()

@@ -15,7 +15,9 @@ no ``/rfid/user/pose`` and no ``/rfid/user/status``. One answer per command ``se
 
 The tag is ``epc``, or when empty the first tag read (logged); reads of other tags are counted.
 When the reader goes away, the node keeps running and reconnects every ``retry_s``; a MOVE it
-misses comes back "signal lost" and the guidance repeats it.
+misses comes back "signal lost" and the guidance repeats it. "Connected" is logged only when the
+reader has answered in LLRP (its capabilities or its first report); a port that accepts the TCP
+connection and stays silent for ``handshake_s`` is refused with one warning line and retried.
 """
 
 from __future__ import annotations
@@ -72,6 +74,9 @@ class RfidLlrpReaderParams(PhaseParams):
     noise: str = param('robust', 'signal processing: robust (heavy-tailed noise learnt from the data), online '
                        '(Gaussian noise from the data) or fixed (the paper)', choices=('fixed', 'online', 'robust'))
     retry_s: float = param(2.0, 'seconds between connection attempts while the reader is away', 0.05, 3600.0)
+    handshake_s: float = param(5.0, 'how long an accepted TCP connection may stay silent before it is refused as '
+                               'no LLRP reader (the reader\'s capabilities or first report end the wait) [s]',
+                               0.1, 600.0)
     tick: float = param(0.02, 'period of the timer that takes reads and publishes due answers [s]', 1e-3, 1.0)
 
 
@@ -107,7 +112,8 @@ class RfidLlrpReaderNode(TrackNode):
         self.topics = ReaderTopics(self, phase.carrier_hz)
         self.sub_cmd = self.create_subscription(RfidCommandMsg, RFID_COMMAND, self._on_command, ESTIMATE_QOS)
         self.link = LlrpLink(p.host, p.port, reader_config(list(p.antennas), p.tx_power_dbm), p.retry_s,
-                             log=self.get_logger().info)
+                             log=self.get_logger().info, handshake_s=p.handshake_s,
+                             warn=self.get_logger().warning)
         self.timer = self.create_timer(p.tick, self._tick)
 
     def apply_params(self, changed: set[str]) -> None:

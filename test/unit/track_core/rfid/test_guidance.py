@@ -157,3 +157,15 @@ def test_sign_check_warns_once_naming_the_convention_when_the_first_moves_walk_a
     assert off.sign_warning == ''
     with pytest.raises(ValueError):
         guidance(sign_share=0.5)
+
+
+def test_tag_sides_are_seen_from_the_user_after_the_pending_turns():
+    g = RfidGuidance(PFParams(n_particles=4), rng=np.random.default_rng(0))
+    g.pf.particles = np.array([[-2.0, -1.0, 0.0], [-2.0, -1.0, 0.0], [-2.0, 1.0, 0.0], [-2.0, -1.0, 0.0]])
+    g.pf.weights = np.full(4, 0.25)               # the tag at (2, 1) (p 0.75) or its mirror (2, -1) (p 0.25)
+    s = g.tag_sides()
+    assert (s.left.x, s.left.y, s.left.probability) == pytest.approx((2.0, 1.0, 0.75))
+    g.pending_turn = math.pi / 2                  # the user has since turned left by 90°: the tag is now right
+    s = g.tag_sides()
+    assert (s.left.x, s.left.y) == pytest.approx((1.0, -2.0)) and (s.right.x, s.right.y) == pytest.approx((-1.0, -2.0))
+    assert s.left.probability == pytest.approx(0.75) and s.unknown is g.pf.tag_sides().unknown

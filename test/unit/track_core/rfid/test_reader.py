@@ -258,6 +258,31 @@ def test_robust_noise_keeps_heavy_tailed_moves_and_its_dphi_std_covers_them():
     assert 0.81 <= cover <= 0.97
     cover_online = np.mean(np.abs(err_online[ok_online]) <= 1.645 * std_online[ok_online])
     assert cover_online < cover
+    # 1σ interval, the one the filter's likelihood uses: goal 60-76 % (Gaussian 68.3 %), measured 70 %; the
+    # binomial std at 0.68 over ≈ 240 MOVEs is 3 %, so the band is widened by 1σ of it
+    assert 0.57 <= np.mean(np.abs(err[ok]) <= std[ok]) <= 0.79
+
+
+def test_a_relock_bridged_wrapped_widens_dphi_std_by_an_unknown_offset():
+    """A lasting step bridged by its wrapped size enters dφ: each re-lock adds a uniform offset's P²/12."""
+    world = WorldParams(phase=LLRP, beam_width=2 * math.pi, phase_step_rate=1.0, phase_step_size=(1.5, 1.5))
+    cfg = UnwrapConfig.real_reader(LLRP)
+    got = {True: [], False: []}
+    for ss in np.random.SeedSequence(3).spawn(20):
+        rng = np.random.default_rng(ss)
+        sim = SimReader(world, rng, start=np.array([-6.0, 0.5, 0.0]), unwrap=cfg)
+        for j in range(4):
+            r = sim.execute(Command(CommandKind.MOVE, seq=j + 1)).result
+            if r.ok:
+                got[r.relocks > 0].append((r.dphi_std, r.relocks))
+    assert len(got[True]) >= 10 and len(got[False]) >= 10         # both kinds of MOVE occur at 1 step/s
+    for std, n in got[True]:
+        assert std >= math.sqrt(n) * LLRP.wrap_period / math.sqrt(12.0)
+    assert max(std for std, _ in got[False]) < 0.2                # the read noise's alone: a few 0.01 rad
+    joined = replace(cfg, step_bridge='join')                      # the step kept out of dφ: nothing added
+    sim = SimReader(world, np.random.default_rng(4), start=np.array([-6.0, 0.5, 0.0]), unwrap=joined)
+    stds = [sim.execute(Command(CommandKind.MOVE, seq=j + 1)).result.dphi_std for j in range(6)]
+    assert max(s for s in stds if math.isfinite(s)) < 0.2
 
 
 def test_robust_processor_learns_a_gaussian_reader_as_light_tailed():
