@@ -63,11 +63,20 @@ class StepResult:
     relocks: int = 0
 
 
+# Bounds of a usable step: a finite 1e300 is as bad as a NaN. |dφ| of a MOVE is at most 4π·s/λ (eq. 6):
+# 1000 rad is a step of about 26 m at 865 MHz, beyond any walk; a TURN is within one turn either way;
+# a dφ std beyond MAX_DPHI_STD says nothing about dφ (a few wraps).
+MAX_DPHI = 1000.0
+MAX_TURN = 2.0 * math.pi
+MAX_DPHI_STD = 100.0
+
+
 def step_result_problem(result: StepResult, expected: Command | None = None) -> str | None:
     """Why ``result`` cannot be used, or None when it can (the rule shared by reader and guidance).
 
-    A MOVE needs a finite dφ from a non-empty phase stream; a TURN needs a finite turn. A result
-    for another command than ``expected`` (kind or seq) is rejected too.
+    A MOVE needs a finite dφ within ±``MAX_DPHI`` from a non-empty phase stream, and its std (when
+    given) positive and at most ``MAX_DPHI_STD``; a TURN needs a finite turn within ±``MAX_TURN``. A
+    result for another command than ``expected`` (kind or seq) is rejected too.
     """
     problem = None
     if expected is not None and result.seq != expected.seq:
@@ -82,6 +91,10 @@ def step_result_problem(result: StepResult, expected: Command | None = None) -> 
             problem = 'MOVE unusable: empty phase stream (no reads during the step)'
         elif not math.isfinite(result.dphi):
             problem = f'MOVE unusable: phase difference is {result.dphi!r}'
-    elif result.kind is CommandKind.TURN and not math.isfinite(result.turn):
-        problem = f'TURN unusable: reported turn is {result.turn!r}'
+        elif abs(result.dphi) > MAX_DPHI:
+            problem = f'MOVE unusable: phase difference {result.dphi:.6g} rad is beyond ±{MAX_DPHI:g} rad'
+        elif not math.isnan(result.dphi_std) and not 0.0 < result.dphi_std <= MAX_DPHI_STD:
+            problem = f'MOVE unusable: dphi_std {result.dphi_std!r} rad is not in (0, {MAX_DPHI_STD:g}]'
+    elif result.kind is CommandKind.TURN and not (math.isfinite(result.turn) and abs(result.turn) <= MAX_TURN):
+        problem = f'TURN unusable: reported turn is {result.turn!r} (allowed ±2π rad)'
     return problem

@@ -169,3 +169,28 @@ def test_tag_sides_are_seen_from_the_user_after_the_pending_turns():
     s = g.tag_sides()
     assert (s.left.x, s.left.y) == pytest.approx((1.0, -2.0)) and (s.right.x, s.right.y) == pytest.approx((-1.0, -2.0))
     assert s.left.probability == pytest.approx(0.75) and s.unknown is g.pf.tag_sides().unknown
+
+
+@pytest.mark.parametrize(('field', 'value', 'words'), [
+    ('dphi', 1e300, 'beyond'), ('dphi', -2e3, 'beyond'), ('dphi_std', 0.0, 'dphi_std'), ('dphi_std', 1e300, 'dphi_std'),
+])
+def test_a_huge_finite_number_is_refused_and_poisons_nothing(field, value, words):
+    """A finite 1e300 is as bad as a NaN: refused with its reason, and every later command is finite."""
+    g = guidance()
+    c = g.start()
+    r = g.on_step(move(c, **{field: value}))
+    assert not r.accepted and words in r.warning
+    for _ in range(12):  # the search goes on with honest steps
+        cmd = r.command
+        step = move(cmd, dphi=0.3) if cmd.kind is CommandKind.MOVE else StepResult(CommandKind.TURN, cmd.seq,
+                                                                                   turn=cmd.angle)
+        r = g.on_step(step)
+        assert math.isfinite(r.command.angle)
+        if r.command.kind is CommandKind.DONE:
+            break
+
+
+def test_a_turn_beyond_one_turn_is_refused():
+    c = Command(CommandKind.TURN, 0.5, seq=4)
+    assert 'allowed' in step_result_problem(StepResult(CommandKind.TURN, 4, turn=1e300), c)
+    assert step_result_problem(StepResult(CommandKind.TURN, 4, turn=-math.pi), c) is None
