@@ -12,12 +12,14 @@ from geometry_msgs.msg import PoseWithCovarianceStamped
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from rosgraph_msgs.msg import Clock
 from tf2_msgs.msg import TFMessage
 
 from track_msgs.msg import PairScoreArray, TrackArray
 from track_msgs_py.odometry import cv_state_to_odometry
-from track_msgs_py.qos import ESTIMATE_QOS
+from track_msgs_py.qos import CLOCK_QOS, ESTIMATE_QOS
 from track_msgs_py.records.fusion import FusionPairs
+from track_msgs_py.stamps import sec_to_stamp
 from track_msgs_py.tf import TF_QOS, TF_STATIC_QOS, planar_transform
 from track_msgs_py.topics import FUSION_SCORES
 from track_msgs_py.track_arrays import tracks_to_array
@@ -66,6 +68,31 @@ def _in_radar(x, P, t, t0):
     return np.array([pr[0], vr[0], pr[1], vr[1]]), A @ P @ A.T
 
 
+def _rep105(t, x, P) -> Odometry:
+    """The map state as REP-105 odometry: the pose's orientation is the heading, the twist (and its
+    covariance) along the body's axes."""
+    heading = math.atan2(x[3], x[1])
+    body = cv_state_to_odometry(t, x, P, 'map', 't')
+    body.pose.pose.orientation.z, body.pose.pose.orientation.w = math.sin(heading / 2), math.cos(heading / 2)
+    Rh = _rot(heading)
+    vb = Rh.T @ x[[1, 3]]
+    body.twist.twist.linear.x, body.twist.twist.linear.y = float(vb[0]), float(vb[1])
+    cov = np.array(body.twist.covariance).reshape(6, 6)
+    cov[:2, :2] = Rh.T @ P[np.ix_([1, 3], [1, 3])] @ Rh
+    body.twist.covariance = cov.ravel().tolist()
+    return body
+
+
+def _has_sample(edges, child, t) -> bool:
+    """The fusion's transform buffer holds the sample of ``child`` stamped ``t``."""
+    return child in edges and abs(edges[child].times[-1] - t) < 1e-9
+
+
+def _holds(table, ids, t) -> bool:
+    """The fusion holds the report of instant ``t`` of every track ``ids``."""
+    return all(i in table and abs(table[i].t - t) < 1e-6 for i in ids)
+
+
 def _fusion(ros, **extra):
     params = {'track_array_topics': ['/a/radar', '/a/map', '/a/other', '/a/lost'],
               'odometry_topics': ['/o/rep105', '/o/map'], 'rate': 10.0, 'stale_after': 5.0, 'window': 5,
@@ -79,12 +106,15 @@ def _fusion(ros, **extra):
 
 
 def test_inputs_in_a_moving_radar_frame_and_rep105_odometry_score_as_their_map_copies(ros):
-    node, reasons = _fusion(ros)
+    """On sim time, one instant at a time: the transforms, then the inputs of instant t, then /clock at t and
+    a scoring; every step waits for a condition (the fusion holds the inputs of t), so load changes nothing."""
+    node, reasons = _fusion(ros, use_sim_time=True, rate=0.01)   # the test takes the instants, not the timer
     src = ros.add(Node('sources', context=ros.context))
     pubs = {t: src.create_publisher(TrackArray, t, ARRAY_QOS) for t in ('/a/radar', '/a/map', '/a/other', '/a/lost')}
     odo = {t: src.create_publisher(Odometry, t, ESTIMATE_QOS) for t in ('/o/rep105', '/o/map')}
     tf = src.create_publisher(TFMessage, '/tf', TF_QOS)
     tf_static = src.create_publisher(TFMessage, '/tf_static', TF_STATIC_QOS)
+    clock = src.create_publisher(Clock, '/clock', CLOCK_QOS)
     latest: dict[frozenset, float] = {}
 
     def on_scores(msg):
@@ -92,36 +122,32 @@ def test_inputs_in_a_moving_radar_frame_and_rep105_odometry_score_as_their_map_c
             latest[frozenset((a, b))] = score
 
     src.create_subscription(PairScoreArray, FUSION_SCORES, on_scores, ESTIMATE_QOS)
-    assert ros.spin_until(lambda: all(node.count_publishers(t) >= 1 for t in ('/a/radar', '/o/map'))
-                          and src.count_subscribers('/tf_static') >= 1, timeout=10)
+    assert ros.spin_until(lambda: all(node.count_publishers(t) >= 1 for t in ('/a/radar', '/o/map', '/clock'))
+                          and src.count_subscribers('/tf_static') >= 1, timeout=30)
     tf_static.publish(TFMessage(transforms=[planar_transform(0.0, 'ship', 'radar', *RADAR_AT, RADAR_YAW)]))
-    t0 = time.time()
+    t0 = 1_000.0
     rng = np.random.default_rng(3)
     offset = np.array([25.0, 0.0, -20.0, 0.0])      # a partial overlap of the two 2σ ellipses
-    for _ in range(20):
-        t = time.time()
+    ids = ('/a/radar/t', '/a/map/t', '/a/other/t', '/o/rep105/t', '/o/map/t')
+    for k in range(20):
+        t = t0 + 0.1 * k
+        clock.publish(Clock(clock=sec_to_stamp(t)))
+        assert ros.spin_until(lambda t=t: abs(node.get_clock().now().nanoseconds * 1e-9 - t) < 1e-6, timeout=30)
         tf.publish(TFMessage(transforms=[planar_transform(s, 'map', 'ship', *_ship(s, t0)[0], _ship(s, t0)[1])
                                          for s in (t - DT, t)]))
+        # the sample at t itself, not the last one within the tolerance
+        assert ros.spin_until(lambda t=t: _has_sample(node.tf.edges, 'ship', t), timeout=30)
         x, P = _target(t, t0)
         xr, Pr = _in_radar(x, P, t, t0)
         other = x + offset + np.r_[rng.normal(0, 3), 0, rng.normal(0, 3), 0]
-        ros.spin_until(lambda: False, timeout=0.02)        # the transforms first, as on a real bus
         pubs['/a/radar'].publish(tracks_to_array(t, ['t'], ['radar'], xr[None], Pr[None], 'radar'))
         pubs['/a/map'].publish(tracks_to_array(t, ['t'], ['map'], x[None], P[None], 'map'))
         pubs['/a/other'].publish(tracks_to_array(t, ['t'], ['other'], other[None], P[None], 'map'))
-        # REP-105: the pose's orientation is the heading, the twist along the body's x; its covariance in the body
-        heading = math.atan2(x[3], x[1])
-        body = cv_state_to_odometry(t, x, P, 'map', 't')
-        body.pose.pose.orientation.z, body.pose.pose.orientation.w = math.sin(heading / 2), math.cos(heading / 2)
-        Rh = _rot(heading)
-        vb = Rh.T @ x[[1, 3]]
-        body.twist.twist.linear.x, body.twist.twist.linear.y = float(vb[0]), float(vb[1])
-        cov = np.array(body.twist.covariance).reshape(6, 6)
-        cov[:2, :2] = Rh.T @ P[np.ix_([1, 3], [1, 3])] @ Rh
-        body.twist.covariance = cov.ravel().tolist()
-        odo['/o/rep105'].publish(body)
+        odo['/o/rep105'].publish(_rep105(t, x, P))
         odo['/o/map'].publish(cv_state_to_odometry(t, x, P, 'map', 't'))
-        ros.spin_until(lambda: False, timeout=0.08)
+        assert ros.spin_until(lambda t=t: _holds(node.core.table.latest, ids, t) or reasons,
+                              timeout=30), (sorted(node.core.table.latest), reasons)
+        node.tick()
     pairs = {name: frozenset(ids) for name, ids in {
         'radar-other': ('/a/radar/t', '/a/other/t'), 'map-other': ('/a/map/t', '/a/other/t'),
         'radar-map': ('/a/radar/t', '/a/map/t'), 'rep105-other': ('/o/rep105/t', '/a/other/t'),
