@@ -117,7 +117,9 @@ class _Prober:
     def _output(self, topic: str, msg) -> None:
         self.out_counts[topic] = self.out_counts.get(topic, 0) + 1
         where = nonfinite(msg)
-        if where is not None:
+        # A topic the node both reads and writes (the IDSQ election) carries the attacker's messages too:
+        # their NaN are the attack's, not the node's output.
+        if where is not None and topic not in self.pubs:
             self.result.nan_outputs[topic] = self.result.nan_outputs.get(topic, 0) + 1
             if len(self.result.nan_examples) < 20:
                 self.result.nan_examples.append(f'{topic}: {where}')

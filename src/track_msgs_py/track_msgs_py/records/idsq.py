@@ -116,7 +116,8 @@ READING_TYPES = {IdsqReadingMsg.ACOUSTIC: False, IdsqReadingMsg.DOA: True}  # ty
 class IdsqReading:
     """One sensor's reading of one step at time ``t`` [s], as ``track_msgs/IdsqReading`` carries it:
     ``amplitude`` (NaN if none; an acoustic sensor's measurement, eq. 5), and for a DOA sensor the
-    REP-103 ``direction`` [rad] in ``frame_id`` and its ``direction_std`` [rad] (NaN for an acoustic one).
+    REP-103 ``direction`` [rad] in ``frame_id`` and its ``direction_std`` [rad] (NaN here for an acoustic one;
+    0 on the wire, which carries no NaN the sensor did not give).
 
     The tracker's DOA likelihood uses the Fig. 6 σ(r) of its own parameters (``sigma_doa_deg``,
     ``r_near``, ``r_far``): ``direction_std`` is what the front end claims, carried for the record
@@ -165,8 +166,9 @@ class IdsqReading:
     def to_msg(self) -> IdsqReadingMsg:
         return IdsqReadingMsg(header=_header(self.t, self.frame_id), sensor_id=int(self.sensor),
                               type=IdsqReadingMsg.DOA if self.is_doa else IdsqReadingMsg.ACOUSTIC,
-                              amplitude=float(self.amplitude), direction=float(self.direction),
-                              direction_std=float(self.direction_std))
+                              amplitude=float(self.amplitude),
+                              direction=float(self.direction) if self.is_doa else 0.0,
+                              direction_std=float(self.direction_std) if self.is_doa else 0.0)
 
     @classmethod
     def from_msg(cls, msg: IdsqReadingMsg, frame_id: str = FRAME_MAP) -> Self:
