@@ -411,7 +411,7 @@ class HandoffLedger:
         self.outgoing: dict[int, Outgoing] = {}  # step → handoff awaiting its ack (several if acks lag)
         self.start_checked = False
         self.last_led = -1
-        self.led: list[int] = []  # steps this sensor led
+        self.led: list[int] = []  # steps this sensor led, the last STEP_WINDOW steps (a run of days stays bounded)
         self.suspects: set[int] = set()
         self.refused = self.timeouts = self.nacks = 0
         # the chain rule (module docstring), for the last STEP_WINDOW led steps:
@@ -615,6 +615,7 @@ class HandoffLedger:
             for old in [k for k in book if k < step - STEP_WINDOW]:
                 del book[old]
         self.void = {v for v in self.void if v >= step - STEP_WINDOW}
+        self.led = [v for v in self.led if v >= step - STEP_WINDOW]
         order = handoff_order(res.candidates, res.scores, layout.neighbours[self.me], pend.previous, self.me,
                               first=res.next_leader, last=self.suspects)
         self.outgoing[step] = out = Outgoing(step, res.belief, order)

@@ -88,3 +88,19 @@ def test_a_reading_with_an_absurd_stamp_is_refused_and_keeps_the_buffer():
     assert led.reading_problem(READING_WINDOW, stamp_of_step(READING_WINDOW, DT), DT) is None
     led.on_field(field_readings(truth[1], layout, 1, SimNoise(), 1))
     assert sorted(led.readings) == [0, 1] and led.led == [0]
+
+
+def test_the_steps_a_sensor_led_are_kept_for_the_last_window_only():
+    """A run of days leads a step every dt: the ledger's per-step memory stays within STEP_WINDOW steps."""
+    led, layout, truth = _ledger(0)
+    sender = _sender_of(layout, 0)
+    n = STEP_WINDOW + 40
+    for s in range(n):
+        led.on_handoff(_handoff(s, sender, 0))
+        led.on_field(field_readings(truth[min(s + 1, len(truth) - 1)], layout, s + 1, SimNoise(), 1))
+        for out in list(led.outgoing):  # nobody answers: the handoff is given up, as after a timeout
+            for receiver in list(led.outgoing[out].order) if out in led.outgoing else []:
+                led.timeout(out, receiver)
+    assert led.last_led == n  # it led every step
+    assert len(led.led) <= STEP_WINDOW + 1 and min(led.led) >= n - STEP_WINDOW
+    assert all(len(book) <= STEP_WINDOW + 1 for book in (led.parent, led.sent, led.handed))
