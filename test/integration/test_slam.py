@@ -410,9 +410,10 @@ def test_map_estimate_equals_the_deepcopy_path_in_the_loop_world():
     assert any(compressed for _, compressed in checks)
 
 
-def test_slam_node_publishes_the_cloud_of_a_one_scan_pf_episode(ros):
-    """The slam_sim scenario's run (config/slam_sim.yaml seeds) replayed into ``slam``: the PF starts and
-    converges on the loop-closing scan; the node publishes that scan's cloud, then an empty array."""
+def test_slam_node_publishes_the_cloud_of_every_pf_scan(ros):
+    """The slam_sim scenario's run (config/slam_sim.yaml seeds) replayed into ``slam``: the PF starts on the
+    loop-closing scan and converges a few scans later; the node publishes the cloud of every PF scan (the
+    converging one included), then an empty array."""
     w = LoopWorld()
     run = simulate(w, np.random.default_rng(1))
     slam = ros.add(SlamNode(context=ros.context, parameter_overrides=[
@@ -437,10 +438,14 @@ def test_slam_node_publishes_the_cloud_of_a_one_scan_pf_episode(ros):
     assert ros.spin_until(lambda: slam.n_scans == len(run.scans) and not len(slam.merger), timeout=60), \
         f'processed {slam.n_scans}/{len(run.scans)} scans'
     h = slam.slam
-    assert [(e.kind, e.scans) for e in h.events] == [('to_pf', 0), ('to_cekf', 1)]
-    t_pf = h.events[0].t
-    assert len(clouds) == 2, [(stamp_to_sec(c.header.stamp), len(c.poses)) for c in clouds]
-    cloud, empty = clouds
+    assert [e.kind for e in h.events] == ['to_pf', 'to_cekf']
+    k = h.events[1].scans
+    assert 1 <= k <= 3
+    t_pf = h.events[1].t   # the converging scan
+    assert len(clouds) == k + 1, [(stamp_to_sec(c.header.stamp), len(c.poses)) for c in clouds]
+    assert stamp_to_sec(clouds[0].header.stamp) == pytest.approx(h.events[0].t, abs=1e-9)
+    assert all(len(c.poses) > 0 for c in clouds[:k])
+    cloud, empty = clouds[k - 1:]
     assert stamp_to_sec(cloud.header.stamp) == pytest.approx(t_pf, abs=1e-9)
     assert stamp_to_sec(empty.header.stamp) == pytest.approx(t_pf + w.scan_every * w.dt, abs=1e-9)  # the next scan
     assert len(empty.poses) == 0 and cloud.header.frame_id == slam.p.frame_id
@@ -453,6 +458,6 @@ def test_slam_node_publishes_the_cloud_of_a_one_scan_pf_episode(ros):
     np.testing.assert_allclose(np.cos(heading - sub[:, 2]), 1.0, atol=1e-9)
     truth = run.truth[round(t_pf / w.dt)]
     err = float(np.linalg.norm(xy.mean(axis=0) - truth[:2]))
-    print(f'one-scan PF episode at t = {t_pf:.1f} s: cloud of {len(xy)} poses, mean {err:.2f} m from the truth')
+    print(f'{k}-scan PF episode converged at t = {t_pf:.1f} s: {len(xy)} poses, mean {err:.2f} m from the truth')
     assert err < 2.0
 

@@ -6,7 +6,14 @@ from track_core.slam import HybridParams, victoria
 from track_core.slam.profiles import loop_sim_params
 from track_core.slam.sim import LoopWorld, simulate
 from track_experiments.cli import RunConfig
-from track_experiments.slam.experiments import run_loop_once, victoria_park
+from track_experiments.slam.experiments import (
+    FAIL_M,
+    anees_band,
+    run_loop_once,
+    scans_discarded,
+    slam_loop,
+    victoria_park,
+)
 
 
 @pytest.mark.skipif(not victoria.data_dir().is_dir(), reason='Victoria Park data not available')
@@ -42,12 +49,23 @@ def test_loop_world_hybrid_recovers_where_ekf_fails():
     assert HybridParams().enabled
 
 
-def test_detector_holds_scans_too_poor_to_start_the_pf():
+def test_the_switch_discards_no_scan_and_starts_the_pf_on_a_poor_one():
     w = LoopWorld()
     run = simulate(w, np.random.default_rng(0))
     r = run_loop_once(w, run, True, np.random.default_rng(11))
     to_pf = [e for e in r['events'] if e.kind == 'to_pf']
-    assert to_pf
-    # the PF was started from a scan with at least min_init_obs observations
+    assert to_pf and r['final_err'] < FAIL_M
+    assert r['scans'] == len(run.scans) and scans_discarded(r) == 0
+    # in Fig. 1 the first trunk of the start area comes into view alone: that scan starts the PF
     ts = {round(t, 6): z for t, z, _ in run.scans}
-    assert all(ts[round(e.t, 6)].shape[0] >= HybridParams().min_init_obs for e in to_pf)
+    assert ts[round(to_pf[0].t, 6)].shape[0] < 3
+
+
+def test_slam_loop_quick_uses_every_scan_and_the_hybrid_is_consistent(tmp_path):
+    out = slam_loop(RunConfig(quick=True, out=tmp_path, show_progress=False))
+    d = out.data
+    assert d['scans_discarded'] == 0 and d['hybrid_success_rate'] == 1.0
+    lo, hi = anees_band(4, 3)          # --quick: 4 runs
+    assert (lo, hi) == pytest.approx(tuple(d['anees_band']))
+    assert lo <= d['anees_hybrid'] <= hi, d['anees_hybrid']
+    assert d['anees_ekf'] > d['anees_hybrid']

@@ -76,6 +76,21 @@ log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
+class ScanAssociation:
+    """What one ``CekfSlam.update`` did with its scan (``association_log``): the observations it fused
+    and the landmark number (creation order, the state's m₁, m₂, …) of each, then the observations that
+    started landmarks and their numbers. Observations neither fused nor mapped (between the gates,
+    beyond ``max_range``, tentative sightings) are in neither list. This is the association a smoother
+    needs to solve the same problem as the filter."""
+
+    scan: int                # ``CekfSlam.n_scans`` after this update
+    z: np.ndarray            # (k, 2) fused observations (range, bearing eq. 5)
+    landmarks: np.ndarray    # (k,) their landmark numbers
+    z_new: np.ndarray        # (q, 2) observations that started landmarks
+    new: np.ndarray          # (q,) the landmark numbers they started
+
+
+@dataclass(frozen=True)
 class SlamParams:
     """Noise, gates and CEKF partition sizes. Defaults suit the Victoria Park run."""
 
@@ -148,6 +163,8 @@ class CekfSlam:
         self._c = [0.0, 0.0]
         self._q = [0.0] * 6
         self._dirty = False          # anything done to A since the last repartition
+        #: ``None`` (default) or a list to which every ``update`` appends its ``ScanAssociation``
+        self.association_log: list[ScanAssociation] | None = None
         p = self.params
         self._su = (p.sigma_v**2, p.sigma_steer**2, *p.q_pose)
         self._clear_tentative()
@@ -459,10 +476,15 @@ class CekfSlam:
             a, pred = self.associate(z)
         else:
             a, pred = assoc, (self._predicted() if pred is None else pred)
+        ids = (self.a_idx[3 + 2 * a.lm] - 3) // 2    # active index → landmark number, before new ones join
         if a.obs.size:
             self.update_known(z[a.obs], a.lm, pred)
-        if init_new:
-            self._new_features(z[a.new])
+        n_before = self.n_landmarks
+        mapped = self._new_features(z[a.new]) if init_new else np.zeros(0, dtype=int)
+        if self.association_log is not None:
+            self.association_log.append(ScanAssociation(
+                self.n_scans, z[a.obs].copy(), ids.astype(int), z[a.new[mapped]].copy(),
+                np.arange(n_before, n_before + mapped.size)))
         return a
 
     def update_known(self, z: np.ndarray, lm_local: np.ndarray, pred: tuple | None = None) -> None:
@@ -501,13 +523,16 @@ class CekfSlam:
         Paa *= 0.5
         self._dirty = True
 
-    def _new_features(self, z: np.ndarray) -> None:
-        """Unmapped observations: initialise at once (``min_obs`` = 1) or via tentative features."""
+    def _new_features(self, z: np.ndarray) -> np.ndarray:
+        """Unmapped observations: initialise at once (``min_obs`` = 1) or via tentative features.
+
+        Returns the rows of ``z`` that became landmarks, in the order they were added.
+        """
         p = self.params
         if p.min_obs <= 1:
             if z.shape[0]:
                 self.add_landmarks(z)
-            return
+            return np.arange(z.shape[0])
         # forget features not confirmed recently
         alive = self.n_scans - self._tent_last <= p.tentative_max_gap
         if not np.all(alive):
@@ -515,7 +540,7 @@ class CekfSlam:
             self._tent_n, self._tent_last = self._tent_n[alive], self._tent_last[alive]
         q = z.shape[0]
         if q == 0:
-            return
+            return np.zeros(0, dtype=int)
         pose = self.xa[:3]
         m = inverse_observe(pose, z)
         _, Gz = inverse_observe_jacobians(pose, z)
@@ -552,6 +577,7 @@ class CekfSlam:
         self._tent_last = np.concatenate([self._tent_last[keep], np.full(int(fresh.sum()), self.n_scans)])
         if np.any(promote):
             self.add_landmarks(z[promote])
+        return np.flatnonzero(promote)
 
     def add_landmarks(self, z: np.ndarray) -> None:
         """Landmark initialisation m = g(x_v, z) (inverse of eq. 5), joining A (see module docstring)."""

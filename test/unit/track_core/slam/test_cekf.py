@@ -234,3 +234,38 @@ def test_fuse_is_the_kalman_update_for_a_linear_observation():
     x, P = f.mean_cov()
     np.testing.assert_allclose(x, x0 + K @ (z - Hf @ x0), atol=1e-10)
     np.testing.assert_allclose(P, P0 - K @ Hf @ P0, atol=1e-10)
+
+
+@pytest.mark.parametrize('min_obs', [1, 3])
+@pytest.mark.parametrize('compressed', [False, True])
+def test_association_log_names_the_landmark_of_every_fused_observation(min_obs, compressed):
+    """``association_log``: each update's fused observations with their landmark numbers (creation order),
+    then the observations that started landmarks; the numbers survive global updates and repartitions."""
+    rng = np.random.default_rng(4)
+    lm = np.array([[10.0, 5.0], [20.0, -6.0], [15.0, 12.0], [60.0, 3.0], [70.0, -4.0]])
+    f = CekfSlam(np.zeros(3), np.eye(3) * 1e-6, SlamParams(min_obs=min_obs, local_radius=50.0, local_exit=20.0,
+                                                            max_range=30.0, init_max_range=30.0),
+                 compressed=compressed)
+    f.association_log = log = []
+    number = {}                                     # true landmark → the filter's number
+    pose = np.zeros(3)
+    for k in range(60):
+        pose = vehicle_step(pose, np.array([2.0, 0.0]), 0.5)
+        f.predict(np.array([2.0, 0.0]), 0.5)
+        z = observe(pose, lm)
+        vis = np.flatnonzero((z[:, 0] < 30.0) & (z[:, 1] >= 0) & (z[:, 1] <= np.pi))
+        vis = rng.permutation(vis)                   # scan rows in any order
+        z = z[vis] + rng.normal(0.0, [0.05, 0.002], (vis.size, 2))
+        if k == 30:
+            f.mean_cov()                             # a global update in the middle
+        f.update(z)
+        a = log[-1]
+        assert a.scan == f.n_scans == k + 1
+        row = {tuple(r): i for r, i in zip(np.round(z, 9), vis, strict=True)}
+        for zz, j in zip(a.z_new, a.new, strict=True):
+            number[row[tuple(np.round(zz, 9))]] = int(j)
+        for zz, j in zip(a.z, a.landmarks, strict=True):
+            assert number[row[tuple(np.round(zz, 9))]] == j
+    assert sorted(number.values()) == list(range(f.n_landmarks)) and f.n_landmarks == len(lm)
+    fused = sum(a.z.shape[0] for a in log)
+    assert fused + sum(a.z_new.shape[0] for a in log) > 60

@@ -4,7 +4,10 @@ import numpy as np
 import pytest
 
 from track_core.slam.blas import single_threaded_blas
+from track_core.slam.cekf import SlamParams
 from track_core.slam.hybrid import HybridParams, HybridSlam
+from track_core.slam.models import observe
+from track_core.slam.pf import PFParams
 from track_core.slam.profiles import loop_sim_params
 from track_core.slam.sim import LoopWorld, simulate
 
@@ -84,7 +87,9 @@ def _feed_checking_last_particles(w, run, h, pf_scans, handover) -> None:
             ts, z, _ = run.scans[si]
             si += 1
             was_pf, n_ev = h.mode == 'PF', len(h.events)
+            used = h.n_cekf_scans + h.n_pf_scans
             h.process_scan(ts, z)
+            assert h.n_cekf_scans + h.n_pf_scans > used, f'scan at {ts:.2f} s used by neither filter'
             step = h.last_particles
             new = [e.kind for e in h.events[n_ev:]]
             ran = was_pf or 'to_pf' in new   # the PF was updated with this scan
@@ -101,22 +106,59 @@ def _feed_checking_last_particles(w, run, h, pf_scans, handover) -> None:
                 handover.append((new, float(np.linalg.norm(step.particles[:, :2].mean(0) - truth[:2]))))
 
 
+def _known_map(seed: int):
+    """A filter that knows a map of 16 trunks ~8 m apart ahead of it but whose pose has a 3 m σ: the
+    failure detector fires on the next scan (the pose error × separation rule, association.py)."""
+    gx, gy = np.meshgrid(np.arange(4.0, 29.0, 8.0), np.arange(-12.0, 13.0, 8.0))
+    lm = np.stack([gx.ravel(), gy.ravel()], 1) + np.random.default_rng(99).uniform(-1.5, 1.5, (16, 2))
+    h = HybridSlam(np.zeros(3), np.eye(3) * 1e-8, np.random.default_rng(seed),
+                   SlamParams(max_range=30.0, init_max_range=30.0, local_radius=60.0, local_exit=20.0),
+                   PFParams(n_particles=1000), HybridParams())
+    h.process_input(0.0, 0.0, 0.0)
+    h.cekf.add_landmarks(observe(np.zeros(3), lm))
+    h.cekf.set_vehicle(np.zeros(3), np.diag([9.0, 9.0, np.deg2rad(2.0) ** 2]), np.zeros((3, lm.size)))
+    truth = np.array([2.5, -2.0, np.deg2rad(1.5)])
+    z = observe(truth, lm)
+    vis = np.flatnonzero((z[:, 0] < 30.0) & (z[:, 1] >= 0.0) & (z[:, 1] <= np.pi))
+    z = z[vis] + np.random.default_rng(seed).normal(0.0, [0.05, 0.002], (vis.size, 2))
+    return h, truth, z
+
+
+@pytest.mark.parametrize('n_obs', [1, 2])
+def test_a_scan_too_poor_for_a_narrow_helix_starts_the_pf_and_is_used(n_obs):
+    """The detector fires on a scan of one or two trunks: that scan starts the PF (its helix rings, eqs.
+    12-13) instead of being thrown away, and the next, full scan hands back to the CEKF at the truth."""
+    h, truth, z = _known_map(0)
+    assert h.cekf.associate(z[:n_obs])[0].risk
+    assert h.process_scan(0.1, z[np.argsort(z[:, 0])[:n_obs]])
+    assert h.mode == 'PF' and [e.kind for e in h.events] == ['to_pf']
+    assert (h.n_scans, h.n_pf_scans, h.n_cekf_scans) == (1, 1, 0)
+    assert h.process_scan(0.2, z)
+    assert [(e.kind, e.scans) for e in h.events] == [('to_pf', 0), ('to_cekf', 2)]
+    assert (h.n_scans, h.n_pf_scans, h.n_cekf_scans) == (2, 2, 1)   # the hand-over scan: used by both
+    assert np.linalg.norm(h.pose[:2] - truth[:2]) < 0.2
+
+
 def test_last_particles_keeps_the_cloud_of_a_one_scan_pf_episode():
     h0 = HybridSlam(np.zeros(3), np.eye(3) * 1e-4, np.random.default_rng(0))
     assert h0.last_particles is None
-    # the slam_sim scenario's seeds (config/slam_sim.yaml): the PF starts and converges on one scan
-    h, pf_scans, handover = _loop_run_checking_last_particles(1, 2)
+    h, truth, z = _known_map(2)   # a full scan: the PF starts and converges on it
+    h.process_scan(0.1, z)
     assert [(e.kind, e.scans) for e in h.events] == [('to_pf', 0), ('to_cekf', 1)]
-    assert len(pf_scans) == 1 and handover[0][0] == ['to_pf', 'to_cekf']
-    assert handover[0][1] < 2.0, handover   # the converged cloud is at the true position
     step = h.last_particles
-    assert step.t == pf_scans[0] and step.scan < h.n_scans   # kept after the episode, stamped with its scan
+    assert step.t == 0.1 and step.scan == h.n_scans == 1 and h.particles().shape == (0, 3)
+    assert np.linalg.norm(step.particles[:, :2].mean(0) - truth[:2]) < 0.5   # the converged cloud is at the truth
+    h.process_input(0.15, 0.0, 0.0)
+    h.process_scan(0.2, z)
+    assert h.mode == 'CEKF' and h.last_particles is step and step.scan < h.n_scans   # kept, stamped with its scan
     with pytest.raises(ValueError):
         step.particles[0, 0] = 0.0   # read-only
 
 
 def test_last_particles_follows_every_scan_of_a_longer_pf_episode():
-    h, pf_scans, handover = _loop_run_checking_last_particles(0, 11)
+    # the slam_sim scenario's seeds (config/slam_sim.yaml)
+    h, pf_scans, handover = _loop_run_checking_last_particles(1, 2)
     episodes = [e.scans for e in h.events if e.kind in ('to_cekf', 'pf_timeout')]
-    assert episodes == [2] and len(pf_scans) == 2 and handover[0][0] == ['to_cekf']
+    assert episodes == [3] and len(pf_scans) == 3 and handover[0][0] == ['to_cekf']
     assert handover[0][1] < 2.0, handover
+    assert h.n_cekf_scans + h.n_pf_scans - 1 == h.n_scans   # every scan used, the hand-over one by both
