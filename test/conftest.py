@@ -144,3 +144,27 @@ def isolated_env() -> dict[str, str]:
 def env_factory():
     """Call it for a fresh isolated subprocess environment; usable from module-scoped fixtures."""
     return isolated_env
+
+
+def flip_chunk_bit(mcap: Path, which: int = 1) -> int:
+    """Flip one bit of the ``which``-th chunk of ``mcap`` (its last byte: a message payload's, so the file still
+    parses and only the chunk's CRC can tell); → the chunk's byte offset."""
+    import struct
+
+    data = bytearray(mcap.read_bytes())
+    pos, seen = 8, 0
+    while pos + 9 <= len(data):
+        op, length = struct.unpack_from('<BQ', data, pos)
+        seen += op == 0x06
+        if op == 0x06 and seen == which:
+            data[pos + 9 + length - 1] ^= 0x10
+            mcap.write_bytes(bytes(data))
+            return pos
+        pos += 9 + length
+    raise ValueError(f'{mcap}: no chunk {which}')
+
+
+@pytest.fixture(scope='session')
+def flip_bit():
+    """``flip_chunk_bit``: a bag damaged the way a bad disk or cable damages it."""
+    return flip_chunk_bit

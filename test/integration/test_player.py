@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+import os
 import shutil
 import signal
 import subprocess
@@ -16,11 +17,11 @@ from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile
 from rclpy.serialization import serialize_message
 from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
-from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 from rosgraph_msgs.msg import Clock
 
 from track_nodes.bag.player import PlayerNode, wall_offsets
+from track_nodes.bag.writer import BagWriter
 
 pytestmark = pytest.mark.integration
 
@@ -58,15 +59,16 @@ def bag(tmp_path_factory) -> tuple[Path, dict[str, list[tuple[int, bytes]]]]:
     }
     path = tmp_path_factory.mktemp('player') / 'bag'
     ts = get_typestore(Stores.ROS2_JAZZY)
-    with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as w:
-        conns = {
-            '/p/odom': w.add_connection('/p/odom', 'nav_msgs/msg/Odometry', typestore=ts),
-            '/p/pose': w.add_connection('/p/pose', 'geometry_msgs/msg/PoseWithCovarianceStamped', typestore=ts),
-            '/p/static': w.add_connection('/p/static', 'nav_msgs/msg/Odometry', typestore=ts,
-                                          offered_qos_profiles=[LATCHED]),
-        }
-        for t, topic, raw in sorted((t, topic, raw) for topic, msgs in content.items() for t, raw in msgs):
-            w.write(conns[topic], t, raw)
+    w = BagWriter(path).open()  # as the recorder writes it: chunks with CRCs
+    conns = {
+        '/p/odom': w.add_connection('/p/odom', 'nav_msgs/msg/Odometry', typestore=ts),
+        '/p/pose': w.add_connection('/p/pose', 'geometry_msgs/msg/PoseWithCovarianceStamped', typestore=ts),
+        '/p/static': w.add_connection('/p/static', 'nav_msgs/msg/Odometry', typestore=ts,
+                                      offered_qos_profiles=[LATCHED]),
+    }
+    for t, topic, raw in sorted((t, topic, raw) for topic, msgs in content.items() for t, raw in msgs):
+        w.write(conns[topic], t, raw)
+    w.close()
     return path, content
 
 
@@ -243,8 +245,30 @@ def _garbage(tmp: Path, bag: Path) -> tuple[Path, Path, list[str]]:
     return tmp / 'garbage', mcap, []
 
 
-def _rate0(tmp: Path, bag: Path) -> tuple[Path, Path, list[str]]:
-    return bag, bag, ['--rate', '0']
+def _rate(value: str):
+    def make(tmp: Path, bag: Path) -> tuple[Path, Path, list[str]]:
+        return bag, bag, ['--rate', value]
+    return make
+
+
+def _flipped_bit(tmp: Path, bag: Path, flip_bit) -> tuple[Path, Path, list[str]]:
+    shutil.copytree(bag, tmp / 'flipped')
+    (mcap,) = (tmp / 'flipped').glob('*.mcap')
+    flip_bit(mcap)
+    return tmp / 'flipped', mcap, []
+
+
+def _fifo(tmp: Path, bag: Path) -> tuple[Path, Path, list[str]]:
+    os.mkfifo(tmp / 'fifo.mcap')
+    return tmp / 'fifo.mcap', tmp / 'fifo.mcap', []
+
+
+def _fifo_in_a_bag(tmp: Path, bag: Path) -> tuple[Path, Path, list[str]]:
+    shutil.copytree(bag, tmp / 'piped')
+    (mcap,) = (tmp / 'piped').glob('*.mcap')
+    mcap.unlink()
+    os.mkfifo(mcap)
+    return tmp / 'piped', mcap, []
 
 
 def _edited_metadata(name: str, old: str, new: str):
@@ -277,16 +301,22 @@ def _past_the_topic(tmp: Path, bag: Path) -> tuple[Path, Path, list[str]]:
     (_cut_to(9), 'truncated'),
     (_cut_to(40), 'truncated'),
     (_garbage, 'truncated'),
-    (_rate0, 'rate'),
+    (_rate('0'), 'rate'),
+    (_rate('1e-9'), 'rate'),
+    (_rate('1e9'), 'rate'),
+    (_flipped_bit, 'chunk 1 at byte'),
+    (_fifo, 'FIFO'),
+    (_fifo_in_a_bag, 'FIFO'),
     (_edited_metadata('renamed', 'name: /p/pose', 'name: /p/posed'), 'disagree'),
     (_edited_metadata('retyped', 'type: geometry_msgs/msg/PoseWithCovarianceStamped',
                       'type: geometry_msgs/msg/PoseStamped'), 'disagree'),
     (_past_the_end, 'past the last message'),
     (_past_the_topic, 'past the last message'),
 ], ids=['missing', 'not-a-bag', 'no-metadata', 'truncated', 'cut-0', 'cut-8', 'cut-9', 'cut-40', 'garbage',
-        'rate-0', 'metadata-topic', 'metadata-type', 'offset-past-end', 'offset-past-topic'])
-def test_bad_input_is_one_line_and_exit_2(ros, bag, prefix, tmp_path, make, problem):
-    given, named, extra = make(tmp_path, bag[0])
+        'rate-0', 'rate-1e-9', 'rate-1e9', 'flipped-bit', 'fifo', 'fifo-in-a-bag',
+        'metadata-topic', 'metadata-type', 'offset-past-end', 'offset-past-topic'])
+def test_bad_input_is_one_line_and_exit_2(ros, bag, prefix, tmp_path, flip_bit, make, problem):
+    given, named, extra = make(tmp_path, bag[0], flip_bit) if make is _flipped_bit else make(tmp_path, bag[0])
     sink = Sink(ros)
     proc = subprocess.run([prefix / 'lib/track_nodes/player', str(given), *extra], env=ros.env,
                           capture_output=True, text=True, timeout=60)

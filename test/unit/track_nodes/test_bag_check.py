@@ -56,3 +56,21 @@ def test_old_layouts_fail_and_ours_pass(tmp_path, capsys):
     assert out[0].endswith('/new: ok: 2 messages on 2 topics checked')
     assert out[1].endswith('/old: FAILED: 5 messages on 2 topics checked') and len(out) == 4
     assert main([str(tmp_path / 'no_such')]) == 1 and 'no such bag' in capsys.readouterr().err
+
+
+def test_a_flipped_bit_in_any_chunk_is_one_line_and_a_failure(tmp_path, capsys, flip_bit):
+    """Every chunk's CRC is checked, also of a chunk that holds no type the check reads."""
+    from track_nodes.bag.typestore import typestore
+    from track_nodes.bag.writer import BagWriter
+
+    w = BagWriter(tmp_path / 'b').open()
+    conn = w.add_connection('/note', 'std_msgs/msg/String', typestore=typestore())
+    w.write(conn, 1_000, serialize_message(String(data='not checked, but in a chunk')))
+    w.close()
+    assert main([str(tmp_path / 'b')]) == 0
+    capsys.readouterr()
+    offset = flip_bit(tmp_path / 'b' / 'b.mcap')
+    assert main([str(tmp_path / 'b')]) == 1
+    out, err = capsys.readouterr()
+    assert out == '' and len(err.strip().splitlines()) == 1 and f'chunk 1 at byte {offset}' in err, err
+    assert 'CRC' in err and 'Traceback' not in err

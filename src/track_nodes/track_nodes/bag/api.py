@@ -9,6 +9,7 @@
 - ``set_ros_distro(bag)``: metadata.yaml names the ROS distribution (``jazzy``), not ``rosbags``;
   ``embed_ros_distro(writer)`` does the same for the rosbag2 metadata record inside the MCAP.
 - ``flush_mcap_writer(writer)``: make a rosbags MCAP writer's pending data durable (see there).
+- ``recording_qos(profiles)``: the recorder's subscription QoS for a topic's publishers.
 """
 
 from __future__ import annotations
@@ -81,7 +82,8 @@ def storage_files(bag: Path) -> list[Path]:
 
 
 def open_bag_checked(path: Path):
-    """Open ``path`` with rosbags' ``Reader``; every problem → ``BagError`` (one line)."""
+    """Open ``path`` with rosbags' ``Reader`` and check every chunk's CRC (``bag.integrity``); every problem →
+    ``BagError`` (one line). A FIFO or a device where a bag's file should be is refused: reading it would hang."""
     from rosbags.rosbag2 import Reader
 
     if not path.exists():
@@ -93,8 +95,12 @@ def open_bag_checked(path: Path):
                 raise BagError(f'{path}: metadata.yaml is missing, the recorder was probably killed; '
                                f'recover the messages with: {RECOVER_HINT} {path}')
             raise BagError(f'{path}: not a rosbag2 bag (no metadata.yaml and no .mcap file)')
-    elif path.suffix != '.mcap':
-        raise BagError(f'{path}: not a bag (expected a bag directory or an .mcap file)')
+        for file in [path / 'metadata.yaml', *storage_files(path)]:
+            _refuse_special(file)
+    else:
+        _refuse_special(path)
+        if path.suffix != '.mcap':
+            raise BagError(f'{path}: not a bag (expected a bag directory or an .mcap file)')
     try:
         reader = Reader(path)
         reader.open()
@@ -104,7 +110,33 @@ def open_bag_checked(path: Path):
         where = _problem_file(path)
         hint = f'; try {RECOVER_HINT} {path}' if where.suffix == '.mcap' else ''
         raise BagError(f'{where}: corrupt or truncated bag: {one_line(exc)}{hint}') from None
+    try:
+        check_chunks(path)
+    except BagError:
+        reader.close()
+        raise
     return reader
+
+
+def check_chunks(bag: Path) -> None:
+    """``BagError`` naming the first corrupt chunk of any .mcap of ``bag`` (``bag.integrity``)."""
+    from track_nodes.bag.integrity import corrupt_chunk
+
+    for mcap in storage_files(bag):
+        try:
+            problem = corrupt_chunk(mcap)
+        except OSError as exc:
+            raise BagError(f'{mcap}: cannot read bag: {exc.strerror or exc}') from None
+        if problem is not None:
+            raise BagError(f'{problem}; the other chunks can be recovered with: {RECOVER_HINT} {bag}')
+
+
+def _refuse_special(file: Path) -> None:
+    """A path that exists but is no regular file (a FIFO, a socket, a device, a directory) → BagError."""
+    if file.is_dir() and file.suffix == '.mcap':
+        raise BagError(f'{file}: cannot read bag: a directory where the .mcap file should be')
+    if file.exists() and not file.is_dir() and not file.is_file():
+        raise BagError(f'{file}: not a regular file (a FIFO, socket or device is refused: reading it would hang)')
 
 
 def _problem_file(path: Path) -> Path:
@@ -219,7 +251,6 @@ def recording_qos(publisher_profiles: Sequence) -> QoSProfile:
         history=HistoryPolicy.KEEP_LAST, depth=RECORD_DEPTH_BEST_EFFORT if best_effort else RECORD_DEPTH,
         reliability=ReliabilityPolicy.BEST_EFFORT if best_effort else ReliabilityPolicy.RELIABLE,
         durability=DurabilityPolicy.TRANSIENT_LOCAL if transient else DurabilityPolicy.VOLATILE)
-
 
 ROS_DISTRO = 'jazzy'
 

@@ -19,7 +19,7 @@ from pathlib import Path
 from rclpy.serialization import deserialize_message
 
 from track_msgs_py.display import display_problems
-from track_nodes.bag.api import BagError, bag_path, msg_class, open_bag_checked
+from track_nodes.bag.api import RECOVER_HINT, BagError, bag_path, msg_class, one_line, open_bag_checked
 
 #: The message types ``check_bag`` reads (every other type holds no cloud and no covariance).
 CHECKED_TYPES = frozenset({
@@ -48,17 +48,23 @@ class BagCheck:
 
 
 def check_bag(bag: Path) -> BagCheck:
-    """Check every cloud and covariance of ``bag`` (a rosbag2 directory); ``BagError`` if it cannot be read."""
+    """Check every cloud and covariance of ``bag`` (a rosbag2 directory); ``BagError`` (one line) if it cannot be
+    read: every chunk's CRC is checked first (``bag.integrity``), and a message that does not decode is named."""
     out = BagCheck()
     reader = open_bag_checked(Path(bag))  # opened already: not a ``with`` (it would open it again)
+    topic = None
     try:
         conns = [c for c in reader.connections if c.msgtype in CHECKED_TYPES]
         for conn, _, raw in reader.messages(connections=conns):
+            topic = conn.topic
             reasons = display_problems(deserialize_message(raw, msg_class(conn.msgtype)))
             out.checked[conn.topic] += 1
             if reasons:
                 out.bad[conn.topic] += 1
                 out.first.setdefault(conn.topic, '; '.join(reasons))
+    except Exception as exc:  # garbage bytes make a reader or a decoder raise anything
+        after = f' after {out.checked[topic]} messages of {topic}' if topic else ''
+        raise BagError(f'{bag}: corrupt bag{after}: {one_line(exc)}; try {RECOVER_HINT} {bag}') from None
     finally:
         reader.close()
     return out

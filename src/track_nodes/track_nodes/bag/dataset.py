@@ -50,7 +50,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from track_nodes.bag.api import embed_ros_distro, one_line, set_ros_distro
+from track_nodes.bag.api import one_line
 from track_nodes.base.cli import OneLineParser
 
 EXIT_BAD_INPUT = 2
@@ -184,17 +184,17 @@ def write_bag(out: Path, messages, topics: dict[str, str], custom: dict[str, str
     """Write (t, topic, msg) to a new rosbag2 v9 MCAP bag at ``out``, each at its header stamp (integer ns);
     ``custom`` goes into the metadata's ``custom_data``; → message count per topic."""
     from rclpy.serialization import serialize_message
-    from rosbags.rosbag2 import StoragePlugin, Writer
 
     from track_msgs_py.qos import qos_for_topic
     from track_msgs_py.stamps import stamp_to_ns
     from track_nodes.bag.api import qos_to_rosbags
     from track_nodes.bag.typestore import typestore
+    from track_nodes.bag.writer import BagWriter
 
     ts = typestore()   # the Jazzy types and track_msgs (the detections of --standard)
     counts = dict.fromkeys(topics, 0)
-    with Writer(out, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
-        embed_ros_distro(writer)
+    writer = BagWriter(out).open()
+    try:
         for key, value in (custom or {}).items():
             writer.set_custom_data(key, value)
         conns = {topic: writer.add_connection(topic, msgtype, typestore=ts,
@@ -204,7 +204,10 @@ def write_bag(out: Path, messages, topics: dict[str, str], custom: dict[str, str
             header = msg.header if hasattr(msg, 'header') else msg.transforms[0].header  # a TFMessage has none
             writer.write(conns[topic], stamp_to_ns(header.stamp), serialize_message(msg))
             counts[topic] += 1
-    set_ros_distro(out)
+    except BaseException:
+        writer.abort()
+        raise
+    writer.close()
     return counts
 
 

@@ -7,7 +7,8 @@ one channel's messages to the pending chunk as ``struct`` headers and the receiv
 (a ``ChunkBuffer`` is a list of blocks: nothing is copied until the chunk is joined once, at its
 close), and the ``close_chunk`` installed by ``install`` packs each message index at once. The bytes, the chunk
 boundaries (a chunk is closed once it holds more than ``CHUNK_BYTES``), the indexes and every count
-are the ones rosbags writes (``test/unit/track_nodes/bag/test_mcap_append.py`` compares the files).
+are the ones rosbags writes, but for each chunk's CRC, which rosbags leaves at 0 ("not computed") and this
+module computes (``test/unit/track_nodes/bag/test_batches.py`` compares the files record by record).
 This reaches into rosbags 0.11.9's private McapWriter state, as ``bag.api.flush_mcap_writer`` does;
 uncompressed storage only (the recorder never sets compression).
 """
@@ -15,6 +16,7 @@ uncompressed storage only (the recorder never sets compression).
 from __future__ import annotations
 
 import struct
+import zlib
 from bisect import bisect_right
 from collections import defaultdict
 from collections.abc import Sequence
@@ -96,10 +98,12 @@ def close_chunk(s: Any) -> None:
 
     chunk, bio = s.chunk, s.bio
     size = chunk.bio.tell()
-    data = s.compressor(chunk.bio.getvalue())
+    raw = chunk.bio.getvalue()
+    data = s.compressor(raw)
     comp = s.compression.encode()
-    head = struct.pack(f'<QQQII{len(comp)}sQ', chunk.message_start_time, chunk.message_end_time, size, 0,
-                       len(comp), comp, len(data))
+    # the chunk's CRC-32 of its uncompressed records (rosbags writes 0, "not computed"): a flipped bit is found
+    head = struct.pack(f'<QQQII{len(comp)}sQ', chunk.message_start_time, chunk.message_end_time, size,
+                       zlib.crc32(raw), len(comp), comp, len(data))
     chunk_start = bio.tell()
     bio.write(RECORD_HEAD.pack(0x06, len(head) + len(data)) + head)
     bio.write(data)

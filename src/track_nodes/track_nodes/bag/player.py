@@ -29,8 +29,10 @@ Usage::
 - The whole bag is validated before anything is published (opened and every message read
   once), so a truncated bag never half-plays. A bad path, a directory that is not a bag, a bag
   without metadata.yaml (killed recorder: recover it with ``track-bag-recover``), a truncated
-  or corrupt .mcap, an invalid ``--rate`` (≤ 0, NaN) or an unknown ``--topics`` entry → one line
-  on stderr naming the file and the problem, exit code 2. So are a ``metadata.yaml`` whose topics
+  or corrupt .mcap, a chunk whose CRC does not hold (named: ``bag.integrity``), a FIFO or device
+  where a bag or its file should be (it would hang), a ``--rate`` outside ``RATE_MIN``..``RATE_MAX``
+  (or NaN) or an unknown ``--topics`` entry → one line on stderr naming the file and the problem,
+  exit code 2. So are a ``metadata.yaml`` whose topics
   or types differ from the .mcap's, and nothing to play (an empty bag, ``--start-offset`` past the
   last message); wrong counts in ``metadata.yaml`` are a warning, and the .mcap's counts are
   announced and played (``bag.playcheck``).
@@ -66,6 +68,7 @@ DEPTH = 100
 SETTLE = 0.5  # wall seconds after all subscriptions matched (the subscribers' side matches later)
 READY_WAIT = 30.0  # [wall s] for a subscribed TrackNode to announce itself (base/ready.py: it listens first)
 ACK_TIMEOUT = 2.0
+RATE_MIN, RATE_MAX = 1e-3, 1e3  # slower plays a 10 s bag for hours, faster only skips the timing
 
 
 @dataclass
@@ -73,7 +76,7 @@ class PlayerParams:
     """Parameters of ``player``; a bad one is reported with the bag it was given for."""
 
     bag: str = param('', "bag directory or .mcap file (a name without '/' → bags/<name>/)")
-    rate: float = param(1.0, 'playback speed factor (2 = twice as fast)', 1e-6, 1e6)
+    rate: float = param(1.0, 'playback speed factor (2 = twice as fast)', RATE_MIN, RATE_MAX)
     loop: bool = param(False, 'start again at the end, forever')
     topics: list[str] = param([''], 'topics to play (empty: all)')
     start_offset: float = param(0.0, 'skip this much bag time from the first message [s]', 0.0, 1e9)
@@ -278,7 +281,8 @@ def parse_cli(argv: Sequence[str]) -> list[Parameter]:
     """Non-ROS CLI arguments → parameter overrides (``--ros-args`` are left to rclpy)."""
     ap = OneLineParser(prog='track-play', description='Replay a bag with its timing and /clock.')
     ap.add_argument('bag', nargs='?', help="bag directory or .mcap (a name without '/' → bags/NAME/)")
-    ap.add_argument('--rate', type=float, default=None, help='speed factor, > 0 (default 1)')
+    ap.add_argument('--rate', type=float, default=None,
+                    help=f'speed factor, {RATE_MIN:g} to {RATE_MAX:g} (default 1)')
     ap.add_argument('--loop', action='store_true', help='play again and again')
     ap.add_argument('--topics', nargs='+', default=None, metavar='T', help='play only these topics')
     ap.add_argument('--start-offset', type=float, default=None, metavar='S',

@@ -12,15 +12,18 @@ message up to the last flush. To get them back::
 ``BROKEN_BAG`` is the bag directory or its .mcap file. The .mcap is read with the mcap
 library's stream reader, record by record (chunks are unpacked), up to the truncation point;
 if the last chunk is cut off, the complete messages inside it are salvaged too (uncompressed
-chunks only). Every complete message is written, with its schema, topic, type, offered QoS
-and log time, to a new rosbags bag (rosbag2 version 9, MCAP). The original is left untouched.
-Prints the messages recovered per topic. A bad path or an unreadable file → one line on
-stderr, exit 2.
+chunks only). A chunk whose CRC does not hold (a flipped bit) is skipped and counted, so the
+other chunks of a damaged bag can be recovered too. Every complete message is written, with its
+schema, topic, type, offered QoS and log time, to a new bag (``bag.writer``: rosbag2 version 9,
+MCAP). The original is left untouched. Prints the messages recovered per topic. A bad path, an
+unreadable file or an output that cannot be written → one line on stderr, exit 2; a file with no
+complete message in it → one line, exit 1, and no bag written.
 """
 
 from __future__ import annotations
 
 import argparse
+import shutil
 import struct
 import sys
 from collections.abc import Sequence
@@ -28,7 +31,6 @@ from dataclasses import dataclass, field
 from io import BytesIO
 from pathlib import Path
 
-from track_nodes.bag.api import embed_ros_distro, set_ros_distro
 from track_nodes.base import EXIT_BAD_INPUT
 
 PROG = 'track-bag-recover'
@@ -49,13 +51,21 @@ class Recovered:
     messages: list[tuple[int, int, bytes]] = field(default_factory=list)  # (channel id, log_time, data)
     stop_reason: str = ''
     stop_offset: int | None = None
+    corrupt_chunks: int = 0  # skipped: their CRC does not hold
+
+
+class NothingRecoveredError(RecoverError):
+    """The file holds no complete message (exit 1)."""
+
+
+EXIT_NOTHING = 1
 
 
 def read_broken_mcap(path: Path) -> Recovered:
     """Every complete schema, channel and message of ``path``, up to where the file is cut."""
     from mcap.exceptions import McapError
     from mcap.records import Chunk
-    from mcap.stream_reader import StreamReader, breakup_chunk
+    from mcap.stream_reader import StreamReader
 
     out = Recovered()
     with path.open('rb') as f:
@@ -67,14 +77,30 @@ def read_broken_mcap(path: Path) -> Recovered:
         f.seek(0)
         try:
             for record in StreamReader(f, emit_chunks=True, record_size_limit=None).records:
-                for inner in breakup_chunk(record) if isinstance(record, Chunk) else [record]:
+                for inner in _unpack(record, out) if isinstance(record, Chunk) else [record]:
                     _add(inner, out)
-            out.stop_reason = 'complete file, footer reached'
+            out.stop_reason = 'complete file, footer reached' + _skipped(out)
             return out
         except (McapError, struct.error, ValueError, EOFError) as exc:
-            out.stop_reason = f'cut at the first incomplete record ({type(exc).__name__})'
+            out.stop_reason = f'cut at the first incomplete record ({type(exc).__name__})' + _skipped(out)
     _salvage_tail(path, out)
     return out
+
+
+def _unpack(chunk, out: Recovered) -> list:
+    """The records of a chunk whose CRC holds; [] (counted) for one that does not, or that does not parse."""
+    from mcap.exceptions import McapError
+    from mcap.stream_reader import breakup_chunk
+
+    try:
+        return breakup_chunk(chunk, validate_crc=True)
+    except (McapError, struct.error, ValueError, EOFError):  # CRCValidationError is a ValueError
+        out.corrupt_chunks += 1
+        return []
+
+
+def _skipped(out: Recovered) -> str:
+    return f'; {out.corrupt_chunks} corrupt chunk(s) skipped (CRC mismatch)' if out.corrupt_chunks else ''
 
 
 def _add(record, out: Recovered) -> None:
@@ -141,38 +167,38 @@ def _salvage_chunk(body: memoryview, out: Recovered) -> None:
 
 
 def write_recovered(rec: Recovered, out_path: Path) -> dict[str, int]:
-    """Write ``rec`` as a complete rosbag2 bag at ``out_path``; → messages per topic."""
-    from rosbags.rosbag2 import StoragePlugin, Writer
+    """Write ``rec`` as a complete rosbag2 bag at ``out_path`` (``bag.writer``); → messages per topic."""
     from rosbags.rosbag2.metadata import parse_qos
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    from track_nodes.bag.writer import BagWriter
 
     typestore = get_typestore(Stores.ROS2_JAZZY)
     counts: dict[str, int] = {}
     conns = {}
-    with Writer(out_path, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
-        embed_ros_distro(writer)
-        for cid, (schema_id, topic, encoding, meta) in sorted(rec.channels.items()):
-            name, _, text = rec.schemas.get(schema_id, ('', '', ''))
-            if not name:
-                continue
-            try:
-                qos = parse_qos(meta.get('offered_qos_profiles', ''))
-            except Exception:  # QoS is optional information
-                qos = []
-            if name not in typestore.fielddefs and text:
-                # A type our typestore does not know: learn it from the embedded schema.
-                typestore.register({k: v for k, v in get_types_from_msg(text, name).items()
-                                    if k not in typestore.fielddefs})
-            conns[cid] = writer.add_connection(topic, name, serialization_format=encoding or 'cdr',
-                                               offered_qos_profiles=qos, typestore=typestore)
-            counts[topic] = 0
-        for cid, t, data in sorted(rec.messages, key=lambda m: m[1]):
-            conn = conns.get(cid)
-            if conn is None:
-                continue
-            writer.write(conn, t, data)
-            counts[conn.topic] += 1
-    set_ros_distro(out_path)
+    writer = BagWriter(out_path).open()
+    for cid, (schema_id, topic, encoding, meta) in sorted(rec.channels.items()):
+        name, _, text = rec.schemas.get(schema_id, ('', '', ''))
+        if not name:
+            continue
+        try:
+            qos = parse_qos(meta.get('offered_qos_profiles', ''))
+        except Exception:  # QoS is optional information
+            qos = []
+        if name not in typestore.fielddefs and text:
+            # A type our typestore does not know: learn it from the embedded schema.
+            typestore.register({k: v for k, v in get_types_from_msg(text, name).items()
+                                if k not in typestore.fielddefs})
+        conns[cid] = writer.add_connection(topic, name, serialization_format=encoding or 'cdr',
+                                           offered_qos_profiles=qos, typestore=typestore)
+        counts[topic] = 0
+    for cid, t, data in sorted(rec.messages, key=lambda m: m[1]):
+        conn = conns.get(cid)
+        if conn is None:
+            continue
+        writer.write(conn, t, data)
+        counts[conn.topic] += 1
+    writer.close()
     return counts
 
 
@@ -181,12 +207,22 @@ def find_mcap(path: Path) -> Path:
         raise RecoverError(f'{path}: no such file or directory')
     if path.is_file():
         return path
+    if not path.is_dir():
+        raise RecoverError(f'{path}: not a regular file or directory (a FIFO or device is refused)')
     files = sorted(path.glob('*.mcap'))
     if not files:
         raise RecoverError(f'{path}: no .mcap file in this directory (not a bag)')
     if len(files) > 1:
         raise RecoverError(f'{path}: several .mcap files ({", ".join(f.name for f in files)}); give one')
+    if not files[0].is_file():
+        raise RecoverError(f'{files[0]}: not a regular file (a FIFO, device or directory is refused)')
     return files[0]
+
+
+def recoverable(rec: Recovered) -> int:
+    """Messages of ``rec`` on a channel whose schema was read: what ``write_recovered`` writes."""
+    ok = {cid for cid, (sid, *_) in rec.channels.items() if rec.schemas.get(sid, ('',))[0]}
+    return sum(1 for cid, _, _ in rec.messages if cid in ok)
 
 
 def recover(broken: Path, out: Path | None = None) -> tuple[Path, dict[str, int], Recovered]:
@@ -199,7 +235,15 @@ def recover(broken: Path, out: Path | None = None) -> tuple[Path, dict[str, int]
         rec = read_broken_mcap(mcap)
     except OSError as exc:
         raise RecoverError(f'{mcap}: cannot read: {exc.strerror or exc}') from None
-    counts = write_recovered(rec, out)
+    if not recoverable(rec):
+        raise NothingRecoveredError(f'{mcap}: nothing to recover: no complete message in it ({rec.stop_reason}); '
+                               'no bag written')
+    try:
+        counts = write_recovered(rec, out)
+    except OSError as exc:
+        if out.is_dir():
+            shutil.rmtree(out, ignore_errors=True)  # ours, and incomplete
+        raise RecoverError(f'{out}: cannot write the recovered bag: {exc.strerror or exc}') from None
     return out, counts, rec
 
 
@@ -216,7 +260,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         out, counts, rec = recover(args.broken, args.out)
     except RecoverError as exc:
         print(f'{PROG}: {exc}', file=sys.stderr)
-        return EXIT_BAD_INPUT
+        return EXIT_NOTHING if isinstance(exc, NothingRecoveredError) else EXIT_BAD_INPUT
     total = sum(counts.values())
     print(f'{PROG}: read {args.broken} ({rec.stop_reason})')
     for topic, n in sorted(counts.items()):
