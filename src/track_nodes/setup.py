@@ -24,7 +24,7 @@ setup(
         (f'lib/{PKG}', SHIMS),
     ],
     install_requires=['track_core', 'track_msgs_py', 'PyYAML', 'rosbags', 'mcap', 'mcap-ros2-support', 'sllurp',
-                      'foxglove-sdk', 'pyais'],
+                      'foxglove-sdk', 'pyais', 'websockets'],
     extras_require={'test': ['pytest']},  # colcon test runs pytest (the suite's part in pytest.ini)
     zip_safe=False,
     description='rclpy nodes of the tracking package set',

@@ -34,7 +34,9 @@ TIME = 0x02
 class FoxgloveClient:
     """Connects at once; a thread reads every frame until ``close()``."""
 
-    def __init__(self, url: str, timeout: float = 60.0) -> None:
+    def __init__(self, url: str, timeout: float = 60.0, follow: tuple[str, ...] = ()) -> None:
+        """``follow``: topics subscribed from the reading thread the moment they are advertised, every time
+        (what the Foxglove app does for the topics of its panels)."""
         from websockets.sync.client import connect
 
         self._stack = contextlib.ExitStack()  # websockets wants its connection used as a context manager
@@ -47,6 +49,9 @@ class FoxgloveClient:
         self.unadvertised: list[str] = []  # topics, in order
         self.messages: dict[str, list[tuple[int, bytes]]] = defaultdict(list)  # topic -> (log time, payload)
         self.times: list[int] = []
+        self.statuses: list[dict] = []  # the server's status messages (an 'Unknown channel ID' among them)
+        self.advertisements: list[tuple[str, int]] = []  # (topic, channel id), in order
+        self.follow = frozenset(follow)
         self._subs: dict[int, str] = {}  # subscription id -> topic
         self._next_sub = 1
         self._stop = threading.Event()
@@ -83,11 +88,16 @@ class FoxgloveClient:
             elif msg['op'] == 'advertise':
                 for ch in msg['channels']:
                     self.channels[ch['topic']] = ch
+                    self.advertisements.append((ch['topic'], ch['id']))
+            elif msg['op'] == 'status':
+                self.statuses.append(msg)
             elif msg['op'] == 'unadvertise':
                 gone = set(msg['channelIds'])
                 for topic in [t for t, ch in self.channels.items() if ch['id'] in gone]:
                     del self.channels[topic]
                     self.unadvertised.append(topic)
+        if msg['op'] == 'advertise' and (now := [ch['topic'] for ch in msg['channels'] if ch['topic'] in self.follow]):
+            self.subscribe(*now)
 
     def subscribe(self, *topics: str) -> None:
         subs = []

@@ -23,6 +23,7 @@ import time
 from pathlib import Path
 
 import pytest
+import rclpy
 from nav_msgs.msg import Odometry
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -54,7 +55,7 @@ def live(ros, repo):
     ros.add(SlamSimNode(context=ros.context, cli_args=params))
     ros.add(SlamNode(context=ros.context, cli_args=params))
     bridge = ros.add(FoxgloveBridgeNode(context=ros.context, parameter_overrides=[
-        Parameter('port', value=0), Parameter('discovery_period', value=0.1)]))
+        Parameter('port', value=0), Parameter('discovery_period', value=0.1), Parameter('withdraw_after', value=0.0)]))
     clients = []
 
     def connect() -> FoxgloveClient:
@@ -99,15 +100,16 @@ def test_every_topic_is_served_with_its_schema_and_decodes_as_foxglove_decodes_i
     scan = client.decode(SLAM_SCAN)
     assert [f.name for f in scan.fields[:3]] == ['x', 'y', 'z'] and scan.header.frame_id == FRAME_LASER
     assert bytes(scan.data) == bytes(deserialize_message(client.payload(SLAM_SCAN), PointCloud2).data)
-    # /tf: slam_sim places laser_truth, slam places laser (once it has a pose): every message decodes
+    # /tf: slam_sim places laser_truth, slam map -> odom and (raw ACFR inputs, publish_odom_tf) odom -> base_link
     assert ros.spin_until(lambda: any(t.child_frame_id == FRAME_LASER_TRUTH for i in range(len(client.messages[TF]))
                                       for t in client.decode(TF, i).transforms), timeout=WAIT)
     pairs = {(t.header.frame_id, t.child_frame_id) for i in range(len(client.messages[TF]))
              for t in client.decode(TF, i).transforms}
-    assert ('map', FRAME_LASER_TRUTH) in pairs and pairs <= {('map', FRAME_LASER_TRUTH), ('map', FRAME_LASER)}, pairs
+    assert ('map', FRAME_LASER_TRUTH) in pairs and pairs <= {('map', FRAME_LASER_TRUTH), ('map', 'odom'),
+                                                             ('odom', FRAME_BASE)}, pairs
     static = client.decode(TF_STATIC)
-    assert (FRAME_LASER, FRAME_BASE) in {(t.header.frame_id, t.child_frame_id) for t in static.transforms}
-    assert deserialize_message(client.payload(TF_STATIC), TFMessage).transforms[0].child_frame_id == FRAME_BASE
+    assert (FRAME_BASE, FRAME_LASER) in {(t.header.frame_id, t.child_frame_id) for t in static.transforms}
+    assert deserialize_message(client.payload(TF_STATIC), TFMessage).transforms[0].child_frame_id == FRAME_LASER
     # log times are the node's clock (wall time here), increasing
     stamps = [t for t, _ in client.messages[SLAM_TRUTH]]
     assert stamps == sorted(stamps) and abs(stamps[-1] - time.time_ns()) < 60e9
@@ -143,7 +145,7 @@ def test_a_topic_that_appears_later_is_advertised_served_and_withdrawn(ros, live
     assert ros.spin_until(lambda: second.advertised(TF_STATIC), timeout=WAIT)
     second.subscribe(TF_STATIC)
     assert ros.spin_until(lambda: second.received(TF_STATIC), timeout=WAIT)
-    assert FRAME_BASE in {t.child_frame_id for t in second.decode(TF_STATIC).transforms}
+    assert FRAME_LASER in {t.child_frame_id for t in second.decode(TF_STATIC).transforms}   # slam's base_link -> laser
 
 
 def test_under_sim_time_log_times_are_clock_s_and_the_time_is_broadcast(ros):
@@ -177,6 +179,129 @@ def test_under_sim_time_log_times_are_clock_s_and_the_time_is_broadcast(ros):
         assert max(log) >= first and all(lt == 0 or first <= lt <= t[0] * 10**9 for lt in log), log
     finally:
         client.close()
+
+
+RESTARTS = 20
+BACK = '/foxglove_test/restarted'
+
+
+def test_a_publisher_restarted_20_times_keeps_its_channel_and_every_subscription_receives(ros):
+    """A node that stops and comes back (here a participant of its own, as another process is) keeps its
+    channel id: the client's one subscription receives after every restart, the client never sees the topic
+    withdrawn or advertised again, and the server never answers "Unknown channel"."""
+    from rclpy.context import Context
+    from std_msgs.msg import String
+
+    bridge = ros.add(FoxgloveBridgeNode(context=ros.context, parameter_overrides=[
+        Parameter('port', value=0), Parameter('discovery_period', value=0.1)]))
+    client = FoxgloveClient(f'ws://127.0.0.1:{bridge.port}')
+    other = Context()
+    rclpy.init(context=other, domain_id=ros.domain_id)
+    try:
+        for k in range(RESTARTS):
+            node = Node('restarted', context=other)
+            pub = node.create_publisher(String, BACK, ESTIMATE_QOS)
+            if k == 0:
+                assert ros.spin_until(lambda: client.advertised(BACK), timeout=WAIT)
+                client.subscribe(BACK)
+                client.follow = frozenset({BACK})  # from now on, as Foxglove: subscribe to what is advertised again
+
+            def received(k=k, pub=pub) -> bool:  # this publisher's message, not a late one of the one before
+                pub.publish(String(data=str(k)))
+                with client.lock:
+                    payloads = [payload for _, payload in client.messages.get(BACK, ())]
+                return str(k) in {deserialize_message(payload, String).data for payload in payloads}
+
+            assert ros.spin_until(received, timeout=WAIT), (
+                f'restart {k}: nothing received (bridge subscribed: {BACK in bridge.subscriptions_by_topic}, '
+                f'forwarded {bridge.forwarded.get(BACK)}, gone {BACK in bridge.gone}, {client.statuses})')
+            node.destroy_node()
+            # gone for the bridge too: a graph poll has seen no publisher (before: it withdrew the channel)
+            assert ros.spin_until(lambda k=k: not bridge.count_publishers(BACK) and (
+                BACK in getattr(bridge, 'gone', ()) or client.unadvertised.count(BACK) > k), timeout=WAIT), k
+        assert client.error is None, client.error
+        assert not [m for m in client.statuses if 'Unknown channel' in m.get('message', '')], client.statuses
+        assert [a for a in client.advertisements if a[0] == BACK] == [(BACK, client.channels[BACK]['id'])]
+        assert BACK not in client.unadvertised
+        got = {deserialize_message(payload, String).data for _, payload in client.messages[BACK]}
+        assert got == {str(k) for k in range(RESTARTS)}, got  # from every one of the restarted publishers
+    finally:
+        client.close()
+        other.try_shutdown()
+
+
+def test_a_bridge_beside_a_clock_follows_it_by_default(ros):
+    """clock auto (the default, no use_sim_time): the time capability; the wall time is broadcast until /clock
+    is published, then /clock's time is broadcast and is every log time."""
+    from rosgraph_msgs.msg import Clock
+
+    from track_msgs_py.qos import CLOCK_QOS
+
+    bridge = ros.add(FoxgloveBridgeNode(context=ros.context, parameter_overrides=[
+        Parameter('port', value=0), Parameter('discovery_period', value=0.1)]))
+    assert bridge.get_parameter('use_sim_time').value is False
+    client = FoxgloveClient(f'ws://127.0.0.1:{bridge.port}')
+    try:
+        assert ros.spin_until(lambda: client.server_info is not None and client.times, timeout=WAIT)
+        assert 'time' in client.server_info['capabilities']
+        assert abs(client.times[-1] - time.time_ns()) < 60e9  # no /clock yet: the wall time
+        clock = ros.add(Node('clock', context=ros.context))
+        pub = clock.create_publisher(Clock, '/clock', CLOCK_QOS)
+        assert ros.spin_until(lambda: client.advertised('/clock'), timeout=WAIT)
+        client.subscribe('/clock')
+        first = 1_700_000_001 * 10**9
+        t = [1_700_000_000]
+
+        def tick() -> bool:
+            t[0] += 1
+            msg = Clock()
+            msg.clock.sec = t[0]
+            pub.publish(msg)
+            return client.received('/clock', n=3) and sum(first <= ns <= t[0] * 10**9 for ns in client.times) >= 3
+
+        assert ros.spin_until(tick, timeout=WAIT)
+        assert bridge.following
+        log = [lt for lt, _ in client.messages['/clock']]
+        assert all(first <= lt <= t[0] * 10**9 for lt in log), log  # /clock's time, not the wall time
+    finally:
+        client.close()
+
+
+def test_clock_wall_advertises_no_time(ros):
+    bridge = ros.add(FoxgloveBridgeNode(context=ros.context, parameter_overrides=[
+        Parameter('port', value=0), Parameter('clock', value='wall')]))
+    client = FoxgloveClient(f'ws://127.0.0.1:{bridge.port}')
+    try:
+        assert ros.spin_until(lambda: client.server_info is not None, timeout=WAIT)
+        assert 'time' not in client.server_info.get('capabilities', [])
+    finally:
+        client.close()
+
+
+def test_an_older_client_is_refused_in_words_and_a_close_frame_is_answered(ros):
+    """A client offering only foxglove.websocket.v1 (or nothing) gets HTTP 400 with a line that says what it
+    offered and what the server speaks, and the bridge logs it; a client that closes gets the close handshake
+    (1000), not a dropped connection (1006)."""
+    from websockets.exceptions import InvalidStatus
+    from websockets.sync.client import connect
+
+    bridge = ros.add(FoxgloveBridgeNode(context=ros.context, parameter_overrides=[Parameter('port', value=0)]))
+    url = f'ws://127.0.0.1:{bridge.port}'
+    for offered, said in ((['foxglove.websocket.v1'], 'offered foxglove.websocket.v1'),
+                          (None, 'offered no subprotocol')):
+        with pytest.raises(InvalidStatus) as refused:
+            connect(url, subprotocols=offered, open_timeout=WAIT)
+        body = bytes(refused.value.response.body).decode()
+        assert refused.value.response.status_code == 400, body
+        assert said in body and 'speaks foxglove.sdk.v1' in body and 'Missing expected' not in body, body
+        assert len(body.strip().splitlines()) == 1, body
+    assert bridge.refusals == 2
+    client = FoxgloveClient(url)
+    assert ros.spin_until(lambda: client.server_info is not None, timeout=WAIT)
+    client._stop.set()
+    client.ws.close()  # our close frame; the server's answer completes the handshake
+    assert client.ws.close_code == 1000 and client.ws.protocol.close_rcvd is not None, client.ws.close_code
+    client.close()
 
 
 def _start(args: list[str], env: dict) -> tuple[subprocess.Popen, int]:

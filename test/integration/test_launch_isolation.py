@@ -69,6 +69,19 @@ def test_a_foreign_clock_publisher_stops_the_run_with_one_line(tmp_path, ros, re
     assert len(lines) == 1 and 'not alone' in lines[0] and '/clock' in lines[0] and 'other_clock' in lines[0], err
 
 
+def test_a_failed_recorded_run_leaves_no_bag_directory(tmp_path, env_factory, repo):
+    """A node process that fails at start (a bad value: its one line) stops the run before it started, after
+    the recorder opened its bag: no empty bag directory is left behind (nor any bag of a run that never ran)."""
+    bad = tmp_path / 'bad.yaml'
+    bad.write_text('/**/demo_target:\n  ros__parameters:\n    period: -1.0\n')
+    proc = launcher(repo, tmp_path, env_factory(), '--processes', '--params', str(bad), '--record', 'failed',
+                    *DEMO_ARGS)
+    _, err = proc.communicate(timeout=300)
+    assert proc.returncode == 2 and 'demo_target exited with code 2 at start' in err, err
+    assert 'period' in err, err  # the node's own line
+    assert not (tmp_path / 'bags' / 'failed').exists(), sorted((tmp_path / 'bags').rglob('*'))
+
+
 @pytest.mark.parametrize('sig', [signal.SIGTERM, signal.SIGHUP], ids=['SIGTERM', 'SIGHUP'])
 def test_sigterm_and_sighup_stop_like_sigint(tmp_path, ros, repo, sig):
     from nav_msgs.msg import Odometry

@@ -256,6 +256,46 @@ def test_by_default_a_recorder_beside_a_sim_time_run_follows_its_clock(ros, tmp_
     assert decoded_three_ways(bag, '/run/odom') == [f'msg{i}' for i in range(11)]
 
 
+def test_the_bag_notes_how_far_clock_ran_and_the_summary_tells_a_cut_run(ros, tmp_path):
+    """Under use_sim_time (as ros2 launch runs it) the recorder notes the first and the last /clock value in
+    metadata.yaml; ``track-summary --duration`` marks a run whose /clock stopped before it CUT and exits 1."""
+    import yaml
+    from rosgraph_msgs.msg import Clock
+
+    from track_nodes.report.summary import main as summary_main
+
+    bag = tmp_path / 'bags' / 'cut'
+    rec = make_recorder(ros, bag, topics=['/cut/odom'], use_sim_time=True)
+    node = ros.add(rclpy.create_node('cut_pub', context=ros.context))
+    pub = node.create_publisher(Odometry, '/cut/odom', RELIABLE)
+    clock_pub = node.create_publisher(Clock, '/clock', RELIABLE)
+    t0 = 1_000 * 10**9
+    assert ros.spin_until(lambda: '/cut/odom' in rec.subscriptions_by_topic and clock_pub.get_subscription_count(),
+                          30.0)
+    for i in range(16):  # 15 s of a 36 s run, then the stop reaches only the clock
+        t = t0 + i * 10**9
+        clock_pub.publish(Clock(clock=rclpy.time.Time(nanoseconds=t).to_msg()))
+        assert ros.spin_until(lambda t=t: rec.clock_span[-1:] == [t], 10.0)
+        publish_all(ros, pub, [odom(i)])
+    assert ros.spin_until(lambda: rec.message_counts() == {'/cut/odom': 16}, 10.0)
+    close_node(ros, rec)
+    custom = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']['custom_data']
+    assert custom == {'clock_first_ns': str(t0), 'clock_last_ns': str(t0 + 15 * 10**9)}
+    assert summary_main([str(bag), '--duration', '36']) == 1  # cut
+    assert summary_main([str(bag), '--duration', '15']) == 0  # complete
+    assert summary_main([str(bag)]) == 0  # not judged
+
+
+def test_discard_empty_removes_a_bag_that_holds_nothing(ros, tmp_path):
+    """A refused or failed run (the launchers set discard_empty) leaves no empty bag directory behind."""
+    empty = tmp_path / 'bags' / 'empty'
+    close_node(ros, make_recorder(ros, empty, topics=['/nothing'], discard_empty=True))
+    assert not empty.exists()
+    kept = tmp_path / 'bags' / 'kept'
+    close_node(ros, make_recorder(ros, kept, topics=['/nothing']))  # a plain track-record keeps it, as rosbag2
+    assert (kept / 'metadata.yaml').is_file()
+
+
 def test_by_default_a_recorder_without_clock_messages_stamps_wall_time(ros, tmp_path):
     """A /clock publisher that sends nothing (a wall-time launcher run) does not make it sim time."""
     import time

@@ -118,8 +118,69 @@ def test_the_launch_defaults_are_the_launchers(repo):
                                  'record': '', 'one_process_per_sensor': 'false'}
     assert defaults(demo)['rate'] == '10' and defaults(demo)['use_sim_time'] == 'true'
     p = plan(park, {})
-    assert defaults(park)['use_sim_time'] == 'false' and p.clock is None  # the player publishes /clock
-    assert p.wall_duration == 320.0
+    assert defaults(park)['use_sim_time'] == 'false'  # the player publishes /clock
+    assert p.wall_duration == 320.0  # the bound; the end is the clock node's, once the bag is played:
+    assert p.clock.params[0]['end_after'] == 'player' and 'rate' not in p.clock.params[0]
+    assert p.clock_done == 'the bag has been played'
+
+
+def test_a_replays_clock_node_publishes_no_clock_and_ends_once_the_player_has_left(ros):
+    """victoria_park under ros2 launch: the clock node (end_after) waits for the player to be up, publishes no
+    /clock (the player's is the bag's), and exits 0 once the player has left the graph and the graph is quiet,
+    not after the scenario's whole duration."""
+    from rclpy.context import Context
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.parameter import Parameter
+    from rosgraph_msgs.msg import Clock
+
+    from track_msgs_py.qos import CLOCK_QOS
+    from track_nodes.demo.demo_target import DemoTargetNode
+    from track_nodes.launch.clock import ClockNode, Phase
+
+    ticks = []
+    ros.add(rclpy.create_node('clock_listener', context=ros.context)).create_subscription(
+        Clock, '/clock', ticks.append, CLOCK_QOS)
+    player = DemoTargetNode(node_name='player', context=ros.context)  # stands for the player: announces, leaves
+    ros.executor.add_node(player)
+    own = Context()
+    rclpy.init(context=own, domain_id=ros.domain_id)
+    executor = SingleThreadedExecutor(context=own)
+    clock = ClockNode(context=own, parameter_overrides=[Parameter('wait_for', value='player'),
+                                                        Parameter('end_after', value='player')])
+    executor.add_node(clock)
+
+    def spin(predicate):
+        def step() -> bool:
+            if own.ok():
+                executor.spin_once(timeout_sec=0.01)
+            return predicate()
+        return ros.spin_until(step, timeout=120)
+
+    try:
+        assert spin(lambda: clock.phase is Phase.FOLLOWING), clock.phase
+        assert own.ok() and clock.clock_pub.get_subscription_count() >= 1
+        ros.executor.remove_node(player)
+        player.destroy_node()
+        assert spin(lambda: not own.ok()), clock.phase  # drained, done: the context shut down (exit 0)
+        assert clock.exit_code == 0 and not ticks, ticks
+    finally:
+        executor.shutdown()
+        clock.destroy_node()
+        own.try_shutdown()
+
+
+def test_a_cut_run_or_a_node_that_fails_ends_the_launch_with_a_reason(tmp_path):
+    """The summary gets the run's duration (a run whose /clock stopped earlier is CUT, exit 1, and launch exits
+    1); a node that exits with an error stops the run (its data missing); the recorder drops an empty bag."""
+    from track_nodes.launch.ros2_launch import stopping_reason, summary_problem
+
+    p = plan(load_scenario('demo'), {'record': str(tmp_path / 'bag'), 'duration': '36'})
+    assert p.summary[-2:] == ['--duration', '36'] and p.recorder.params[0]['discard_empty'] is True
+    assert '--duration' not in plan(load_scenario('victoria_park'), {'record': str(tmp_path / 'park')}).summary
+    assert summary_problem(0) is None and 'cut' in summary_problem(1) and 'exit code 2' in summary_problem(2)
+    assert stopping_reason('ais_source-1', 2, False) == 'ais_source-1 exited with code 2: stopping the run'
+    assert stopping_reason('ais_source-1', 2, True) is None  # launch's own shutdown (Ctrl-C)
+    assert stopping_reason('player-1', 0, False) is None  # a played bag: the clock node ends the run
 
 
 def test_the_plan_groups_the_sensors_and_clocks_every_node(tmp_path):
@@ -129,7 +190,7 @@ def test_the_plan_groups_the_sensors_and_clocks_every_node(tmp_path):
     assert len(group) == 1 and len(group[0].arguments) == 41  # --nodes and the 40 sensors
     assert p.clock.params[0]['wait_for'].split(',') == [s.name for s in sc.nodes]
     assert p.clock.params[0]['record_regex'] == sc.options['record_regex']
-    assert p.summary == [str(tmp_path / 'bag'), '--scenario', 'maritime']
+    assert p.summary == [str(tmp_path / 'bag'), '--scenario', 'maritime', '--duration', '32']
     (tmp_path / 'bag').mkdir()
     with pytest.raises(RuntimeError, match='exists already'):
         plan(sc, {'record': str(tmp_path / 'bag')})

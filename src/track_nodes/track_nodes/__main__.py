@@ -9,35 +9,63 @@ def main(argv: list[str] | None = None) -> int:
     args = list(sys.argv[1:] if argv is None else argv)
     try:
         # Imported here, inside the guard: on a busy machine they take seconds, and a Ctrl-C then is a stop.
-        from track_nodes.base.usage import wants_help
-        from track_nodes.registry import (
-            LIFECYCLE,
-            MAINS,
-            NODES,
-            UnknownExecutableError,
-            executables,
-            main_of,
-            node_class,
-        )
+        from track_nodes.base.usage import HELP_FLAGS, cached_help
+        from track_nodes.registry import UnknownExecutableError, executables
     except KeyboardInterrupt:
         return 130
     if not args or args[0].startswith('-'):
         print(f'usage: python -m track_nodes EXECUTABLE [args]; executables: {", ".join(executables())}',
               file=sys.stderr)
         return 2
+    # "EXE --help": printed before with these sources, it is printed again without importing the node,
+    # rclpy or the core (base/usage.py); else it is made, printed and kept below.
+    plain_help = len(args) == 2 and args[1] in HELP_FLAGS and args[0] in executables()
+    if plain_help and (text := cached_help(args)) is not None:
+        sys.stdout.write(text)
+        return 0
     try:
-        node = (args[0] in NODES or args[0] in LIFECYCLE) and args[0] not in MAINS
-        if node and wants_help(args):  # a node asked for help never starts
-            from track_nodes.base.usage import usage
-            print(usage(args[0], node_class(args[0])))
-            return 0
-        entry = main_of(args[0])  # imports the node's module (numpy, scipy, rclpy: seconds on a busy machine)
-        return entry([args[0], *args[1:]])
+        return _run(args, plain_help)
     except UnknownExecutableError:
         print(f'track_nodes: unknown executable {args[0]!r}; known: {", ".join(executables())}', file=sys.stderr)
         return 2
     except KeyboardInterrupt:  # Ctrl-C before rclpy took over SIGINT (still importing): no traceback; or
         return 0 if _torn_down() else 130  # one that outran the hold of a finished teardown (base/signals.py)
+
+
+def _run(args: list[str], plain_help: bool) -> int:
+    """The executable ``args[0]`` with its arguments; ``plain_help``: just ``EXE --help``, whose text is kept."""
+    from track_nodes.base.usage import remember_help, wants_help
+    from track_nodes.registry import LIFECYCLE, MAINS, NODES, main_of, node_class
+
+    node = (args[0] in NODES or args[0] in LIFECYCLE) and args[0] not in MAINS
+    if node and wants_help(args):  # a node asked for help never starts
+        from track_nodes.base.usage import usage
+        text = usage(args[0], node_class(args[0])) + '\n'
+        sys.stdout.write(text)
+        if plain_help:
+            remember_help(args, text)
+        return 0
+    entry = main_of(args[0])  # imports the node's module (numpy, scipy, rclpy: seconds on a busy machine)
+    if plain_help:  # a tool's own argparse usage (recorder, player, node_group, ...): kept as printed
+        return _help_of(entry, args, remember_help)
+    return entry([args[0], *args[1:]])
+
+
+def _help_of(entry, args: list[str], remember) -> int:
+    """Run ``entry`` for its ``--help`` (argparse prints, then exits 0), print the text and keep it."""
+    import io
+
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        try:
+            code = entry(list(args))
+        except SystemExit as exc:
+            code = exc.code
+    text = out.getvalue()
+    sys.stdout.write(text)
+    if code in (0, None) and text:
+        remember(args, text)
+    return code or 0
 
 
 def _torn_down() -> bool:

@@ -99,3 +99,46 @@ def test_a_field_not_declared_with_param_is_a_programming_error(ros):
 
     with pytest.raises(TypeError, match='param'):
         declare(_node(ros), Bad)
+
+
+@dataclass
+class Kinds:
+    """One parameter of each kind a node declares."""
+
+    name: str = param('track', 'a string')
+    topics: list[str] = param([''], 'a list of strings')
+    flag: bool = param(True, 'a flag')
+    count: int = param(3, 'a count', 1, 5)
+    gain: float = param(1.0, 'a gain', 0.0, 10.0, live=True)
+    free: float = param(0.5, 'an unbounded number')
+    xs: list[float] = param([1.0, 2.0], 'a vector')
+
+
+def test_ros2_param_describe_gives_a_range_only_to_numbers(ros):
+    """What ``ros2 param describe`` shows, read through the node's DescribeParameters service: strings,
+    string lists and flags have no numeric range and no "[-inf, inf]" in their description."""
+    from rclpy.parameter_client import AsyncParameterClient
+
+    from track_nodes.base import TrackNode
+
+    class KindsNode(TrackNode):
+        DEFAULT_NAME = 'kinds'
+        Params = Kinds
+
+    ros.add(KindsNode(context=ros.context))
+    client = AsyncParameterClient(ros.add(Node('describer', context=ros.context)), 'kinds')
+    assert ros.spin_until(client.services_are_ready, timeout=60)
+    names = ['name', 'topics', 'flag', 'count', 'gain', 'free', 'xs']
+    future = client.describe_parameters(names)
+    assert ros.spin_until(future.done, timeout=60)
+    d = dict(zip(names, future.result().descriptors, strict=True))
+    for key in ('name', 'topics', 'flag', 'xs'):
+        assert not d[key].floating_point_range and not d[key].integer_range, key
+        assert 'inf' not in d[key].description and '[' not in d[key].description, (key, d[key].description)
+    assert 'allowed: any string; read-only after start' in d['name'].description
+    assert 'allowed: a list of strings' in d['topics'].description
+    assert 'allowed: true or false' in d['flag'].description
+    assert 'allowed: a list of numbers;' in d['xs'].description
+    assert (d['count'].integer_range[0].from_value, d['count'].integer_range[0].to_value) == (1, 5)
+    assert d['gain'].floating_point_range[0].to_value == 10.0 and not d['gain'].read_only
+    assert 'allowed: [-inf, inf]' in d['free'].description  # a number: its (open) range is the truth

@@ -1,5 +1,6 @@
-"""summarize(): topic families that differ only in their numbers fold into one line."""
+"""summarize(): topic families that differ only in their numbers fold into one line; a broken bag is one line."""
 
+import pytest
 from rclpy.serialization import serialize_message
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
@@ -47,3 +48,52 @@ def test_the_demo_summary_counts_the_estimates_it_leaves_out(monkeypatch):
     assert '20 estimates matched to truth; left out: 3 estimate(s)' in lines[0], lines
     monkeypatch.setattr(demo, 'read_topics', lambda bag, topics: {DEMO_TRUTH: truth, DEMO_TRACK: track[:20]})
     assert 'left out' not in demo.demo_metrics(Path('unused'))[0]
+
+
+def _broken(tmp_path, how: str, flip_bit):
+    """A small bag of ours (chunk CRCs), then broken ``how``."""
+    import shutil
+
+    bag = tmp_path / 'b'
+    _bag_ours(bag)
+    mcap = bag / 'b.mcap'
+    if how == 'garbage':
+        mcap.write_bytes(mcap.read_bytes()[:8] + bytes((i * 151 + 7) % 256 for i in range(4000)))
+    elif how == 'truncated':
+        mcap.write_bytes(mcap.read_bytes()[:200])
+    elif how == 'missing-mcap':
+        mcap.unlink()
+    elif how == 'unreadable':
+        mcap.unlink()
+        mcap.mkdir()  # a directory where the file should be (root reads any file, so no chmod)
+    elif how == 'metadata':
+        (bag / 'metadata.yaml').write_bytes(b'\x00\xff: [unclosed\n\t- :')
+    elif how == 'crc':
+        flip_bit(mcap)
+    else:
+        shutil.rmtree(bag)
+    return bag
+
+
+def _bag_ours(path):
+    from track_nodes.bag.typestore import typestore
+    from track_nodes.bag.writer import BagWriter
+
+    w = BagWriter(path).open()
+    conn = w.add_connection('/t', 'std_msgs/msg/String', typestore=typestore())
+    for i in range(20):
+        w.write(conn, 1_000 + i, serialize_message(String(data=f'm{i}')))
+    w.close()
+
+
+@pytest.mark.parametrize('how', ['garbage', 'truncated', 'missing-mcap', 'unreadable', 'metadata', 'crc'])
+def test_a_broken_bag_is_one_line_and_exit_2(tmp_path, capsys, flip_bit, how):
+    from track_nodes.report.summary import main
+
+    bag = _broken(tmp_path, how, flip_bit)
+    assert main([str(bag)]) == 2
+    out, err = capsys.readouterr()
+    assert out == '' and len(err.strip().splitlines()) == 1 and str(bag) in err, err
+    assert 'Traceback' not in err
+    if how == 'crc':
+        assert 'chunk 1 at byte' in err

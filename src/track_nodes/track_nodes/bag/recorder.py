@@ -35,14 +35,21 @@ Usage::
   SIGINT, SIGTERM and SIGHUP (``base.signals``) and destroying the node close the bag cleanly,
   with what the subscriptions still hold. A full disk (any write error, ``bag.durable``): one error
   line, the bag closed at the last flush (what came after is counted), exit 2.
+- How far the run went: the first and the last ``/clock`` value received while recording go into
+  ``metadata.yaml`` (``custom_data``: ``clock_first_ns``, ``clock_last_ns``), so ``track-summary
+  --duration`` tells a run that reached its duration from one cut short (a stop that reached only
+  the clock node of ``ros2 launch``). ``discard_empty`` (the launchers set it): a bag that holds no
+  message at the stop is removed, so a refused or failed run leaves no empty bag directory.
 - Throughput: a callback also takes the messages queued behind its own (``bag.batching``, ≤
   ``TAKE_LIMIT``) and writes them as one batch, one stamp list and one MCAP append
-  (``bag.durable.write_many``), under one lock: per message only the take and a few C-level passes
-  remain (``track-bench recorder``: against a bare raw subscription on the EventsExecutor).
+  (``bag.durable.write_many``, ``bag.mcap_append``: every chunk with its CRC), under one lock: per message
+  only the take and a few C-level passes remain (``track-bench recorder``: against a bare raw
+  subscription on the EventsExecutor).
 """
 
 from __future__ import annotations
 
+import shutil
 import sys
 import threading
 from collections.abc import Sequence
@@ -64,6 +71,7 @@ from track_nodes.base import TrackNode, param, run_node
 from track_nodes.base.cli import OneLineParser, cli_overrides
 
 TAKE_LIMIT = 1000  # messages taken per callback beyond the one the executor delivered
+CLOCK_SPAN = ('clock_first_ns', 'clock_last_ns')  # metadata.yaml custom_data: the /clock values the run went through
 CLOCK_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)  # matches any /clock publisher
 
 @dataclass
@@ -80,6 +88,8 @@ class RecorderParams:
     clock: str = param('auto', "stamps: 'auto' (sim time if /clock is published, else wall time), 'sim' or 'wall'")
     clock_wait: float = param(2.0, "clock 'auto': wall time if no /clock this long after the first message [s]",
                               0.0, 60.0)
+    discard_empty: bool = param(False, 'a bag that holds no message at the stop is removed (a refused or failed '
+                                'run of a launcher leaves no empty bag behind)')
 
 
 class RecorderNode(TrackNode):
@@ -115,9 +125,10 @@ class RecorderNode(TrackNode):
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.discovery_timer = self.create_timer(p.discovery_period, self.discover, clock=steady)
         self.flush_timer = self.create_timer(p.flush_period, self.flush, clock=steady)
-        if self._stamps.mode == 'auto':  # is /clock published? (bag.clockmode)
-            from rosgraph_msgs.msg import Clock as ClockMsg
-            self.create_subscription(ClockMsg, '/clock', self._on_clock, CLOCK_QOS, as_given=True)
+        # /clock: is it published (clock auto, bag.clockmode), and how far did it run (CLOCK_SPAN, every mode)
+        from rosgraph_msgs.msg import Clock as ClockMsg
+        self.clock_span: list[int] = []  # the first and the last /clock value received [ns]
+        self.create_subscription(ClockMsg, '/clock', self._on_clock, CLOCK_QOS, as_given=True)
         self.get_logger().info(f'recording {self.filter.describe()} to {self.path}')
 
     # -- discovery ------------------------------------------------------------------------
@@ -198,7 +209,11 @@ class RecorderNode(TrackNode):
             self._warn_lost(topic)
 
     def _on_clock(self, msg) -> None:
-        self._stamps.on_clock(msg.clock.sec * 1_000_000_000 + msg.clock.nanosec)
+        ns = msg.clock.sec * 1_000_000_000 + msg.clock.nanosec
+        self.clock_span[:] = [self.clock_span[0] if self.clock_span else ns, ns]
+        if self._stamps.mode == 'node':
+            return  # the node's clock (use_sim_time) stamps; only the span is noted
+        self._stamps.on_clock(ns)
         if self._stamps.mode != 'sim':
             self._decide()
 
@@ -256,6 +271,9 @@ class RecorderNode(TrackNode):
             if self._bag.failed is None:
                 try:
                     self._stamps.close(self._bag.write_many)
+                    if self.clock_span:  # how far /clock ran while recording: track-summary --duration
+                        for key, ns in zip(CLOCK_SPAN, self.clock_span, strict=True):
+                            self._writer.set_custom_data(key, str(ns))
                     self._bag.close()
                 except OSError as exc:
                     self._bag.fail(exc)
@@ -263,6 +281,9 @@ class RecorderNode(TrackNode):
         failed = self._bag.failed is not None
         line = self._bag.failure_line(sum(self.counts.values()) + self.dropped, self.losses.total()) if failed \
             else self.summary()
+        if not failed and self.p.discard_empty and not sum(self.counts.values()):
+            shutil.rmtree(self.path, ignore_errors=True)
+            line = f'nothing recorded: {self.path} removed (discard_empty)'
         if self.context.ok():
             (self.get_logger().error if failed else self.get_logger().info)(line)
         else:  # after shutdown the logger can no longer reach /rosout and complains

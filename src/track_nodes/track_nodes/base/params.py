@@ -57,18 +57,33 @@ class Param:
     live: bool = False  # may change at run time (validated, then applied by the node); else read-only
     default_from: Callable[[Mapping[str, Any]], Any] | None = None  # default from the fields before it
 
+    def numeric(self) -> bool:
+        """A number (int or float, not bool): the only kind a numeric range applies to."""
+        return isinstance(self.default, (int, float)) and not isinstance(self.default, bool)
+
     def allowed(self) -> str:
+        """What the parameter accepts, in words: a range only for numbers (``ros2 param describe`` shows it;
+        "[-inf, inf]" for a string or a flag read as a numeric parameter)."""
         if self.choices is not None:
             return 'one of ' + ', '.join(self.choices)
+        d = self.default
         lo = '-inf' if self.lo is None else f'{self.lo:g}'
         hi = 'inf' if self.hi is None else f'{self.hi:g}'
-        return f'[{lo}, {hi}]'
+        if isinstance(d, (list, tuple)):
+            kinds = {'true or false' if isinstance(x, bool) else 'strings' if isinstance(x, str) else 'numbers'
+                     for x in d}
+            kind = kinds.pop() if len(kinds) == 1 else 'numbers'
+            bounded = kind == 'numbers' and (self.lo is not None or self.hi is not None)
+            return f'a list of {kind}' + (f' in [{lo}, {hi}]' if bounded else '')
+        if isinstance(d, bool):
+            return 'true or false'
+        return 'any string' if isinstance(d, str) else f'[{lo}, {hi}]'
 
     def descriptor(self) -> ParameterDescriptor:
         when = 'settable at run time' if self.live else 'read-only after start'
         d = ParameterDescriptor(name=self.name, description=f'{self.description} (allowed: {self.allowed()}; {when})',
                                 read_only=not self.live)
-        if isinstance(self.default, bool) or (self.lo is None and self.hi is None):
+        if not self.numeric() or (self.lo is None and self.hi is None):
             return d
         lo = -sys.float_info.max if self.lo is None else self.lo
         hi = sys.float_info.max if self.hi is None else self.hi

@@ -2,12 +2,15 @@
 
 Usage::
 
-    track-foxglove [--port 8765] [--address 127.0.0.1] [-e REGEX] [--ros-args ...]
+    track-foxglove [--port 8765] [--address 127.0.0.1] [-e REGEX] [--clock auto|sim|wall] [--ros-args ...]
     ros2 run track_nodes foxglove_bridge --ros-args -p port:=8765 -p address:=0.0.0.0
 
 then in Foxglove: *Open connection → Foxglove WebSocket → ws://HOST:8765*. Why not the C++
 ``foxglove_bridge``: it is not on PyPI, and this package set installs from PyPI only; the server
-here is the Foxglove SDK's own (``foxglove-sdk``), which speaks ``foxglove.websocket.v1``.
+here is the Foxglove SDK's own (``foxglove-sdk``), which speaks the v1 messages of the Foxglove
+WebSocket protocol under the subprotocol name ``foxglove.sdk.v1`` (as the C++ bridge does from 3.0;
+the older name ``foxglove.websocket.v1`` is refused). Clients meet it through a WebSocket front
+(``foxglove/front.py``) that refuses another subprotocol in words and answers a client's close frame.
 
 - What is served: every topic of the graph that has a publisher (``regex``: only topics matching
   it, ``re.search``; /tf and /tf_static included like any other), each as one channel with message
@@ -16,16 +19,29 @@ here is the Foxglove SDK's own (``foxglove-sdk``), which speaks ``foxglove.webso
   convention), from the same type store the recorder embeds in its bags (``bag.typestore``), so
   ``track_msgs`` types decode too. A type the store does not know is left out with one warning.
 - Discovery: the graph is polled every ``discovery_period`` seconds (steady clock, also under
-  ``use_sim_time``); a new topic is advertised as it appears, a topic without publishers any more
-  is unadvertised. A topic with several types is served with its first one (one warning).
+  ``use_sim_time``); a new topic is advertised as it appears. A topic whose publishers go keeps its
+  channel, under the same id, for ``withdraw_after`` seconds, and is unadvertised only then: a node
+  restarted within that time is served again on the channel the clients already subscribe to. A
+  channel closed and re-created on every restart made clients resubscribe to a new id at once, and
+  the SDK's server answers a subscription that arrives right after the advertisement with "Unknown
+  channel ID" (it records the channel for the client only after sending the advertisement), which
+  left that panel dead until the user reconnected. A topic that comes back with another type gets a
+  new channel. A topic with several types is served with its first one (one warning).
 - Data: subscriptions are raw (the CDR bytes are forwarded as received, never deserialised), and
   made only while a Foxglove client subscribes to the channel (the SDK's listener), so an unwatched
   topic costs nothing. QoS as the recorder's (``bag.api.recording_qos``: best effort if any
   publisher is, transient-local if all are) with a live queue (``LIVE_DEPTH``): a client that falls
   behind loses the oldest, the ROS side never waits for it. A transient-local topic (/tf_static, the
   sensor layout) is subscribed anew at every client subscription, so each client gets the latched
-  messages. Log time: the node's clock at reception (``/clock`` under ``use_sim_time``, whose time
-  is then also broadcast to the clients: the ``time`` capability).
+  messages. While a topic has no publisher its subscription stays, so DDS matches the next
+  publisher; one whose QoS it does not suit (best effort, or transient-local) gets a new one.
+- Time (``clock``, as ``track-record --clock``): ``auto`` (the default) follows ``/clock`` once it is
+  published, as a bridge beside a scenario on /clock should: log times are the latest ``/clock``
+  value and that time is broadcast to the clients (the ``time`` capability, so Foxglove's timeline
+  is the scenario's); before any ``/clock``, and again once no node publishes it, log times are the
+  wall time of reception and the wall time is broadcast every ``TIME_PERIOD`` s. ``sim`` (or
+  ``use_sim_time:=true``): the node's clock under ``use_sim_time``. ``wall``: wall time and no time
+  capability (Foxglove then takes the log times as they come).
 - Stop: SIGINT, SIGTERM and SIGHUP (``base.signals``) stop the server and the node cleanly, exit 0;
   a port already in use is one line and exit 2.
 """
@@ -35,6 +51,7 @@ from __future__ import annotations
 import re
 import sys
 import threading
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -46,11 +63,15 @@ from track_msgs_py.topics import CLOCK
 from track_nodes.bag.api import msg_class, recording_qos
 from track_nodes.base import ParameterError, TrackNode, param, run_node
 from track_nodes.base.cli import OneLineParser, cli_overrides
+from track_nodes.foxglove.front import Front
 
 SCHEMA_ENCODING = 'ros2msg'
 MESSAGE_ENCODING = 'cdr'
 LIVE_DEPTH = 100  # queue of a volatile subscription; a live view wants the newest, not a backlog
 LATCHED_DEPTH = 1000  # transient-local: every publisher's latched sample (one per node on /tf_static)
+TIME_PERIOD = 0.1  # [wall s] between broadcasts of the wall time while no /clock is followed (clock auto)
+REFUSAL_THROTTLE = 5.0  # [s] at most one log line about refused clients this often
+CLOCK_MODES = ('auto', 'sim', 'wall')
 
 
 @dataclass
@@ -61,6 +82,11 @@ class FoxgloveBridgeParams:
     address: str = param('127.0.0.1', 'address to listen on (0.0.0.0: every interface; the default: this machine)')
     regex: str = param('', 'serve only topics matching this regular expression (re.search); empty: all')
     discovery_period: float = param(0.5, 'interval between graph polls for new and vanished topics [s]', 0.01, 60.0)
+    withdraw_after: float = param(60.0, 'a topic without publishers stays advertised (same channel id) this long, '
+                                  'so clients keep their subscription across a node restart; 0: withdrawn at once '
+                                  '[s]', 0.0, 1e9)
+    clock: str = param('auto', "time: 'auto' (follow /clock when it is published, else wall time), 'sim' or 'wall'",
+                       choices=CLOCK_MODES)
 
 
 def ros2msg_schema(typestore, msgtype: str) -> bytes:
@@ -111,28 +137,53 @@ class FoxgloveBridgeNode(TrackNode):
         self.subscriptions_by_topic: dict[str, object] = {}
         self.skipped: set[str] = set()
         self.forwarded: dict[str, int] = {}  # messages handed to the server, per topic
-        self._sim = bool(self.get_parameter('use_sim_time').value)
+        self.gone: dict[str, float] = {}  # topic -> steady time its publishers went (still advertised)
+        sim = bool(self.get_parameter('use_sim_time').value)
+        if p.clock == 'wall' and sim:
+            raise ParameterError('parameter clock=wall contradicts use_sim_time=true: choose one')
+        if p.clock == 'sim' and not sim:
+            self.set_parameters([Parameter('use_sim_time', value=True)])
+        self._sim = sim or p.clock == 'sim'
+        self._auto = p.clock == 'auto' and not self._sim
+        self.following = False  # clock auto: /clock is published and followed
+        self.latest_clock = 0  # the last /clock value received [ns]
         self._fox = foxglove.Context()  # this node's channels only (not the SDK's global context)
-        try:
-            self.server = foxglove.start_server(
-                name=self.get_fully_qualified_name(), host=p.address, port=p.port, context=self._fox,
-                capabilities=[Capability.Time] if self._sim else [], supported_encodings=[MESSAGE_ENCODING],
-                server_listener=_Listener(self))
-        except Exception as exc:  # the SDK raises its own error type for a bind failure
-            raise OSError(f'cannot serve on {p.address}:{p.port}: {" ".join(str(exc).split())}') from None
-        self.port = self.server.port
+        self._serve([Capability.Time] if p.clock != 'wall' else [])
         # The listener only records; subscriptions change on the executor's thread (a guard condition wakes it).
         self._wake = self.create_guard_condition(self.reconcile)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.discovery_timer = self.create_timer(p.discovery_period, self.discover, clock=steady)
-        if self._sim:
+        if p.clock != 'wall':
+            from rclpy.qos import QoSProfile, ReliabilityPolicy
             from rosgraph_msgs.msg import Clock as ClockMsg
 
-            from track_msgs_py.qos import CLOCK_QOS
-            self.create_subscription(ClockMsg, CLOCK, self._on_clock, CLOCK_QOS)
+            # best effort: matches any /clock publisher (the launcher's, the player's, a reliable one)
+            self.create_subscription(ClockMsg, CLOCK, self._on_clock,
+                                     QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT))
+        if self._auto:
+            self.time_timer = self.create_timer(TIME_PERIOD, self._broadcast_wall_time, clock=steady)
         what = f'topics matching {p.regex!r}' if self.regex else 'every topic'
         self.get_logger().info(f'serving {what} to Foxglove on ws://{p.address}:{self.port}')
         self.discover()
+
+    def _serve(self, capabilities: list) -> None:
+        """The SDK's server on a free local port; clients come through the front (foxglove/front.py)."""
+        import foxglove
+
+        p = self.p
+        self.server = self.front = None
+        self.refusals = 0
+        try:
+            self.server = foxglove.start_server(
+                name=self.get_fully_qualified_name(), host='127.0.0.1', port=0, context=self._fox,
+                capabilities=capabilities, supported_encodings=[MESSAGE_ENCODING], server_listener=_Listener(self))
+            self.front = Front(p.address, p.port, self.server.port, self._refused)
+        except Exception as exc:  # the SDK raises its own error type for a bind failure
+            if self.server is not None:
+                self.server.stop()
+                self.server = None
+            raise OSError(f'cannot serve on {p.address}:{p.port}: {" ".join(str(exc).split())}') from None
+        self.port = self.front.port
 
     # -- the graph ---------------------------------------------------------------------------------
     def wanted(self, topic: str) -> bool:
@@ -143,15 +194,20 @@ class FoxgloveBridgeNode(TrackNode):
         import foxglove
 
         present = set()
+        now = time.monotonic()
         for topic, types in self.get_topic_names_and_types():
             if topic in self.skipped or not self.wanted(topic):
                 continue
             if not Node.count_publishers(self, topic):  # the graph's name as is (TrackNode's resolves relative)
                 continue  # subscribers only: type and QoS unknown, nothing to show
             present.add(topic)
-            if topic in self.channels:
-                continue
             msgtype = types[0]
+            if topic in self.channels:
+                if self.types[topic] == msgtype:
+                    if self.gone.pop(topic, None) is not None:  # back: the same channel, the same id
+                        self._requalify(topic)
+                    continue
+                self._unadvertise(topic)  # back with another type: a channel of its own
             if len(types) > 1:
                 self.get_logger().warning(f'{topic} has several types {types}; serving {msgtype}')
             try:
@@ -169,10 +225,16 @@ class FoxgloveBridgeNode(TrackNode):
                 self._topic_of[channel.id()] = topic
                 self.forwarded.setdefault(topic, 0)
         for topic in [t for t in self.channels if t not in present]:
-            self._unadvertise(topic)
+            since = self.gone.setdefault(topic, now)  # its subscription stays: DDS matches the next publisher
+            if now - since >= self.p.withdraw_after:
+                self._unadvertise(topic)
+        if self.following and not Node.count_publishers(self, CLOCK):
+            self.following = False
+            self.get_logger().info('no /clock publisher any more: log times and the broadcast time are wall time')
         self.reconcile()
 
     def _unadvertise(self, topic: str) -> None:
+        self.gone.pop(topic, None)
         with self._lock:
             channel = self.channels.pop(topic)
             self.types.pop(topic, None)
@@ -199,13 +261,23 @@ class FoxgloveBridgeNode(TrackNode):
         for topic in list(self.subscriptions_by_topic):
             if topic not in watched:
                 self._unsubscribe(topic)
-        for topic in sorted(watched):
+        for topic in sorted(watched - self.gone.keys()):  # a gone topic is subscribed (again) when it is back
             sub = self.subscriptions_by_topic.get(topic)
             if sub is not None and topic in fresh and self._latched(topic):
                 self._unsubscribe(topic)  # a new reader: DDS delivers the latched samples to the new client
                 sub = None
             if sub is None:
                 self._subscribe(topic)
+
+    def _requalify(self, topic: str) -> None:
+        """A topic is back: keep its subscription if it suits the new publishers' QoS, else make it anew."""
+        sub = self.subscriptions_by_topic.get(topic)
+        infos = self.get_publishers_info_by_topic(topic)
+        if sub is None or not infos:
+            return
+        qos = recording_qos([i.qos_profile for i in infos])
+        if (qos.reliability, qos.durability) != (sub.qos_profile.reliability, sub.qos_profile.durability):
+            self._unsubscribe(topic)  # reconcile subscribes again, with the new QoS
 
     def _latched(self, topic: str) -> bool:
         return self.subscriptions_by_topic[topic].qos_profile.durability.name == 'TRANSIENT_LOCAL'
@@ -227,17 +299,38 @@ class FoxgloveBridgeNode(TrackNode):
             self.destroy_subscription(sub)
 
     def _forward(self, topic: str, channel, data: bytes) -> None:
-        channel.log(data, log_time=self.get_clock().now().nanoseconds)
+        log_time = self.latest_clock if self.following else self.get_clock().now().nanoseconds
+        channel.log(data, log_time=log_time)
         self.forwarded[topic] += 1
 
     def _on_clock(self, msg) -> None:
-        self.server.broadcast_time(msg.clock.sec * 1_000_000_000 + msg.clock.nanosec)
+        ns = msg.clock.sec * 1_000_000_000 + msg.clock.nanosec
+        self.latest_clock = ns
+        if self._auto and not self.following:
+            self.following = True
+            self.get_logger().info('/clock is published: log times and the broadcast time follow it (sim time)')
+        if self.server is not None:
+            self.server.broadcast_time(ns)
+
+    def _refused(self, line: str) -> None:
+        """A client refused at the handshake (the front's thread): one line, at most every REFUSAL_THROTTLE s."""
+        self.refusals += 1
+        if self.context.ok():
+            self.get_logger().warning(f'refused a client ({self.refusals} so far): {line}',
+                                      throttle_duration_sec=REFUSAL_THROTTLE)
+
+    def _broadcast_wall_time(self) -> None:
+        """clock auto without /clock: Foxglove's time is the wall time (the time capability wants one)."""
+        if not self.following and self.server is not None:
+            self.server.broadcast_time(time.time_ns())
 
     # -- stop ----------------------------------------------------------------------------------------
     def destroy_node(self) -> None:
         server = getattr(self, 'server', None)
         if server is not None:
             self.server = None
+            if self.front is not None:
+                self.front.stop()  # every client gets 1001 (going away)
             server.stop()
             for channel in list(self.channels.values()):
                 channel.close()
@@ -259,7 +352,10 @@ def parse_cli(argv: Sequence[str]) -> list[Parameter]:
     ap.add_argument('--address', default=None,
                     help='address to listen on (default 127.0.0.1, this machine only; 0.0.0.0: every interface)')
     ap.add_argument('-e', '--regex', default=None, help='serve only topics matching REGEX (default: all)')
-    return cli_overrides(ap, argv, {'port': 'port', 'address': 'address', 'regex': 'regex'})
+    ap.add_argument('--clock', choices=CLOCK_MODES, default=None,
+                    help="time: follow /clock when it is published, else wall time (auto, the default); 'sim' or "
+                         "'wall' forces one")
+    return cli_overrides(ap, argv, {'port': 'port', 'address': 'address', 'regex': 'regex', 'clock': 'clock'})
 
 
 def main(argv: Sequence[str] | None = None) -> int:

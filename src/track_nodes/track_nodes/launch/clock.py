@@ -19,6 +19,12 @@ or of the whole graph without it, delivered for ``pacing.QUIET`` wall seconds, a
 ``pacing.DRAIN_MAX``), plus ``pacing.GRACE``, then exits with code 0: ``ros2 launch`` files take
 that as the end of the run (``launch/ros2_launch.py``). A deadline for the nodes to come up that
 runs out, or a second /clock publisher, is one line and exit code 1.
+
+With ``end_after`` (node names, comma-separated) it publishes no /clock at all: a replay's player
+publishes the bag's. It waits for ``wait_for`` as above, then until every node of ``end_after`` has
+left the graph (the player exits once its bag is played), drains the same way and exits 0, so a
+``ros2 launch`` of a replay ends when the bag has been played, as the launcher's run does, instead
+of after its whole ``duration`` of wall time.
 """
 
 from __future__ import annotations
@@ -62,12 +68,15 @@ class ClockParams:
                               "(regular expression; '' = no recorder); also the topics watched for the end")
     settle: float = param(SETTLE_PROCESSES, 'wall seconds /clock is held at the epoch once every node is up',
                           0.0, 600.0)
+    end_after: str = param('', 'comma-separated node names: publish no /clock; once they have all left the graph '
+                           '(a player whose bag is played), drain and exit')
 
 
 class Phase(enum.Enum):
     WAITING = 'waiting for the nodes'
     SETTLING = 'held at the epoch'
     RUNNING = 'running'
+    FOLLOWING = 'waiting for the end_after nodes to leave'
     DRAINING = 'draining'
 
 
@@ -86,6 +95,8 @@ class ClockNode(GraphWatch, TrackNode):
         except EpochError as exc:
             raise ValueError(str(exc)) from None
         self.names = [n.strip() for n in self.p.wait_for.split(',') if n.strip()]
+        self.end_after = [n.strip() for n in self.p.end_after.split(',') if n.strip()]
+        self.names += [n for n in self.end_after if n not in self.names]
         if self.p.record_regex:
             self.names.append('recorder')
         self.watch_graph()
@@ -115,10 +126,27 @@ class ClockNode(GraphWatch, TrackNode):
                                        + (f' for {self.duration:g} s' if self.duration else ''))
         elif self.phase is Phase.RUNNING:
             self._run(now)
+        elif self.phase is Phase.FOLLOWING:
+            self.watch(self.p.record_regex or '.*')  # subscribed before the end, so the drain sees the last work
+            if not self.present(self.end_after):
+                self.get_logger().info(f'{listing(self.end_after)} done (left the graph): draining')
+                self._drain(now)
         elif now - self.last_message >= QUIET + GRACE or now >= self.phase_end:
-            self.get_logger().info(f'/clock stopped at {self.duration:g} s; the graph is quiet: done '
-                                   f'({self.held} ticks held for a topic behind)')
+            what = f'/clock stopped at {self.duration:g} s' if not self.end_after else 'the replay is over'
+            self.get_logger().info(f'{what}; the graph is quiet: done ({self.held} ticks held for a topic behind)')
             self.context.try_shutdown()  # ends the spin; the process exits 0
+
+    def present(self, names: list[str]) -> list[str]:
+        """Those of ``names`` (node names, in any namespace) that are in the graph now."""
+        here = {n for n, _ in self.get_node_names_and_namespaces()}
+        return [n for n in names if n.rsplit('/', 1)[-1] in here]
+
+    def _drain(self, now: float) -> None:
+        """The last step is out (or the replay over): wait until the watched topics are quiet."""
+        self.watch(self.p.record_regex or '.*')
+        self.phase, self.phase_end = Phase.DRAINING, now + DRAIN_MAX
+        self.last_message = now
+        self.timer.timer_period_ns = round(0.1 * NS)
 
     def _wait(self, now: float) -> None:
         missing = self.nodes_missing(self.names)
@@ -126,8 +154,14 @@ class ClockNode(GraphWatch, TrackNode):
             what = f'the announcement of {listing(missing)} ({len(missing)} of {len(self.names)} nodes)'
         elif self.p.record_regex and (unrecorded := self.topics_unrecorded(self.p.record_regex, 'recorder')):
             what = f'the recorder to subscribe to {listing(unrecorded)}'
-        elif unmatched := self.clock_unmatched():
+        elif not self.end_after and (unmatched := self.clock_unmatched()):
             what = f'{unmatched} /clock subscription(s) to match'
+        elif self.end_after:
+            self.phase = Phase.FOLLOWING
+            self.timer.timer_period_ns = round(0.5 * NS)
+            self.get_logger().info(f'every node is up; publishing no /clock: the run ends once '
+                                   f'{listing(self.end_after)} has left the graph')
+            return
         else:
             self.phase, self.phase_end = Phase.SETTLING, now + self.p.settle
             self.get_logger().info(epoch_line(self._epoch_s(), 'epoch') + f'; held for {self.p.settle:g} s')
@@ -148,9 +182,7 @@ class ClockNode(GraphWatch, TrackNode):
             return  # a periodic topic of another process is a step behind (pacing.Cadence)
         self.publish_clock(t_ns)
         if self.duration is not None and t >= self.duration:
-            self.phase, self.phase_end = Phase.DRAINING, now + DRAIN_MAX
-            self.last_message = now
-            self.timer.timer_period_ns = round(0.1 * NS)
+            self._drain(now)
             return
         self.k += 1
 

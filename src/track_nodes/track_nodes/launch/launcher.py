@@ -44,11 +44,13 @@ from __future__ import annotations
 import argparse
 import contextlib
 import os
+import shutil
 import signal
 import socket
 import subprocess
 import sys
 import time
+from collections import Counter
 from datetime import datetime
 from pathlib import Path
 
@@ -142,6 +144,7 @@ class Launch:
         self.lockstep = False
         self.nodes: list[Node] = []
         self.replay_done = False
+        self.started = False  # the run's clock (or wall-time drive) has started: its bag holds the run
 
     # -- the two ways of running the nodes ------------------------------------------------
     def run(self, processes: bool, n_hosts: int = 0) -> int:
@@ -324,7 +327,7 @@ class Launch:
 
                 nodes.append(RecorderNode(context=context, parameter_overrides=[
                     *self._overrides(), Parameter('bag', value=str(self.bag)),
-                    Parameter('regex', value=self.record_regex)]))
+                    Parameter('regex', value=self.record_regex), Parameter('discard_empty', value=True)]))
             if (problem := shared_names_problem(nodes, self.params_files)) is not None:  # base/names.py
                 raise LaunchError(problem)
         except (LaunchError, KeyboardInterrupt) as exc:
@@ -348,9 +351,7 @@ class Launch:
             for child in children:
                 if child.poll() is not None:
                     raise LaunchError(f'{child.label} exited with code {child.returncode} at start')
-            if not children and not twins_allowed() and (twins := launcher.foreign_twins(names)):
-                raise LaunchError(f'{listing(twins)}: refusing to run a second node of that name '
-                                  f'(set {ALLOW_TWINS}=1 to allow it)')
+            self._refuse_twins(launcher, names, children)
             missing = launcher.nodes_missing(names)
             if missing:
                 missing = [f'the announcement of {listing(missing)} on {READY} ({len(missing)} of {len(names)} '
@@ -367,6 +368,7 @@ class Launch:
             self._pump(executor, time.monotonic() + 0.05)
         if not (children and self.sim):
             self._pump(executor, time.monotonic() + (SETTLE_PROCESSES if children else SETTLE))
+            self._refuse_twins(launcher, names, children)  # one heard while discovery settled: still before the start
             return
         # Other processes run their first callback when their CPU share allows (seen: up to 2 s late
         # with 25 processes on 2 cores, and the origin was as late): the clock is held at the epoch
@@ -376,6 +378,19 @@ class Launch:
         while time.monotonic() < settled and self.context.ok():
             launcher.publish_clock(self._epoch_ns())
             self._pump(executor, time.monotonic() + CLOCK_TICK)
+
+    def _refuse_twins(self, launcher: LauncherNode, names: list[str], children: list[subprocess.Popen]) -> None:
+        """One process: a node of another process announced one of our names first, or the graph holds one of
+        our names twice (participant discovery can come before the announcement): refuse, before the start."""
+        if children or twins_allowed():
+            return
+        if twins := launcher.foreign_twins(names):
+            raise LaunchError(f'{listing(twins)}: refusing to run a second node of that name '
+                              f'(set {ALLOW_TWINS}=1 to allow it)')
+        seen = Counter(name for name, ns in launcher.get_node_names_and_namespaces() if ns == '/')
+        if twice := [n for n in names if seen[n] > 1]:
+            raise LaunchError(f'{listing(twice)} already run(s) in this ROS domain: refusing to run a second node '
+                              f'of that name (set {ALLOW_TWINS}=1 to allow it)')
 
     def _epoch_ns(self) -> int:
         if self.epoch is None:
@@ -387,6 +402,7 @@ class Launch:
 
     def _drive(self, launcher: LauncherNode, executor: MultiThreadedExecutor,
                children: list[subprocess.Popen]) -> None:
+        self.started = True
         duration = None if self.duration is None else float(self.duration)
         lockstep = self.sim and not children
         step, wall_step = clock_step(self.rate) if self.sim else (0.0, CLOCK_TICK)
@@ -435,6 +451,7 @@ class Launch:
 def main(argv: list[str] | None = None) -> int:
     args = _parse(argv)
     os.environ.setdefault('AMENT_PREFIX_PATH', sys.prefix)
+    launch = None
     try:
         scenario = load_scenario(args.scenario)
         launch = Launch(scenario, args)
@@ -445,6 +462,9 @@ def main(argv: list[str] | None = None) -> int:
         code = launch.run(args.processes, args.hosts)
     except (ScenarioError, LaunchError) as exc:
         print(f'track_nodes.launch: {exc}', file=sys.stderr)
+        if launch is not None and launch.bag is not None and not launch.started:
+            # refused before it started: its bag holds nothing of the run (at most another graph's traffic)
+            shutil.rmtree(launch.bag, ignore_errors=True)
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         code = 0

@@ -34,7 +34,7 @@ def spawn_nodes(specs: Sequence[NodeSpec], params_files: Sequence[str], sim: boo
              *files, '-p', use_sim] for spec in specs]
     if bag is not None:
         cmds.append([sys.executable, '-m', 'track_nodes', 'recorder', '--ros-args', '-p', use_sim,
-                     '-p', f'bag:={bag}', '-p', f'regex:={record_regex}'])
+                     '-p', f'bag:={bag}', '-p', f'regex:={record_regex}', '-p', 'discard_empty:=true'])
     labels = [spec.name for spec in specs] + ['recorder']
     children = []
     for k, cmd in enumerate(cmds):

@@ -10,13 +10,20 @@ runs with one process per node (``--processes``):
   epoch while discovery settles, so every node's step origin is the epoch (nodes that start with no
   /clock at all fix their origins at different moments: the IDSQ sensors then refuse the first
   truths of a simulator that started earlier). A scenario whose ``player`` publishes /clock from a
-  bag gets no clock node and defaults to wall time, as the launcher runs it;
+  bag defaults to wall time, as the launcher runs it, and its clock node publishes no /clock: it
+  exits once the player has left the graph (its bag played) and the recorded topics are quiet, so
+  the run ends then, as the launcher's does (``duration`` stays the bound);
 - with ``record:=NAME`` the recorder (``bags/NAME/``, the scenario's ``record_regex``);
 - the end: when the clock node exits (or, on wall time, after ``duration`` wall seconds) the
   recorder is stopped with SIGINT, so it closes its bag; then the ``summary`` executable prints the
   launcher's summary of the bag (the maritime picture included) and launch shuts every node down.
   Without a recording the end shuts down at once. Ctrl-C stops everything as usual (the bag is closed;
-  its summary line names the command that prints it).
+  its summary line names the command that prints it). The summary gets the run's ``--duration``: a
+  run whose /clock stopped before it (a stop that reached only the clock node) is marked CUT, and
+  launch then exits 1 ("Caught exception in launch: the run was cut ...");
+- a node process that exits with an error before the end (a source whose data is missing says so in
+  one line) stops the run at once rather than letting it run, and record, without it; the recorder
+  (``discard_empty``) removes a bag that holds nothing, so a failed run leaves no empty bag.
 
 Launch arguments: ``use_sim_time`` (default true), ``rate`` (default the scenario's, 1.0 where it has
 none), ``epoch`` (default ``now``), ``duration`` (node seconds, default the scenario's; 0 runs until
@@ -83,7 +90,8 @@ class Plan:
     clock: Launched | None = None
     bag: Path | None = None
     summary: list[str] | None = None  # the summary executable's arguments, after the recording
-    wall_duration: float = 0.0  # without a clock node: end after this many wall seconds (0: never)
+    wall_duration: float = 0.0  # on wall time: end after this many wall seconds (0: never)
+    clock_done: str = '/clock done'  # what the clock node's exit means
 
 
 def plan(sc: Scenario, values: Mapping[str, str]) -> Plan:
@@ -110,15 +118,47 @@ def plan(sc: Scenario, values: Mapping[str, str]) -> Plan:
                                                                             for s in grouped]]))
     if bag is not None:
         out.bag = bag
-        out.recorder = Launched('recorder', 'recorder', [{'use_sim_time': sim, 'bag': str(bag), 'regex': regex}])
+        out.recorder = Launched('recorder', 'recorder', [{'use_sim_time': sim, 'bag': str(bag), 'regex': regex,
+                                                          'discard_empty': True}])
         out.summary = [str(bag), *(['--scenario', str(sc.options['summary'])] if sc.options.get('summary') else [])]
+        if sim and not player and duration > 0:  # a run whose /clock stopped earlier is marked cut, exit 1
+            out.summary += ['--duration', f'{duration:g}']
+    wait_for = ','.join(spec.name for spec in sc.nodes)
     if sim and not player:
         out.clock = Launched('clock', 'clock', [{
             'use_sim_time': False, 'rate': rate, 'epoch': arg['epoch'], 'duration': duration,
-            'wait_for': ','.join(spec.name for spec in sc.nodes), 'record_regex': regex if bag else ''}])
-    else:
-        out.wall_duration = duration
+            'wait_for': wait_for, 'record_regex': regex if bag else ''}])
+        return out
+    out.wall_duration = duration
+    players = [spec.name for spec in sc.nodes if spec.executable == 'player']
+    if players:  # a replay ends when its bag is played (a looped one never leaves: duration ends it)
+        out.clock = Launched('clock', 'clock', [{'use_sim_time': False, 'wait_for': wait_for,
+                                                 'end_after': ','.join(players), 'record_regex': regex if bag else ''}])
+        out.clock_done = 'the bag has been played'
     return out
+
+
+class RunCutError(RuntimeError):
+    """The summary says the run did not reach its duration (a stop that reached only the clock node)."""
+
+
+def summary_problem(returncode: int) -> str | None:
+    """What the summary executable's exit code says about the run: None for a complete one."""
+    if returncode == 0:
+        return None
+    if returncode == 1:  # report.summary.EXIT_CUT
+        return 'the run was cut before its duration (see the summary\'s CUT line)'
+    return f'the summary failed (exit code {returncode})'
+
+
+def stopping_reason(name: str, returncode: int | None, shutting_down: bool) -> str | None:
+    """Why the run stops when the node process ``name`` exits with ``returncode``; None: it goes on.
+
+    A node that exits 0 on its own (a played bag) is the clock node's business; during launch's own
+    shutdown (Ctrl-C) every exit is expected."""
+    if shutting_down or returncode in (0, None):
+        return None
+    return f'{name} exited with code {returncode}: stopping the run'
 
 
 def scenario_launch_description(scenario_name: str):
@@ -150,6 +190,15 @@ def _actions(context, sc: Scenario) -> list:
     actions = [node(n) for n in p.nodes]
     recorder = node(p.recorder) if p.recorder else None
 
+    def died(event, ctx) -> list:
+        """A node that ends with an error before the run's end (its data missing: one line of its own)
+        ends the run, instead of a run and a recording going on without it."""
+        if (reason := stopping_reason(event.name, event.returncode, ctx.is_shutdown)) is None:
+            return []
+        return [LogInfo(msg=reason), EmitEvent(event=Shutdown(reason=reason))]
+
+    actions += [RegisterEventHandler(OnProcessExit(target_action=a, on_exit=died)) for a in list(actions)]
+
     def end(reason: str) -> list:
         """Stop the recorder (its exit runs the summary), else shut down."""
         if recorder is None:
@@ -162,16 +211,22 @@ def _actions(context, sc: Scenario) -> list:
 
         def summarize(event, ctx) -> list:
             if ctx.is_shutdown:  # Ctrl-C: launch starts no new process now
+                if not (p.bag / 'metadata.yaml').is_file():  # nothing recorded: the recorder removed it
+                    return [LogInfo(msg=f'no bag: nothing was recorded to {p.bag}')]
                 return [LogInfo(msg=f'bag closed: {p.bag}; its summary: ros2 run track_nodes summary '
                                     f'{" ".join(p.summary)}')]
-            return [ExecuteProcess(cmd=summary, name='summary', output='screen', on_exit=[
-                EmitEvent(event=Shutdown(reason='run done'))])]
+            return [ExecuteProcess(cmd=summary, name='summary', output='screen', on_exit=finished)]
+
+        def finished(event, ctx) -> list:
+            if (problem := summary_problem(event.returncode)) is not None:
+                raise RunCutError(problem)  # launch: "Caught exception in launch: ...", shuts down, exit code 1
+            return [EmitEvent(event=Shutdown(reason='run done'))]
 
         actions += [recorder, RegisterEventHandler(OnProcessExit(target_action=recorder, on_exit=summarize))]
     if p.clock is not None:
         clock = node(p.clock)
         actions += [clock, RegisterEventHandler(OnProcessExit(
-            target_action=clock, on_exit=lambda event, ctx: end(f'/clock done (exit code {event.returncode})')))]
-    elif p.wall_duration > 0:
+            target_action=clock, on_exit=lambda event, ctx: end(f'{p.clock_done} (exit code {event.returncode})')))]
+    if p.wall_duration > 0:
         actions.append(TimerAction(period=p.wall_duration, actions=end(f'{p.wall_duration:g} s of wall time')))
     return actions
