@@ -67,10 +67,11 @@ KEYS = {
     'rosbags': 'python3-rosbags-pip', 'pytest': 'python3-pytest', 'mcap_ros2': 'mcap-ros2-support',
     'catkin_pkg': 'python3-catkin-pkg', 'colcon_core': 'python3-colcon-common-extensions',
     'colcon_python_setup_py': 'python3-colcon-common-extensions', 'pyproj': 'python3-pyproj',
+    'ruamel': 'python3-ruamel.yaml',
 }
 # pip only: a comment in package.xml, the pip step in README
 NO_KEY = {'mcap', 'sllurp', 'llrpkit', 'foxglove', 'websockets', 'pyais', 'pytransform3d'}
-OPTIONAL = {'stonesoup', 'filterpy'}  # track-bench's peers, requirements-bench.txt
+OPTIONAL = {'stonesoup', 'filterpy', 'gtsam'}  # track-bench's and track-experiment's peers, requirements-bench.txt
 NOT_IMPORTED = {'python3-pytest-timeout',  # the pytest plugin of pytest.ini's timeout
                 'ros2launch'}  # what runs launch/*.launch.py
 
