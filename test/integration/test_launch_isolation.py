@@ -234,3 +234,53 @@ def test_a_range_is_searched_from_its_start_and_wraps_past_held_ids():
     finally:
         for _, lock in held:
             lock.close()
+
+
+def _marked(mark: str) -> list[int]:
+    """Pids of the processes whose environment carries ``mark`` (the run's children, wherever they went)."""
+    import os
+
+    pids = []
+    for entry in Path('/proc').iterdir():
+        if entry.name.isdigit() and int(entry.name) != os.getpid():
+            try:
+                if mark.encode() in (entry / 'environ').read_bytes():
+                    pids.append(int(entry.name))
+            except OSError:
+                continue
+    return pids
+
+
+def test_a_killed_processes_launcher_takes_its_nodes_along_and_the_bag_is_closed(tmp_path, ros, repo):
+    """SIGKILL of a ``--processes`` launcher: every node gets SIGINT at its parent's death (PR_SET_PDEATHSIG),
+    so none is left running and the recorder closes its bag (metadata.yaml written)."""
+    import contextlib
+    import os
+    import uuid
+
+    from nav_msgs.msg import Odometry
+    from rclpy.node import Node
+
+    from track_msgs_py.qos import ESTIMATE_QOS
+
+    token = uuid.uuid4().hex
+    mark = f'TRACK_TEST_RUN={token}'
+    env = {**ros.env, 'TRACK_TEST_RUN': token}
+    seen = []
+    probe = ros.add(Node('kill_probe', context=ros.context))
+    probe.create_subscription(Odometry, '/demo/truth', seen.append, ESTIMATE_QOS)
+    proc = launcher(repo, tmp_path, env, '--processes', '--record', 'k', '--rate', '1', '--duration', '600')
+    try:
+        assert ros.spin_until(lambda: len(seen) >= 3 or proc.poll() is not None, timeout=180), 'no truth'
+        children = [p for p in _marked(mark) if p != proc.pid]
+        assert len(children) >= 3, children  # demo_target, demo_tracker, the recorder
+        proc.kill()
+        proc.communicate(timeout=30)
+        assert ros.spin_until(lambda: not [p for p in _marked(mark) if p in children], timeout=60), \
+            [p for p in _marked(mark) if p in children]
+    finally:
+        for p in _marked(mark):
+            with contextlib.suppress(OSError):
+                os.kill(p, signal.SIGKILL)
+    assert (tmp_path / 'bags/k/metadata.yaml').is_file()
+    assert len(payloads(tmp_path / 'bags/k').get('/demo/truth', [])) >= 3

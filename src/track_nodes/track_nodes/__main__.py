@@ -3,11 +3,32 @@
 import contextlib
 import sys
 
+PARENT_ENV = 'TRACK_STOP_WITH_PARENT'  # a launcher's pid: this process gets SIGINT when that process dies
+
+
+def stop_with_parent() -> None:
+    """Linux: ask for SIGINT when the launcher that started this process dies (``prctl(PR_SET_PDEATHSIG)``),
+    so a launcher killed with SIGKILL leaves no node running and the recorder still closes its bag. The
+    launcher names itself in ``TRACK_STOP_WITH_PARENT``; if it is already gone, the stop comes at once."""
+    import os
+
+    parent = os.environ.pop(PARENT_ENV, '')
+    if not parent.isdigit() or not sys.platform.startswith('linux'):
+        return
+    import ctypes
+    import signal
+
+    with contextlib.suppress(OSError, AttributeError):
+        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGINT))  # 1: PR_SET_PDEATHSIG
+    if os.getppid() != int(parent):  # it died before the request took effect (or another started us)
+        os.kill(os.getpid(), signal.SIGINT)
+
 
 def main(argv: list[str] | None = None) -> int:
     """Run the executable named first in ``argv``; its exit code (130: Ctrl-C before rclpy took SIGINT)."""
     args = list(sys.argv[1:] if argv is None else argv)
     try:
+        stop_with_parent()
         # Imported here, inside the guard: on a busy machine they take seconds, and a Ctrl-C then is a stop.
         from track_nodes.base.usage import HELP_FLAGS, cached_help
         from track_nodes.registry import UnknownExecutableError, executables

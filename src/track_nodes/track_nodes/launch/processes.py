@@ -5,7 +5,9 @@ recorder stays in the launcher's namespace, which reaches every host, and discov
 client of the launcher's discovery server (see ``hosts``).
 
 A terminal Ctrl-C then reaches only the launcher, which stops the children (SIGINT, then a kill
-of those that do not stop: ``stop_processes``) so the recorder closes its bag. A child that is
+of those that do not stop: ``stop_processes``) so the recorder closes its bag. A launcher that dies
+without stopping them (SIGKILL) takes them along: each child asks the kernel for SIGINT at its
+parent's death (``track_nodes.__main__.stop_with_parent``). A child that is
 killed is asked for its Python stacks first (SIGUSR1), so a real hang says where.
 """
 
@@ -20,6 +22,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from track_nodes.__main__ import PARENT_ENV
 from track_nodes.base.teardown import DDS_TEARDOWN_MAX, DDS_TEARDOWN_SIGNAL
 from track_nodes.launch.hosts import Hosts
 from track_nodes.launch.scenario import NodeSpec
@@ -39,7 +42,8 @@ def spawn_nodes(specs: Sequence[NodeSpec], params_files: Sequence[str], sim: boo
     children = []
     for k, cmd in enumerate(cmds):
         in_host = hosts is not None and k < len(specs)
-        env = None if hosts is None else hosts.env(super_client=not in_host)  # the recorder sees every topic
+        env = dict(os.environ) if hosts is None else hosts.env(super_client=not in_host)  # the recorder sees all
+        env[PARENT_ENV] = str(os.getpid())  # the child stops when this launcher dies, even by SIGKILL
         child = subprocess.Popen([*hosts.prefix(k % hosts.n), *cmd] if in_host else cmd, env=env,
                                  start_new_session=True)
         child.label = labels[k]  # type: ignore[attr-defined]
