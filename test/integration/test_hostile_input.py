@@ -380,6 +380,23 @@ def test_huge_inputs_are_refused_and_huge_observations_dropped(ros):
     assert np.all(np.isfinite(lm)) and np.all(np.isfinite(covs)) and np.all(np.abs(lm) < 100)
 
 
+@pytest.mark.parametrize('n', [2_000, 100_000])
+def test_an_oversized_scan_is_refused_whole_before_it_reaches_the_filter(ros, n):
+    """A scan of 2,000 observations took the node to 4.5 GB (each one a new landmark of the state); 100k
+    never answered: a scan beyond max_detections (default 500) is refused whole, the node goes on."""
+    slam, poses = _direct_slam(ros)
+    slam._on_input(inputs_to_twist(1.0, 1.0, 0.0))
+    _feed(slam, 1.05, TREES)
+    before = _slam_state(slam)
+    rng = np.random.default_rng(0)
+    flood = np.column_stack([rng.uniform(1.0, 60.0, n), rng.uniform(0.0, np.pi, n)])
+    slam._on_scan(scan_to_pointcloud2(1.1, flood, np.full(n, 0.3)))
+    assert _slam_state(slam) == before and slam.n_bad_scans == 1
+    for k in range(2, 6):
+        _feed(slam, 1.05 + 0.1 * k, TREES)
+    assert len(poses) == 5 and all(_finite_pose(m) for m in poses)
+
+
 # --- sonar_observer and smart_target ---------------------------------------------------------------------
 
 def _sonar_nodes(ros, repo, cls, name):

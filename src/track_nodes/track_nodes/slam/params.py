@@ -69,7 +69,9 @@ class SlamNodeParams:
     observations: str = param('scan_cloud', 'observations: scan_cloud (/slam/scan PointCloud2, bearing 0 = right) or '
                               'detections (/slam/landmarks track_msgs/LandmarkDetectionArray, REP-103)',
                               choices=('scan_cloud', 'detections'))
-    max_detections: int = param(10000, 'refuse a scan or detection array with more entries than this', 1, 1_000_000)
+    max_detections: int = param(500, 'refuse a scan or detection array with more entries than this (Victoria '
+                                'Park: at most 18 trees a scan; each new entry can be a landmark of the state)',
+                                1, 1_000_000)
     publish_odom_tf: bool = param(False, 'acfr inputs (no driver odometry): also broadcast odom_frame -> base_frame '
                                   'dead-reckoned from the inputs, as a driver would; never with odometry input')
     acfr: VehicleParams = group(VehicleParams)
