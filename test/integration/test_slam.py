@@ -22,7 +22,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PointStamped, TwistStamped
 from nav_msgs.msg import Odometry
 from rcl_interfaces.msg import Log
@@ -37,6 +36,7 @@ from visualization_msgs.msg import MarkerArray
 from track_core.slam import HybridParams, HybridSlam, victoria
 from track_core.slam.profiles import VICTORIA_PARK, loop_sim_params
 from track_core.slam.sim import LoopWorld, simulate
+from track_msgs import msg as tm
 from track_msgs_py.clouds import scan_to_pointcloud2, table_to_pointcloud2
 from track_msgs_py.odometry import inputs_to_twist, odometry_to_pose, pose_array_to_positions
 from track_msgs_py.qos import ESTIMATE_QOS, STATIC_QOS
@@ -85,8 +85,8 @@ class Sink:
     def __init__(self, ros) -> None:
         self.node = ros.add(Node('slam_sink', context=ros.context))
         self.msgs: dict[str, list] = {}
-        for topic, cls, qos in ((SLAM_POSE, Odometry, DEEP), (SLAM_MODE, DiagnosticArray, DEEP),
-                                (SLAM_EVENTS, DiagnosticArray, DEEP), (SLAM_GPS, PointStamped, DEEP),
+        for topic, cls, qos in ((SLAM_POSE, Odometry, DEEP), (SLAM_MODE, tm.SlamStatus, DEEP),
+                                (SLAM_EVENTS, tm.SlamEvent, DEEP), (SLAM_GPS, PointStamped, DEEP),
                                 (SLAM_MAP, MarkerArray, STATIC_QOS), ('/rosout', Log, DEEP)):
             self.msgs[topic] = []
             self.node.create_subscription(cls, topic, self.msgs[topic].append, qos)

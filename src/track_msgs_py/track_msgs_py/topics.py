@@ -340,13 +340,12 @@ TOPICS.update({
     SLAM_MAP: TopicSpec('visualization_msgs/msg/MarkerArray', 'static',
                         'landmark map at a modest rate: DELETEALL, one SPHERE_LIST of the means (ns slam_landmarks, '
                         'id 0) and one 2σ ellipse per landmark (ns slam_ellipses, id = landmark index)'),
-    SLAM_MODE: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'estimate',
-                         'after each scan: one status "<node>/mode", message CEKF|PF, values mode, scans, inputs, '
-                         'landmarks, pf_switches, pf_scans, dropped_observations, refused_messages, bad_inputs, '
-                         'bad_scans'),
-    SLAM_EVENTS: TopicSpec('diagnostic_msgs/msg/DiagnosticArray', 'estimate',
-                           'one message per mode switch: status "<node>/mode_switch", message "CEKF -> PF" | '
-                           '"PF -> CEKF", values event (to_pf|to_cekf|pf_timeout), t, pf_scans, x, y, yaw'),
+    SLAM_MODE: TopicSpec('track_msgs/msg/SlamStatus', 'estimate',
+                         'after each scan: mode CEKF|PF, scans, inputs, landmarks, pf_switches, pf_scans, '
+                         'dropped_observations, refused_messages, bad_inputs, bad_scans'),
+    SLAM_EVENTS: TopicSpec('track_msgs/msg/SlamEvent', 'estimate',
+                           'one message per mode switch: event TO_PF|TO_CEKF|PF_TIMEOUT, pf_scans, the pose x, y, '
+                           'yaw after its scan (in header.frame_id)'),
     SLAM_PARTICLES: TopicSpec('geometry_msgs/msg/PoseArray', 'sensor',
                               'PF mode only: the particle cloud after each scan (global frame, heading in the '
                               'orientation; at most max_particles_published); an empty array on leaving PF'),

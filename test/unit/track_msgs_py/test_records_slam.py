@@ -1,60 +1,46 @@
-"""SLAM records: /slam/mode and /slam/events round-trip through their DiagnosticArray, with the keys, order
-and texts the node has always written; the /slam/scan table round-trips through PointCloud2."""
+"""SLAM records: /slam/mode and /slam/events round-trip through their typed messages (SlamStatus,
+SlamEvent); the /slam/scan table round-trips through PointCloud2."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from rclpy.serialization import deserialize_message, serialize_message
 
+from track_msgs import msg as tm
 from track_msgs_py.clouds import pointcloud2_to_table, table_to_pointcloud2
-from track_msgs_py.diagnostics import diagnostic_array, diagnostic_status
-from track_msgs_py.records import DIAG_OK, DIAG_WARN, RecordError, diagnostic_values
+from track_msgs_py.records import RecordError
 from track_msgs_py.records.slam import SlamEvent, SlamMode, SlamScan
 from track_msgs_py.stamps import stamp_to_sec
 
 MODE = SlamMode('PF', 120, 960, 23, 2, 4, 7, 1, 0, 3)
 
 
-def test_mode_round_trip_and_layout():
-    msg = MODE.to_msg(12.5, 'slam')
-    assert stamp_to_sec(msg.header.stamp) == 12.5 and len(msg.status) == 1
-    st = msg.status[0]
-    assert (st.name, st.level, st.message) == ('slam/mode', bytes([DIAG_OK]), 'PF')
-    assert list(diagnostic_values(st).items()) == [
-        ('mode', 'PF'), ('scans', '120'), ('inputs', '960'), ('landmarks', '23'), ('pf_switches', '2'),
-        ('pf_scans', '4'), ('dropped_observations', '7'), ('refused_messages', '1'), ('bad_inputs', '0'),
-        ('bad_scans', '3')]
+def test_mode_round_trip_through_cdr():
+    msg = deserialize_message(serialize_message(MODE.to_msg(12.5)), tm.SlamStatus)
+    assert stamp_to_sec(msg.header.stamp) == 12.5 and msg.mode == tm.SlamStatus.PF and msg.landmarks == 23
     assert SlamMode.from_msg(msg) == MODE
 
 
-def test_mode_equals_the_hand_built_message_of_the_old_node():
-    values = {'mode': 'CEKF', 'scans': 3, 'inputs': 30, 'landmarks': 5, 'pf_switches': 0, 'pf_scans': 0,
-              'dropped_observations': 0, 'refused_messages': 2, 'bad_inputs': 1, 'bad_scans': 0}
-    old = diagnostic_array(1.0, [diagnostic_status('slam/mode', DIAG_OK, 'CEKF', values)])
-    assert SlamMode(**values).to_msg(1.0, 'slam') == old
-
-
-@pytest.mark.parametrize(('kind', 'level', 'text'), [
-    ('to_pf', DIAG_WARN, 'CEKF -> PF'), ('to_cekf', DIAG_OK, 'PF -> CEKF'),
-    ('pf_timeout', DIAG_WARN, 'PF -> CEKF (timeout)')])
-def test_event_round_trip_level_and_text(kind, level, text):
+@pytest.mark.parametrize(('kind', 'code', 'text'), [
+    ('to_pf', tm.SlamEvent.TO_PF, 'CEKF -> PF'), ('to_cekf', tm.SlamEvent.TO_CEKF, 'PF -> CEKF'),
+    ('pf_timeout', tm.SlamEvent.PF_TIMEOUT, 'PF -> CEKF (timeout)')])
+def test_event_round_trip_code_and_text(kind, code, text):
     ev = SlamEvent(kind, 41.123456789, 5, 1.0 / 3.0, -2.5, 3.0)
-    msg = ev.to_msg('slam')
-    st = msg.status[0]
-    assert (st.name, st.level, st.message) == ('slam/mode_switch', bytes([level]), text)
+    msg = deserialize_message(serialize_message(ev.to_msg('map')), tm.SlamEvent)
+    assert msg.event == code and msg.header.frame_id == 'map' and ev.text == text
     assert stamp_to_sec(msg.header.stamp) == pytest.approx(41.123456789, abs=1e-9)
-    assert diagnostic_values(st) == {'event': kind, 't': '41.123456789', 'pf_scans': '5',
-                                     'x': str(1.0 / 3.0), 'y': '-2.5', 'yaw': '3.0'}
-    assert SlamEvent.from_msg(msg) == ev  # floats exactly
+    back = SlamEvent.from_msg(msg)
+    assert (back.event, back.pf_scans, back.x, back.y, back.yaw) == (kind, 5, 1.0 / 3.0, -2.5, 3.0)  # floats exactly
 
 
 def test_bad_records_are_one_line():
-    st = MODE.to_status('slam/mode')
-    st.values = [kv for kv in st.values if kv.key != 'landmarks']
-    with pytest.raises(RecordError, match="slam mode: missing key 'landmarks'"):
-        SlamMode.from_status(st)
-    with pytest.raises(RecordError, match='expected one status, got 0'):
-        SlamEvent.from_msg(diagnostic_array(0.0, []))
+    msg = MODE.to_msg(1.0)
+    msg.mode = 7
+    with pytest.raises(RecordError, match='slam mode: code 7'):
+        SlamMode.from_msg(msg)
+    with pytest.raises(RecordError, match="'to_nowhere' is not one of"):
+        SlamEvent('to_nowhere', 1.0, 0, 0.0, 0.0, 0.0).to_msg()
 
 
 def test_scan_round_trip_through_pointcloud2():

@@ -1,10 +1,8 @@
 """Typed records of the SLAM topics: ``/slam/mode``, ``/slam/events`` and the ``/slam/scan`` table.
 
-- ``SlamMode``: one ``DiagnosticArray`` per processed scan, one status ``<node>/mode`` (level OK,
-  message = the mode) with the mode and the node's counters;
-- ``SlamEvent``: one ``DiagnosticArray`` per mode switch, one status ``<node>/mode_switch`` (level
-  OK for PF → CEKF, WARN otherwise; message e.g. ``CEKF -> PF``) with the pose after the scan of
-  the switch;
+- ``SlamMode``: one ``track_msgs/SlamStatus`` per processed scan: the mode and the node's counters;
+- ``SlamEvent``: one ``track_msgs/SlamEvent`` per mode switch, with the pose after the scan of the
+  switch;
 - ``SlamScan``: one laser scan as a ``PointCloud2`` table: float32 ``x``, ``y``, ``z`` (the detection
   in the laser frame, x ahead and y left: ``clouds.scan_points``, z = 0; for the viewers, never
   read back), then float32 ``range``, ``bearing``, ``diameter`` and any extra column such as
@@ -21,28 +19,37 @@ from dataclasses import dataclass, field
 from typing import Self
 
 import numpy as np
-from diagnostic_msgs.msg import DiagnosticArray
 from sensor_msgs.msg import PointCloud2
 
+from track_msgs import msg as tm
 from track_msgs_py.clouds import cloud_columns, scan_to_pointcloud2
-from track_msgs_py.diagnostics import diagnostic_array
-from track_msgs_py.records import DIAG_OK, DIAG_WARN, RecordError, StatusRecord, read_cloud
-from track_msgs_py.stamps import stamp_to_sec
-from track_msgs_py.topics import FRAME_LASER
+from track_msgs_py.records import RecordError, read_cloud
+from track_msgs_py.stamps import stamp_to_sec, stamped_header
+from track_msgs_py.topics import FRAME_LASER, FRAME_MAP
 
 #: ``SlamEvent.event`` → the status message.
 EVENT_TEXT = {'to_pf': 'CEKF -> PF', 'to_cekf': 'PF -> CEKF', 'pf_timeout': 'PF -> CEKF (timeout)'}
 
 
-def _single_status(cls, msg: DiagnosticArray):
-    if len(msg.status) != 1:
-        raise RecordError(f'{cls.KIND}: expected one status, got {len(msg.status)}')
-    return cls.from_status(msg.status[0])
+MODES = ('CEKF', 'PF')  # SlamStatus.mode 0, 1
+EVENTS = ('to_pf', 'to_cekf', 'pf_timeout')  # SlamEvent.event 0, 1, 2 (``track_core.slam.Event.kind``)
+
+
+def _code(kind: str, names: tuple[str, ...], value: str) -> int:
+    if value not in names:
+        raise RecordError(f'{kind}: {value!r} is not one of {names}')
+    return names.index(value)
+
+
+def _name(kind: str, names: tuple[str, ...], code: int) -> str:
+    if not 0 <= code < len(names):
+        raise RecordError(f'{kind}: code {code} is not one of 0..{len(names) - 1} ({", ".join(names)})')
+    return names[code]
 
 
 @dataclass(frozen=True)
-class SlamMode(StatusRecord):
-    """The filter's mode (``CEKF`` or ``PF``) and counters after one scan (the ``/slam/mode`` values)."""
+class SlamMode:
+    """The filter's mode (``CEKF`` or ``PF``) and counters after one scan (``/slam/mode``, ``SlamStatus``)."""
 
     KIND = 'slam mode'
 
@@ -57,17 +64,23 @@ class SlamMode(StatusRecord):
     bad_inputs: int
     bad_scans: int
 
-    def to_msg(self, t: float, node_name: str) -> DiagnosticArray:
-        return diagnostic_array(t, [self.to_status(f'{node_name}/mode', DIAG_OK, self.mode)])
+    def to_msg(self, t: float) -> tm.SlamStatus:
+        return tm.SlamStatus(header=stamped_header(t, ''), mode=_code(self.KIND, MODES, self.mode), scans=self.scans,
+                             inputs=self.inputs, landmarks=self.landmarks, pf_switches=self.pf_switches,
+                             pf_scans=self.pf_scans, dropped_observations=self.dropped_observations,
+                             refused_messages=self.refused_messages, bad_inputs=self.bad_inputs,
+                             bad_scans=self.bad_scans)
 
     @classmethod
-    def from_msg(cls, msg: DiagnosticArray) -> Self:
-        return _single_status(cls, msg)
+    def from_msg(cls, msg: tm.SlamStatus) -> Self:
+        return cls(_name(cls.KIND, MODES, msg.mode), msg.scans, msg.inputs, msg.landmarks, msg.pf_switches,
+                   msg.pf_scans, msg.dropped_observations, msg.refused_messages, msg.bad_inputs, msg.bad_scans)
 
 
 @dataclass(frozen=True)
-class SlamEvent(StatusRecord):
-    """One mode switch (``track_core.slam.Event``) and the pose after the scan on which it happened."""
+class SlamEvent:
+    """One mode switch (``track_core.slam.Event``) and the pose after the scan on which it happened
+    (``/slam/events``, ``track_msgs/SlamEvent``)."""
 
     KIND = 'slam event'
 
@@ -82,13 +95,14 @@ class SlamEvent(StatusRecord):
     def text(self) -> str:
         return EVENT_TEXT.get(self.event, self.event)
 
-    def to_msg(self, node_name: str) -> DiagnosticArray:
-        level = DIAG_OK if self.event == 'to_cekf' else DIAG_WARN
-        return diagnostic_array(self.t, [self.to_status(f'{node_name}/mode_switch', level, self.text)])
+    def to_msg(self, frame_id: str = FRAME_MAP) -> tm.SlamEvent:
+        return tm.SlamEvent(header=stamped_header(self.t, frame_id), event=_code(self.KIND, EVENTS, self.event),
+                            pf_scans=self.pf_scans, x=float(self.x), y=float(self.y), yaw=float(self.yaw))
 
     @classmethod
-    def from_msg(cls, msg: DiagnosticArray) -> Self:
-        return _single_status(cls, msg)
+    def from_msg(cls, msg: tm.SlamEvent) -> Self:
+        return cls(_name(cls.KIND, EVENTS, msg.event), stamp_to_sec(msg.header.stamp), msg.pf_scans, msg.x, msg.y,
+                   msg.yaw)
 
 
 @dataclass(frozen=True, eq=False)

@@ -10,7 +10,7 @@ line each; an empty list means every frame is placed. ``python -m track_nodes.ba
   whole: ``"map#r017"`` (a track id riding in the frame, ``topics.track_frame_id``) is a frame
   that no transform names, so it is reported as not placed, as RViz and Foxglove would fail on it. An
   empty frame id is a problem, except in ``DiagnosticArray``, the RFID and IDSQ protocols' messages and
-  the sonar's request and statuses (no spatial content);
+  the sonar's request and statuses and the SLAM status (no spatial content);
 - ``child_frame_id`` of an Odometry on a body-frame topic (``tf.BODY_FRAME_TOPICS``: the SLAM
   laser, its truth, the sonar observer) must be placed the same way. On every other topic the
   child_frame_id names a track or target (DESIGN.md), not a frame (``tf.TRACK_CHILD_NOTE``): it is
@@ -41,7 +41,7 @@ _NO_FRAME_TYPES = frozenset({'diagnostic_msgs/msg/DiagnosticArray', 'track_msgs/
                              'track_msgs/msg/RfidStep', 'track_msgs/msg/RfidFound', 'track_msgs/msg/IdsqAck',
                              'track_msgs/msg/IdsqRevoke', 'track_msgs/msg/IdsqLeaderEvent',
                              'track_msgs/msg/SonarModeCommand', 'track_msgs/msg/SonarFilterStatus',
-                             'track_msgs/msg/SonarTargetStatus'})
+                             'track_msgs/msg/SonarTargetStatus', 'track_msgs/msg/SlamStatus'})
 _HEADER = 'std_msgs/msg/Header'
 
 

@@ -71,15 +71,14 @@ def slam_metrics(bag: Path) -> list[str]:
     return lines
 
 
-def _records(cls, arrays) -> list:
-    """Every status of ``arrays`` that holds a ``cls`` record, as one (others skipped)."""
+def _records(cls, msgs) -> list:
+    """The ``cls`` record of every message of ``msgs`` that holds one (others skipped)."""
     from track_msgs_py.records import RecordError
 
     out = []
-    for a in arrays:
-        for st in a.status:
-            try:
-                out.append(cls.from_status(st))
-            except RecordError:
-                continue
+    for m in msgs:
+        try:
+            out.append(cls.from_msg(m))
+        except RecordError:
+            continue
     return out

@@ -28,8 +28,8 @@ The filter's state is the laser's position with the robot's heading (``models``)
 - ``/slam/pose`` (nav_msgs/Odometry, after every scan): the pose of ``base_frame`` (``pose_of: base``,
   REP-105) or of the laser (``pose_of: laser``, the filter state) in map with its x/y/yaw covariance,
   and its twin ``/slam/pose/pose`` (geometry_msgs/PoseWithCovarianceStamped, ``base/twins.py``);
-- ``/slam/mode`` (DiagnosticArray, ``records.slam.SlamMode``, after every scan): mode and counters;
-- ``/slam/events`` (DiagnosticArray, ``records.slam.SlamEvent``): one per mode switch, with the pose;
+- ``/slam/mode`` (``track_msgs/SlamStatus``, ``records.slam.SlamMode``, after every scan): mode and counters;
+- ``/slam/events`` (``track_msgs/SlamEvent``, ``records.slam.SlamEvent``): one per mode switch, with the pose;
 - ``/slam/particles`` (geometry_msgs/PoseArray, with headings): the particle cloud after every scan the
   PF ran on (``HybridSlam.last_particles``), including the one on which it handed back to the CEKF
   (in the PF's map frame, before the hand-over update), and an empty array at the next scan;
@@ -93,7 +93,6 @@ import math
 import time
 
 import numpy as np
-from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseArray, TwistStamped
 from nav_msgs.msg import Odometry
 from rclpy.clock import Clock, ClockType
@@ -109,6 +108,7 @@ from track_core.slam.landmarks import to_eq5_bearing
 from track_core.slam.models import UnicycleParams, acfr_to_unicycle
 from track_core.slam.odometry import OdometryInputs, OdomTrack, base_to_sensor, map_to_odom, sensor_to_base
 from track_core.slam.streams import INPUT, SCAN, StreamMerger, scan_observations
+from track_msgs import msg as tm
 from track_msgs_py.markers.slam import map_markers
 from track_msgs_py.odometry import pose_to_odometry, positions_to_pose_array, twist_to_inputs
 from track_msgs_py.qos import ESTIMATE_QOS, SENSOR_QOS, STATIC_QOS
@@ -170,8 +170,8 @@ class SlamNode(TrackNode):
         self.n_inputs = self.n_scans = 0
         self.n_dropped_obs = self.n_bad_inputs = self.n_bad_scans = self.n_refused = 0
         self.pub_pose = self.create_publisher(Odometry, SLAM_POSE, ESTIMATE_QOS)
-        self.pub_mode = self.create_publisher(DiagnosticArray, SLAM_MODE, ESTIMATE_QOS)
-        self.pub_events = self.create_publisher(DiagnosticArray, SLAM_EVENTS, ESTIMATE_QOS)
+        self.pub_mode = self.create_publisher(tm.SlamStatus, SLAM_MODE, ESTIMATE_QOS)
+        self.pub_events = self.create_publisher(tm.SlamEvent, SLAM_EVENTS, ESTIMATE_QOS)
         self.pub_particles = self.create_publisher(PoseArray, SLAM_PARTICLES, SENSOR_QOS)
         self.pub_map = self.create_publisher(MarkerArray, SLAM_MAP, STATIC_QOS)
         self.pub_landmark_map = self.create_publisher(LandmarkMap.msg_type(), SLAM_LANDMARK_MAP, STATIC_QOS)
@@ -406,7 +406,7 @@ class SlamNode(TrackNode):
                         sum(e.kind == 'to_pf' for e in s.events),
                         s.ctx.pf.n_scans if s.mode == 'PF' and s.ctx is not None else 0,
                         self.n_dropped_obs, self.n_refused, self.n_bad_inputs, self.n_bad_scans)
-        self.pub_mode.publish(mode.to_msg(t, self.get_name()))
+        self.pub_mode.publish(mode.to_msg(t))
         if self._map_ns is None or t_ns - self._map_ns >= round(p.map_period * 1e9):
             self._publish_map(t)
 
@@ -439,7 +439,7 @@ class SlamNode(TrackNode):
     def _publish_event(self, ev) -> None:
         x, y, yaw = (float(v) for v in self.slam.pose)
         rec = SlamEvent(ev.kind, ev.t, ev.scans, x, y, yaw)
-        self.pub_events.publish(rec.to_msg(self.get_name()))
+        self.pub_events.publish(rec.to_msg(self.p.frame_id))
         self.get_logger().info(f't = {ev.t:.3f} s: {rec.text}' + (f' after {ev.scans} PF scans' if ev.scans else ''))
 
     def _publish_map(self, t: float) -> None:
