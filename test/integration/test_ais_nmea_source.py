@@ -68,9 +68,9 @@ def _free_port() -> int:
 
 def test_nmea_over_udp_gives_one_track_per_mmsi(ros):
     port = _free_port()
+    got = _sink(ros)   # the listener first, and matched before a report is read: nothing published is lost
     node = _node(ros, udp_port=port, origin=list(ORIGIN))
-    got = _sink(ros)
-    ros.spin_until(lambda: node.count_subscribers(AIS_NMEA_TRACKS) > 0, timeout=10)
+    assert ros.spin_until(lambda: node.pub.get_subscription_count() > 0, timeout=30)
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as tx:
         for line in _capture():          # one sentence per datagram, as receivers send them
             tx.sendto((line + '\r\n').encode(), ('127.0.0.1', port))
@@ -98,9 +98,11 @@ def test_nmea_over_udp_gives_one_track_per_mmsi(ros):
 def test_first_fix_sets_the_datum_and_a_second_origin_is_refused(ros, tmp_path):
     capture = tmp_path / 'capture.nmea'
     capture.write_text(''.join(line + '\n' for line in _capture()))
-    first = _node(ros, 'first', file=str(capture))
-    got = _sink(ros)
-    assert ros.spin_until(lambda: got['datum'] and len(got['tracks']) >= 2 * len(SHIPS), timeout=20)
+    got = _sink(ros)   # the listener first; the file is read after datum_wait, by when the two have matched
+    first = _node(ros, 'first', file=str(capture), datum_wait=5.0)
+    assert ros.spin_until(lambda: first.pub.get_subscription_count() > 0, timeout=30)
+    assert ros.spin_until(lambda: got['datum'] and len(got['tracks']) >= 2 * len(SHIPS), timeout=30), \
+        (len(got['tracks']), first.published)
     lat0, lon0 = SHIPS[235000001]
     assert (got['datum'][-1].latitude, got['datum'][-1].longitude) == (lat0, lon0)      # the first fix
     assert first.datum.same_as(lat0, lon0)
