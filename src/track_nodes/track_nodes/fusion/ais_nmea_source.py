@@ -59,7 +59,7 @@ from track_msgs_py.diagnostics import DIAG_OK, DIAG_WARN, diagnostic_array, diag
 from track_msgs_py.qos import ESTIMATE_QOS, STATIC_QOS
 from track_msgs_py.topics import AIS_NMEA, DIAGNOSTICS
 from track_nodes.base import ParameterError, TrackNode, param
-from track_nodes.fusion.map_datum import MapDatumLink
+from track_nodes.fusion.map_datum import MapDatumLink, latlon_param
 from track_nodes.fusion.nmea import Decoder, Position, Static
 
 MAX_DATAGRAM = 65535
@@ -93,15 +93,6 @@ class AisNmeaSourceParams:
                               0.0, 60.0)
 
 
-def _origin(value) -> tuple[float, float] | None:
-    v = [float(x) for x in value]
-    if v == [0.0]:
-        return None
-    if len(v) != 2 or not (-90.0 < v[0] < 90.0 and -180.0 <= v[1] <= 180.0):
-        raise ParameterError(f'parameter origin={list(value)} is invalid: allowed [lat, lon] in degrees or [0.0]')
-    return v[0], v[1]
-
-
 class AisNmeaSourceNode(TrackNode):
     DEFAULT_NAME = 'ais_nmea_source'
     Params = AisNmeaSourceParams
@@ -117,7 +108,7 @@ class AisNmeaSourceNode(TrackNode):
         self.ships = ShipTable(max_ships=p.max_ships, forget_after=p.forget_after)
         self.watch = FeedWatch(p.silence)
         self.published = 0
-        self.map_datum = MapDatumLink(self, _origin(p.origin))
+        self.map_datum = MapDatumLink(self, latlon_param('origin', p.origin, unset_allowed=True))
         self.ready = False
         self.pub = self.create_publisher(TrackArray, f'{prefix}/tracks', ESTIMATE_QOS)
         self.pub_ships = self.create_publisher(DiagnosticArray, f'{prefix}/ships', STATIC_QOS)

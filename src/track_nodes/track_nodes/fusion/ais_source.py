@@ -68,7 +68,7 @@ from track_msgs_py.records.fusion import AisTruthEntry
 from track_msgs_py.topics import FRAME_MAP, ais_markers_topic, ais_reports_topic, ais_truth_topic
 from track_msgs_py.track_arrays import position_tracks, tracks_to_array
 from track_nodes.base import FixedRateSteps, ParameterError, TrackNode, param
-from track_nodes.fusion.map_datum import MapDatumLink
+from track_nodes.fusion.map_datum import MapDatumLink, latlon_param
 
 
 @dataclass
@@ -107,13 +107,6 @@ class AisSourceParams:
     marker_rgba: list[float] = param([0.0, 0.6, 1.0, 0.5], 'colour [r, g, b, a] of the 2σ discs on <prefix>/markers')
 
 
-def _latlon(name: str, value) -> tuple[float, float]:
-    v = [float(x) for x in value]
-    if len(v) != 2 or not (-90.0 <= v[0] <= 90.0 and -180.0 <= v[1] <= 180.0):
-        raise ParameterError(f'parameter {name}={list(value)} is invalid: allowed [lat, lon] in degrees')
-    return v[0], v[1]
-
-
 class AisSourceNode(TrackNode):
     DEFAULT_NAME = 'ais_source'
     Params = AisSourceParams
@@ -134,13 +127,13 @@ class AisSourceNode(TrackNode):
         for line in data.warnings:
             self.get_logger().warning(line)
         centroid = list(p.origin) == [0.0]
-        origin = data.centroid() if centroid else _latlon('origin', p.origin)
+        origin = data.centroid() if centroid else latlon_param('origin', p.origin)
         self.data = data
         self.model = SourceModel(name=self.get_name(), id_prefix=p.id_prefix, period=p.period, offset=p.offset,
                                  sigma_major=p.sigma_major, sigma_minor=p.sigma_minor, orientation=p.orientation,
                                  bearing_deg=p.bearing_deg,
                                  site=(f'hull:{p.site_bearing_deg:g}' if list(p.site) == [0.0]
-                                       else _latlon('site', p.site)),
+                                       else latlon_param('site', p.site)),
                                  max_range=p.max_range or None, dropout=p.dropout)
         try:
             self._simulate(Datum(*origin))

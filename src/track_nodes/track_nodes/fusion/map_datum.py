@@ -29,6 +29,20 @@ from track_msgs_py.qos import STATIC_QOS
 from track_msgs_py.topics import FRAME_MAP, MAP_DATUM
 
 
+def latlon_param(name: str, value, unset_allowed: bool = False) -> tuple[float, float] | None:
+    """A ``[lat, lon]`` parameter in degrees, checked (one ``ParameterError`` line); ``[0.0]`` is None (unset)
+    when ``unset_allowed``."""
+    from track_nodes.base import ParameterError
+
+    v = [float(x) for x in value]
+    if unset_allowed and v == [0.0]:
+        return None
+    if len(v) != 2 or not (-90.0 <= v[0] <= 90.0 and -180.0 <= v[1] <= 180.0):
+        raise ParameterError(f'parameter {name}={list(value)} is invalid: allowed [lat, lon] in degrees'
+                             + (' or [0.0]' if unset_allowed else ''))
+    return v[0], v[1]
+
+
 class MapDatumLink:
     """A node's end of the run's datum: ``run`` (the rule), the latched topic and the earth → map transform."""
 
