@@ -136,7 +136,7 @@ def test_a_capture_played_over_udp_keeps_its_spacing_on_the_run_clock(ros, tmp_p
     """nmea_player plays a timed capture at its pace, restamped on its clock: the source stamps each report with
     the play time (stamp:=receiver), so the reports keep the capture's spacing to the millisecond."""
     from track_msgs_py.stamps import stamp_to_sec
-    from track_nodes.fusion.nmea_play import NmeaPlayerNode
+    from track_nodes.fusion.nmea_player import NmeaPlayerNode
 
     t0 = 1452603731.0
     lines, times = [], []

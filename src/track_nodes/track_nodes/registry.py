@@ -29,7 +29,7 @@ NODES = {
     'report_source': 'track_nodes.fusion.report_source:ReportSourceNode',
     'ais_source': 'track_nodes.fusion.ais_source:AisSourceNode',
     'ais_nmea_source': 'track_nodes.fusion.ais_nmea_source:AisNmeaSourceNode',
-    'nmea_player': 'track_nodes.fusion.nmea_play:NmeaPlayerNode',
+    'nmea_player': 'track_nodes.fusion.nmea_player:NmeaPlayerNode',
     'fusion': 'track_nodes.fusion.fusion:FusionNode',
     # bag tools that are nodes
     'recorder': 'track_nodes.bag.recorder:RecorderNode',
