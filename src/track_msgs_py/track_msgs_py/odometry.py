@@ -99,7 +99,12 @@ def orientation_matrix(q) -> np.ndarray | None:
     n = x * x + y * y + z * z + w * w
     if (x == 0.0 and y == 0.0 and z == 0.0) or not n > 0.0:  # identity, unset, or too small to mean a rotation
         return None
-    s = 2.0 / n
+    return quaternion_matrix(x, y, z, w)
+
+
+def quaternion_matrix(x: float, y: float, z: float, w: float) -> np.ndarray:
+    """Rotation matrix (3×3) of the quaternion (x, y, z, w), normalised on the way (a non-zero one)."""
+    s = 2.0 / (x * x + y * y + z * z + w * w)
     return np.array([
         [1.0 - s * (y * y + z * z), s * (x * y - z * w), s * (x * z + y * w)],
         [s * (x * y + z * w), 1.0 - s * (x * x + z * z), s * (y * z - x * w)],
@@ -178,10 +183,15 @@ def pose_to_odometry(t: float, pose: np.ndarray, P: np.ndarray, frame_id: str = 
     return msg
 
 
+def quaternion_yaw(q) -> float:
+    """Yaw [rad, REP-103] of a ``geometry_msgs/Quaternion``: the rotation about z (ZYX order)."""
+    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+
+
 def odometry_to_pose(msg: Odometry) -> tuple[float, np.ndarray, np.ndarray]:
     """Inverse of :func:`pose_to_odometry`: (t, pose (x, y, yaw), P (3×3)); yaw from a z-axis rotation."""
-    p, q = msg.pose.pose.position, msg.pose.pose.orientation
-    yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+    p = msg.pose.pose.position
+    yaw = quaternion_yaw(msg.pose.pose.orientation)
     cov = np.asarray(msg.pose.covariance, dtype=float).reshape(6, 6)[np.ix_(_POSE_IDX, _POSE_IDX)]
     return stamp_to_sec(msg.header.stamp), np.array([p.x, p.y, yaw]), cov.copy()
 

@@ -31,6 +31,7 @@ import numpy as np
 from pytransform3d.transform_manager import NumpyTimeseriesTransform, StaticTransform, TemporalTransformManager
 
 from track_msgs_py.covariance import not_estimated
+from track_msgs_py.odometry import quaternion_matrix
 from track_msgs_py.stamps import stamp_to_sec
 from track_msgs_py.tf import frame_pair_problem
 
@@ -142,7 +143,7 @@ class TransformBuffer:
                 A2B = np.eye(4)
                 A2B[:3, 3] = e.pqs[0][:3]
                 w, x, y, z = e.pqs[0][3:]
-                A2B[:3, :3] = _rotation(w, x, y, z)
+                A2B[:3, :3] = quaternion_matrix(x, y, z, w)
                 self.manager.add_transform(child, e.parent, StaticTransform(A2B))
             else:
                 times, pqs = np.array(e.times), np.array(e.pqs)
@@ -177,12 +178,6 @@ class TransformBuffer:
             if e is not None and not e.static and not (e.times[0] - 1e-9 <= a and b <= e.times[-1] + 1e-9):
                 return False
         return True
-
-
-def _rotation(w, x, y, z) -> np.ndarray:
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
 
 
 def _planar(T: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:

@@ -32,6 +32,7 @@ from typing import Self
 
 import numpy as np
 
+from track_msgs_py.odometry import quaternion_yaw
 from track_msgs_py.records import RecordError
 from track_msgs_py.stamps import stamp_to_sec, stamped_header
 
@@ -188,8 +189,8 @@ class PlanarOdometry:
     @classmethod
     def from_msg(cls, msg) -> Self:
         """Call ``validate.odometry_problem`` first (finite numbers, unit quaternion, 36-entry covariances)."""
-        p, q = msg.pose.pose.position, msg.pose.pose.orientation
-        yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+        p = msg.pose.pose.position
+        yaw = quaternion_yaw(msg.pose.pose.orientation)
         tc = np.asarray(msg.twist.covariance, dtype=float)
         cov = np.array([[tc[0], tc[5]], [tc[30], tc[35]]])
         if not np.any(cov):
