@@ -247,6 +247,8 @@ def test_by_default_a_recorder_beside_a_sim_time_run_follows_its_clock(ros, tmp_
         clock_pub.publish(Clock(clock=rclpy.time.Time(nanoseconds=t0 + i * 10**9).to_msg()))
         assert ros.spin_until(lambda i=i: took(t0 + i * 10**9), 10.0)
         sent += publish_all(ros, pub, [odom(i)])
+        # taken before the next /clock (on a busy machine the next /clock can overtake it)
+        assert ros.spin_until(lambda i=i: rec.message_counts().get('/run/odom', 0) == i + 1, 10.0)
     assert ros.spin_until(lambda: rec.message_counts() == {'/run/odom': 11}, 10.0)
     close_node(ros, rec)
     with Reader(bag) as reader:

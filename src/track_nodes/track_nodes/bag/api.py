@@ -6,9 +6,6 @@
 - ``open_bag_checked(path)``: open a rosbag2 bag for reading, turning every way a bag can be
   bad (missing, not a bag, killed recorder, truncated or corrupt .mcap) into ``BagError`` with
   one line naming the file and the problem.
-- ``set_ros_distro(bag)``: metadata.yaml names the ROS distribution (``jazzy``), not ``rosbags``;
-  ``embed_ros_distro(writer)`` does the same for the rosbag2 metadata record inside the MCAP.
-- ``flush_mcap_writer(writer)``: make a rosbags MCAP writer's pending data durable (see there).
 - ``recording_qos(profiles)``: the recorder's subscription QoS for a topic's publishers.
 """
 
@@ -192,43 +189,6 @@ def count_messages(reader, path: Path, since: int = 0, connections=()) -> tuple[
     return counts, after, last
 
 
-# -- SIGKILL safety of rosbags' MCAP writer -------------------------------------------------
-
-_PINNED = 'rosbags 0.11.9'
-
-
-def check_mcap_writer_internals(writer) -> None:
-    """Fail early and clearly if rosbags' private McapWriter layout is not the one we rely on."""
-    storage = getattr(writer, 'storage', None)
-    chunk = getattr(storage, 'chunk', None)
-    ok = (callable(getattr(storage, 'close_chunk', None)) and hasattr(storage, 'bio')
-          and hasattr(chunk, 'msgs') and hasattr(chunk, 'bio'))
-    if not ok:
-        import rosbags
-
-        version = getattr(rosbags, '__version__', 'unknown')
-        raise RuntimeError(f'rosbags {version}: McapWriter internals (storage.chunk, storage.close_chunk, '
-                           f'storage.bio) changed; periodic flushing needs {_PINNED}')
-
-
-def flush_mcap_writer(writer) -> bool:
-    """Close rosbags' pending MCAP chunk (if it holds messages) and flush the file to the OS.
-
-    rosbags keeps up to 1 MiB of messages in memory before writing a chunk; after this call the
-    file holds every message written so far, so a SIGKILL loses nothing older than the last
-    flush (recover such a file with ``track-bag-recover``). Returns True if a chunk was written.
-    """
-    storage = writer.storage
-    if storage is None:
-        return False
-    wrote = False
-    if storage.chunk.msgs:
-        storage.close_chunk()
-        wrote = True
-    storage.bio.flush()
-    return wrote
-
-
 RECORD_DEPTH = 100_000  # queue of a reliable recording subscription (Fast DDS allocates it as it fills)
 RECORD_DEPTH_BEST_EFFORT = 1000  # queue of a best-effort one (nothing waits for it anyway)
 
@@ -251,33 +211,3 @@ def recording_qos(publisher_profiles: Sequence) -> QoSProfile:
         history=HistoryPolicy.KEEP_LAST, depth=RECORD_DEPTH_BEST_EFFORT if best_effort else RECORD_DEPTH,
         reliability=ReliabilityPolicy.BEST_EFFORT if best_effort else ReliabilityPolicy.RELIABLE,
         durability=DurabilityPolicy.TRANSIENT_LOCAL if transient else DurabilityPolicy.VOLATILE)
-
-ROS_DISTRO = 'jazzy'
-
-
-def embed_ros_distro(writer, distro: str = ROS_DISTRO) -> None:
-    """Make the rosbag2 metadata record an open rosbags ``Writer`` puts into the MCAP at close name ``distro``.
-
-    rosbags writes ``ros_distro: rosbags`` both there and in metadata.yaml (``set_ros_distro``);
-    readers of the MCAP alone (Foxglove, ``mcap info``) see this record. Wraps the storage's close.
-    """
-    storage = writer.storage
-    close = storage.close
-
-    def close_naming_the_distro(version: int, metadata: str) -> None:
-        close(version, metadata.replace('ros_distro: rosbags', f'ros_distro: {distro}', 1))
-
-    storage.close = close_naming_the_distro
-
-
-def set_ros_distro(bag: Path | str, distro: str = ROS_DISTRO) -> None:
-    """Write ``ros_distro: <distro>`` into a closed bag's metadata.yaml (rosbags' Writer puts ``rosbags``).
-
-    Tools that read the field (``ros2 bag info``, Foxglove) then see the distribution the bag's
-    message definitions are from, as for a bag written by rosbag2 on Jazzy.
-    """
-    meta = Path(bag) / 'metadata.yaml'
-    text = meta.read_text()
-    fixed = text.replace('ros_distro: rosbags', f'ros_distro: {distro}', 1)
-    if fixed != text:
-        meta.write_text(fixed)

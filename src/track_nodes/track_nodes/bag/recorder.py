@@ -5,46 +5,23 @@ Usage::
     track-record NAME [-t TOPIC ...] [-e REGEX] [--no-tf] [--clock auto|sim|wall] [--flush-period S] [--ros-args ...]
     .venv/lib/track_nodes/recorder --ros-args -p bag:=NAME -p regex:=REGEX -p topics:="['/a', '/b']"
 
-- NAME → ``bags/NAME/`` relative to the cwd, or a path if it contains '/'. An existing bag is
-  never overwritten (one error line, exit 2). Without a name: ``bags/rosbag2_<timestamp>/``.
-- What is recorded: the listed ``topics``, plus every topic matching ``regex`` (``re.search``).
-  With neither, every topic. ``/rosout``, ``/parameter_events`` and ``/track/ready`` are only recorded when listed
-  in ``topics``. The transform tree, ``/tf`` and ``/tf_static``, and the run's ``/map_datum`` are recorded
-  too whatever the filter (a bag whose frames cannot be placed, or whose map cannot be put on the earth, is
-  of little use in RViz or Foxglove), unless
-  ``tf`` is false (``--no-tf``); a topic listed in ``topics`` is recorded even then. ``/tf_static``
-  is transient-local, so a recorder started late still gets every static transform. Topics that
-  appear later are found by polling the graph every ``discovery_period`` seconds; a topic is
-  subscribed once it has a publisher (its type and QoS come from the publishers). Discovery and
-  flushing run on the steady clock, also under ``use_sim_time`` (/clock may start only later).
-- Subscriptions are raw (the CDR bytes are written as received). QoS (``bag.api.recording_qos``):
-  best effort if any publisher is, transient-local if all are, else reliable; keep-last 100,000
-  (best effort 1000), though Fast DDS holds at most 5000 samples per reader by default, so a
-  reliable publisher's history covers the rest of a burst. The offered QoS is stored in the bag.
-- Losses are counted (``bag.loss_count.LossCounter``: gaps in the publication sequence numbers, and
-  the middleware's message-lost events where several publishers share a topic), warned about
-  while recording (one line per ``warn_throttle`` seconds with the count) and printed in the
-  final line.
-- Timestamps (``clock``, ``bag.clockmode``): ``auto`` (default) follows /clock when it is published
-  (sim time: the latest /clock value), else the middleware's receive time of each message (system
-  clock; a backlog keeps each arrival time); it holds what it takes until it knows, at most
-  ``clock_wait`` s after the first message. ``sim`` (or ``use_sim_time:=true``): the node's clock
-  when the batch is taken; ``wall``: the receive time always.
-- Durability: every ``flush_period`` seconds the pending chunk is written and the file flushed, so
-  after a SIGKILL the .mcap holds every message up to the last flush (``track-bag-recover``).
-  SIGINT, SIGTERM and SIGHUP (``base.signals``) and destroying the node close the bag cleanly,
-  with what the subscriptions still hold. A full disk (any write error, ``bag.durable``): one error
-  line, the bag closed at the last flush (what came after is counted), exit 2.
-- How far the run went: the first and the last ``/clock`` value received while recording go into
-  ``metadata.yaml`` (``custom_data``: ``clock_first_ns``, ``clock_last_ns``), so ``track-summary
-  --duration`` tells a run that reached its duration from one cut short (a stop that reached only
-  the clock node of ``ros2 launch``). ``discard_empty`` (the launchers set it): a bag that holds no
-  message at the stop is removed, so a refused or failed run leaves no empty bag directory.
-- Throughput: a callback also takes the messages queued behind its own (``bag.batching``, ≤
-  ``TAKE_LIMIT``) and writes them as one batch, one stamp list and one MCAP append
-  (``bag.durable.write_many``, ``bag.mcap_append``: every chunk with its CRC), under one lock: per message
-  only the take and a few C-level passes remain (``track-bench recorder``: against a bare raw
-  subscription on the EventsExecutor).
+- NAME → ``bags/NAME/`` (a path if it contains '/'); never overwritten (one line, exit 2); without a
+  name ``bags/rosbag2_<timestamp>/``.
+- Recorded: ``topics`` plus every topic matching ``regex`` (``re.search``); with neither, every
+  topic (``/rosout``, ``/parameter_events``, ``/track/ready`` only when listed). ``/tf``,
+  ``/tf_static`` and ``/map_datum`` whatever the filter unless ``tf`` is false (``--no-tf``). New
+  topics are found every ``discovery_period`` s (steady clock).
+- Raw subscriptions; QoS from the publishers (``bag.api.recording_qos``), stored in the bag. Losses
+  counted (``bag.loss_count.LossCounter``), warned every ``warn_throttle`` s, in the final line.
+- Timestamps (``clock``, ``bag.clockmode``): ``auto`` follows /clock when published, else the
+  receive time (decided within ``clock_wait`` s); ``sim``: the node's clock; ``wall``: receive time.
+- Every ``flush_period`` s the pending chunk is written and flushed (``track-bag-recover`` after a
+  SIGKILL); SIGINT, SIGTERM, SIGHUP close the bag cleanly; a full disk: one line, exit 2.
+- ``metadata.yaml`` ``custom_data``: ``clock_first_ns``, ``clock_last_ns``; ``discard_empty``
+  removes a bag with no message.
+- A callback also takes the messages queued behind its own (``bag.batching``, ≤ ``TAKE_LIMIT``) and
+  appends them as one batch (``bag.durable.write_many``, ``bag.mcap_file``, chunk CRCs). In full:
+  docs/DESIGN.md, "The recorder in full"; throughput: docs/results/recorder.md.
 """
 
 from __future__ import annotations

@@ -1,29 +1,32 @@
 """``BagWriter``: a rosbag2 bag (version 9: ``metadata.yaml`` + one .mcap) written through public APIs only.
 
-Why: the MCAP side is the ``mcap`` library's public ``mcap.writer.Writer`` (schemas, channels, chunks
-with CRCs, message indexes, statistics, summary), so no release of rosbags or mcap can break recording
-through a private layout, and every chunk carries the CRC that lets a reader find a flipped bit. What
-rosbag2 puts on top is written here, with the fields rosbags' Writer writes: a ``ros2msg`` schema per
-type, a ``cdr`` channel per topic with its offered QoS in the channel metadata, the ``rosbag2``
-metadata record inside the .mcap and ``metadata.yaml`` beside it (``ros_distro: jazzy``, the
-distribution the message definitions are from).
+Why: the MCAP side is ``bag.mcap_file.McapFile``, which writes what the ``mcap`` library's public
+``Writer`` writes (schemas, channels, chunks with CRCs, message indexes, statistics, summary), with the
+library's public record types, but takes a batch of messages at once (the recorder's hot path); no
+release of rosbags or mcap can break recording through a private layout, and every chunk carries the
+CRC that lets a reader find a flipped bit. What rosbag2 puts on top is written here, with the fields
+rosbags' Writer writes: a ``ros2msg`` schema per type, a ``cdr`` channel per topic with its offered QoS
+in the channel metadata, the ``rosbag2`` metadata record inside the .mcap and ``metadata.yaml`` beside
+it (``ros_distro: jazzy``, the distribution the message definitions are from).
 
-Chunking is the mcap writer's: a chunk is written once it holds more than ``CHUNK_BYTES``, and at each
-``flush`` (the file then holds every message written so far, so a SIGKILL loses only what came after:
-``track-bag-recover``). Messages keep the bytes and log times they are given (publish time = log time,
-sequence 0, as rosbag2). ``write_many`` adds a batch of one connection in a loop that runs in C.
+A chunk is written once it holds more than ``CHUNK_BYTES``, and at each ``flush`` (the file then holds
+every message written so far, so a SIGKILL loses only what came after: ``track-bag-recover``).
+Messages keep the bytes and log times they are given (publish time = log time, sequence 0, as rosbag2).
+``checkpoint``/``rollback`` return the bag to its last flush (``bag.durable``, after a full disk).
 """
 
 from __future__ import annotations
 
-from collections import deque
 from dataclasses import dataclass, field
 from io import StringIO
-from itertools import repeat
 from pathlib import Path
 from typing import Any
 
+from track_nodes.bag.mcap_file import Checkpoint as McapCheckpoint
+from track_nodes.bag.mcap_file import McapFile
+
 CHUNK_BYTES = 2**20  # a chunk is written once it holds more than this (rosbags and rosbag2 alike)
+METADATA_PER_TOPIC = 1024  # [bytes] of metadata.yaml (and its copy inside the .mcap) per topic, generously
 PROFILE = 'ros2'
 ROS_DISTRO = 'jazzy'
 IDL_PREFIX = '=' * 80 + '\nIDL: '  # a definition generated from .idl (rosbags' convention)
@@ -33,7 +36,17 @@ def library() -> str:
     """The MCAP header's library field: the writer that made the file."""
     from mcap.writer import LIBRARY_IDENTIFIER
 
-    return f'{LIBRARY_IDENTIFIER}; track_nodes'
+    return f'track_nodes bag.mcap_file ({LIBRARY_IDENTIFIER} records)'
+
+
+@dataclass(frozen=True)
+class Checkpoint:
+    """A bag at a flush: the .mcap's state and the counts ``metadata.yaml`` will give."""
+
+    mcap: McapCheckpoint
+    counts: dict[int, int]
+    bounds: tuple[int, int]
+    flushes: int
 
 
 @dataclass
@@ -76,7 +89,7 @@ class BagWriter:
 
     def __init__(self, path: Path | str, stream: Any = None, chunk_size: int = CHUNK_BYTES) -> None:
         self.path = Path(path)
-        self.chunk_size = chunk_size  # the mcap writer closes a chunk past this (bag.durable: only at flushes)
+        self.chunk_size = chunk_size  # a chunk is closed past this
         self.mcap_path = self.path / f'{self.path.name}.mcap'
         self.connections: list[BagConnection] = []
         self.counts: dict[int, int] = {}  # messages per connection id
@@ -86,21 +99,18 @@ class BagWriter:
         self.schema_bytes = 0  # of the schema records (repeated in the summary)
         self._stream = stream  # None: the .mcap, created by open
         self._file = None
-        self._mcap = None
+        self._mcap: McapFile | None = None
         self._schemas: dict[str, tuple[int, str]] = {}  # msgtype -> (schema id, type hash)
         self._unflushed = 0  # messages since the last flush
 
     # -- opening ----------------------------------------------------------------------------------------
     def open(self) -> BagWriter:
         """Create the bag directory and the .mcap and write its header; FileExistsError if the bag exists."""
-        from mcap.writer import CompressionType, Writer
-
         if self._stream is None:
             self.path.mkdir(mode=0o755, parents=True)  # FileExistsError: never overwrite a bag
             self._file = self._stream = self.mcap_path.open('xb')
-        self._mcap = Writer(self._stream, chunk_size=self.chunk_size, compression=CompressionType.NONE,
-                            enable_crcs=True)
-        self._mcap.start(profile=PROFILE, library=library())
+        self._mcap = McapFile(self._stream, self.chunk_size)
+        self._mcap.start(PROFILE, library())
         self._stream.flush()
         return self
 
@@ -149,33 +159,12 @@ class BagWriter:
         if not n:
             return
         cid = conn.id
-        deque(map(self._mcap.add_message, repeat(cid, n), stamps, raws, stamps), maxlen=0)
+        self._mcap.add_messages(cid, stamps, raws)
         self.counts[cid] += n
         self._unflushed += n
         lo, hi = min(stamps), max(stamps)
         self.min_timestamp = min(self.min_timestamp, lo)
         self.max_timestamp = max(self.max_timestamp, hi)
-
-    def copy_records(self, records, like: dict[int, BagConnection]) -> None:
-        """Add the schema, channel and message records of a chunk read back from a file written by a
-        ``BagWriter`` (``like``: its connections by id), in their order: written again in the same order,
-        they give the same bytes (``bag.durable``'s salvage relies on it)."""
-        from mcap.records import Channel, Message, Schema
-
-        for rec in records:
-            if isinstance(rec, Message):
-                self.write_many(like[rec.channel_id], [rec.log_time], [rec.data])
-            elif isinstance(rec, Channel):
-                cid = self._mcap.register_channel(rec.topic, rec.message_encoding, rec.schema_id, rec.metadata)
-                if cid != rec.id or cid not in like:
-                    raise ValueError(f'channel {rec.id} ({rec.topic}) came back as {cid}')
-                self.connections.append(like[cid])
-                self.counts[cid] = 0
-            elif isinstance(rec, Schema):
-                sid = self._mcap.register_schema(rec.name, rec.encoding, rec.data)
-                self.schema_bytes += len(rec.name) + len(rec.data) + 32
-                if sid != rec.id:
-                    raise ValueError(f'schema {rec.id} ({rec.name}) came back as {sid}')
 
     def flush(self) -> int:
         """Write the pending chunk and flush the file to the OS; → its length (every record before is complete)."""
@@ -187,6 +176,29 @@ class BagWriter:
 
     def message_count(self) -> int:
         return sum(self.counts.values())
+
+    @property
+    def chunks(self) -> int:
+        """Chunks written to the file so far."""
+        return self._mcap.chunks
+
+    def checkpoint(self) -> Checkpoint:
+        """``flush``, then the state ``rollback`` returns to (the file up to here is complete records)."""
+        self.flush()
+        return Checkpoint(self._mcap.checkpoint(), dict(self.counts), (self.min_timestamp, self.max_timestamp),
+                          self.flushes)
+
+    def rollback(self, to: Checkpoint) -> None:
+        """After a write error: reopen the .mcap and cut it back to ``to``; the bag can then be closed."""
+        self._file = self._stream = self.mcap_path.open('r+b')
+        self._mcap.rollback(to.mcap, self._stream)
+        self.counts = {cid: to.counts.get(cid, 0) for cid in self.counts}
+        self.min_timestamp, self.max_timestamp = to.bounds
+        self.flushes, self._unflushed = to.flushes, 0
+
+    def summary_bytes(self) -> int:
+        """About what ``close`` will write after the last chunk: the MCAP summary and both metadata copies."""
+        return self._mcap.summary_bytes() + 2 * METADATA_PER_TOPIC * (len(self.connections) + 1)
 
     # -- closing -----------------------------------------------------------------------------------------
     def metadata(self) -> dict:
