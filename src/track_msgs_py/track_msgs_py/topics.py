@@ -1,9 +1,7 @@
 """Topic names, their message types and QoS kinds, and the frames we know.
 
-One table (``TOPICS``) instead of string literals scattered over nodes: the recorder, the
-player and the QoS lookup (``qos.qos_for_topic``) all read it, so a topic added here is
-recorded and replayed with the right type and QoS without touching them. A new topic
-is one more entry of ``TOPICS`` (and its frames of ``KNOWN_FRAMES``).
+One table (``TOPICS``): the recorder, the player and the QoS lookup (``qos.qos_for_topic``) read
+it, so a new topic is one more entry of ``TOPICS`` (and its frames of ``KNOWN_FRAMES``).
 
 Names here are as they resolve in the root namespace (what a bag of an un-namespaced run holds).
 Nodes use them through ``relative``: without the leading slash, so ``-r __ns:=/robot1`` puts a
@@ -17,11 +15,9 @@ QoS kinds (profiles in ``track_msgs_py.qos``): ``'sensor'`` best-effort depth 5,
 
 Covariances (``COV_PLANAR`` in the entries below; ``track_msgs_py.covariance``). Every
 ``Odometry`` and ``PoseWithCovarianceStamped`` we publish is planar. The x/y block is the estimate
-(0 on truth topics) and the only part a consumer needs: read it with ``covariance.xy_block``. z,
-roll and pitch (for a twist: vz, ωx, ωy) are exactly 0, so RViz 2 and Foxglove draw a flat 2σ
-ellipse. An entry the estimator does not estimate (the yaw of a CV track, a velocity nobody
-estimates) is 1e6 (``NOT_ESTIMATED_VARIANCE``); test for it with ``covariance.not_estimated``.
-How tracks, reports and poses fill these messages: ``track_msgs_py.odometry``.
+(0 on truth topics; ``covariance.xy_block``); z, roll, pitch (twist: vz, ωx, ωy) exactly 0 (a flat
+2σ ellipse in RViz 2 and Foxglove); an entry not estimated is 1e6 (``NOT_ESTIMATED_VARIANCE``,
+``covariance.not_estimated``). How messages are filled: ``track_msgs_py.odometry``.
 
 Point clouds (``CLOUD_XYZ``; ``track_msgs_py.clouds``). Every ``PointCloud2`` we publish starts
 with float32 ``x``, ``y``, ``z`` at offsets 0, 4, 8, which RViz and Foxglove need to draw it (the
@@ -31,8 +27,6 @@ defined by its typed record: ``records.slam.SlamScan``, ``records.rfid.RfidPhase
 
 ``track_msgs_py.display`` checks both conventions on a message; ``track-bag-check BAG`` on a recording.
 """
-
-from __future__ import annotations
 
 from typing import Literal, NamedTuple
 
@@ -466,7 +460,7 @@ TOPICS.update({
 })
 
 # Display twins (track_msgs_py.display.display_twin): Foxglove's 3D panel draws neither Odometry nor
-# PointStamped, so each topic of DISPLAY_TWINS (those the shipped layouts draw: track_nodes.launch.displays)
+# PointStamped, so each topic of DISPLAY_TWINS (those the shipped layouts draw: tools/displays.py)
 # has a drawable twin on <topic>/pose, published beside it by the same node with the same QoS
 # (TrackNode.create_publisher). Names as they resolve in the root namespace, like every name here.
 TWIN_TYPES = {'nav_msgs/msg/Odometry': 'geometry_msgs/msg/PoseWithCovarianceStamped',
