@@ -50,7 +50,7 @@ def test_two_concurrent_runs_record_what_each_records_alone(tmp_path, env_factor
         for topic in expected:
             assert got[topic] == expected[topic], (name, topic, len(got[topic]))
     domains = [line for o, _ in outs for line in o.splitlines() if line.startswith('ROS_DOMAIN_ID=')]
-    assert len(domains) == 2 and domains[0] != domains[1] and 'export ROS_DOMAIN_ID=' in domains[0], domains
+    assert len(domains) == 2 and domains[0] != domains[1] and 'ros2 topic echo' in domains[0], domains
 
 
 def test_a_foreign_clock_publisher_stops_the_run_with_one_line(tmp_path, ros, repo):
@@ -194,7 +194,8 @@ def test_sigterm_while_the_clock_runs_lets_the_callback_finish_and_closes_the_ba
 
 
 def test_watchdog_deadline_grows_with_the_graph_and_the_steps():
-    from track_nodes.launch.lockstep import STALL_MIN, Watchdog
+    from track_nodes.launch.lockstep import Watchdog
+    from track_nodes.launch.tuning import STALL_MIN
 
     small, big = Watchdog(2), Watchdog(200)
     assert small.deadline() == STALL_MIN and big.deadline() > STALL_MIN

@@ -1,4 +1,4 @@
-"""Simulated hosts (``track_nodes.launch.hosts``): names, subnet and env; create and always remove.
+"""Simulated hosts (``track_nodes.launch.hosts``): names, subnet and env; create and always remove; unplug one.
 
 The namespace tests need root and ``ip netns``; they skip with the reason otherwise.
 """
@@ -18,7 +18,6 @@ from track_nodes.launch.hosts import (
     Hosts,
     participant_profile,
     remove_leftovers,
-    round_robin,
     unavailable,
 )
 
@@ -40,7 +39,6 @@ def test_names_subnet_and_env_are_per_run():
     assert env['ROS_AUTOMATIC_DISCOVERY_RANGE'] == 'LOCALHOST'
     assert env['ROS_STATIC_PEERS'].split(';') == [*a.addresses, a.launcher_address]
     assert a.prefix(2) == ['ip', 'netns', 'exec', a.names[2]]
-    assert round_robin(range(7), 3) == [0, 1, 2, 0, 1, 2, 0]
 
 
 def _profile(env: dict[str, str]) -> dict[str, str]:
@@ -122,3 +120,20 @@ def test_leftovers_of_a_killed_run_are_removed_by_tag():
     finally:
         hosts._up = True
         hosts.remove()
+
+
+def _port_up(hosts: Hosts, i: int) -> bool:
+    """Whether host ``i``'s port on the bridge is administratively up (``UP`` among its flags)."""
+    out = subprocess.run(['ip', '-n', hosts.hub, '-o', 'link', 'show', f'{hosts.tag}b{i}'], capture_output=True,
+                         text=True, check=True).stdout
+    return 'UP' in out.split('<', 1)[1].split('>', 1)[0].split(',')
+
+
+@needs_netns
+def test_a_host_is_unplugged_and_plugged_again():
+    with Hosts(2) as hosts:
+        assert _port_up(hosts, 1)
+        hosts.set_link(1, up=False)
+        assert not _port_up(hosts, 1) and _port_up(hosts, 0)  # only that host's port
+        hosts.set_link(1, up=True)
+        assert _port_up(hosts, 1)

@@ -6,6 +6,8 @@
   from the interpreter but not from a reader).
 - track_msgs_py never imports track_nodes; no library package imports track_experiments (the
   experiments and benches sit above the nodes; node defaults come from core profiles).
+- No module of ``track_nodes.bag`` or ``track_nodes.report`` imports ``track_nodes.launch``: bags and
+  reports are read and written without the launcher (what they share with it lives in ``base``).
 
 The import graph is read from the source with ``ast``: every ``import``/``from … import``
 statement at any depth, resolved to the modules that exist in the tree.
@@ -141,6 +143,24 @@ def test_track_msgs_py_never_imports_track_nodes(graph):
     assert not bad
 
 
+BELOW_THE_LAUNCHER = ('track_nodes.bag', 'track_nodes.report')
+
+
+def _in(module: str, packages: tuple[str, ...]) -> bool:
+    return any(module == p or module.startswith(f'{p}.') for p in packages)
+
+
+def launcher_imports(graph: dict[str, set[str]]) -> list[str]:
+    """Imports of ``track_nodes.launch`` by a module of ``BELOW_THE_LAUNCHER`` (at any depth of the module)."""
+    return sorted(f'{a} -> {b}' for a, deps in graph.items() if _in(a, BELOW_THE_LAUNCHER)
+                  for b in deps if _in(b, ('track_nodes.launch',)))
+
+
+def test_no_bag_or_report_module_imports_the_launcher(graph):
+    assert 'track_nodes.bag.dataset' in graph and 'track_nodes.report.maritime_sim' in graph
+    assert not launcher_imports(graph)
+
+
 # --- the rules can fail ------------------------------------------------------------------------------
 
 def _tree(tmp_path: Path, files: dict[str, str]) -> dict[str, set[str]]:
@@ -171,6 +191,18 @@ def test_a_node_to_node_import_is_found(tmp_path):
     })
     assert node_to_node_imports(g, {'track_nodes.x.one', 'track_nodes.x.two'}) == [
         'track_nodes.x.one -> track_nodes.x.two']
+
+
+def test_a_report_importing_the_launcher_is_found(tmp_path):
+    g = _tree(tmp_path, {
+        'track_nodes/track_nodes/__init__.py': '',
+        'track_nodes/track_nodes/launch/__init__.py': '',
+        'track_nodes/track_nodes/launch/scenario.py': 'X = 1\n',
+        'track_nodes/track_nodes/report/__init__.py': '',
+        'track_nodes/track_nodes/report/sim.py': 'def f():\n    from track_nodes.launch.scenario import X\n',
+        'track_nodes/track_nodes/reporting.py': 'from track_nodes.launch import scenario\n',  # not under report/
+    })
+    assert launcher_imports(g) == ['track_nodes.report.sim -> track_nodes.launch.scenario']
 
 
 def test_no_library_package_imports_the_experiments(graph):

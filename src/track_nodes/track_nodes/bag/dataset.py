@@ -2,45 +2,23 @@
 
 Usage::
 
-    track-dataset victoria-park --out DIR [--data DIR] [--t-max SECONDS] [--epoch E]
+    track-dataset victoria-park --out DIR [--data DIR] [--t-max SECONDS] [--epoch E] [--standard]
 
 ``victoria-park`` reads ``inputs.dat``, ``measurements.dat`` and ``gps.dat`` of the ACFR Victoria
-Park run (default folder: ``track_core.slam.victoria.data_dir()``, i.e. ``$TRACK_VICTORIA_PARK`` or
-``victoria_park/`` of the data folder, ``track_core.data``) and writes a rosbag2 bag (version 9,
-MCAP storage, CDR, the same format as the recorder) to ``DIR`` (a new directory; an existing one is
-never overwritten) with
+Park run (default: ``track_core.slam.victoria.data_dir()``) and writes a rosbag2 bag (version 9,
+MCAP, CDR) to the new directory ``DIR`` (never overwritten) with ``/slam/inputs`` (TwistStamped:
+``linear.x`` encoder speed, ``angular.z`` steering angle), ``/slam/scan`` (PointCloud2 per scan:
+``x``, ``y``, ``z`` in the laser frame, ``range`` to the trunk surface, ``bearing`` as eq. 5,
+``diameter``), ``/slam/gps`` (PointStamped in ``gps``, jumps included) and ``/tf_static`` map → gps
+(transient-local; the first fix at the map origin, rotation 0).
 
-- ``/slam/inputs`` (geometry_msgs/TwistStamped): one per row of inputs.dat, ``twist.linear.x`` =
-  encoder speed, ``twist.angular.z`` = steering angle;
-- ``/slam/scan`` (sensor_msgs/PointCloud2): one per laser scan (rows of measurements.dat sharing one
-  t), fields ``x``, ``y``, ``z`` (the detection in the laser frame, ``records.slam.SlamScan``),
-  ``range`` (as measured, to the trunk surface; the ``slam`` node adds the radius), ``bearing``
-  (unchanged: the data's convention is eq. 5's), ``diameter``;
-- ``/slam/gps`` (geometry_msgs/PointStamped, frame ``gps``): one per row of gps.dat, jumps included;
-- ``/tf_static`` (tf2_msgs/TFMessage, offered as transient-local so the player latches it): one
-  message first, map → gps. The GPS frame is a rotated, shifted east–north frame whose rotation to
-  the SLAM map is only known after a fit against an estimate (``victoria.gps_rmse`` does that fit
-  for the evaluation); the transform puts the first fix at the map origin (where the vehicle and the
-  map start) with rotation 0, so the fixes are drawn near the path, not on it. The ``laser`` and
-  ``base_link`` frames of scans and inputs are placed by the ``slam`` node's /tf.
-
-Dates: the data's own time (seconds from the run's start) is shifted to the bag's epoch (``--epoch``:
-whole seconds since 1970 or an ISO date in UTC; by default, 'now', the run is dated so that it ends
-at the whole second of the conversion, so no stamp lies ahead of a wall clock that replays it
-later), so a replay, the nodes fed by it and a recording of them are dated like any other run, not
-in 1970. Every header stamp and bag (log) time is ``epoch + t`` in integer nanoseconds (a float
-``epoch + t`` resolves only 2.4e-7 s near 1.8e9 s); the data time is kept in the bag's metadata:
-``custom_data`` ``data_time_origin_ns`` (data time = stamp − origin; ``data_time_origin``).
-Messages are written in time order (a scan before an input at equal t, as ``victoria.events``).
-``--standard`` writes the run as a robot with standard drivers would give it instead of the raw inputs and
-scans (``victoria_standard_messages``): ``/odom`` (nav_msgs/Odometry: base_link at the rear-axle centre in
-``odom``, twist (v, ω) with the covariance of the encoder and steering noise), odom → base_link on ``/tf``
-and ``/slam/landmarks`` (track_msgs/LandmarkDetectionArray in ``laser``, range to the trunk centre, REP-103
-bearing, the filter's range/bearing noise as covariance), for ``slam`` with ``input_model: odometry``,
-``observations: detections`` and ``laser_pose: [3.78, 0.5, 0]``.
-``--t-max S`` keeps only the data with t ≤ S (``victoria.load(t_max=S)``), for a short stretch.
-A wrong data path, a missing or malformed file, an existing ``--out``, a bad ``--t-max`` or ``--epoch``
-prints one line on stderr and exits with code 2. Do not commit converted bags: they are derived data.
+Dates: data time t is stamped ``epoch + t`` in integer nanoseconds (``--epoch``: seconds since 1970
+or an ISO date in UTC; default: the run ends at the conversion's whole second); ``custom_data``
+``data_time_origin_ns`` keeps the origin. Messages in time order (a scan before an input at equal
+t). ``--standard`` writes ``/odom``, odom → base_link on ``/tf`` and ``/slam/landmarks`` instead
+(``victoria_standard_messages``), for ``slam`` with ``input_model: odometry``, ``observations:
+detections``, ``laser_pose: [3.78, 0.5, 0]``. ``--t-max S`` keeps t ≤ S. Bad paths, files or
+options: one line on stderr, exit 2. Do not commit converted bags: they are derived data.
 """
 
 from __future__ import annotations
@@ -52,6 +30,7 @@ from pathlib import Path
 
 from track_nodes.bag.api import one_line
 from track_nodes.base.cli import OneLineParser
+from track_nodes.base.epoch import EpochError, parse_epoch
 
 EXIT_BAD_INPUT = 2
 DATA_TIME_ORIGIN = 'data_time_origin_ns'  # metadata.yaml custom_data: data time = stamp - origin [ns]
@@ -264,12 +243,10 @@ def _parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     args = _parser().parse_args(list(sys.argv[1:] if argv is None else argv))
-    from track_nodes.launch.launcher import LaunchError, parse_epoch
-
     try:
         try:
             epoch = parse_epoch(args.epoch)
-        except LaunchError as exc:
+        except EpochError as exc:
             raise DatasetError(str(exc)) from None
         counts = convert_victoria_park(args.out, args.data, args.t_max, epoch, args.standard)
     except DatasetError as exc:

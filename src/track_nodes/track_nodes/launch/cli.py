@@ -15,7 +15,8 @@ def parse_args(argv: list[str] | None, description: str) -> argparse.Namespace:
     ap.add_argument('--processes', action='store_true', help='one process per node')
     ap.add_argument('--hosts', type=int, default=0, metavar='N',
                     help='with --processes: spread the nodes over N simulated hosts (network namespaces, root)')
-    ap.add_argument('--params', type=Path, default=None, metavar='FILE', help='extra params file on top')
+    ap.add_argument('--params', type=Path, action='append', default=[], metavar='FILE',
+                    help='extra params file on top of the scenario (repeat it: each on top of the ones before)')
     ap.add_argument('--rate', type=float, default=None,
                     help='drive /clock at R x real time; 0 = wall time (default: the scenario)')
     ap.add_argument('--network', action='store_true',

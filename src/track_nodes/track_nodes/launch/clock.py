@@ -15,8 +15,8 @@ started without a /clock (a ``use_sim_time`` node before any /clock reads 0) nev
 at different moments this way.
 
 After the last step it waits until the work of that step is done (no topic of ``record_regex``,
-or of the whole graph without it, delivered for ``pacing.QUIET`` wall seconds, at most
-``pacing.DRAIN_MAX``), plus ``pacing.GRACE``, then exits with code 0: ``ros2 launch`` files take
+or of the whole graph without it, delivered for ``tuning.QUIET`` wall seconds, at most
+``tuning.DRAIN_MAX``), plus ``tuning.GRACE``, then exits with code 0: ``ros2 launch`` files take
 that as the end of the run (``launch/ros2_launch.py``). A deadline for the nodes to come up that
 runs out, or a second /clock publisher, is one line and exit code 1.
 
@@ -34,24 +34,12 @@ import time
 from dataclasses import dataclass
 
 from track_nodes.base import TrackNode, param
+from track_nodes.base.epoch import EpochError, parse_epoch
 from track_nodes.launch.graph import GraphWatch, listing, ready_deadline
-from track_nodes.launch.pacing import (
-    CLOCK_TICK,
-    DRAIN_MAX,
-    GRACE,
-    QUIET,
-    SETTLE_PROCESSES,
-    Cadence,
-    EpochError,
-    clock_step,
-    epoch_line,
-    epoch_now,
-    node_time,
-    parse_epoch,
-)
+from track_nodes.launch.pacing import Cadence, clock_step, epoch_line, epoch_now, node_time
+from track_nodes.launch.tuning import CLOCK_TICK, DRAIN_MAX, GRACE, QUIET, SETTLE_PROCESSES, WATCH_EVERY
 
 NS = 1_000_000_000
-WATCH_EVERY = 50  # clock steps between looks for new topics to watch and for a second /clock publisher
 
 
 @dataclass

@@ -27,12 +27,9 @@ from track_msgs_py.topics import CLOCK, READY, TF, TF_STATIC
 from track_nodes.bag.api import msg_class, recording_qos
 from track_nodes.base.ready import WATCH_QOS
 from track_nodes.launch.pacing import header_stamp_ns
+from track_nodes.launch.tuning import READY_PER_NODE, READY_PER_PROCESS, READY_TIMEOUT
 
 IGNORED_TOPICS = ('/rosout', '/parameter_events', CLOCK, READY)
-# The ready deadline (a deadline, not a wait), from the node count: READY_TIMEOUT plus, per node, ...
-READY_TIMEOUT = 60.0  # [wall s]
-READY_PER_NODE = 1.0  # ... in one process (built already: discovery and matching of its endpoints) ...
-READY_PER_PROCESS = 4.0  # ... or per process (each imports numpy, scipy and rclpy: seconds of CPU on 2 cores)
 LISTED = 8  # names given in the line of a deadline that ran out
 
 

@@ -41,12 +41,12 @@ import signal
 import subprocess
 import tempfile
 import time
-from collections.abc import Sequence
 from pathlib import Path
+
+from track_nodes.launch.tuning import LINK_UP_MAX
 
 LAUNCHER_HOST = 254  # last octet of the launcher's own address on the bridge
 DISCOVERY_PORT = 11811  # the discovery server's UDP port on the launcher's address (Fast DDS's default)
-LINK_UP_MAX = 10.0  # [s] at most this long for every veth of a new run to report its carrier
 SERVER_PREFIX = '44.53.00.5f.45.50.52.4f.53.49.4d.41'  # what a ROS_DISCOVERY_SERVER client expects of server 0
 
 
@@ -319,8 +319,3 @@ def participant_profile(role: str, address: str, port: int) -> str:
 
 def _raise_exit(signum: int, _frame) -> None:
     raise SystemExit(128 + signum)
-
-
-def round_robin(items: Sequence, n: int) -> list[int]:
-    """The host of each item: 0, 1, ..., n-1, 0, 1, ..."""
-    return [k % n for k in range(len(items))]

@@ -8,11 +8,11 @@ Two runs on one machine share nothing by default:
   subnet), for runs that are meant to be watched from elsewhere. ``--hosts`` sets its own
   (a discovery server on the bridge, see ``hosts``).
 - **A domain of its own** when the user set no ``ROS_DOMAIN_ID``: the lowest id of
-  ``DOMAIN_FIRST..DOMAIN_LAST`` that no other launcher on this machine holds (an advisory lock
+  ``DOMAIN_FIRST..MAX_DOMAIN_ID`` that no other launcher on this machine holds (an advisory lock
   on a file per id, released by the kernel when the process ends, however it ends). Localhost
   discovery alone does not separate two runs on one machine; a domain does, and costs nothing.
-  The id is printed, so ``ros2 topic echo`` users know where to look. An id the user set is used
-  as it is: they asked to share it.
+  The id is printed with how to watch the run (``ros2 topic``, ``track-foxglove``): watching, not a
+  second launch, which ``twin.probe`` refuses. An id the user set is used as it is.
 - **A check for foreign publishers** (``LauncherNode.foreign``) while the run goes: a second
   ``/clock`` publisher, or more publishers on one of the run's topics than the run's own nodes
   have, stops the run with one line. It catches what the two rules above cannot: a shared id set
@@ -29,7 +29,8 @@ import time
 from collections import Counter
 from pathlib import Path
 
-DOMAIN_FIRST, DOMAIN_LAST = 101, 232  # above the tests' 1..100 (test/conftest.py); 232: Fast DDS's UDP ports
+from track_nodes.launch.tuning import DOMAIN_FIRST, FOREIGN_EVERY, MAX_DOMAIN_ID
+
 LOCK_DIR = Path(tempfile.gettempdir()) / 'track_nodes-launch-domains'
 
 
@@ -67,10 +68,12 @@ class Isolation:
     def describe(self) -> str:
         reach = 'the network' if self.network else 'localhost only'
         own = 'a domain of its own; ' if self.chosen else ''
-        return f'ROS_DOMAIN_ID={self.domain} ({own}discovery: {reach}; export ROS_DOMAIN_ID={self.domain} to watch)'
+        d = self.domain
+        return (f'ROS_DOMAIN_ID={d} ({own}discovery: {reach}; watch it with ROS_DOMAIN_ID={d} ros2 topic echo TOPIC '
+                f'or ROS_DOMAIN_ID={d} track-foxglove; a second launch on it is refused)')
 
 
-def free_domain(first: int = DOMAIN_FIRST, last: int = DOMAIN_LAST, start: int | None = None) -> tuple[int, object]:
+def free_domain(first: int = DOMAIN_FIRST, last: int = MAX_DOMAIN_ID, start: int | None = None) -> tuple[int, object]:
     """The first id of ``first..last`` (from ``start``, wrapping) no other process here holds, and its held lock.
 
     The launcher takes the lowest free id of its range; the tests (``test/conftest.py``) take theirs
@@ -97,9 +100,6 @@ def free_domain(first: int = DOMAIN_FIRST, last: int = DOMAIN_LAST, start: int |
         return domain, lock
     raise RuntimeError(f'every ROS domain id {first}..{last} is held by another run on this machine; '
                        'set ROS_DOMAIN_ID to share one')
-
-
-FOREIGN_EVERY = 1.0  # wall seconds between looks for publishers that are not the run's
 
 
 class ForeignCheck:

@@ -6,37 +6,25 @@ this process on one MultiThreadedExecutor (default) or one process per node (``-
 optionally spread round-robin over N simulated hosts that the launcher creates and always removes
 (``--hosts N``, root only; see ``track_nodes.launch.hosts``).
 
-Time: with ``--rate R > 0`` (default: the scenario's ``rate``) every node gets
-``use_sim_time:=true`` and this launcher publishes ``/clock``, starting at the epoch E (``--epoch``:
-``now``, the default, is the whole minute of wall time when the clock starts, so a recording shows
-its real date; or whole seconds since 1970, at least 1 because ROS time 0 means "not set", or an
-ISO date in UTC), in steps of
-min(R·CLOCK_TICK, MAX_CLOCK_STEP) seconds, at most R times faster than the wall clock. In one
-process the clock runs in lock-step: after each step the launcher runs every callback that became ready
-(inline, in order) until the graph is idle, and only then advances the clock. A slow machine
-therefore runs slower than R×, never differently: a seed and an epoch reproduce every payload
-(another epoch shifts every stamp by the difference; the values agree to float rounding, ~1e-16
-of the epoch, because float seconds near 1.8e9 resolve 2.4e-7 s). With
-``--processes`` the other processes cannot be observed, so the clock is paced by R, held at the
-epoch while discovery settles (a process whose first callback runs late still reads the epoch
-first, so its step origin is the epoch's) and held back while a periodic topic of theirs is a step
-behind (``pacing.Cadence``); the ``clock`` node of ``ros2 launch`` does the same.
-``--rate 0`` runs on wall time, callbacks on the MultiThreadedExecutor's threads.
+Time: with ``--rate R > 0`` (default: the scenario's ``rate``) every node gets ``use_sim_time:=true``
+and the launcher publishes ``/clock`` from the epoch E (``--epoch``: ``now``, the whole minute of
+wall time when the clock starts; whole seconds since 1970, at least 1; or an ISO date in UTC), in
+steps of min(R·CLOCK_TICK, MAX_CLOCK_STEP) s, at most R× wall time. In one process the clock runs
+in lock-step (every callback that became ready runs before the next step), so a seed and an epoch
+reproduce every payload on any machine; with ``--processes`` it is paced by R, held at the epoch
+while discovery settles and held back while a periodic topic is a step behind (``pacing.Cadence``).
+``--rate 0`` runs on wall time.
 
-Before the clock starts, the launcher waits until every node is up, every node's ``/clock``
-subscription has matched its publisher (under sim time) and, when recording, until the recorder
-has subscribed to every recordable topic, then lets discovery settle: nothing
-published at t = 0 is lost. The clock stops exactly at ``--duration``, the launcher waits a
-short grace period for messages in flight, then stops every node (the recorder closes its
-bag). Ctrl-C, SIGTERM and SIGHUP stop everything the same way. A wall-time run that replays a bag
-(a ``player`` node, not looped) ends when the bag has been played and the recorded topics have been
-quiet for ``QUIET`` s (``_drain``), so a busy machine does not cut it; ``--duration`` stays the bound.
+The clock starts once every node is up and every ``/clock`` subscription (and, when recording, the
+recorder's) has matched; it stops exactly at ``--duration``; after a grace period every node stops
+(the recorder closes its bag); Ctrl-C, SIGTERM and SIGHUP alike. A wall-time bag replay ends when
+the bag is played and the recorded topics are quiet for ``QUIET`` s (``_drain``).
 
-Isolation (``isolation``): a run discovers on localhost only (``--network`` opens it), takes a
-ROS domain of its own when ROS_DOMAIN_ID is unset (printed), and stops with one line when a
-foreign /clock or a foreign publisher on its topics shows up: two runs never mix. A watchdog
-(``lockstep``) stops a run whose clock has not advanced for a deadline derived from the graph
-(``--watchdog S`` sets it), naming the callback the step waits for; exit code 1.
+Isolation (``isolation``): localhost-only discovery (``--network`` opens it), a ROS domain of its
+own when ROS_DOMAIN_ID is unset, no start on a domain where another run is (``twin``), a stop on a
+foreign /clock or publisher. A watchdog (``lockstep``, ``--watchdog S``) stops a run whose clock
+has not advanced, naming the callback it waits for; exit 1. In full: docs/MODULES.md, "The launcher
+in full".
 """
 
 from __future__ import annotations
@@ -50,7 +38,6 @@ import socket
 import subprocess
 import sys
 import time
-from collections import Counter
 from datetime import datetime
 from pathlib import Path
 
@@ -63,33 +50,38 @@ from rclpy.parameter import Parameter
 from track_msgs_py.topics import READY
 from track_nodes.bag.player import PlayerNode
 from track_nodes.base import EXIT_BAD_INPUT, remember_args, shared_names_problem
-from track_nodes.base.ready import ALLOW_TWINS, twins_allowed
+from track_nodes.base.epoch import EpochError
+from track_nodes.base.epoch import parse_epoch as _parse_epoch
 from track_nodes.launch.cli import parse_args
 from track_nodes.launch.graph import LauncherNode, listing, ready_deadline
 from track_nodes.launch.hosts import Hosts, unavailable
 from track_nodes.launch.isolation import ForeignCheck, Isolation
 from track_nodes.launch.lockstep import Watchdog, run_ready
-from track_nodes.launch.pacing import (
+from track_nodes.launch.pacing import Cadence, clock_step, epoch_line, epoch_now, node_time
+from track_nodes.launch.preflight import bag_problem, params_problem
+from track_nodes.launch.processes import (
+    ended_early,
+    exit_text,
+    failed_children,
+    processes_cpu,
+    say_cpu,
+    spawn_nodes,
+    stop_processes,
+)
+from track_nodes.launch.scenario import Scenario, ScenarioError, load_scenario
+from track_nodes.launch.tuning import (
     CLOCK_TICK,
     DRAIN_MAX,
     GRACE,
+    MAX_DOMAIN_ID,
     QUIET,
     SETTLE,
     SETTLE_PROCESSES,
-    Cadence,
-    EpochError,
-    clock_step,
-    epoch_line,
-    epoch_now,
-    node_time,
+    WATCH_EVERY,
 )
-from track_nodes.launch.pacing import parse_epoch as _parse_epoch
-from track_nodes.launch.processes import failed_children, processes_cpu, spawn_nodes, stop_processes
-from track_nodes.launch.scenario import Scenario, ScenarioError, load_scenario, params_file_sections
+from track_nodes.launch.twin import probe, refuse_twins
 
-WATCH_EVERY = 50  # clock steps between looks for new topics to watch (--processes)
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
-MAX_DOMAIN_ID = 232  # Fast DDS's default port mapping (7400 + 250 d + ...) leaves the UDP range above it
 
 
 class LaunchError(RuntimeError):
@@ -122,19 +114,17 @@ class Launch:
         self.epoch = parse_epoch(str(args.epoch))  # None: now, fixed when the clock starts
         self.clock_said = False
         self.params_files = [str(scenario.path)]
-        if args.params is not None:
-            if not args.params.is_file():
-                raise LaunchError(f'--params {args.params}: no such file')
-            if (problem := params_file_sections(args.params, scenario)) is not None:
-                raise LaunchError(problem)
-            self.params_files.append(str(args.params.resolve()))
+        if (problem := params_problem(args.params, scenario)) is not None:  # preflight.py
+            raise LaunchError(problem)
+        self.params_files += [str(p.resolve()) for p in args.params]
         self.bag: Path | None = None
         if args.record is not None:
             name = args.record or f'{scenario.name}-{datetime.now():%Y%m%d-%H%M%S}'
             self.bag = Path(name) if '/' in name else Path('bags') / name
             if self.bag.exists():
                 raise LaunchError(f'{self.bag}: bag exists already, not overwriting (choose another --record NAME)')
-            self.bag.parent.mkdir(parents=True, exist_ok=True)
+            if (problem := bag_problem(self.bag)) is not None:  # preflight.py: the directory, writable, room
+                raise LaunchError(problem)
         self.record_regex = str(opts.get('record_regex', '.*'))
         self.network, self.watchdog_s = args.network, args.watchdog
         if self.watchdog_s is not None and not self.watchdog_s > 0:
@@ -144,6 +134,7 @@ class Launch:
         self.lockstep = False
         self.nodes: list[Node] = []
         self.replay_done = False
+        self.early: list[subprocess.Popen] = []  # --processes: the children that ended while the run went on
         self.started = False  # the run's clock (or wall-time drive) has started: its bag holds the run
 
     # -- the two ways of running the nodes ------------------------------------------------
@@ -158,6 +149,9 @@ class Launch:
         except RuntimeError as exc:
             raise LaunchError(str(exc)) from None
         print(isolation.describe(), flush=True)
+        names = [s.name for s in self.sc.nodes] + ['recorder'] * (self.bag is not None)
+        if not (isolation.chosen or n_hosts) and (found := probe(names, self.sim)) is not None:
+            raise LaunchError(found)  # another run on the domain the user set: refused before anything exists
         with isolation:
             return self._run_on_hosts(processes, n_hosts)
 
@@ -201,13 +195,13 @@ class Launch:
         except KeyboardInterrupt:
             pass
         finally:
+            self._stopping = True  # a stop signal from here on is noted, never raised (_on_stop_signal)
             if self.dog is not None:
                 self.dog.watching = False  # the clock has stopped: the drain and the grace have their own bounds
             with contextlib.suppress(KeyboardInterrupt):
                 if children or self.replay_done:
                     self._drain(launcher, executor)
-                if children:
-                    self._say_cpu(children)
+                say_cpu(children, self.clock_cpu)  # --processes: one line
                 self._pump(executor, time.monotonic() + GRACE)  # messages in flight reach the recorder
             stop_processes(children)
             # The main thread is the only one that hands work to the pool; drain the pool before
@@ -223,16 +217,7 @@ class Launch:
             if self.dog is not None:
                 self.dog.stop()
         own = max((getattr(node, 'exit_code', 0) for node in nodes), default=0)  # e.g. the recorder's full disk
-        return EXIT_BAD_INPUT if failed_children(children) else own
-
-    def _say_cpu(self, children: list[subprocess.Popen]) -> None:
-        """--processes: the CPU time of the run's processes from the clock's start to the end of the
-        drain (bring-up and teardown excluded), one line."""
-        if self.clock_cpu is None:
-            return
-        t0, cpu0 = self.clock_cpu
-        print(f'cpu: {processes_cpu(children) - cpu0:.2f} s in {len(children)} processes and the launcher '
-              f'from the clock\'s start to the end of the work ({time.monotonic() - t0:.1f} s wall)', flush=True)
+        return EXIT_BAD_INPUT if failed_children(children, self.early) else own
 
     def _replayed(self) -> bool:
         """Wall time: every player among the nodes has played its bag (a looped one never has)."""
@@ -280,7 +265,7 @@ class Launch:
         self._sig_r, self._sig_w = socket.socketpair()
         for sock in (self._sig_r, self._sig_w):
             sock.setblocking(False)
-        self._sigint = self._deferring = False
+        self._sigint = self._deferring = self._cut = self._stopping = False
         with contextlib.suppress(ValueError):  # not the main thread: no watch
             signal.set_wakeup_fd(self._sig_w.fileno(), warn_on_full_buffer=False)
             for sig in STOP_SIGNALS:
@@ -289,11 +274,15 @@ class Launch:
     def _on_stop_signal(self, signum: int, frame) -> None:
         """While the clock runs a stop is taken at the loop's next turn, between two callbacks: a
         KeyboardInterrupt raised inside one (the recorder's, holding its writer's lock) could leave
-        teardown waiting on that lock until the process is killed, its bag unreadable. Elsewhere
-        (bring-up, teardown), and from the watchdog (a callback that does not return must be cut),
-        it is a KeyboardInterrupt at once, as before."""
-        self._sigint = True
-        if not self._deferring or (self.dog is not None and self.dog.stalled):
+        teardown waiting on that lock until the process is killed, its bag unreadable. During bring-up,
+        and from the watchdog (a callback that does not return must be cut, once), it is a
+        KeyboardInterrupt at once. Only the first stop raises: a second one while it is taken, or any
+        once teardown began, is noted (it cuts the drain short) and changes nothing else."""
+        first, self._sigint = not self._sigint, True
+        if getattr(getattr(self, 'dog', None), 'stalled', None) and not self._cut:
+            self._cut = True
+            raise KeyboardInterrupt
+        if first and not self._deferring and not self._stopping:
             raise KeyboardInterrupt
 
     def _interrupted(self) -> bool:
@@ -325,9 +314,12 @@ class Launch:
             if self.bag is not None:
                 from track_nodes.bag.recorder import RecorderNode
 
-                nodes.append(RecorderNode(context=context, parameter_overrides=[
-                    *self._overrides(), Parameter('bag', value=str(self.bag)),
-                    Parameter('regex', value=self.record_regex), Parameter('discard_empty', value=True)]))
+                try:  # a disk that filled since the preflight: one line, the bag removed (main)
+                    nodes.append(RecorderNode(context=context, parameter_overrides=[
+                        *self._overrides(), Parameter('bag', value=str(self.bag)),
+                        Parameter('regex', value=self.record_regex), Parameter('discard_empty', value=True)]))
+                except (ValueError, OSError) as exc:
+                    raise LaunchError(f'recorder: {exc}') from None
             if (problem := shared_names_problem(nodes, self.params_files)) is not None:  # base/names.py
                 raise LaunchError(problem)
         except (LaunchError, KeyboardInterrupt) as exc:
@@ -350,7 +342,7 @@ class Launch:
         while True:
             for child in children:
                 if child.poll() is not None:
-                    raise LaunchError(f'{child.label} exited with code {child.returncode} at start')
+                    raise LaunchError(f'{child.label} {exit_text(child)} at start (pid {child.pid})')
             self._refuse_twins(launcher, names, children)
             missing = launcher.nodes_missing(names)
             if missing:
@@ -380,17 +372,8 @@ class Launch:
             self._pump(executor, time.monotonic() + CLOCK_TICK)
 
     def _refuse_twins(self, launcher: LauncherNode, names: list[str], children: list[subprocess.Popen]) -> None:
-        """One process: a node of another process announced one of our names first, or the graph holds one of
-        our names twice (participant discovery can come before the announcement): refuse, before the start."""
-        if children or twins_allowed():
-            return
-        if twins := launcher.foreign_twins(names):
-            raise LaunchError(f'{listing(twins)}: refusing to run a second node of that name '
-                              f'(set {ALLOW_TWINS}=1 to allow it)')
-        seen = Counter(name for name, ns in launcher.get_node_names_and_namespaces() if ns == '/')
-        if twice := [n for n in names if seen[n] > 1]:
-            raise LaunchError(f'{listing(twice)} already run(s) in this ROS domain: refusing to run a second node '
-                              f'of that name (set {ALLOW_TWINS}=1 to allow it)')
+        if not children and (line := refuse_twins(launcher, names)) is not None:  # one process (twin.py)
+            raise LaunchError(line)
 
     def _epoch_ns(self) -> int:
         if self.epoch is None:
@@ -416,7 +399,8 @@ class Launch:
         while self.context.ok():
             if self._interrupted():
                 raise KeyboardInterrupt  # a stop signal, taken between two steps
-            if any(c.poll() is not None for c in children):
+            if (early := ended_early(children)) is not None:
+                self.early = early  # named, and the run failed, at its end ([]: a player played its bag)
                 return
             if (found := foreign.look()) is not None:
                 raise LaunchError(found)

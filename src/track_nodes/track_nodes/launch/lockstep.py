@@ -28,11 +28,7 @@ from collections.abc import Callable
 from rclpy.context import Context
 from rclpy.executors import Executor, ExternalShutdownException, ShutdownException, TimeoutException
 
-IDLE_POLL = 0.001  # wall seconds without a ready callback that count as idle
-STALL_MIN = 60.0  # [wall s] the watchdog's deadline is at least this ...
-STALL_PER_NODE = 2.0  # ... and this much per node (one step can run every node's callbacks) ...
-STALL_STEPS = 50.0  # ... and this many times the slowest of the recent steps
-STOP_GRACE = 60.0  # [wall s] after a stall, the run must have stopped within this, or the process exits
+from track_nodes.launch.tuning import IDLE_POLL, STALL_MIN, STALL_PER_NODE, STALL_STEPS, STOP_GRACE
 
 
 class Watchdog:

@@ -1,11 +1,11 @@
-"""How a run's ``/clock`` is paced: its epoch, its steps and the waits around them.
+"""How a run's ``/clock`` is paced: its steps and the waits around them.
 
 Shared by the launcher (``launcher``) and the ``clock`` node (``launch/clock.py``, the /clock of
-``ros2 launch``), so a run of either starts at the same epoch and steps the same way:
+``ros2 launch``), so a run of either starts at the same epoch (``track_nodes.base.epoch``) and steps
+the same way (the constants are ``tuning``'s):
 
-- the epoch: whole seconds since 1970 (at least 1: ROS time 0 means "not set"), an ISO date in UTC,
-  or ``now``: the whole minute of wall time when the clock starts (rcl phases a node-time timer
-  from time 0, so an epoch that every period of a scenario divides keeps the timers on the
+- ``now`` as an epoch: the whole minute of wall time when the clock starts (rcl phases a node-time
+  timer from time 0, so an epoch that every period of a scenario divides keeps the timers on the
   simulators' step grids);
 - the steps: min(R·``CLOCK_TICK``, ``MAX_CLOCK_STEP``) node seconds each, one per ``wall_step`` at
   most (never faster than R× the wall clock);
@@ -21,34 +21,7 @@ from __future__ import annotations
 import time
 from datetime import UTC, datetime
 
-CLOCK_TICK = 0.01  # wall seconds per /clock step at the nominal rate ...
-MAX_CLOCK_STEP = 0.05  # ... but never more than this many node seconds per step (bounded bursts)
-SETTLE = 1.0  # wall seconds for discovery to settle before the clock starts ...
-SETTLE_PROCESSES = 3.0  # ... with one process per node (seen: a reader matched after 1 s lost step 0)
-GRACE = 1.0  # wall seconds for messages in flight after the clock stops
-QUIET = 2.0  # other processes: the graph is drained once no watched topic delivered for this long [wall s] ...
-DRAIN_MAX = 120.0  # ... waiting at most this long after the clock stopped
-
-
-class EpochError(ValueError):
-    """An epoch that is not 'now', whole seconds in [1, 2^31 - 1] or an ISO date; the message is one line."""
-
-
-def parse_epoch(text: str, flag: str = '--epoch') -> int | None:
-    """Whole seconds since 1970 of ``text``, or None for 'now' (fixed when the clock starts: ``epoch_now``)."""
-    if text == 'now':
-        return None
-    try:
-        value = float(text)
-    except ValueError:
-        try:
-            when = datetime.fromisoformat(text)
-        except ValueError:
-            raise EpochError(f"{flag} {text!r}: not 'now', seconds or an ISO date") from None
-        value = (when if when.tzinfo else when.replace(tzinfo=UTC)).timestamp()
-    if not (1 <= value <= 2**31 - 1 and value == int(value)):  # ROS time 0 means "not set"
-        raise EpochError(f'{flag} {text!r}: must be whole seconds in [1, 2^31 - 1] (ROS time 0 is unset)')
-    return int(value)
+from track_nodes.launch.tuning import CLOCK_TICK, HOLD_MAX, LAG_PERIODS, MAX_CLOCK_STEP, SAME_GAP_NS
 
 
 def epoch_now() -> int:
@@ -72,11 +45,6 @@ def node_time(k: int, step: float, duration: float | None) -> float:
 
 
 # --- holding the clock for other processes ---------------------------------------------------------
-HOLD_MAX = 5.0  # [wall s] the longest the clock waits for one topic; then that topic no longer holds it
-LAG_PERIODS = 3  # the clock waits for a periodic topic whose latest stamp L is this many periods old (Cadence)
-SAME_GAP_NS = 1_000  # two stamp gaps within this are the same period
-
-
 def header_stamp_ns(cdr: bytes) -> int | None:
     """The ``header.stamp`` [ns] of a serialized message whose first field is a std_msgs/Header, or None."""
     if len(cdr) < 12:
@@ -103,26 +71,34 @@ class Cadence:
     instant t is due once every input has delivered t + P, the network's estimate of t + P leaves after
     node time t + P, so the fusion's output of t leaves after t + P too; with one period the clock
     would wait at t + 2P for an output that needs the network's t + 2P (a stall of ``HOLD_MAX`` at
-    every step). A topic that keeps the clock waiting ``HOLD_MAX`` wall seconds (it stopped, or was
-    never periodic) holds it no more until it shows a period again.
+    every step). A topic that once showed a gap of another length, or kept the clock waiting
+    ``HOLD_MAX`` wall seconds (it stopped), is driven by events (an IDSQ handoff goes where the
+    leader goes) and holds it no more in this run: otherwise every sensor that received a few
+    handoffs at one period and then none stalled the clock ``HOLD_MAX`` again, more often the
+    longer the run.
     """
 
     def __init__(self) -> None:
         self.last: dict[str, int] = {}  # topic -> latest stamp [ns]
         self.gaps: dict[str, tuple[int, ...]] = {}  # topic -> its last two stamp gaps [ns]
         self.waiting: tuple[str, float] | None = None  # the topic holding the clock, since (monotonic)
+        self.events: set[str] = set()  # topics that showed an irregular gap or a stop: they hold nothing
 
     def seen(self, topic: str, t_ns: int) -> None:
         prev = self.last.get(topic)
         if prev is not None and t_ns <= prev:
             return
         if prev is not None:
-            self.gaps[topic] = (*self.gaps.get(topic, ())[-1:], t_ns - prev)
+            self.gaps[topic] = gaps = (*self.gaps.get(topic, ())[-1:], t_ns - prev)
+            if len(gaps) == 2 and abs(gaps[0] - gaps[1]) > SAME_GAP_NS:
+                self.events.add(topic)
         self.last[topic] = t_ns
 
     def period(self, topic: str) -> int | None:
         gaps = self.gaps.get(topic, ())
-        return gaps[-1] if len(gaps) == 2 and abs(gaps[0] - gaps[1]) <= SAME_GAP_NS else None
+        if topic in self.events or len(gaps) < 2 or abs(gaps[0] - gaps[1]) > SAME_GAP_NS:
+            return None
+        return gaps[-1]
 
     def holding(self, next_ns: int, now: float) -> str | None:
         """The topic that must deliver before /clock may reach ``next_ns`` (None: go on)."""
@@ -134,6 +110,6 @@ class Cadence:
                 self.waiting = (topic, now)
             if now - self.waiting[1] < HOLD_MAX:
                 return topic
-            self.gaps.pop(topic)  # it keeps us waiting: stopped, or not periodic after all
+            self.events.add(topic)  # it keeps us waiting: stopped, or not periodic after all
             self.waiting = None
         return None

@@ -6,24 +6,16 @@ runs with one process per node (``--processes``):
 
 - one ``launch_ros`` Node per entry of its ``track_launch.nodes``, with ``use_sim_time``;
 - under ``use_sim_time`` (the default) the ``clock`` node (``launch/clock.py``): /clock at ``rate``
-  × real time from ``epoch`` until ``duration``, started only once every node is up and held at the
-  epoch while discovery settles, so every node's step origin is the epoch (nodes that start with no
-  /clock at all fix their origins at different moments: the IDSQ sensors then refuse the first
-  truths of a simulator that started earlier). A scenario whose ``player`` publishes /clock from a
-  bag defaults to wall time, as the launcher runs it, and its clock node publishes no /clock: it
-  exits once the player has left the graph (its bag played) and the recorded topics are quiet, so
-  the run ends then, as the launcher's does (``duration`` stays the bound);
+  × real time from ``epoch`` until ``duration``, started once every node is up and held at the epoch
+  while discovery settles (every node's step origin is the epoch). A scenario whose ``player``
+  publishes /clock runs on wall time; its clock node then exits once the bag is played and the
+  recorded topics are quiet;
 - with ``record:=NAME`` the recorder (``bags/NAME/``, the scenario's ``record_regex``);
-- the end: when the clock node exits (or, on wall time, after ``duration`` wall seconds) the
-  recorder is stopped with SIGINT, so it closes its bag; then the ``summary`` executable prints the
-  launcher's summary of the bag (the maritime picture included) and launch shuts every node down.
-  Without a recording the end shuts down at once. Ctrl-C stops everything as usual (the bag is closed;
-  its summary line names the command that prints it). The summary gets the run's ``--duration``: a
-  run whose /clock stopped before it (a stop that reached only the clock node) is marked CUT, and
-  launch then exits 1 ("Caught exception in launch: the run was cut ...");
-- a node process that exits with an error before the end (a source whose data is missing says so in
-  one line) stops the run at once rather than letting it run, and record, without it; the recorder
-  (``discard_empty``) removes a bag that holds nothing, so a failed run leaves no empty bag.
+- the end: when the clock node exits (on wall time, after ``duration``) the recorder gets SIGINT and
+  closes its bag, the ``summary`` executable prints the launcher's summary (a run whose /clock
+  stopped before ``duration`` is CUT: launch exits 1), and launch shuts every node down;
+- a node process that exits with an error stops the run at once; ``discard_empty`` removes an empty
+  bag. In full: docs/MODULES.md, "ros2 launch in full".
 
 Launch arguments: ``use_sim_time`` (default true), ``rate`` (default the scenario's, 1.0 where it has
 none), ``epoch`` (default ``now``), ``duration`` (node seconds, default the scenario's; 0 runs until
@@ -39,7 +31,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from track_nodes.launch.pacing import parse_epoch
+from track_nodes.base.epoch import parse_epoch
 from track_nodes.launch.scenario import Scenario, load_scenario
 
 GROUPED = frozenset({'acoustic_sensor', 'doa_sensor'})  # executables hosted by one node_group

@@ -83,8 +83,8 @@ def find_scenario(name: str) -> Path:
 def load_scenario(name: str) -> Scenario:
     path = find_scenario(name)
     try:
-        doc = yaml.safe_load(path.read_text())
-    except (OSError, yaml.YAMLError) as exc:
+        doc = yaml.safe_load(path.read_text(encoding='utf-8'))
+    except (OSError, ValueError, yaml.YAMLError) as exc:  # ValueError: not UTF-8 (a binary file)
         first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise ScenarioError(f'{path}: cannot read scenario: {first}') from None
     try:
@@ -121,20 +121,6 @@ def section_problem(doc: Any, names: list[str]) -> str | None:
         return None
     return unknown_line('node section' + ('s' if len(unknown) > 1 else ''), unknown, [*names, RECORDER],
                         known="the scenario's nodes")
-
-
-def node_params(doc: Any, name: str) -> dict[str, Any]:
-    """The ``ros__parameters`` a params document gives node ``name`` in its own section (``name:``,
-    ``/name:`` or ``/**/name:``); KeyError when it has none."""
-    for key in (f'/**/{name}', f'/{name}', name):
-        if isinstance(doc.get(key), dict) and 'ros__parameters' in doc[key]:
-            return doc[key]['ros__parameters']
-    raise KeyError(f'no section for node {name!r}')
-
-
-def section_node(key: str) -> str:
-    """The node name a top-level section key names (``/**/sensor_3`` → ``sensor_3``)."""
-    return str(key).rsplit('/', 1)[-1]
 
 
 def params_file_sections(path: Path, scenario: Scenario) -> str | None:

@@ -1,42 +1,27 @@
 """The ``maritime`` scenario: sonar, sensor network and fusion in one picture.
 
 What runs (``config/maritime.yaml``, written by ``scenario_yaml`` below):
+- ``smart_target`` crosses the IDSQ field south to north (7 m/s, evading at up to 12 m/s when it
+  hears a ping; the network's v_max is 15 m/s); truth ``/sonar/target/truth``.
+- ``sonar_observer`` (the AUV: SS-PF + eq. 7 scheduling) follows and pings it; ``/sonar/estimate``
+  (child ``sonar_track``).
+- ``vehicle_sim`` (``publish_truth: false``) feeds every sensor the loudest (nearest) of the smart
+  target's and the decoy's truths; the ``acoustic_sensor``/``doa_sensor`` nodes track with IDSQ
+  (``prediction: bank``, a grid reaching 300 m north, 60 m radio range); ``/idsq/estimate`` (child
+  ``idsq_track``). Every node steps at Δt = T = 1 s: the truth stamped k·T is the network's step k −
+  1.
+- ``report_source`` ``radar`` sees only the decoy (a constant-velocity vessel east of the field);
+  truth ``/radar/truth`` (child ``t0``), reports ``/radar/t0``.
+- ``fusion`` scores the three pairs at k·1 s (``schedule: stamps``: a replay gives the same scores).
 
-- ``smart_target`` crosses the seabed field of the IDSQ network from south to north (cruise
-  7 m/s, evading at up to 12 m/s when it hears a ping: below the network's v_max = 15 m/s);
-  truth on ``/sonar/target/truth``.
-- ``sonar_observer`` (the AUV, SS-PF + eq. 7 covariance-control scheduling) follows it from the
-  south and pings it; track ``/sonar/estimate`` (child ``sonar_track``).
-- ``vehicle_sim`` publishes the sensor layout and no vehicle (``publish_truth: false``); it reads
-  the smart target's and the decoy's truth (its ``truth_topics``) and publishes every sensor's
-  reading, each sensor hearing the loudest (nearest) source; one ``acoustic_sensor``/``doa_sensor``
-  node per sensor takes its readings (never a truth), so the network tracks whatever is loudest in
-  its field with IDSQ; track ``/idsq/estimate`` (child ``idsq_track``).
-  The sensors predict with the velocity-hypothesis bank (``prediction: bank``,
-  ``track_core.idsq.prediction``) on a grid reaching 300 m north, with a 60 m radio range (the
-  §5.1 40 m leaves a third of the links between adjacent columns out, ``launch.generate``).
-  The decoy sails well east of the field, so the loudest source in the field is the smart target.
-  Every node steps at Δt = T = 1 s: the truth stamped k·T is the network's step k − 1.
-- ``report_source`` named ``radar``: a coastal radar that sees only the decoy, a constant-velocity
-  vessel on its own course that nobody pings; truth ``/radar/truth`` (child ``t0``), reports
-  ``/radar/t0`` with 2σ ellipses.
-- ``fusion`` scores the three pairs at the data instants k·1 s (``schedule: stamps``, so a
-  replay of the bag into a fresh fusion node gives the same scores), publishes scores,
-  associations, fused estimates and markers.
-
-Evaluation (``maritime_summary.maritime_metrics``, registered as ``SCENARIO_METRICS["maritime"]``, run by the
-launcher after a recorded run): per tracker RTAMS (l = 0: √ mean squared position error over the
-matched stamps) against its target's truth; pings emitted (``/sonar/ping``) and detected (the
-target's last status); per pair the mean instant score and the verdict. The verdict of a pair is
-"associated" when the fusion associated it at ≥ half of its scored instants after *both* trackers
-converged, a tracker having converged from the first stamp its position error is below
-``CONVERGED_M`` (an evaluation-only choice; the fusion node never sees the truth); the summary
-prints the true pair's fraction (the goal: ≥ 95 %) and whether a decoy pair was ever associated. It also writes
-``picture.png`` into the bag directory (``maritime_picture.picture``).
-
-Times printed or drawn are seconds from the run's start (``run_start``: the network's step origin,
-else the earliest stamp), not clock stamps: a sim-time run starts at an epoch (~1.8e9 s), whose
-raw stamps read ``t=1.79628e+09``. The start itself is shown once, as a UTC date (``start_note``).
+Evaluation (``maritime_summary.maritime_metrics``, ``SCENARIO_METRICS["maritime"]``, after a
+recorded run): per tracker RTAMS (l = 0: √ mean squared position error over the matched stamps);
+pings emitted and detected; per pair the mean instant score and the verdict: "associated" when
+associated at ≥ half of its scored instants after both trackers converged (position error below
+``CONVERGED_M``, evaluation only); the true pair's fraction (goal ≥ 95 %) and whether a decoy pair
+was ever associated; ``picture.png`` in the bag (``maritime_picture.picture``). Times are seconds
+from ``run_start`` (the network's step origin, else the earliest stamp); ``start_note`` gives the
+UTC date. In full: docs/MODULES.md, "The maritime scenario in full".
 """
 
 from __future__ import annotations

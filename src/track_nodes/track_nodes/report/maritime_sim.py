@@ -37,8 +37,8 @@ from track_core.sonar.contacts import paper_reading, simulated_contact
 from track_core.sonar.models import SensorMode
 from track_core.sonar.scenario import ObserverTrajectory, Scenario
 from track_core.sonar.sspf import make_tracker
+from track_nodes.base.scenario_file import section_node
 from track_nodes.fusion.report_source import ReportSourceParams
-from track_nodes.launch.scenario import section_node
 from track_nodes.report import maritime as mar
 from track_nodes.sonar.observer_params import SonarObserverParams, p_d, smart_target_params, target_model_of
 from track_nodes.sonar.smart_target import SmartTargetNodeParams
@@ -55,17 +55,6 @@ def sections(scenario: str | Path | dict) -> dict[str, dict]:
         scenario = scenario.read_text()
     cfg = yaml.safe_load(scenario) if isinstance(scenario, str) else scenario
     return {section_node(k): (v or {}).get('ros__parameters', {}) for k, v in cfg.items()}
-
-
-def seed_scenario(seed: int) -> dict:
-    """The parsed maritime scenario of seed s: ``maritime_yaml(seed=s)`` (sensor layout and noise) with
-    ``smart_target`` seed s + 2, ``sonar_sim`` and ``sonar_observer`` seed s + 3 (s = 1 is ``config/maritime.yaml``)."""
-    from track_nodes.launch.generate import maritime_yaml
-
-    cfg = yaml.safe_load(maritime_yaml(seed=seed))
-    for node, offset in (('smart_target', 2), ('sonar_sim', 3), ('sonar_observer', 3)):
-        cfg[f'/**/{node}']['ros__parameters']['seed'] = seed + offset
-    return cfg
 
 
 def _sonar_sim(sp: SonarSimParams) -> tuple[SonarParams, ObserverTrajectory, np.random.Generator]:

@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from track_core.fusion import PairAssociator, TrackReport
+from track_core.fusion import AssociatorConfig, PairAssociator, TrackReport
 from track_core.idsq.handoff import decode_handoff
 from track_core.idsq.leader_protocol import (
     SensorSetup,
@@ -52,9 +52,10 @@ from track_core.idsq.network import SensorLayout
 from track_core.idsq.readings import sensor_reading
 from track_core.idsq.tracker import leader_step
 from track_core.metrics import nees_or_nan
+from track_nodes.base.scenario_file import section_node
+from track_nodes.fusion.params import ASSOCIATOR_PARAMS, associator_config
 from track_nodes.idsq.params import SENSOR_PARAMS, sensor_setup
 from track_nodes.idsq.vehicle_sim import VehicleSimParams
-from track_nodes.launch.scenario import section_node
 from track_nodes.report import maritime as mar
 
 FUSION_SOURCE = {mar.SONAR_TRACK: '/sonar/estimate', mar.NETWORK_TRACK: '/idsq/estimate', mar.RADAR_DECOY: '/radar'}
@@ -78,14 +79,15 @@ def sensors_of(scenario: Path | dict, comm_range: float | None = None, **tracker
     """(ReplaySetup: sensor 0's SensorSetup with ``tracker`` overrides and vehicle_sim's noise and seed,
     SensorLayout) of a maritime scenario file (its path, or its parsed dict)."""
     cfg = scenario if isinstance(scenario, dict) else yaml.safe_load(Path(scenario).read_text())
-    entries = sorted((v['ros__parameters'] for k, v in cfg.items() if section_node(k).startswith('sensor_')),
-                     key=lambda e: e['id'])
+    shared = cfg.get('/**', {}).get('ros__parameters', {})  # what every node gets, as ROS gives it
+    entries = sorted(({**shared, **v['ros__parameters']} for k, v in cfg.items()
+                      if section_node(k).startswith('sensor_')), key=lambda e: e['id'])
     first = entries[0]
     cls = SENSOR_PARAMS[first['type']]
     p = cls(**{f.name: first[f.name] for f in dataclasses.fields(cls) if f.name in first})
     setup = sensor_setup(p, np.asarray(p.position, dtype=float))
     setup = dataclasses.replace(setup, tracker=dataclasses.replace(setup.tracker, **tracker))
-    sim = next((v['ros__parameters'] for k, v in cfg.items() if section_node(k) == 'vehicle_sim'), {})
+    sim = {**shared, **next((v['ros__parameters'] for k, v in cfg.items() if section_node(k) == 'vehicle_sim'), {})}
     v = VehicleSimParams(**{f.name: sim[f.name] for f in dataclasses.fields(VehicleSimParams) if f.name in sim})
     noise = SimNoise(amplitude=v.amplitude, sigma_a=v.noise_sigma_a, sigma_doa=v.noise_sigma_doa_deg * DEG)
     layout = SensorLayout(np.array([e['position'] for e in entries], dtype=float),
@@ -121,28 +123,31 @@ def replay(d: dict, setup: ReplaySetup, layout: SensorLayout) -> list[dict]:
     return rows
 
 
-FUSION_KEYS = ('method', 'threshold', 'release_ratio', 'prior_weight', 'prior_score', 'combine', 'window', 'floor',
-               'stale_after', 'max_prediction', 'q_s')
+FUSION_KEYS = ASSOCIATOR_PARAMS   # the fusion node's parameters that make its associator (``fusion.params``)
 
 
 def fusion_of(scenario: Path | dict) -> dict:
     """The fusion node's association settings (``FUSION_KEYS``) in a maritime scenario file (path or dict)."""
     cfg = scenario if isinstance(scenario, dict) else yaml.safe_load(Path(scenario).read_text())
-    sec = next((v['ros__parameters'] for k, v in cfg.items() if section_node(k) == 'fusion'), {})
+    shared = cfg.get('/**', {}).get('ros__parameters', {})  # what every node gets, as ROS gives it
+    sec = {**shared, **next((v['ros__parameters'] for k, v in cfg.items() if section_node(k) == 'fusion'), {})}
     return {k: sec[k] for k in FUSION_KEYS if k in sec}
+
+
+def fusion_config(**fusion) -> AssociatorConfig:
+    """The fusion node's ``AssociatorConfig`` of its parameters ``fusion`` (``fusion_of``; the node's defaults
+    for the others), built as the node builds it; the replay scores the data's instants, so ``schedule``
+    must be ``stamps``."""
+    config = associator_config(fusion)
+    if config.stamp_rate is None:
+        raise ValueError("network_replay scores at the data's instants: the fusion settings need schedule: stamps")
+    return config
 
 
 def fuse(d: dict, rows: list[dict], **fusion) -> dict[tuple[str, str], np.ndarray]:
     """Scores per pair (sorted ids → rows t, score, combined, associated), as ``maritime.load`` reads a bag;
-    ``fusion``: the fusion node's settings (``fusion_of``; default config/maritime.yaml's)."""
-    f = {'method': 'exact', 'threshold': 0.5, 'release_ratio': 1.0, 'prior_weight': 0.0, 'prior_score': 1.0,
-         'combine': 'geometric', 'window': 10, 'floor': 0.0, 'stale_after': 2.5, 'max_prediction': 3.0, 'q_s': 1.0,
-         **fusion}
-    fa = PairAssociator(f['method'], float(f['threshold']), f['combine'], int(f['window']),
-                        stale_after=float(f['stale_after']), max_prediction=float(f['max_prediction']),
-                        q_s=float(f['q_s']), stamp_rate=1.0,  # schedule: stamps at 1 Hz, as config/maritime.yaml
-                        floor=float(f['floor']), release_ratio=float(f['release_ratio']),
-                        prior_weight=float(f['prior_weight']), prior_score=float(f['prior_score']))
+    ``fusion``: the fusion node's parameters (``fusion_of`` of the run's scenario file; ``fusion_config``)."""
+    fa = PairAssociator(fusion_config(**fusion))
     tracks = dict(d['tracks'])
     tracks[mar.NETWORK_TRACK] = (np.array([r['t'] for r in rows]), np.array([r['mean'] for r in rows]),
                                np.array([r['cov'] for r in rows]))

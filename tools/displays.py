@@ -8,8 +8,8 @@ panel). RViz draws every type of a scene; Foxglove's 3D panel draws neither Odom
 PointStamped (``display.FOXGLOVE_3D_TYPES``), so its layout names their display twins
 (``<topic>/pose``, published beside them: ``base/twins.py``) instead; ``undrawn`` checks a layout
 against the topics and types a run published. The files in ``src/track_nodes/displays/`` (installed
-to ``share/track_nodes/displays/``) are written by ``python -m track_nodes.launch.displays DIR``; a test
-keeps them equal to this.
+to ``share/track_nodes/displays/``) are written by ``.venv/bin/python tools/displays.py [DIR]``; a test
+keeps them equal to this (``test_displays``), and the scenario tests check a recorded bag with ``undrawn_in_bag``.
 
     rviz2 -d $(ros2 pkg prefix track_nodes)/share/track_nodes/displays/maritime.rviz
     Foxglove: Layouts → Import from file… → share/track_nodes/displays/maritime.json
