@@ -3,55 +3,27 @@
 State ``X = [x, y, φ, m₁ₓ, m₁ᵧ, …]`` (vehicle at the laser, point landmarks in creation order).
 
 Compressed EKF (the paper's §2). The state is partitioned into the active part A (vehicle +
-landmarks within ``local_radius`` of the vehicle when the phase starts) and the passive part B.
-In the local phase only X_A, P_AA are predicted/updated while, from φ = I, ψ = 0, θ = 0,
+landmarks within ``local_radius`` of the vehicle when the phase starts) and the passive part B. In
+the local phase only X_A, P_AA are predicted/updated while, from φ = I, ψ = 0, θ = 0,
 
 - prediction with Jacobian J on A:  φ ← J φ
 - update with H = [H_a 0], S = H_a P_AA H_aᵀ + R, μ = H_aᵀS⁻¹H_a, β = H_aᵀS⁻¹ν (P_AA before the
   update):  ψ ← ψ + φᵀμφ,  θ ← θ + φᵀβ,  φ ← (I − P_AA μ) φ
 
-and the global update (when the vehicle is more than ``local_exit`` from the phase centre, or
-on request) uses P_AB from the start of the phase: X_B ← X_B + P_BA θ, P_BB ← P_BB − P_BA ψ P_AB,
-P_AB ← φ P_AB, followed by a repartition. The result equals the full EKF (tested to 1e-9).
+and the global update (when the vehicle is more than ``local_exit`` from the phase centre, or on
+request) uses P_AB from the start of the phase: X_B ← X_B + P_BA θ, P_BB ← P_BB − P_BA ψ P_AB,
+P_AB ← φ P_AB, followed by a repartition. The result equals the full EKF (tested to 1e-9). A new
+landmark in a local phase joins A with the row G_v φ_v of a rectangular φ (n_A × n_A₀).
 
-Interpretation (new landmarks during a local phase, not covered by the issue's formulas): a new
-landmark m = g(x_v, z) joins A. Its cross-covariance with B is G_v P_vB = G_v φ_v P_A₀B, so φ
-becomes rectangular (n_A × n_A₀): the new landmark's row is G_v φ_v, while ψ and θ stay in the
-dimension of A at the phase start (A₀). The global update then writes P_AB = φ P_A₀B for every
-row of A, including the new landmarks; this is exact.
+With ``compressed=False`` A is the whole state and B is empty: the plain (full) EKF-SLAM. One scan =
+one joint update of all associated observations (against the scan's prior), then new landmarks from
+the updated pose. Prediction is batched exactly (Φ = I + (Σ vᵢ) e₃ᵀ, Q accumulated on 3×3, applied
+when P_AA is next needed); the scan update reuses one Cholesky factor of S.
 
-With ``compressed=False`` A is the whole state and B is empty: the plain (full) EKF-SLAM, with
-the same prediction, association and joint scan update. One scan = one joint update of all
-associated observations (associated against the prior of the scan), then initialisation of new
-landmarks from the updated pose.
-
-Cost (what keeps the 26-min Victoria Park run far below real time):
-
-- Prediction is batched *exactly*. The vehicle Jacobian of the ACFR model is F = I + v e₃ᵀ
-  (only F[0,2], F[1,2] differ from I, and v₂ = 0), so a product of k of them is
-  Φ = I + (Σ vᵢ) e₃ᵀ, and Q is accumulated on 3×3 as Q ← F Q Fᵀ + G Σᵤ Gᵀ. ``predict`` updates
-  the pose at once (plain floats, ``models.vehicle_step_scalar``, O(1)) and only these two
-  small accumulators; they are applied to the 3 vehicle rows/columns of P_AA (and to φ) when
-  P_AA is next needed (``Paa``/``P``/``phi``/``pose_cov``, the scan update): O(n_A) per scan
-  instead of O(n_A) per 25 ms input. Identical to step-by-step prediction up to rounding.
-- The scan update is O(n_A²·k) (k associated observations), with one Cholesky factor of S
-  (``scipy.linalg.cho_factor``) reused for every right-hand side; no inverse is formed.
-- The global update is one in-place BLAS product P −= (P_·A₀ ψ) P_·A₀ᵀ over the whole matrix
-  (its A rows/columns are rewritten afterwards), O(n²·n_A₀), once per ``local_exit`` metres; no
-  full-matrix fancy indexing. It is skipped when nothing happened since the last one.
-- Membership of the local area is recomputed only at a repartition (one O(L) distance test).
-
-Tentative landmarks (``min_obs``, interpretation for real data). Spurious laser returns would
-otherwise become permanent landmarks. With ``min_obs`` > 1 an observation that starts a new
-landmark (outside ``new_gate`` of every active landmark) first becomes a *tentative* feature
-held outside the filter: its global position g(x̂_v, z) and the sensor part of its covariance
-G_z R G_zᵀ. An unmapped observation of a later scan confirms the nearest tentative feature when
-their Mahalanobis distance (with the sum of both sensor covariances) is below
-``tentative_gate``; a feature confirmed in ``min_obs`` scans is initialised as a normal
-landmark from the confirming observation (standard delayed initialisation, earlier sightings
-are not fused), and a feature not confirmed within ``tentative_max_gap`` scans is dropped.
-``min_obs = 1`` is immediate initialisation (the default, and what the simulation uses). The
-rule depends on nothing but the sensor model and scan counts.
+Tentative landmarks (``min_obs`` > 1, for real data): a new observation is held outside the filter
+until confirmed in ``min_obs`` scans (Mahalanobis distance below ``tentative_gate``), dropped after
+``tentative_max_gap`` scans without one. ``min_obs = 1`` (default) is immediate initialisation. Why
+and what it costs: docs/MODULES.md, "The compressed EKF".
 """
 
 from __future__ import annotations
@@ -112,6 +84,7 @@ class SlamParams:
     min_obs: int = 1                 # scans a new feature must be seen in before it is mapped (1 = at once)
     tentative_gate: float = 9.21     # χ²₂ gate for confirming a tentative feature
     tentative_max_gap: int = 2       # a tentative feature unseen for more scans than this is dropped
+    max_landmarks: int = 2000        # map-size cap: new landmarks beyond it are refused (Victoria Park maps 277)
 
     def __post_init__(self) -> None:
         for name in ('sigma_v', 'sigma_steer', 'sigma_r', 'sigma_b', 'gate', 'max_range', 'init_max_range',
@@ -132,6 +105,8 @@ class SlamParams:
             raise ValueError(f'min_obs = {self.min_obs}: must be >= 1')
         if self.tentative_max_gap < 1:
             raise ValueError(f'tentative_max_gap = {self.tentative_max_gap}: must be >= 1')
+        if self.max_landmarks < 1:
+            raise ValueError(f'max_landmarks = {self.max_landmarks}: must be >= 1')
 
     @property
     def R(self) -> np.ndarray:  # noqa: N802 (the paper's R)
@@ -158,6 +133,8 @@ class CekfSlam:
         self._P = P0.copy()
         self.n_global_updates = 0
         self.n_scans = 0
+        self.n_refused_landmarks = 0  # observations that would have started a landmark beyond ``max_landmarks``
+        self._refused_untold = 0  # ... of which ``take_refused_landmarks`` has not told yet
         # pending prediction: Φ = I + [c0, c1, 0]ᵀ e₃ᵀ and Q (upper triangle q00 q01 q02 q11 q12 q22)
         self._pending = False
         self._c = [0.0, 0.0]
@@ -526,13 +503,15 @@ class CekfSlam:
     def _new_features(self, z: np.ndarray) -> np.ndarray:
         """Unmapped observations: initialise at once (``min_obs`` = 1) or via tentative features.
 
-        Returns the rows of ``z`` that became landmarks, in the order they were added.
+        Returns the rows of ``z`` that became landmarks, in the order they were added. Beyond
+        ``max_landmarks`` none does: the observation is counted (``n_refused_landmarks``) and dropped.
         """
         p = self.params
         if p.min_obs <= 1:
-            if z.shape[0]:
-                self.add_landmarks(z)
-            return np.arange(z.shape[0])
+            rows = self._within_cap(np.arange(z.shape[0]))
+            if rows.size:
+                self.add_landmarks(z[rows])
+            return rows
         # forget features not confirmed recently
         alive = self.n_scans - self._tent_last <= p.tentative_max_gap
         if not np.all(alive):
@@ -575,9 +554,22 @@ class CekfSlam:
         self._tent_cov = np.concatenate([self._tent_cov[keep], C[fresh]])
         self._tent_n = np.concatenate([self._tent_n[keep], np.ones(int(fresh.sum()), int)])
         self._tent_last = np.concatenate([self._tent_last[keep], np.full(int(fresh.sum()), self.n_scans)])
-        if np.any(promote):
-            self.add_landmarks(z[promote])
-        return np.flatnonzero(promote)
+        rows = self._within_cap(np.flatnonzero(promote))
+        if rows.size:
+            self.add_landmarks(z[rows])
+        return rows
+
+    def _within_cap(self, rows: np.ndarray) -> np.ndarray:
+        """The first of ``rows`` that still fit under ``max_landmarks``; the rest are counted as refused."""
+        room = max(0, self.params.max_landmarks - self.n_landmarks)
+        self.n_refused_landmarks += max(0, rows.size - room)
+        self._refused_untold += max(0, rows.size - room)
+        return rows[:room]
+
+    def take_refused_landmarks(self) -> int:
+        """New landmarks refused by the map-size cap since the last call (for a node's refusal line)."""
+        n, self._refused_untold = self._refused_untold, 0
+        return n
 
     def add_landmarks(self, z: np.ndarray) -> None:
         """Landmark initialisation m = g(x_v, z) (inverse of eq. 5), joining A (see module docstring)."""

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from track_experiments.soak.bags import read_bag
+from track_experiments.soak.probe import ClockProbe
 from track_experiments.soak.procs import Proc, launch_cmd, node_cmd
 
 CONCURRENT = {'demo': '^/demo/', 'sonar': '^/sonar/', 'slam_sim': '^/slam/'}
@@ -84,7 +85,7 @@ def concurrent(out: Path, env: dict[str, str], run_s: float, timeout: float) -> 
 
 def bringup(out: Path, env: dict[str, str], sensors: int, run_s: float, timeout: float) -> list[Row]:
     """An IDSQ field of ``sensors`` nodes in one process: time to the first /clock, then SIGTERM."""
-    from track_nodes.launch.generate import idsq_yaml
+    from track_nodes.idsq.scenario_files import idsq_yaml
 
     scenario = out / f'idsq{sensors}.yaml'
     scenario.write_text(idsq_yaml(n_sensors=sensors, duration=float(LONG)))
@@ -138,37 +139,21 @@ def loop(out: Path, env: dict[str, str], loops: int, timeout: float) -> list[Row
     return [row]
 
 
-class _TrackProbe:
-    """An rclpy node on the soak's domain counting /demo/track per loop (a /clock going back opens one)."""
+class _TrackProbe(ClockProbe):
+    """Counts /demo/track per loop (a /clock going back opens one)."""
 
     def __init__(self, domain_id: int) -> None:
-        self.domain_id = domain_id
+        super().__init__(domain_id)
         self.restarts, self.bad = 0, 0
         self._counts: dict[int, int] = {}
         self._last_clock: int | None = None
 
-    def __enter__(self) -> _TrackProbe:
-        import rclpy
+    def subscribe(self, node) -> None:
         from nav_msgs.msg import Odometry
-        from rclpy.context import Context
-        from rclpy.executors import SingleThreadedExecutor
-        from rosgraph_msgs.msg import Clock
 
-        from track_msgs_py.qos import CLOCK_QOS, ESTIMATE_QOS
+        from track_msgs_py.qos import ESTIMATE_QOS
 
-        self.context = Context()
-        rclpy.init(context=self.context, domain_id=self.domain_id)
-        self.node = rclpy.create_node('soak_probe', context=self.context)
-        self.node.create_subscription(Clock, '/clock', self._on_clock, CLOCK_QOS)
-        self.node.create_subscription(Odometry, '/demo/track', self._on_track, ESTIMATE_QOS)
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.executor.shutdown()
-        self.node.destroy_node()
-        self.context.try_shutdown()
+        node.create_subscription(Odometry, '/demo/track', self._on_track, ESTIMATE_QOS)
 
     def _on_clock(self, msg) -> None:
         t = msg.clock.sec * 1_000_000_000 + msg.clock.nanosec
@@ -184,13 +169,6 @@ class _TrackProbe:
 
     def tracks_in(self, k: int) -> int:
         return self._counts.get(k, 0)
-
-    def spin_until(self, predicate, deadline: float) -> bool:
-        while time.monotonic() < deadline:
-            if predicate():
-                return True
-            self.executor.spin_once(timeout_sec=0.1)
-        return predicate()
 
 
 def soak_env(domain: str | None) -> dict[str, str]:
