@@ -25,7 +25,7 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import LaserScan
 from tf2_msgs.msg import TFMessage
 
-from track_core.slam.odometry import compose, relative_pose, unicycle_arc
+from track_core.filters.poses import compose, relative_pose, unicycle_arc
 from track_core.slam.sim import raycast_scan
 from track_msgs_py.odometry import odometry_to_pose
 from track_msgs_py.qos import STATIC_QOS, qos_for_topic

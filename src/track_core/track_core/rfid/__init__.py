@@ -15,6 +15,7 @@
 from track_core.rfid.batch import BatchFit, fit_tag, path_from_moves, tag_in_user_frame
 from track_core.rfid.guidance import GuidanceReply, RfidGuidance
 from track_core.rfid.pf import (
+    MeasuredMotion,
     PFParams,
     RfidParticleFilter,
     TagEstimate,
@@ -44,6 +45,7 @@ __all__ = [
     'CommandKind',
     'DphiEstimate',
     'GuidanceReply',
+    'MeasuredMotion',
     'PFParams',
     'PhaseModel',
     'PhaseProcessor',

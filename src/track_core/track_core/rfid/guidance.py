@@ -1,38 +1,24 @@
 """The guidance side: consumes step results, runs the particle filter, returns the next command.
 
-The sequence (Sections II and VII): the user has found a direction in which the tag is read, and
-the guidance asks for one MOVE. Each usable MOVE result runs one filter update (the particles are
-created at the first one, ``pf`` module doc) with the turns reported since the previous MOVE
-(eq. 19), and the next command is TURN by the suggested angle (eqs. 23–24). Each usable TURN
-result adds the reported turn to that sum and the next command is MOVE. A result with ``found``
-ends the search (DONE).
-
-A MOVE result with a finite ``dphi_std`` (a reader with online noise, ``signal.PhaseProcessor``)
-passes it to the filter update as θ_d's std of eq. 11; NaN (the paper's fixed noise) passes nothing.
+The sequence (Sections II and VII): the user has found a direction in which the tag is read, and the
+guidance asks for one MOVE. Each usable MOVE result runs one filter update (the particles are
+created at the first one, ``pf`` module doc) with the turns reported since the previous MOVE (eq.
+19), and the next command is TURN by the suggested angle (eqs. 23–24). Each usable TURN result adds
+the reported turn to that sum and the next command is MOVE. A result with ``found`` ends the search
+(DONE). A finite ``dphi_std`` (``signal.PhaseProcessor``) is passed to the update as θ_d's std of
+eq. 11; NaN (the paper's fixed noise) passes nothing.
 
 Bad input: a result that ``protocol.step_result_problem`` rejects (NaN dφ, an empty phase stream,
-a reader failure such as "signal lost", a NaN turn, or a result for another command) leaves the
-filter and the turn sum exactly as they were. The reply carries the warning, and its command
-repeats the pending one with ``repeat=True`` and a new ``seq``.
+"signal lost", a NaN turn, a result for another command) leaves the filter and the turn sum as they
+were; the reply carries the warning and repeats the pending command (``repeat=True``, new ``seq``).
+After ``max_repeats`` consecutive unusable MOVEs (the tag is behind the user) it asks for a half
+turn (TURN by π), the paper's "the user rotates to a different direction".
 
-Repeated loss (an addition to the paper). A MOVE during which the reads stop has taken the
-tag out of the antenna's beam, so the tag is behind the user. Repeating that step from the same
-place fails the same way. After ``max_repeats`` consecutive unusable MOVE results the guidance asks
-for a half turn instead (TURN by π, reason given), still without touching the filter. That is the
-paper's "the user rotates to a different direction and informs the reader", and the turn the user
-reports is summed into eq. 19 as usual.
-
-Sign convention check (an addition, ``sign_check`` MOVEs, 4 by default; 0 = off). A reader whose
-phase convention is set wrong (``PhaseModel.convention``: an LLRP reader's phase rises with distance,
-the paper's falls) hands the filter −dφ. The commanded motion contradicts that: a MOVE is walked in
-the facing direction, and the tag is read in the beam, in front, so a usable MOVE from farther than
-the back lobe takes the user closer (dφ < 0 in eq. 6). With the sign wrong, almost every one reads as
-walking away, and the filter then sends the user away from the tag (so the walk never ends: 0 of 200
-searches found in ``rfid-reader`` part 2). Over the first ``sign_check`` usable MOVEs, when at least
-``sign_share`` (3/4) of them have dφ > 0, ``sign_warning`` says so in one line naming the ``convention``
-parameter, and it is logged once. The filter is not changed: the check warns rather than refuses,
-since a user who walked elsewhere than commanded makes the same signature. Measured in ``rfid-reader``
-part 2 (warned in the searches with the sign wrong and with it right).
+Sign convention check (``sign_check`` MOVEs, 4 by default; 0 = off): a usable MOVE from beyond the
+back lobe should take the user closer (dφ < 0, eq. 6). When at least ``sign_share`` (3/4) of the
+first ``sign_check`` usable MOVEs have dφ > 0, ``sign_warning`` names the ``convention`` parameter
+(logged once); the filter is not changed. Why and measured: docs/results/rfid.md, "The sign
+convention check".
 """
 
 from __future__ import annotations
@@ -45,11 +31,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from track_core.filters import circular_mean, wrap_angle
-from track_core.rfid.pf import PFParams, RfidParticleFilter, TagMode, TagSides
+from track_core.rfid.pf import MeasuredMotion, PFParams, RfidParticleFilter, TagMode, TagSides
 from track_core.rfid.phase import PhaseModel
 from track_core.rfid.protocol import Command, CommandKind, StepResult, step_result_problem
 
 log = logging.getLogger(__name__)
+
+MAX_REPEATS = 2
+"""Unusable MOVE results in a row before the guidance asks for a half turn (the node's default too)."""
 
 
 @dataclass(frozen=True)
@@ -65,7 +54,7 @@ class RfidGuidance:
     """Step-by-step guidance; one object per search."""
 
     def __init__(self, params: PFParams | None = None, phase: PhaseModel | None = None,
-                 rng: np.random.Generator | None = None, log_warnings: bool = True, max_repeats: int = 2,
+                 rng: np.random.Generator | None = None, log_warnings: bool = True, max_repeats: int = MAX_REPEATS,
                  sign_check: int = 4, sign_share: float = 0.75) -> None:
         if max_repeats < 1:
             raise ValueError(f'max_repeats must be >= 1, got {max_repeats}')
@@ -107,7 +96,9 @@ class RfidGuidance:
         """The first command: one MOVE in the direction in which the tag is read."""
         return self._issue(CommandKind.MOVE)
 
-    def on_step(self, result: StepResult) -> GuidanceReply:
+    def on_step(self, result: StepResult, motion: MeasuredMotion | None = None) -> GuidanceReply:
+        """The next command after ``result``. ``motion``: a usable MOVE's measured motion (a reader carried by
+        a robot, ``MeasuredMotion``), used in the update in place of the reported turns and ``s_step``."""
         if self.pending is None:
             raise RuntimeError('on_step before start()')
         if self.found:
@@ -131,7 +122,9 @@ class RfidGuidance:
             t0 = time.perf_counter()
             # the reader's own dφ std (online noise) replaces s_θ in eq. 11; NaN keeps the paper's fixed s_θ
             kw = {'dphi_std': result.dphi_std} if math.isfinite(result.dphi_std) else {}
-            self.pf.update(result.dphi, self.pending_turn, **kw)
+            if motion is not None:   # measured (odometry): in place of the turns and s_step
+                kw['motion'] = motion
+            self.pf.update(result.dphi, self.pending_turn if motion is None else 0.0, **kw)
             a_sug = self.pf.suggested_turn()
             upd = time.perf_counter() - t0
             self.last_update_s = upd

@@ -1,36 +1,24 @@
 """Reader logs: a recorded walk (the tag reads plus the user's MOVE/TURN events) as one CSV file.
 
-A real reader reports reads, not steps: the user's button presses (a MOVE starts, a MOVE ends, a
-TURN was made) come from elsewhere. One file holds both, in time order, so that the same walk can be
-processed offline (``track-experiment rfid-reader --set file=LOG.csv``), replayed on topics
-(``rfid_log_reader``) or written by our simulator (``write_log``, ``write_example``).
+A real reader reports reads, not steps: the button presses come from elsewhere. One file holds both,
+in time order, processed offline (``track-experiment rfid-reader --set file=LOG.csv``), replayed on
+topics (``rfid_log_reader``) or written by our simulator (``write_log``, ``write_example``).
 
-Layout (UTF-8, a BOM is tolerated; ``,``-separated; one header row naming the columns, in any order,
+Layout (UTF-8, a BOM tolerated; ``,``-separated; a header row naming the columns in any order,
 extra columns ignored):
-
-- optional leading lines ``# key: value`` (metadata; an unknown key is refused) or ``# text``:
-  ``format`` (``track-rfid-log 1``), ``convention`` (``llrp``, the default: the phase rises with
-  distance; ``paper``: eq. 3), ``wrap`` (``2pi``, the default, or ``pi``: the reported period),
-  ``carrier_mhz`` (the reference carrier of dφ; default the first read's), ``epc`` (the tag searched
-  for), ``channels_mhz`` (space-separated carriers of the channel indices 1, 2, ...: the reader's hop
-  table, needed only when reads give a ``channel`` and no ``carrier_mhz``);
-- required columns ``time`` (s, the reader's clock, never decreasing), ``epc``, ``antenna``,
-  ``phase`` (rad, wrapped into [0, P]), ``rssi`` (dBm), ``event``, ``value``, and ``channel``
-  (LLRP ChannelIndex, 1-based) or ``carrier_mhz`` (or both); optional ``x``, ``y`` (m), ``heading``
-  (rad): the truth, tag at the origin (the simulator writes it; real logs leave it out or empty).
-- A **read** row has an empty ``event``: ``epc`` (hex, a multiple of 4 digits: 16-bit words),
-  ``antenna`` (integer ≥ 1), ``phase``, ``rssi`` and a channel or carrier are required.
-- An **event** row has ``event`` = ``move_start`` (the button press: ``value`` = the commanded
-  step length in m, or empty), ``move_end`` (the MOVE confirmed; the reads between the two are
-  the MOVE's stream), or ``turn`` (``value`` = the turn made, degrees, + = left; the reads after it
-  up to the next event are its check reads). Its read columns are left empty.
-
-Reads of other EPCs than the tag (a real reader reads every tag in the field) are dropped and
-counted (``ReaderLog.other_reads``); a log holding reads of several tags and no ``epc`` is refused.
-Any bad row is refused with one line naming its line number and column: a missing column, a
-non-finite or out-of-range number, a malformed EPC, a time before the previous row's, an event out
-of order (a MOVE inside a MOVE, a ``move_end`` without a start, a MOVE not ended at the end of the
-file). Nothing is returned for a refused file (``LogError``, a ``ValueError``).
+- leading ``# key: value`` lines (an unknown key refused) or ``# text``: ``format``
+  (``track-rfid-log 1``), ``convention`` (``llrp`` default: phase rises with distance; ``paper``:
+  eq. 3), ``wrap`` (``2pi`` default, or ``pi``), ``carrier_mhz`` (dφ's reference; default the first
+  read's), ``epc``, ``channels_mhz`` (the hop table for the 1-based channel indices);
+- columns ``time`` (s, never decreasing), ``epc``, ``antenna``, ``phase`` (rad, in [0, P]), ``rssi``
+  (dBm), ``event``, ``value``, and ``channel`` (LLRP ChannelIndex) or ``carrier_mhz``; optional
+  truth ``x``, ``y`` (m), ``heading`` (rad), tag at the origin;
+- a read row has an empty ``event`` (``epc`` hex in 16-bit words, ``antenna`` ≥ 1);
+- an event row: ``move_start`` (``value`` the commanded step in m, or empty), ``move_end``, or
+  ``turn`` (``value`` degrees, + = left); its read columns empty.
+Reads of other EPCs are dropped and counted (``ReaderLog.other_reads``); several tags and no ``epc``
+is refused. A bad row (missing column, bad number, malformed EPC, time backwards, an event out of
+order) refuses the file with one line naming line and column (``LogError``, a ``ValueError``).
 """
 
 from __future__ import annotations

@@ -1,101 +1,30 @@
 """The particle filter of Sections IV–V, vectorised over particles.
 
-State (eq. 18): each particle pᵢ = (xᵢ, yᵢ, aᵢ) is a hypothesis of the user's position and facing
-direction, in a frame with the tag at the origin O(0, 0).
+State (eq. 18): each particle pᵢ = (xᵢ, yᵢ, aᵢ), the user's position and facing direction in a frame
+with the tag at the origin O(0, 0). Initialisation (§IV.B) at the start of the first MOVE, in the
+bottom-left quadrant (the frame's rotation is a free gauge): polar angle uniform in [π, 3π/2],
+distance uniform in ``init_range``, heading = bearing to tag + ψ, ψ uniform in ±``beam_width``/2.
 
-Initialisation in one quadrant (§IV.B). The measurements (eq. 6) depend only on the distances
-|p| to the tag, and the turns are relative, so rotating every particle about the origin changes no
-prediction: the frame's orientation is a free gauge. We fix it with the start of the first step,
-the first MOVE: the frame is turned so that the user stands in the bottom-left quadrant (x ≤ 0, y ≤ 0,
-as in Fig. 4). Any true configuration, rotated about the tag, has an equivalent there, which is
-the paper's "there is always a location that corresponds to the actual angular relationship". So
-the particles are created at the start of that step, when the user has just found a direction in
-which the tag is read: polar angle uniform in [π, 3π/2], distance uniform in ``init_range``, and
-heading aᵢ = bearing to the tag + ψ, with ψ uniform in ±``beam_width``/2 because the tag is in the
-beam. The first step's dφ (with no turn before it) then weights them. Only the *relative* bearing
-ψ and the distance matter, and the quadrant's 90° of polar angle are redundant samples of the gauge.
+``update`` for one MOVE:
+1. Jitter (eq. 21): x, y += N(0, (2 s_r)²) on the previous posterior (not at the first update).
+2. Motion (eqs. 19–20): heading a + a_u + n_a (a_u the turns since the last move, n_a ~ N(0, s_a));
+   step s_step + r, r ~ N(0, s_r).
+3. Weights (eqs. 22, 15): m = −(4π/λ)(|p_t| − |p_{t+1}|) − dφ, w ← w·f_w(m), normalised; f_w(m) =
+   1/max(m², m₀²), m₀ = √(½(4π/λ)² s_r² + s_θ²) (eq. 11): the paper's 1/m², bounded.
+4. Resampling (eq. 16): systematic when ESS = 1/Σ wᵢ² < N_th = 2N/3; weights reset to 1/N.
+5. Suggested turn (eqs. 23–24), circular: daᵢ = atan2(−yᵢ, −xᵢ) − aᵢ, a_sug = atan2(Σ wᵢ sin daᵢ, Σ
+   wᵢ cos daᵢ) (``suggestion='mean'``).
 
-Update for one MOVE (``update``):
-1. Jitter (eq. 21): x, y += N(0, (2 s_r)²). Applied at the start of the update to the previous
-   posterior (skipped at the first update), i.e. *between* the resampling of one step and the
-   motion of the next. Jittering p_{t+1} after the motion but before the weights would put
-   2 s_r of noise on one end of eq. 22: ≈ 4π/λ·2 s_r·√2 ≈ 10 rad on m at λ = 0.35 m.
-2. Motion (eqs. 19–20): a_u = Σ turns reported since the last move; heading
-   a + a_u + n_a, n_a ~ N(0, s_a); step s_step + r, r ~ N(0, s_r).
-3. Weights (eqs. 22, 15): m = −(4π/λ)(|p_t| − |p_{t+1}|) − dφ, w ← w · f_w(m) and normalise, with
-   f_w(m) = 1/max(m², m₀²). Guard: the paper's f_w = 1/m² is unbounded as m → 0, so one particle
-   that happens to match the measurement to 10⁻⁶ rad would take all the weight. The clamp gives
-   the paper's 1/m² whenever |m| ≥ m₀ and bounds it by 1/m₀² below: differences smaller than the
-   measurement noise are not rewarded. m₀ defaults to the dφ noise std of eq. 11,
-   √(½(4π/λ)² s_r² + s_θ²) (≈ 2.6 rad at the worst-case errors).
-4. Resampling (eq. 16): systematic, when ESS = 1/Σ wᵢ² < N_th = 2N/3; weights reset to 1/N.
-5. Suggested turn (eqs. 23–24), circular form: daᵢ = atan2(−yᵢ, −xᵢ) − aᵢ and
-   a_sug = atan2(Σ wᵢ sin daᵢ, Σ wᵢ cos daᵢ). The printed weighted sum Σ wᵢ daᵢ of raw differences
-   breaks at ±π: two particles at +179° and −179° (both nearly "turn around") average to 0°,
-   "go straight". The circular mean is the weighted sum's limit for concentrated daᵢ and is
-   continuous across ±π. This is ``suggestion='mean'``.
-
-Mirror images (an addition to the paper, ``suggestion='auto'``, the default). A straight step
-measures |E| − |S| only, which is the same for a tag on the left and its mirror image on the right
-of the walking line. So the posterior often has two modes at ±ψ. Their circular mean points
-between them: straight ahead, or straight back after a half turn. That keeps the user on the same
-line, where the two modes stay equally likely; we saw users shuttle back and forth past the tag
-this way. When the weighted mean resultant length R̄ = |Σ wᵢ e^{i daᵢ}| is below
-``side_threshold`` (0.9), the particles disagree, and the suggestion is the circular mean over the
-heavier side only (daᵢ > 0, tag on the left, or daᵢ < 0). Either the user then finds the tag, or
-the next dφ rejects that side. With R̄ ≥ 0.9 it is eq. 24 unchanged. 'side' always uses the heavier
-side. At N = 100 (200 runs, seed 0), 'mean' needs 34.6 steps on average and 'auto' 30.1.
-
-Lost filter (an addition, ``reinit_factor``). If no particle explains a step (min |m| > 3 m₀),
-the cloud has lost the user. This happens at small N, once resampling has thinned the
-unobservable distance dimension. The particles are then drawn afresh, as at the start, at the
-start of this step (the tag was read there, so it is in the beam), and this step weights them.
-At N = 10 this takes success from 94.5 % to 100 % and steps from 77 to 45 (200 runs, seed 0). It
-leaves N ≥ 100 practically untouched.
-
-Real readers (additions, off by default):
-
-- ``update(..., dphi_std=σ)``: the reader's own std of this step's dφ (online noise, ``signal``)
-  replaces s_θ in eq. 11, so m₀ = √(½(4π/λ)² s_r² + σ²) follows the reader instead of the paper's
-  5.5°. Without it (the paper, Table I) m₀ is fixed.
-- ``weighting='gaussian'``: f_w(m) = exp(−m²/(2m₀²)) instead of the paper's 1/m² (computed in logs,
-  so that it cannot underflow to all zeros). The paper's f_w has heavy tails: a particle 10 m₀ off
-  keeps 1 % of the weight of one that fits; the Gaussian is the likelihood of eq. 11's noise.
-  Measured (``rfid-reader`` part 3: 100 walks of 5 MOVEs of 0.2 m past a tag beside the track,
-  N = 20000, the filter's s_r and s_a set to the walk's): the median mirror-folded tag error is
-  1.08× the batch least-squares fit's with Gaussian weights, 1.02× with the paper's 1/m², and
-  1.12× with 1/m² and the fixed s_θ = 5.5° instead of the reader's dφ std. So in that set-up
-  neither the Gaussian nor the reader's noise is what brings the filter to the batch fit; the
-  option is kept for readers whose noise is well known.
-- ``weighting='student_t'``: f_w(m) = (1 + m²/(ν m₀²))^(−(ν+1)/2), ν = ``t_dof`` (4): a likelihood
-  with heavy tails for readers whose dφ errors are not Gaussian: a MOVE whose dφ carries a lasting
-  phase step (an error of a radian or more) pulls the cloud by a bounded amount instead of moving all
-  the weight (measured against the Gaussian and 1/m² in ``rfid-reader`` part 3).
-- ``predict(turn)``: a MOVE whose dφ is unusable moves the particles without weighting them.
-- ``init_boost`` (1 = off, the paper): the first update and a re-initialisation draw ``init_boost``·N
-  particles from the prior, weight them by the step's dφ and keep N by systematic resampling (prior
-  boosting). Only those two updates cost more; N particles are carried between steps. Why: with few
-  particles most of Table I's excess steps at small N come from the first MOVE, where few of N prior
-  samples fit its dφ (figures: docs/results/rfid.md).
-- ``tag_posterior()``: the tag in the user's frame. A straight walk cannot tell the tag from its
-  mirror image across the walking line, so the posterior may have two modes, at (x, ±y). The
-  weighted mean of both would put the tag on the walking line. The particles are split by the side
-  (y > 0 or < 0, in each particle's own frame); the posterior is *bimodal* when the lighter side
-  holds at least ``bimodal_weight`` (0.1) of the weight and both sides' mean |y| exceed twice their
-  own std (a single mode straddling the line has a ratio of ≈ 1.3). Then the estimate is the mean
-  over the heavier side and ``bimodal`` says that the mirror image (x, −y) is as plausible.
-  ``tag_estimate()`` is unchanged (weighted mean distance, and the suggestion as bearing, which
-  with ``suggestion='auto'`` already takes the heavier side).
-- ``tag_sides()``: both mirror modes with their probabilities, for a guidance that must say when the
-  tag's side is still unknown. Each side of the walking line (the tag left, y > 0, or right of the
-  user, in each particle's own frame) is a mode: its weighted mean in the user's frame and its
-  probability, the posterior weight on that side. ``unknown`` is ``tag_posterior``'s ``bimodal``
-  rule. Why report both rather than fold them: eq. 6 measures only the change of distance, which a
-  straight walk (eq. 20 with no turn) leaves the same for (x, y) and (x, −y), so every straight
-  MOVE weighs a particle and its mirror image alike (eq. 15) and the probability of each side stays
-  what the prior and the turns before made it. Only a turn off the line followed by a MOVE (eq. 19)
-  moves the weight from one side to the other; until then the heavier side may be the wrong one,
-  and a single point estimate would be wrong by the distance between the two modes (2|y|).
+Additions to the paper: ``suggestion='auto'`` (default) takes the heavier side's mean when the mean
+resultant length R̄ = |Σ wᵢ e^{i daᵢ}| < ``side_threshold`` (0.9), 'side' always; ``reinit_factor``
+redraws the cloud when min |m| > 3 m₀. Off by default: ``update(..., dphi_std=σ)`` (σ replaces s_θ),
+``weighting='gaussian'`` (exp(−m²/(2m₀²))) or ``'student_t'`` ((1 + m²/(ν m₀²))^(−(ν+1)/2), ν =
+``t_dof``), ``predict(turn)`` (move without weighting), ``init_boost`` (draw ``init_boost``·N prior
+particles at the first update and a re-initialisation, keep N). ``tag_posterior()``: the tag in the
+user's frame, ``bimodal`` when the lighter side of the walking line holds ≥ ``bimodal_weight`` (0.1)
+and both sides' mean |y| exceed twice their std; ``tag_sides()``: both mirror modes with their
+probabilities (a straight MOVE weighs (x, y) and (x, −y) alike; a turn then a MOVE moves weight).
+Why each choice, and the measurements: docs/results/rfid.md, "The particle filter in full".
 """
 
 from __future__ import annotations
@@ -106,6 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from track_core.filters import effective_sample_size, systematic_resample, wrap_angle
+from track_core.filters.poses import relative_pose
 from track_core.rfid.phase import PhaseModel
 
 SUGGESTION_RULES = ('mean', 'side', 'auto')
@@ -228,6 +158,38 @@ class UpdateInfo:
     suggested_turn: float   # a_sug (rad), + = counter-clockwise (left)
 
 
+@dataclass(frozen=True)
+class MeasuredMotion:
+    """The reader's motion over one MOVE as odometry measured it, in place of the instruction (eqs. 19–20).
+
+    ``before`` (x, y, yaw): the reader's pose at the step's start in its frame at the previous step's end:
+    yaw is eq. 19's a_u, and (x, y) any shift with it (a reader off the robot's turning axis, a refused
+    step). ``step``: its pose at the step's end in its frame at the step's start: eq. 20's (s_step, 0)
+    becomes (x, y), and yaw is the heading change over the step. n_a and r keep their role (s_a, s_r).
+    """
+
+    before: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    step: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    def __post_init__(self) -> None:
+        for name in ('before', 'step'):
+            v = tuple(float(x) for x in getattr(self, name))
+            if len(v) != 3 or not all(math.isfinite(x) for x in v):
+                raise ValueError(f'MeasuredMotion.{name} must be 3 finite numbers (x, y, yaw), got {v!r}')
+            object.__setattr__(self, name, v)
+
+    @classmethod
+    def between(cls, start, end, previous_end=None) -> MeasuredMotion:
+        """From the reader's poses (x, y, yaw) in one fixed frame (odom) at the previous MOVE's end (None:
+        the first MOVE), this one's start and its end."""
+        before = (0.0, 0.0, 0.0) if previous_end is None else relative_pose(previous_end, start)
+        return cls(tuple(before), tuple(relative_pose(start, end)))
+
+    def at_start(self) -> MeasuredMotion:
+        """The step alone (particles drawn afresh at the step's start)."""
+        return MeasuredMotion(step=self.step)
+
+
 def initial_particles(n: int, params: PFParams, rng: np.random.Generator) -> np.ndarray:
     """(n, 3) particles in the bottom-left quadrant with the tag inside the beam (see the module doc)."""
     theta = rng.uniform(math.pi, 1.5 * math.pi, n)
@@ -316,9 +278,12 @@ class RfidParticleFilter:
         self.rng.bit_generator.state = state
         self._sug = None
 
-    def _move(self, x: np.ndarray, y: np.ndarray, a: np.ndarray, turn: float, e: np.ndarray, dphi: float):
-        """Eq. 20 with standard normals ``e`` (rows 2, 3: n_a, r) and eq. 22's m."""
+    def _move(self, x: np.ndarray, y: np.ndarray, a: np.ndarray, turn: float, e: np.ndarray, dphi: float,
+              motion: MeasuredMotion | None = None):
+        """Eq. 20 with standard normals ``e`` (rows 2, 3: n_a, r) and eq. 22's m; ``motion``: measured."""
         p = self.params
+        if motion is not None:
+            return self._measured_move(x, y, a, motion, e, dphi)
         head = a + (turn + p.s_a * e[2])
         c, s = np.cos(head), np.sin(head)
         step = p.s_step + p.s_r * e[3]
@@ -326,6 +291,23 @@ class RfidParticleFilter:
         r1 = np.sqrt(x1 * x1 + y1 * y1)
         m = self.phase.k * (r1 - np.sqrt(x * x + y * y)) - dphi     # eq. 22: −k(|p_t| − |p_{t+1}|) − dφ
         return x1, y1, head, c, s, r1, m
+
+    def _measured_move(self, x, y, a, motion: MeasuredMotion, e: np.ndarray, dphi: float):
+        """Eqs. 19–20 with the measured motion: shift, a_u + n_a, then |step| + r along its direction."""
+        p = self.params
+        bx, by, byaw = motion.before
+        if bx or by:
+            c0, s0 = np.cos(a), np.sin(a)
+            x, y = x + c0 * bx - s0 * by, y + s0 * bx + c0 * by
+        h = a + (byaw + p.s_a * e[2])                                   # eq. 19: a_u measured, n_a
+        sx, sy, syaw = motion.step
+        along = h + math.atan2(sy, sx)
+        step = math.hypot(sx, sy) + p.s_r * e[3]                        # eq. 20: s_step → |step|
+        x1, y1 = x + step * np.cos(along), y + step * np.sin(along)
+        head = h + syaw
+        r1 = np.sqrt(x1 * x1 + y1 * y1)
+        m = self.phase.k * (r1 - np.sqrt(x * x + y * y)) - dphi       # eq. 22 from the step's start
+        return x1, y1, head, np.cos(head), np.sin(head), r1, m
 
     def _log_fw(self, m: np.ndarray, m0: float) -> np.ndarray:
         """log f_w(m) of eq. 15 for the ``weighting`` (module doc), up to a constant."""
@@ -336,22 +318,24 @@ class RfidParticleFilter:
             return -0.5 * (p.t_dof + 1.0) * np.log1p(np.square(m / m0) / p.t_dof)
         return -np.log(np.maximum(np.square(m), m0 * m0))
 
-    def _boosted(self, n: int, turn: float, dphi: float, m0: float) -> tuple:
+    def _boosted(self, n: int, turn: float, dphi: float, m0: float, motion: MeasuredMotion | None = None) -> tuple:
         """``init_boost``·n prior particles moved and weighted by ``dphi``; n of them by systematic resampling."""
         rng, nb = self.rng, n * self.params.init_boost
         P0 = initial_particles(nb, self.params, rng)
-        out = self._move(P0[:, 0], P0[:, 1], P0[:, 2], turn, rng.standard_normal((4, nb)), dphi)
+        out = self._move(P0[:, 0], P0[:, 1], P0[:, 2], turn, rng.standard_normal((4, nb)), dphi, motion)
         lw = self._log_fw(out[-1], m0)
         w = np.exp(lw - lw.max())
         idx = systematic_resample(w / w.sum(), rng, n)
         return tuple(v[idx] for v in out)
 
     def update(self, dphi: float, turn: float = 0.0, *, force_resample: bool = False,
-               dphi_std: float | None = None) -> UpdateInfo:
+               dphi_std: float | None = None, motion: MeasuredMotion | None = None) -> UpdateInfo:
         """One MOVE: jitter, motion (a_u = ``turn``), weights from ``dphi``, resampling, suggestion.
 
         ``dphi_std``: the reader's own std of this dφ (``signal.PhaseProcessor`` with online noise); it
         replaces s_θ in eq. 11's m₀ for this step. None or NaN: the fixed s_θ (the paper).
+        ``motion``: the measured motion (odometry, ``MeasuredMotion``) in place of ``turn`` (then 0) and
+        ``s_step``; at a re-initialisation only its ``step`` is used.
 
         Initialises the particles first if needed (the first MOVE). Raises ``ValueError`` for a
         non-finite ``dphi`` or ``turn`` before touching the state. Random draws, in order: one
@@ -360,6 +344,8 @@ class RfidParticleFilter:
         """
         if not (math.isfinite(dphi) and math.isfinite(turn)):
             raise ValueError(f'update needs a finite dphi and turn, got dphi={dphi!r}, turn={turn!r}')
+        if motion is not None and turn != 0.0:
+            raise ValueError(f'update takes the turn from motion or from turn, not both (turn={turn!r})')
         if not self.initialized:
             self.initialize()
         p, rng = self.params, self.rng
@@ -368,24 +354,24 @@ class RfidParticleFilter:
         e = rng.standard_normal((4, n))
         if self.n_updates > 0 and p.jitter > 0.0:                   # eq. 21 on the previous posterior
             x, y = x + p.jitter * e[0], y + p.jitter * e[1]
-        x1, y1, head, c, s, r1, m = self._move(x, y, a, turn, e, dphi)
+        x1, y1, head, c, s, r1, m = self._move(x, y, a, turn, e, dphi, motion)
         m0 = p.floor(self.phase, dphi_std if dphi_std is not None and math.isfinite(dphi_std) else None)
         w = self.weights
         self.last_reinit = False
         fresh = self.n_updates == 0
         if self.n_updates > 0 and p.reinit_factor is not None and np.min(np.abs(m)) > p.reinit_factor * m0:
             # no particle explains this step: start afresh at the step's start (tag in the beam there)
-            fresh, turn = True, 0.0
+            fresh, turn, motion = True, 0.0, None if motion is None else motion.at_start()
             self.n_reinits += 1
             self.last_reinit = True
             if p.init_boost == 1:
                 P0 = initial_particles(n, p, rng)
                 x1, y1, head, c, s, r1, m = self._move(P0[:, 0], P0[:, 1], P0[:, 2], 0.0,
-                                                       rng.standard_normal((4, n)), dphi)
+                                                       rng.standard_normal((4, n)), dphi, motion)
                 w = np.full(n, 1.0 / n)
         if fresh and p.init_boost > 1:
             # prior boosting: init_boost·N prior samples weighted by this step, N kept by systematic resampling
-            x1, y1, head, c, s, r1, m = self._boosted(n, turn, dphi, m0)
+            x1, y1, head, c, s, r1, m = self._boosted(n, turn, dphi, m0, motion)
             w = np.full(n, 1.0 / n)
         elif p.weighting == 'inverse_square':
             w = w * guarded_inverse_square(m, m0)                       # eq. 15
@@ -412,8 +398,9 @@ class RfidParticleFilter:
                                   p.side_threshold)
         return UpdateInfo(ess, resampled, self._sug)
 
-    def predict(self, turn: float = 0.0) -> None:
-        """A MOVE without a usable dφ: jitter (eq. 21) and motion (eqs. 19–20) only, no weights.
+    def predict(self, turn: float = 0.0, *, motion: MeasuredMotion | None = None) -> None:
+        """A MOVE without a usable dφ: jitter (eq. 21) and motion (eqs. 19–20; ``motion`` as in
+        ``update``) only, no weights.
 
         The walk goes on when the reader could not measure a step: the particles follow the commanded
         motion and the next usable dφ weights them, so an invalid MOVE costs that step's information,
@@ -429,7 +416,7 @@ class RfidParticleFilter:
         e = rng.standard_normal((4, x.size))
         if self.n_updates > 0 and p.jitter > 0.0:
             x, y = x + p.jitter * e[0], y + p.jitter * e[1]
-        x1, y1, head, *_ = self._move(x, y, a, turn, e, 0.0)
+        x1, y1, head, *_ = self._move(x, y, a, turn, e, 0.0, motion)
         self._P = np.stack([x1, y1, wrap_angle(head)])
         self.n_updates += 1
         self._sug = None

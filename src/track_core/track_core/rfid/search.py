@@ -17,6 +17,9 @@ from track_core.rfid.protocol import CommandKind
 from track_core.rfid.signal import UnwrapConfig
 from track_core.rfid.world import SimReader, WorldParams
 
+MAX_STEPS = 200
+"""MOVEs (repeated ones included) before a search ends as a failure: the node's and the experiments' default."""
+
 
 @dataclass(frozen=True)
 class SearchOutcome:
@@ -32,7 +35,7 @@ class SearchOutcome:
     sign_warning: str = ''     # the guidance's convention check (``guidance`` module doc); '' = none
 
 
-def run_search(world: WorldParams, pf: PFParams, rng: np.random.Generator, max_steps: int = 200,
+def run_search(world: WorldParams, pf: PFParams, rng: np.random.Generator, max_steps: int = MAX_STEPS,
                start: np.ndarray | None = None, unwrap: UnwrapConfig | None = None) -> SearchOutcome:
     """Run one search with independent streams for the world and the filter drawn from ``rng``.
 

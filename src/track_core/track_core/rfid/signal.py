@@ -1,140 +1,32 @@
 """Reader signal processing: one MOVE's stream of wrapped phase reads → the step's dφ (eq. 6).
 
-The reader reads the tag about 300 times a second while the user walks one step (Section II,
-Figs. 1–2). ``process_move`` unwraps that stream, rejects outliers, smooths the two ends and
-returns dφ = −(φ_end − φ_start) in the sign of eq. 6 (see ``phase``), or a "signal lost" /
-"invalid" status with a reason.
+The reader reads the tag ~300 times a second while the user walks one step (Section II, Figs. 1–2).
+``process_move`` unwraps the stream, rejects outliers, fits both ends and returns dφ =
+−(φ_end − φ_start) in the sign of eq. 6 (see ``phase``), or "signal lost"/"invalid" with a reason.
 
-Unwrapping and the outlier rule (a sequential gate, pure-Python floats: ~1 µs a read):
+- Lock: the first read agreeing with its next two (wrapped differences ≤ the gate g; wrap(·) maps
+  into (−P/2, P/2], P the reader's wrap period). Track: an α–β tracker (α = 0.3, β = 0.05, slope
+  in rad/s) predicts û; r = wrap(φ − û); |r| > g = ``gate``·P (0.15·P) is an outlier, dropped
+  without moving the tracker; accepted reads unwrap to û + r.
+- Invalid (dφ NaN, with the reason): more than ``max_consecutive_outliers`` rejects in a row, a gap
+  over ``max_gap_s``, an outlier share over ``max_outlier_fraction``. Signal lost: no reads, fewer
+  than ``min_reads``, or reads not covering the step (``max_edge_gap_s`` from the button presses).
+- Ends: least-squares lines through the first and last ``smooth_window`` (20) accepted reads,
+  refitted once without reads > 3 MAD-σ off, at ``t_start``/``t_end`` (else the end reads).
 
-1. **Lock.** The first read that agrees with its two successors is the start: both wrapped
-   differences |wrap(φ_{i+1} − φ_i)| and |wrap(φ_{i+2} − φ_{i+1})| are ≤ the gate g. Reads before
-   it are outliers. wrap(·) maps into (−P/2, P/2] for the reader's wrap period P.
-2. **Track.** An α–β tracker (level u, slope v in rad/s, α = 0.3, β = 0.05) predicts each read:
-   û = u + v·Δt, and updates u ← û + α r, v ← v + β r / Δt₀ with Δt₀ the median read interval
-   (the exponential inter-read times make r/Δt explode for the shortest Δt). The initial slope is
-   the median, over the first 20 reads, of wrapped 5-read differences per second. The read's
-   innovation is r = wrap(φ − û), taken on the wrapped read's nearest branch.
-3. **Outlier rule.** A read is an outlier when |r| > g, with g = ``gate``·P (default 0.15·P: 0.47 rad
-   for the (0, π] reader, 0.94 rad for (0, 2π]). Outliers are dropped and do not move the tracker.
-   A legitimate read's innovation is its noise (s_θ ≈ 0.1 rad) plus the prediction error. Walking
-   at 1 m/s the phase moves 4π/λ·v ≈ 36 rad/s, ≈ 0.12 rad between reads at 300 reads/s, which the
-   slope predicts. An outlier that happens to fall inside the gate (a fraction 2g/P = 30 % of
-   uniform outliers) moves the level by at most α·g and the slope by β·g/Δt₀; the small β is chosen
-   for that.
-4. Accepted reads are unwrapped to û + r. This is the branch a naive unwrap would choose, but relative
-   to a prediction rather than the previous raw read, so a single wild read cannot shift everything
-   after it by ±P (the naive unwrap does so with probability ≈ 2·|Δφ per read|/P per outlier).
-5. **Lost lock.** More than ``max_consecutive_outliers`` rejected reads in a row, or an accepted gap
-   longer than ``max_gap_s`` (the phase may have moved by more than P/2 unseen), makes the
-   unwrapped curve ambiguous. The step is invalid: its dφ is NaN and the reason says why.
-
-Smoothing: lines through the first and the last ``smooth_window`` (20) accepted reads (least squares,
-refitted once without the reads more than 3 MAD-σ off, e.g. an outlier that passed the gate),
-evaluated at the step's start and end (the button presses, ``t_start``/``t_end``, when given; else
-the first and the last accepted read). dφ = −(end − start). Stopping at the reads instead would
-miss the few milliseconds before the first read and after the last one: ≈ 0.2 rad at walking speed.
-With W = 20 reads (≈ 65 ms) the dφ noise is ≈ 0.6·s_θ instead of √2·s_θ.
-
-
-Signal lost: no reads at all (tag in the antenna's back lobe or out of range), fewer than
-``min_reads``, or reads that do not cover the step (the first read more than ``max_edge_gap_s``
-after the step started, or the last one that long before it ended, when those times are given).
-An outlier fraction above ``max_outlier_fraction`` is also invalid.
-
-Real readers. Every addition below is off by default, or identical to the rules above
-for the paper's reader (one carrier, ``noise='fixed'``, ``relock_reads`` 0, ``sign`` −1): there the
-output is bit for bit what the rules above give, so Table I and the recordings do not move.
-``UnwrapConfig.real_reader(phase)`` switches on what a commercial reader needs (re-lock, online
-noise). Re-locking is off by default because it also acts in the paper's own simulation: when the
-user passes within centimetres of the tag, the phase turns faster than the α–β tracker follows and
-the reads after the turn agree with each other; it re-locks there where the paper's rule drops
-reads. That changes a dφ in most searches and so the route after it: with re-locking on, 194 of
-200 searches at N = 100 (``run_search`` with ``SeedSequence(0).spawn(200)``) take another route,
-and the mean steps go from 29.5 to 30.0 (paired difference +0.44 ± 0.68 steps: no measurable
-effect, but not the same runs).
-
-- **Sign** (``sign`` s, ``phase.PhaseModel.sign``): φ = s·k·d + φ₀, so dφ = s·(φ_end − φ_start)·(…);
-  s = +1 for LLRP/Impinj readers, whose phase rises with distance.
-- **Carriers** (``PhaseStream.carrier_hz``, per read). The tracker's state is the unwrapped phase U
-  in the units of the reference carrier (``carrier_hz``, k_ref), i.e. s·k_ref·(d − d₀). A read on
-  carrier f_c (ρ_c = k_c/k_ref) is predicted as ρ_c·Û + Δ_c, with Δ_c the channel's phase offset in
-  this MOVE. Δ_c is constant over a MOVE: it is the channel's hardware offset plus s·k_c·d₀ at the
-  lock, so it holds the per-channel offset *and* the λ-dependent part of the absolute range. It is
-  estimated online, when the channel is first read in the MOVE: its reads are held back until
-  ``channel_lock_reads`` (3) consecutive ones agree (as for a re-lock, below), and Δ_c is their mean
-  innovation.
-  A channel read again later in the MOVE is predicted with its known Δ_c.
-- **Segments and dφ.** A run of accepted reads on one channel is a segment. Its change is the
-  difference of the two end fits (as above, in the channel's units, divided by ρ_c), evaluated at
-  the segment's boundaries: the button presses at the MOVE's ends, and the midpoint of the gap
-  between two segments. dφ = s·Σ_segments (end fit − start fit)/ρ_c: the channels are combined in
-  range, each with its own λ, and a hop is bridged by the two lines extrapolated to the hop (no
-  offset enters). Segments with fewer than ``min_segment_reads`` accepted reads are dropped (the
-  neighbours' lines bridge them).
-- **Re-lock after a lasting phase step** (``relock_reads``: 0 = never, the default and the paper's
-  processing; 5 in ``UnwrapConfig.real_reader``). The rejected reads since
-  the last accepted one are kept with their innovations rᵢ. When the last ``relock_reads`` of them,
-  consecutive and on the current channel, agree with the newest one (|wrap(rᵢ − r)| ≤ g/2), the phase
-  has stepped and stayed:
-  the tracker re-locks on them (they are accepted) and the re-lock is counted (``relocks``). Wild
-  reads rarely agree like that: uniform outliers fall within g/2 of a read with probability g/P
-  (0.15), so five consecutive ones do with 0.15⁴ ≈ 5·10⁻⁴ per check. The
-  step δ (their mean innovation, in (−P/2, P/2]) is bridged by ``step_bridge``:
-  'wrapped' (default, the issue's rule): the unwrapped curve jumps by δ, the wrapped difference,
-  the branch ``np.unwrap`` takes; 'join': δ is taken as a multipath offset of the channel and a new
-  segment starts, so the line fits on both sides bridge it and δ does not enter dφ. A run of
-  rejected reads that do not agree is still a run of outliers: the lock is lost after
-  ``max_consecutive_outliers`` + ``relock_reads`` of them (the limit leaves a whole re-lock window
-  after up to 8 bad reads: two steps close together, or an outlier among the reads after a step,
-  lost 0.7 % of the MOVEs with steps at 1/s otherwise). A gap in time longer than ``max_gap_s`` is
-  still "phase lock lost".
-- **Noise from the data** (``noise='online'``, used through ``PhaseProcessor``). The per-read
-  noise σ̂ is the median, over the last ``noise_memory`` MOVEs, of each MOVE's robust estimate:
-  1.4826·MAD of the residuals of the line fits over the first and last ``smooth_window`` reads of
-  every segment, each residual scaled by √(n/(n − 2)) for the two fitted parameters. Before any
-  MOVE it is ``noise_prior``. It sets (i) the gate g = min(``gate``·P, max(``min_gate``,
-  ``gate_sigmas``·σ̂)), from the MOVEs before this one; (ii) the end-fit window: the fewest reads W
-  whose end value has noise 2σ̂/√W ≤ ``end_noise``, between ``min_segment_reads`` (5) and
-  ``smooth_window`` (0.015 rad of read noise gives 9 reads, the paper's 0.096 rad keeps 20; a long
-  window on a low-noise reader only adds the curvature of a real walk: a walk that accelerates at
-  2 m/s² from the button press puts ≈ 0.05 rad of bias on a 20-read fit at 300 reads/s, ≈ 0.01 rad on
-  a 9-read one. The simulated user walks at constant speed, so there the shorter window only costs
-  noise: ≈ +0.006 rad of median |dφ error|, measured in ``rfid-reader``); (iii) ``dphi_std``, the
-  dφ's standard deviation from the fits' own variances (σ̂²·(1/n + (t − t̄)²/Σ(tᵢ − t̄)²) for each
-  end value), which the filter uses as θ_d's std in eq. 11. With ``noise='fixed'`` (the paper,
-  Table I) none of this changes and ``dphi_std`` is NaN: the filter keeps its fixed s_θ.
-- **Robust noise** (``noise='robust'``, the one ``UnwrapConfig.real_reader`` uses). A real reader's
-  read errors are heavy-tailed and come in runs (a fade): σ̂ from the quiet reads is small, and a gate of
-  6σ̂ rejects runs of good reads until the lock is lost. Here the reads are modelled as Student-t
-  noise plus wild reads. Both parameters of the t are learnt from the data: over the last
-  ``noise_memory`` MOVEs the tracker's innovations on known channels (accepted or not) are pooled; the
-  ratio of their 90th percentile to their median of |r| gives ν (``tail_dof``: 3.58 is ν = 2, 2.44 the
-  Gaussian limit), the median gives the scale (median/t_ν⁻¹(0.75)). Before ``min_tail_samples``
-  innovations, ν = 2 and the scale from ``noise_prior``. The gate is where a wild read, uniform over P
-  with prior share ``outlier_rate`` (1 %), becomes likelier than the t noise:
-  (1 − ε)·f_t(g/s; ν)/s = ε/P, solved in closed form (``t_gate``), kept within [``min_gate``, ``gate``·P].
-  So the gate is learnt: ≈ 0.8 rad for t₂ noise of scale 0.03 rad, ≈ 0.15 rad (the floor) for a
-  Gaussian reader of 0.015 rad. σ̂ for the end-fit window is as with ``'online'``. ``dphi_std``: each
-  end value gets its own spread, the RMS residual of its end fit (n − 2 dof, over the reads the refit
-  keeps) but at least σ̂, times the fit's variance factor, times ``dphi_std_factor``. The factor is
-  a calibration against the 1σ interval, the one a filter's likelihood (eq. 11's θ_d) leans on: a
-  trimmed line fit on heavy-tailed reads has a dφ error with heavier tails than the Gaussian its std
-  implies, and on light-tailed reads a lighter one. 1.0 puts the share of errors within ±``dphi_std``
-  at 65–71 % on every simulated real-reader mode without lasting steps (plain, hopping, heavy tails,
-  heavy tails with hopping; ``rfid-reader`` part 1, tuning seeds; a Gaussian gives 68.3 %); the
-  earlier 1.15, tuned to the ±1.645σ share, covered 71–78 % at 1σ: too wide for plain and hopping
-  readers. Held-out figures: docs/results/rfid.md.
-  A re-lock bridged ``'wrapped'`` lets the step's wrapped size into dφ: the reader's phase offset
-  after a re-lock is unknown, uniform over a wrap period as far as the stream can tell, so each
-  re-lock adds its variance P²/12 (P = 2π: 1.81 rad std). Without it a MOVE with a lasting step of a
-  radian claimed the read noise's hundredth of a radian (|error|/``dphi_std`` of 12–140 at the 90th
-  percentile), and a filter that believes it collapses on the wrong mode; with it, the share of such
-  MOVEs within ±2``dphi_std`` goes from 61–71 % to 88–99 % (``'join'`` keeps the step out of dφ and
-  adds nothing).
-  Why this and not the alternatives, measured in ``rfid-reader`` part 1 on the heavy-tailed mode with
-  hopping every 0.2 s: the 6σ̂ gate of ``'online'`` keeps ≈ 97 % of 0.5 m MOVEs and its ``dphi_std``
-  covers ≈ 70 %; the learnt t gate keeps ≥ 99.5 %, and the per-end spread ≈ 90 %.
+Real readers (off by default: bit for bit the rules above for the paper's reader;
+``UnwrapConfig.real_reader(phase)`` turns them on). ``sign`` s: φ = s·k·d + φ₀ (+1 for LLRP/Impinj).
+- Carriers: the state is the unwrapped phase in the reference carrier's units; a read on carrier c
+  is predicted as ρ_c·Û + Δ_c (ρ_c = k_c/k_ref; Δ_c from ``channel_lock_reads`` agreeing reads);
+  dφ = s·Σ_segments (end fit − start fit)/ρ_c, segments under ``min_segment_reads`` dropped.
+- ``relock_reads``: that many consecutive rejects agreeing within g/2 re-lock (``relocks``); the
+  step is bridged by ``step_bridge``: 'wrapped' (jump by the wrapped step) or 'join' (new segment).
+- ``noise='online'``: σ̂ = median over ``noise_memory`` MOVEs of 1.4826·MAD of end-fit residuals;
+  it sets g = min(``gate``·P, max(``min_gate``, ``gate_sigmas``·σ̂)), the end window and
+  ``dphi_std`` (θ_d's std in eq. 11; NaN with ``noise='fixed'``). ``noise='robust'``: Student-t
+  reads (ν, scale learnt) plus wild reads of share ``outlier_rate``, gated where both are equally
+  likely (``t_gate``); ``dphi_std`` from each end's spread × ``dphi_std_factor``, + P²/12 a re-lock.
+Reasons and measurements: docs/results/rfid.md, "Signal processing in full".
 """
 
 from __future__ import annotations

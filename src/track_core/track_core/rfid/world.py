@@ -1,61 +1,28 @@
 """Simulated world, user and reader (Section VI): the reader side of the step-by-step protocol.
 
-World: the tag at the origin, optional axis-aligned rectangular obstacles (they block walking;
-the radio signal goes through them), and a user starting ``start_distance`` (10 m) away in a
-random direction with a random facing direction.
+World: the tag at the origin, optional axis-aligned rectangular obstacles (they block walking, not
+the radio), the user ``start_distance`` (10 m) away in a random direction and facing.
 
-Reads. The tag is read when it is within ``max_range`` and either inside the antenna's half-power
-beam (|bearing from the facing direction| ≤ ``beam_width``/2; 180° in the paper's simulations, 68°
-for its real antenna) or closer than ``back_lobe_range`` (a tag at arm's length is read through
-the back and side lobes too; without this a user who steps past the tag would lose it exactly
-where it is). Reads arrive as a Poisson process at ``read_rate`` (≈ 300/s); each phase is
-wrap(−(4π/λ)d + φ₀ + N(0, s_θ²)) with a per-run offset φ₀; with probability ``outlier_prob`` a read
-is an outlier, uniform in (0, P]. RSSI = ``rssi_1m`` − 40 log₁₀ d + N(0, 2²) dBm.
+Reads: within ``max_range`` and inside the half-power beam (|bearing| ≤ ``beam_width``/2; 180° in
+the paper's simulations, 68° its antenna) or closer than ``back_lobe_range``; Poisson at
+``read_rate`` (≈ 300/s); phase wrap(−(4π/λ)d + φ₀ + N(0, s_θ²)) with a per-run φ₀, an outlier
+uniform in (0, P] with ``outlier_prob``; RSSI = ``rssi_1m`` − 40 log₁₀ d + N(0, 2²) dBm.
 
-User (worst-case errors of Section VI). At the start the user turns by ``scan_step`` (30°) until
-the tag is read ("the user searches for a direction in which measurements are received"). Each
-rotation counts as a turn.
+User (worst-case errors of Section VI): at the start turns by ``scan_step`` (30°) until the tag is
+read. TURN: the suggested angle, else the first of suggestion ± j·``detour_step`` (15°) that is free
+(no obstacle within ``lookahead`` + ``clearance``) and read (``beam_margin`` inside the beam),
+reported as the turn made. MOVE: heading error n_a ~ N(0, s_a²); ``step_model='eq1'`` (eqs. 1–2):
+E = S + k̂·s_step + r(cos θ_m, sin θ_m), r ~ N(0, s_r²), θ_m uniform; ``'eq20'`` (eq. 20): (s_step +
+r) along the heading; at ``walk_speed``; a step into an obstacle stops 5 cm before it. Found: within
+``found_radius`` (0.2 m, Fig. 8) after a MOVE. An unusable MOVE (``protocol.step_result_problem``)
+is undone (the user walks back).
 
-TURN: the user turns by the suggested angle, unless that way is blocked or the tag is not read
-that way. Then they try the suggestion ± j·``detour_step`` (15°; j = 1, 2, …), take the first
-direction that is free and read, and report the turn they made (the paper's "he inputs to the
-reader his actual direction"). The first side tried is the side of the previous detour around the
-same obstacle, else the side back toward the previous heading. "Blocked" means an obstacle within
-``lookahead`` (2 m) that way, plus ``clearance``, so that detours start early and stay oblique, as
-a person walking towards a desk does. If no direction is free that far, only the next step
-counts. Among the free directions the user prefers one where the tag is read well
-(``beam_margin`` inside the beam's edge: the read rate drops at the edge). Walking along an
-obstacle right in front of it would put the tag abeam, at the very edge of a 180° beam. The
-suggested turn and the correction count as two turns.
-
-MOVE: the facing direction gets an error n_a ~ N(0, s_a²). The step is eqs. 1–2 by default
-(``step_model='eq1'``): E = S + k̂·s_step + r(cos θ_m, sin θ_m), r ~ N(0, s_r²), θ_m uniform.
-``'eq20'`` is eq. 20's (s_step + r) along the heading. The user walks at ``walk_speed``. A step
-that would enter an obstacle stops 5 cm before it.
-
-Real readers (every option is off by default, and then not one extra random draw is
-made, so the paper's runs are unchanged bit for bit):
-
-- ``phase.convention`` 'llrp': the phase rises with distance (``phase.PhaseModel``).
-- Hopping: ``channels_hz`` (≥ 2 carriers) and ``hop_dwell_s``. The reader's clock is cut into dwells
-  of ``hop_dwell_s`` (with a random phase drawn once per run); each dwell is on a channel drawn
-  uniformly among the others than the previous dwell's. Channel c has its own k_c = 4π f_c/c and its
-  own phase offset o_c, uniform in [0, 2π), drawn once per run: φ = s·k_c·d + φ₀ + o_c. The stream
-  carries each read's carrier.
-- Lasting multipath phase steps: ``phase_step_rate`` steps per second of reader time (Poisson, TURNs
-  included), each of size ±U[``phase_step_size``] (random sign). A step is added to every read after
-  it and stays for the rest of the run (a fade that moves the phase and "stays there").
-- Low per-read noise: ``phase.s_theta`` (a real reader: ≈ 0.015 rad).
-- Heavy-tailed per-read noise: ``noise_dof`` ν > 0 makes the noise Student-t with ν degrees of
-  freedom and scale ``phase.s_theta``, as a Gaussian scale mixture s_θ·z/√(g/ν), g ~ χ²_ν, whose
-  scale g is held over ``noise_burst_s`` of reader time (a fade lasts several reads: the large
-  errors come in runs, as on a real reader, not one read at a time). One χ² draw per burst.
-- ``ReaderOutput.truth_dphi``: the step's geometric dφ (eq. 6, reference carrier), for evaluation.
-
-Found: the user is within ``found_radius`` (0.2 m, Fig. 8) of the tag at the end of a MOVE. A
-MOVE whose result is unusable (``protocol.step_result_problem``) is undone: the user goes back to
-where the step started (counted in the distance walked) so that the repeated step starts where
-the guidance's unchanged state expects it.
+Real readers (off by default, then not one extra random draw): ``phase.convention`` 'llrp'; hopping
+(``channels_hz``, ``hop_dwell_s``; per channel k_c = 4π f_c/c and offset o_c: φ = s·k_c·d + φ₀ +
+o_c); lasting phase steps (``phase_step_rate`` a second, size ±U[``phase_step_size``]);
+``phase.s_theta``; Student-t read noise (``noise_dof`` ν, scale held over ``noise_burst_s``);
+``ReaderOutput.truth_dphi`` (the geometric dφ, eq. 6). In full: docs/MODULES.md, "The simulated RFID
+world and user".
 """
 
 from __future__ import annotations

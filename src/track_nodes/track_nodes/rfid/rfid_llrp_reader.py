@@ -22,7 +22,6 @@ connection and stays silent for ``handshake_s`` is refused with one warning line
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass
 
@@ -30,7 +29,6 @@ import numpy as np
 
 from track_core.rfid.delivery import AnswerCache, Verdict
 from track_core.rfid.live import LiveActions, LiveAnswer, channel_carriers
-from track_core.rfid.phase import PhaseModel
 from track_core.rfid.protocol import CommandKind
 from track_core.rfid.signal import PhaseProcessor, UnwrapConfig
 from track_core.rfid.world import WorldParams
@@ -41,7 +39,7 @@ from track_msgs_py.records.rfid import RfidStep, read_command
 from track_msgs_py.topics import RFID_COMMAND
 from track_nodes.base import ParameterError, TrackNode, param
 from track_nodes.rfid.llrp import DEFAULT_PORT, LlrpLink, reader_config
-from track_nodes.rfid.params import PhaseParams
+from track_nodes.rfid.params import PhaseParams, phase_model
 from track_nodes.rfid.reads import ReaderTopics
 
 _W = WorldParams()
@@ -99,8 +97,7 @@ class RfidLlrpReaderNode(TrackNode):
         p = self.p
         self.validate_params(p)
         try:
-            phase = PhaseModel.with_wrap(p.wrap, carrier_hz=p.carrier_hz, s_theta=math.radians(p.s_theta_deg),
-                                         convention=p.convention)
+            phase = phase_model(p)
             unwrap = UnwrapConfig.real_reader(phase, relock_reads=p.relock_reads, noise=p.noise)
         except ValueError as exc:
             raise ParameterError(f'invalid phase parameters: {exc}') from None

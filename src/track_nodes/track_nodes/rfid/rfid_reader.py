@@ -1,50 +1,28 @@
 """``rfid_reader``: the simulated user holding the handheld UHF RFID reader (the RFID paper's Section VI).
 
 The reader side of the step-by-step protocol of ``track_core.rfid.protocol``: it performs each
-command that ``rfid_guidance`` publishes on ``/rfid/command`` with ``track_core.rfid.world.SimReader``
-(world, user and reader: the user turns or walks one step with the paper's worst-case errors, the
-reader reads the tag ~300 times a second and processes the MOVE's phase stream into dφ) and
-publishes, in this order,
+command that ``rfid_guidance`` publishes on ``/rfid/command`` with
+``track_core.rfid.world.SimReader`` (the user turns or walks one step with the paper's worst-case
+errors, the reader reads the tag ~300 times a second and processes the MOVE's phase stream into dφ)
+and publishes, in this order,
+- ``/rfid/phase`` (PointCloud2 in ``map``, MOVE only, ``records.rfid.RfidPhase``): the raw wrapped
+  reads, float32 ``x``, ``y``, ``z`` (the reader at the read: truth, for display), ``t`` (s since
+  the step started), ``phase`` (rad, in (0, P]), ``rssi`` (dBm), ``carrier_mhz``;
+- ``/rfid/user/pose`` (PoseStamped in ``map``, tag at the origin) and ``/rfid/user/status``
+  (RfidUserStatus): truth for evaluation only; also ``/tf`` map → rfid_user and ``/tf_static``
+  rfid_user → <node name> (identity);
+- ``/rfid/step`` (RfidStep, last): the fields of ``StepResult`` plus ``duration``
+  (``records.rfid.RfidStep``; an unknown dφ, turn or dφ std has its ``*_known`` false). The phase
+  cloud and the step result of one MOVE carry the same stamp.
 
-- ``/rfid/phase`` (sensor_msgs/PointCloud2 in ``map``, MOVE only, ``records.rfid.RfidPhase``): the raw
-  wrapped reads of the step, float32 fields ``x``, ``y``, ``z`` (where the simulated reader was at
-  the read: truth, for display), ``t`` (s since the step started), ``phase`` (rad, wrapped into
-  (0, P]), ``rssi`` (dBm), ``carrier_mhz`` (the read's carrier: hopping readers change it between
-  dwells);
-- ``/rfid/user/pose`` (geometry_msgs/PoseStamped in ``map``, tag at the origin) and
-  ``/rfid/user/status`` (track_msgs/RfidUserStatus: steps, turns, distance walked, ...):
-  the truth, for evaluation only (the guidance never reads them); the pose also goes on ``/tf`` as
-  map → rfid_user (the user's body frame) at the same stamp, and ``/tf_static`` places the reader's
-  frame (the node name, frame of ``/rfid/phase``) at the user: rfid_user → <node name>, identity;
-- ``/rfid/step`` (track_msgs/RfidStep): the step result, last: the fields of ``StepResult``
-  (``seq``, ``kind``, ``dphi``, ``turn``, ``n_reads``, ``n_outliers``, ``ok``, ``reason``,
-  ``found``, ``dphi_std``, ``relocks``) plus ``duration``, the record
-  ``track_msgs_py.records.rfid.RfidStep`` (an unknown dφ, turn or dφ std: its ``*_known`` false).
-
-The phase cloud and the step result of one MOVE carry the same header stamp.
-
-Exactly one answer per command (``seq``, ``track_core.rfid.delivery.AnswerCache``): a command whose
-``seq`` was already answered (the guidance re-sends its pending command until it sees the answer,
-which covers discovery races) gets the cached step result again, nothing is re-executed; a command
-older than the last one is ignored. A command with an unknown kind, seq 0, a non-finite
-angle, or a seq more than ``SEQ_WINDOW`` ahead is refused (``TrackNode.refuse``) and changes
-nothing. After DONE the search is over: the reader answers DONE and
-performs nothing more (one search per node lifetime).
-
-Time. The simulated user takes time: a MOVE lasts the walk (step length / ``walk_speed``), a TURN
-the ``turn_read_s`` of reads that follow it. With ``time_scale`` > 0 the answer is published when
-that much node time (× ``time_scale``) has passed since the command arrived, checked by a timer of
-period ``tick`` (node time: /clock under ``use_sim_time``); ``time_scale`` 0 answers at once. The
-timing changes only the stamps, never the content: the content depends only on the seed and the
-sequence of commands.
-
-Seeds: the world/user generator is the first of ``SeedSequence(seed).spawn(2)``, the stream
-``track_core.rfid.search.run_search`` gives the world. The guidance node takes the second one, so
-the node pair with the same ``seed`` replays ``run_search(world, pf, default_rng(seed), max_steps)``
-exactly. The start is random (10 m away, random direction) unless ``random_start`` is false.
-
-Parameters are checked at start (ranges, the carrier band): a bad value stops
-the node with one line.
+One answer per command ``seq`` (``track_core.rfid.delivery.AnswerCache``): a repeated seq gets the
+cached result, an older one is ignored; an unknown kind, seq 0, a non-finite angle or a seq over
+``SEQ_WINDOW`` ahead is refused. After DONE nothing more is performed. With ``time_scale`` > 0 the
+answer waits the simulated duration (the walk, or ``turn_read_s``) × ``time_scale`` of node time
+(timer ``tick``); the content depends only on the seed and the commands. Seeds: the first of
+``SeedSequence(seed).spawn(2)`` (the guidance takes the second), so the pair replays
+``run_search(world, pf, default_rng(seed), max_steps)``; ``random_start`` false fixes the start. Bad
+parameters stop the node with one line. In full: docs/MODULES.md, "The rfid_reader node in full".
 """
 
 from __future__ import annotations
@@ -57,7 +35,6 @@ from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import PointCloud2
 
 from track_core.rfid.delivery import AnswerCache, Verdict
-from track_core.rfid.phase import PhaseModel
 from track_core.rfid.protocol import Command, CommandKind
 from track_core.rfid.signal import UnwrapConfig
 from track_core.rfid.world import SimReader, WorldParams, office_obstacles
@@ -79,7 +56,7 @@ from track_msgs_py.topics import (
     RFID_USER_STATUS,
 )
 from track_nodes.base import ParameterError, TrackNode, param
-from track_nodes.rfid.params import PhaseParams
+from track_nodes.rfid.params import PhaseParams, phase_model
 
 _W = WorldParams()
 
@@ -142,8 +119,7 @@ class _Answer:
 def world_params(p) -> WorldParams:
     """``WorldParams`` from the node parameters (ParameterError with one line when inconsistent)."""
     try:
-        phase = PhaseModel.with_wrap(p.wrap, carrier_hz=p.carrier_hz, s_theta=math.radians(p.s_theta_deg),
-                                     convention=p.convention)
+        phase = phase_model(p)
         return WorldParams(
             phase=phase, start_distance=p.start_distance, beam_width=math.radians(p.beam_width_deg),
             max_range=p.max_range, back_lobe_range=p.back_lobe_range, read_rate=p.read_rate,

@@ -1,22 +1,14 @@
-"""Odometry → unicycle inputs, the odom track and map → odom (track_core.slam.odometry)."""
+"""Odometry → unicycle inputs, the odom track and map → odom (track_core.slam.odometry, track_core.filters.poses)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
+from track_core.filters import invert_pose as inverse
+from track_core.filters.poses import OdomTrack, compose, relative_pose, unicycle_arc, unicycle_from_increment
 from track_core.slam.models import UnicycleParams, VehicleParams, acfr_to_unicycle, process_noise, vehicle_step
-from track_core.slam.odometry import (
-    OdometryInputs,
-    OdomTrack,
-    compose,
-    inverse,
-    map_to_odom,
-    relative_pose,
-    sensor_to_base,
-    unicycle_arc,
-    unicycle_from_increment,
-)
+from track_core.slam.odometry import OdometryInputs, map_to_odom, sensor_to_base
 
 
 def test_arc_and_its_inverse_round_trip_vectorised():
