@@ -18,7 +18,7 @@ from track_msgs_py.records.ready import NodeReady
 from track_msgs_py.topics import READY
 from track_nodes.base import TrackNode
 from track_nodes.base.ready import ALLOW_TWINS, WATCH_QOS
-from track_nodes.launch.generate import idsq_yaml
+from track_nodes.idsq.scenario_files import idsq_yaml
 from track_nodes.launch.graph import LauncherNode
 
 pytestmark = pytest.mark.integration

@@ -70,9 +70,10 @@ from track_msgs_py.topics import (
 )
 from track_nodes.bag.check import check_bag
 from track_nodes.bag.frames import check_frames
-from track_nodes.launch.generate import idsq_yaml as scenario_yaml
+from track_nodes.base.scenario_file import node_params
+from track_nodes.idsq.scenario_files import idsq_yaml as scenario_yaml
 from track_nodes.launch.hosts import remove_leftovers, unavailable
-from track_nodes.launch.scenario import load_scenario, node_params
+from track_nodes.launch.scenario import load_scenario
 from track_nodes.report.idsq import recorded_track
 
 DT = 0.5

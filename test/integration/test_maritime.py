@@ -11,6 +11,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 import subprocess
 import sys
 from pathlib import Path
@@ -27,10 +28,15 @@ from track_msgs_py.topics import FUSION_FUSED, FUSION_SCORES, IDSQ_ESTIMATE, SON
 from track_nodes.bag.api import mcap_problem
 from track_nodes.bag.frames import check_frames
 from track_nodes.fusion.fusion import FusionNode
-from track_nodes.launch.displays import undrawn_in_bag
-from track_nodes.launch.generate import maritime_yaml
+from track_nodes.idsq.scenario_files import maritime_yaml
 from track_nodes.report import maritime
 from track_nodes.report.read import read_topics
+
+DISPLAYS = Path(__file__).resolve().parents[2] / 'tools/displays.py'  # a script, not a package module: loaded by path
+_spec = importlib.util.spec_from_file_location('displays_tool', DISPLAYS)
+_displays = sys.modules.setdefault('displays_tool', importlib.util.module_from_spec(_spec))  # dataclasses look it up
+_spec.loader.exec_module(_displays)
+undrawn_in_bag = _displays.undrawn_in_bag
 
 DURATION = 14.0
 SONAR_NET = tuple(sorted((maritime.SONAR_TRACK, maritime.NETWORK_TRACK)))

@@ -14,6 +14,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 import math
 import subprocess
 import sys
@@ -58,10 +59,15 @@ from track_nodes.bag.api import mcap_problem
 from track_nodes.bag.check import check_bag
 from track_nodes.bag.frames import check_frames
 from track_nodes.base import ParameterError
-from track_nodes.launch.displays import undrawn_in_bag
-from track_nodes.launch.scenario import node_params
+from track_nodes.base.scenario_file import node_params
 from track_nodes.rfid.rfid_guidance import RfidGuidanceNode
 from track_nodes.rfid.rfid_reader import RfidReaderNode
+
+DISPLAYS = Path(__file__).resolve().parents[2] / 'tools/displays.py'  # a script, not a package module: loaded by path
+_spec = importlib.util.spec_from_file_location('displays_tool', DISPLAYS)
+_displays = sys.modules.setdefault('displays_tool', importlib.util.module_from_spec(_spec))  # dataclasses look it up
+_spec.loader.exec_module(_displays)
+undrawn_in_bag = _displays.undrawn_in_bag
 
 TYPES = {RFID_COMMAND: tm.RfidCommand, RFID_STEP: tm.RfidStep, RFID_PHASE: PointCloud2,
          RFID_USER_POSE: PoseStamped, RFID_USER_STATUS: tm.RfidUserStatus, RFID_PARTICLES: PoseArray,

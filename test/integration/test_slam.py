@@ -14,6 +14,7 @@ Skipped, with the reason, when the Victoria Park data folder is missing.
 from __future__ import annotations
 
 import copy
+import importlib.util
 import math
 import re
 import subprocess
@@ -49,9 +50,14 @@ from track_nodes.bag.dataset import convert_victoria_park, data_time_origin
 from track_nodes.bag.frames import check_frames
 from track_nodes.bag.player import PlayerNode
 from track_nodes.base import ParameterError
-from track_nodes.launch.displays import undrawn_in_bag
 from track_nodes.slam.slam import SlamNode
 from track_nodes.slam.slam_sim import SlamSimNode
+
+DISPLAYS = Path(__file__).resolve().parents[2] / 'tools/displays.py'  # a script, not a package module: loaded by path
+_spec = importlib.util.spec_from_file_location('displays_tool', DISPLAYS)
+_displays = sys.modules.setdefault('displays_tool', importlib.util.module_from_spec(_spec))  # dataclasses look it up
+_spec.loader.exec_module(_displays)
+undrawn_in_bag = _displays.undrawn_in_bag
 
 T_MAX = 40.0  # the stretch of the real run [s]
 DEEP = QoSProfile(depth=100_000, reliability=ReliabilityPolicy.RELIABLE)

@@ -59,7 +59,7 @@ from track_msgs_py.topics import (
 from track_nodes.bag.check import check_bag
 from track_nodes.bag.frames import check_frames
 from track_nodes.base import ParameterError
-from track_nodes.launch.scenario import node_params
+from track_nodes.base.scenario_file import node_params
 from track_nodes.sonar.smart_target import SmartTargetNode
 from track_nodes.sonar.sonar_observer import SonarObserverNode
 from track_nodes.sonar.sonar_sim import SonarSimNode

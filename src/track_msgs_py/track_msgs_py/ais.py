@@ -1,38 +1,21 @@
 """Live AIS and the map datum ⇄ messages: the datum as a NavSatFix, a report as a TrackArray, ships as statuses.
 
-=====================  =================================  ====================================================
-data                   message type                       fields
-=====================  =================================  ====================================================
-the map datum          sensor_msgs/NavSatFix              ``header.stamp`` ← when it was fixed, ``frame_id``
-(origin lat0, lon0)    (on ``map_datum``, latched)        ``map`` (the frame whose origin it is),
-                                                          ``latitude``/``longitude`` ← lat0/lon0,
-                                                          ``altitude`` 0 (on the ellipsoid),
-                                                          ``status.status`` STATUS_FIX, covariance unknown
-one AIS report         track_msgs/TrackArray (one track)  ``header`` ← report time, ``map``; ``tracks[0]``:
-(``StateReport``)                                         ``id`` ← MMSI (decimal), ``source`` ← node name,
-                                                          x, vx, y, vy and the 4×4 covariance; velocity not
-                                                          estimated (0, variance 1e6) when SOG or COG is not
-                                                          available
-ships' static data     diagnostic_msgs/DiagnosticArray    one status per MMSI, ``name`` ← the MMSI (the track
-                       (on ``<prefix>/ships``, latched)   id), ``message`` ← ship name, values ``name``,
-                                                          ``ship_type``, ``callsign``, ``reports``
-the map in the earth   geometry_msgs/TransformStamped     ``earth`` (ECEF, REP-105) → ``map``: translation ←
-(``Datum.earth_pose``) (on ``/tf_static``)                the origin's ECEF point, rotation ← its east, north,
-                                                          up axes; stamped when the datum was fixed
-a GNSS position        sensor_msgs/NavSatFix (an input)   ``header.stamp`` → t; ``latitude``/``longitude`` →
-(t, z, R in map)                                          z through the datum; ``position_covariance`` (ENU
-                                                          about the fix, row-major) east/north block → R,
-                                                          turned by the meridian convergence; altitude and
-                                                          ``header.frame_id`` (the antenna) not read
-=====================  =================================  ====================================================
-
-A NavSatFix input needs a fix (``status.status`` ≥ STATUS_FIX) and a covariance: one of type
-``COVARIANCE_TYPE_UNKNOWN`` is refused (a position without an uncertainty cannot be scored), as are
-non-finite or out-of-range latitude/longitude and a covariance outside the ``InputPolicy`` bounds.
-
-Track.msg has no slot for a ship's name or type, so they travel beside the tracks on a latched
-topic keyed by the same id (the MMSI): a late subscriber (a recorder, Foxglove) gets the whole
-table at once, and a bag holds it.
+- The map datum (lat0, lon0) → sensor_msgs/NavSatFix on ``map_datum`` (latched): ``header.stamp``
+  when fixed, ``frame_id`` ``map``, ``latitude``/``longitude`` ← lat0/lon0, ``altitude`` 0,
+  ``status.status`` STATUS_FIX, covariance unknown.
+- One AIS report (``StateReport``) → TrackArray of one track: ``header`` ← report time, ``map``;
+  ``id`` ← MMSI (decimal), ``source`` ← node name, x, vx, y, vy and the 4×4 covariance; velocity
+  not estimated (0, variance 1e6) without SOG or COG.
+- Ships' static data → DiagnosticArray on ``<prefix>/ships`` (latched): one status per MMSI,
+  ``name`` ← MMSI, ``message`` ← ship name, values ``name``, ``ship_type``, ``callsign``,
+  ``reports`` (Track.msg has no slot for them; a late subscriber gets the whole table).
+- The map in the earth (``Datum.earth_pose``) → TransformStamped on ``/tf_static``: ``earth`` (ECEF,
+  REP-105) → ``map``, the origin's ECEF point and its east, north, up axes.
+- A GNSS position (input) ← NavSatFix: ``header.stamp`` → t; latitude/longitude → z through the
+  datum; ``position_covariance`` (ENU, row-major) east/north block → R, turned by the meridian
+  convergence; altitude and ``frame_id`` not read. Refused without a fix (``status.status`` <
+  STATUS_FIX), with ``COVARIANCE_TYPE_UNKNOWN``, non-finite or out-of-range coordinates, or a
+  covariance outside the ``InputPolicy`` bounds.
 """
 
 from __future__ import annotations

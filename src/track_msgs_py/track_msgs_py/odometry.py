@@ -1,40 +1,23 @@
 """Tracks, reports and poses ⇄ ``Odometry``, ``PoseWithCovarianceStamped``, ``PoseArray`` and ``TwistStamped``.
 
-Covariances are the planar 6×6 of ``track_msgs_py.covariance``:
+Covariances are the planar 6×6 of ``track_msgs_py.covariance``.
 
-=========================  ==========================================  ===============================================
-data                       message type                                fields
-=========================  ==========================================  ===============================================
-CV state ``x=[x,ẋ,y,ẏ]``,  nav_msgs/Odometry                           ``header.stamp``, ``header.frame_id`` (``map``),
-``P`` (4×4)                                                            ``child_frame_id`` (track id);
-                                                                       ``pose.pose.position.x/y`` ← x, y (z = 0);
-                                                                       ``pose.pose.orientation`` = identity;
-                                                                       ``twist.twist.linear.x/y`` ← ẋ, ẏ (angular 0);
-                                                                       ``pose.covariance`` x/y block ← P[[0,2],[0,2]];
-                                                                       ``twist.covariance`` x/y block ← P[[1,3],[1,3]];
-                                                                       z/roll/pitch entries ``PLANAR_VARIANCE`` (0),
-                                                                       yaw and yaw rate ``NOT_ESTIMATED_VARIANCE``
-position report ``z`` (2,)  geometry_msgs/PoseWithCovarianceStamped     ``pose.pose.position.x/y`` ← z (z = 0),
-and ``R`` (2×2)                                                        orientation identity, ``pose.covariance`` x/y
-                                                                       block ← R, z/roll/pitch 0, yaw not estimated
-particle positions (N, 2)  geometry_msgs/PoseArray                     ``poses[i].position.x/y`` (z = 0), orientation
-and headings                                                           the heading about z (identity without one)
-=========================  ==========================================  ===============================================
+- CV state ``x=[x,ẋ,y,ẏ]``, ``P`` (4×4) ⇄ nav_msgs/Odometry: ``header.frame_id`` ``map``,
+  ``child_frame_id`` the track id; ``pose.pose.position.x/y`` ← x, y (z = 0), orientation identity;
+  ``twist.twist.linear.x/y`` ← ẋ, ẏ (angular 0); ``pose.covariance`` x/y block ← P[[0,2],[0,2]],
+  ``twist.covariance`` x/y block ← P[[1,3],[1,3]]; z/roll/pitch ``PLANAR_VARIANCE`` (0), yaw and yaw
+  rate ``NOT_ESTIMATED_VARIANCE``.
+- Position report ``z`` (2,), ``R`` (2×2) ⇄ PoseWithCovarianceStamped: position ← z (z = 0),
+  orientation identity, x/y block ← R, z/roll/pitch 0, yaw not estimated.
+- Particle positions (N, 2) and headings → PoseArray: ``poses[i].position.x/y`` (z = 0), the heading
+  about z (identity without one). No weights: publish clouds after resampling.
+- The SLAM laser pose (``pose_to_odometry``) and inputs (``inputs_to_twist``): see ``topics``.
 
-The SLAM topics' laser pose (``pose_to_odometry``) and odometry inputs (``inputs_to_twist``) are
-described with their topics in ``track_msgs_py.topics``.
-
-Deliberate deviations and losses:
-
-- Odometry twist is expressed in ``child_frame_id`` (REP-105). Our tracks carry no heading, so
-  the child frame we publish is axis-aligned with ``map`` (orientation identity) and the twist is
-  the map-frame velocity. On the way in, ``odometry_to_cv_state`` reads any Odometry the REP-105
-  way: the twist (and its covariance) is rotated by the pose's orientation into ``header.frame_id``,
-  so a vehicle's odometry (heading in the orientation, forward speed in ``twist.linear.x``) is read
-  as the velocity it is. An identity or unset (all-zero) orientation rotates nothing, bit for bit.
-- Odometry has no slot for position–velocity cross-covariances: they are dropped on the way
-  out, and ``odometry_to_cv_state`` returns ``P`` with zero cross blocks.
-- A ``PoseArray`` carries no weights: particle clouds are for display, publish them after resampling.
+Deviations: Odometry twist is in ``child_frame_id`` (REP-105); our tracks carry no heading, so the
+child frame is axis-aligned with ``map`` and the twist is the map-frame velocity. On the way in
+``odometry_to_cv_state`` rotates the twist (and its covariance) by the pose's orientation into
+``header.frame_id`` (an identity or all-zero orientation rotates nothing, bit for bit).
+Position–velocity cross-covariances have no slot: dropped on the way out, zero on the way in.
 """
 
 from __future__ import annotations

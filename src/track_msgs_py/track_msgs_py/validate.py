@@ -1,37 +1,24 @@
 """Validation of incoming messages that returns a reason instead of raising.
 
-A callback that raises deep inside a filter loses the message and says little; these checks
-run first and return one line naming the field (``"pose.covariance: covariance is not positive
-semi-definite (smallest eigenvalue -3)"``), or ``None`` when the message is usable. The node
-logs the reason, counts the drop and goes on.
+The checks run before a filter sees the message and return one line naming the field
+(``"pose.covariance: covariance is not positive semi-definite (smallest eigenvalue -3)"``), or
+``None`` when the message is usable. The node logs the reason, counts the drop and goes on.
 
-What is checked (the fields ``track_msgs_py.odometry`` reads, see its table):
+What is checked (the fields ``track_msgs_py.odometry`` reads):
+- ``header.frame_id`` in the caller's known frames; ``header.stamp.nanosec`` < 1e9;
+- every number read finite (positions, orientation, velocities, all 36 covariance entries);
+- the x/y covariance blocks symmetric PSD (``track_core.filters.gaussian.covariance_problem``);
+  the other diagonal entries are not read;
+- stamps not backwards per key (``StampMonotonic``); equal stamps accepted.
 
-- ``header.frame_id`` is in the caller's set of known frames; ``header.stamp.nanosec`` < 1e9;
-- every number read is finite (positions, orientation, velocities, all 36 covariance entries);
-- the x/y covariance blocks are symmetric and positive semi-definite, by
-  ``track_core.filters.gaussian.covariance_problem``. Only those blocks: the other diagonal
-  entries carry the planar 0 or ``NOT_ESTIMATED_VARIANCE`` (``track_msgs_py.covariance``), or
-  whatever another producer wrote, and are not read;
-- stamps do not go backwards per key (``StampMonotonic``); equal stamps are accepted.
-
-``InputPolicy`` adds what finite-ness alone lets through, so one hostile message can
-neither poison an estimate nor lock a stream:
-
-- magnitudes: positions and ranges within ``world_bound`` m, speeds within ``speed_bound`` m/s;
-- covariances: the x/y block positive definite with both eigenvalues in
-  [``variance_floor``, ``variance_ceiling``] m² (zero, denormal and huge ones are refused);
-- stamps: not zero where one is required, and not more than ``horizon`` s ahead of the
-  receiving node's clock (``stamp_problem``). A refused stamp never moves a watermark.
-- look-ahead: a node that keeps a stamp watermark sets ``lead``, its own tolerance (a few report
-  periods), and a stamp more than ``lead`` s ahead of its clock is refused too. Refused, not held
-  until due: one source with a fast clock would otherwise move the watermark up to ``horizon`` s
-  ahead, and every honest report after it would be "before the previous stamp" for that long (the
-  track blanked). Holding it would need a queue per source and a timer, and would still fuse a
-  report from a clock nobody can trust; refusing costs that source its early reports, with a
-  reason on /diagnostics, and nothing else.
-
-Watermarks (``StampMonotonic``) and the node clock go back together after a clock jump
+``InputPolicy`` adds what finite-ness alone lets through:
+- positions and ranges within ``world_bound`` m, speeds within ``speed_bound`` m/s;
+- the x/y block positive definite, both eigenvalues in [``variance_floor``, ``variance_ceiling``] m²;
+- stamps not zero where required, not over ``horizon`` s ahead of the node clock
+  (``stamp_problem``); a refused stamp never moves a watermark;
+- ``lead``: a node with a stamp watermark refuses a stamp over ``lead`` s ahead (refused, not held:
+  one fast clock would otherwise blank every honest report after it for up to ``horizon`` s).
+Watermarks and the node clock go back together after a clock jump
 (``track_nodes.base.timejump``): ``reset`` forgets them.
 """
 

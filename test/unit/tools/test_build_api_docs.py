@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 # page → names that must have an entry (an anchor) on it: what a reader of each core looks for first
 MAIN = {

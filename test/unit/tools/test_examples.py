@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 from scipy.stats import chi2
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 EXAMPLES = ROOT / 'examples'
 
 

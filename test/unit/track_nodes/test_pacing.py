@@ -8,16 +8,9 @@ from nav_msgs.msg import Odometry
 from rclpy.serialization import serialize_message
 
 from track_msgs_py.stamps import ns_to_stamp
-from track_nodes.launch.pacing import (
-    HOLD_MAX,
-    MAX_CLOCK_STEP,
-    Cadence,
-    EpochError,
-    clock_step,
-    header_stamp_ns,
-    node_time,
-    parse_epoch,
-)
+from track_nodes.base.epoch import EpochError, parse_epoch
+from track_nodes.launch.pacing import Cadence, clock_step, header_stamp_ns, node_time
+from track_nodes.launch.tuning import HOLD_MAX, MAX_CLOCK_STEP
 
 S = 1_000_000_000
 

@@ -8,7 +8,8 @@ import pytest
 from track_msgs_py.records import RecordError
 from track_msgs_py.records.ready import NodeReady
 from track_msgs_py.topics import READY, relative
-from track_nodes.launch.graph import READY_PER_NODE, READY_PER_PROCESS, READY_TIMEOUT, listing, ready_deadline
+from track_nodes.launch.graph import listing, ready_deadline
+from track_nodes.launch.tuning import READY_PER_NODE, READY_PER_PROCESS, READY_TIMEOUT
 
 
 def _rec(**kw) -> NodeReady:

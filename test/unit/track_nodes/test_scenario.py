@@ -61,8 +61,8 @@ def test_maritime_radio_range_links_the_columns(seed):
     import yaml
 
     from track_core.idsq.simulation import scenario_of
-    from track_nodes.launch.generate import maritime_yaml
-    from track_nodes.launch.scenario import section_node
+    from track_nodes.base.scenario_file import section_node
+    from track_nodes.idsq.scenario_files import maritime_yaml
 
     cfg = yaml.safe_load(maritime_yaml(seed=seed))
     ranges = {v['ros__parameters']['comm_range'] for k, v in cfg.items() if section_node(k).startswith('sensor_')}
@@ -84,8 +84,8 @@ def test_maritime_fusion_release_is_one_disjoint_instant_below_the_threshold():
     import yaml
 
     from track_core.fusion.associator import release_ratio_of
-    from track_nodes.launch.generate import maritime_yaml
-    from track_nodes.launch.scenario import section_node
+    from track_nodes.base.scenario_file import section_node
+    from track_nodes.idsq.scenario_files import maritime_yaml
 
     cfg = yaml.safe_load(maritime_yaml(seed=1))
     (f,) = [v['ros__parameters'] for k, v in cfg.items() if section_node(k) == 'fusion']

@@ -1,62 +1,27 @@
 """Track-to-track association of two sources' local tracks, and its evaluation against MMSI truth.
 
-1. **Pairs at common instants** (:func:`pair_instants`): at every instant at which both
-   sources report (times equal within ``tol``; the default sources share a time grid), every
-   report of source A is paired with every report of source B: all cross-source pairs, as the
-   fusion node scores them. Same-source pairs are never formed (a source does not report a
-   ship twice).
-2. **Scores** (:meth:`PairTable.score`): one batched ``geofeasibility.score`` call per method
-   over all pair-instants (``mc``: N = 500 independent draws per pair). An exact pre-gate
-   skips the geometry of pairs whose centres are further apart than the sum of the two 2σ
-   semi-major axes: their ellipses cannot overlap, so ``exact``, ``glr_thresholded`` and ``mc``
-   are exactly 0 there (``glr`` is computed for every pair). Gated pairs count as evaluations
-   (the value is exact, just cheap).
-3. **Decision per track pair** (:meth:`PairTable.decide`): the instant scores of one pair are
-   combined over a sliding window of the last ``window`` common instants by the paper's
-   geometric (or harmonic) mean — what the fusion node's ``ScoreWindow`` does at each tick;
-   the pair is *associated* at an instant when that windowed score is ≥ ``threshold`` (0.5),
-   and declared **the same ship** when it is associated at at least half of its common
-   instants (the fusion summary's "associated most of the time"). With the default
-   ``window=1`` this is "the median instant score is ≥ the threshold". Why not the paper's
-   mean over all common instants: with consistent 2σ ellipses the true position lies outside
-   a source's ellipse 13.5 % of the time (e⁻²), so a same-ship pair scores exactly 0 at some
-   instants (``exact``, default sources: ~4.6 % of them) and any harmonic/geometric mean
-   containing one zero is 0: over the whole file that mean finds ~17 % of the true pairs
-   (experiment table "decision rule"); a window of W instants is vetoed with probability
-   1 − 0.954^W, so short windows and a majority vote are used. ``combined`` (the weight of the
-   one-to-one step) is the mean of a pair's windowed scores.
-   **Short pairs** (``prior_weight`` ν > 0): a pair with n common instants of which k are
-   associated is declared when k ≥ 1 and (k + ν·r̄) / (n + ν) ≥ 1/2: the posterior mean of
-   its per-instant association rate under a Beta prior worth ν instants centred on the rate
-   r̄ of a true pair (``prior_rate``, 0.8: with the default sources, exact at threshold 0.5
-   associates 80.5 % of the same-ship instants of the whole Solent file and scores 0 at
-   4.1 %, seeds 0–2). With ν = 2 and any r̄ in [0.75, 1) the verdict is k ≥ ⌊n/2⌋ and k ≥ 1:
-   the plain majority, except that a pair with an odd number of instants is forgiven one of
-   them, so one zero among 3 instants (e.g. 0.86, 0, 0.18: k = 1, n = 3) no longer outvotes
-   the rest, while long pairs still need about half; k ≥ 1 keeps pairs that never associated
-   out. ν = 0 (the default of :meth:`PairTable.decide`): the plain majority. The experiment
-   uses ν = 2 and the one-to-one step arbitrates the extra candidates; its "short pairs"
-   table gives both verdicts on the same scores.
-4. **One-to-one** (``one_to_one=True``, :func:`match_one_to_one`): a source reports a ship
-   under one local track, so a track may match at most one track of the other source. Among
-   the declared pairs, the matching maximising the sum of the combined scores (Hungarian
-   algorithm, ``scipy.optimize.linear_sum_assignment``; every declared pair outweighs no
-   pair) is kept. Without it, ships moored 5–40 m apart — closer than the patrol's ellipses —
-   are all declared feasible with each other (precision ~0.75 on the Solent file).
-5. **Bounded memory** (:class:`StreamingDecisions`, :func:`pair_tables`): the pair-instants
-   are formed, scored and folded into per-track-pair sums in consecutive time chunks of
-   about ``max_pairs`` pair-instants (at most ``max_pairs`` plus one instant's pairs: an
-   instant is never split); the sliding windows carry
-   each pair's last W − 1 instant scores across chunk borders (all instants: running sums),
-   so the decisions are those of one table over the whole run (exactly for the deterministic
-   methods; ``mc`` draws its samples chunk by chunk). Memory: the chunk, plus a few numbers
-   per track pair, whatever the duration. The per-pair sums are dense over the n_A × n_B
-   track pairs (256 × 256: 65,536 pairs, a few MB per rule); fleets of many thousands of
-   tracks would want a sparse pair index instead.
-6. **Truth and metrics** (:func:`evaluate`): a pair is truly the same ship when both local
-   tracks carry the same MMSI. Only pairs with at least one common instant can be decided;
-   precision = TP / declared, recall = TP / true pairs with a common instant, F1 their harmonic
-   mean. True pairs without any common instant are counted separately (``undecidable``).
+1. Pairs at common instants (:func:`pair_instants`): at every instant both sources report (times
+   equal within ``tol``), every report of A with every report of B; never same-source pairs.
+2. Scores (:meth:`PairTable.score`): one batched ``geofeasibility.score`` call per method (``mc``: N
+   = 500 draws a pair). An exact pre-gate skips pairs whose centres are further apart than the sum
+   of the two 2σ semi-major axes: ``exact``, ``glr_thresholded`` and ``mc`` are 0 there (``glr`` is
+   computed for every pair); gated pairs count as evaluations.
+3. Decision (:meth:`PairTable.decide`): the instant scores of a pair are combined over the last
+   ``window`` common instants by the paper's geometric (or harmonic) mean, as the fusion node's
+   ``ScoreWindow``; associated at an instant when ≥ ``threshold`` (0.5), the same ship when
+   associated at at least half of its common instants (not the paper's mean over all instants, which
+   one zero vetoes). ``combined`` is the mean of the windowed scores. Short pairs (``prior_weight``
+   ν > 0): declared when k ≥ 1 and (k + ν·r̄)/(n + ν) ≥ 1/2 (Beta prior of ν instants at
+   ``prior_rate`` r̄ = 0.8); ν = 0 (default) is the plain majority.
+4. One-to-one (``one_to_one=True``, :func:`match_one_to_one`): the matching maximising the sum of
+   the combined scores (``scipy.optimize.linear_sum_assignment``).
+5. Bounded memory (:class:`StreamingDecisions`, :func:`pair_tables`): chunks of about ``max_pairs``
+   pair-instants (an instant never split) folded into dense n_A × n_B per-pair sums; the decisions
+   equal one table's over the whole run (``mc`` draws chunk by chunk).
+6. Metrics (:func:`evaluate`): the same ship when both tracks carry the same MMSI; precision = TP /
+   declared, recall = TP / true pairs with a common instant, F1 their harmonic mean; true pairs
+   without a common instant are ``undecidable``. The reasons, measured: docs/results/fusion.md, "The
+   association rule and its reasons".
 """
 
 from __future__ import annotations

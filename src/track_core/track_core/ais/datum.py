@@ -1,44 +1,20 @@
 """One datum per run: WGS-84 latitude/longitude ⇄ ``map`` east/north metres through PROJ (pyproj).
 
-Why a library: a projection written by hand is one more thing to get wrong and to test; PROJ is
-the reference implementation used by every GIS. Why one origin: two nodes that project about
-different origins put the same ship at two ``map`` positions, and nothing downstream can tell.
+The ``map`` frame is the transverse Mercator projection of WGS-84 about the origin (φ0, λ0), scale 1
+on the central meridian, no false easting/northing (``+proj=tmerc +lat_0=φ0 +lon_0=λ0 +k_0=1 +x_0=0
++y_0=0 +ellps=WGS84``): x east, y north (REP-103), the origin at (0, 0). Conformal; point scale k ≈
+1 + x²/(2R²) (10⁻³ at 285 km, ``projection.MAX_SCALE_ERROR``). Grid north turns from true north by
+the meridian convergence γ ≈ Δλ·sin φ: ``Datum.to_map_velocity`` rotates a course over ground by it,
+``Datum.to_map_covariance`` an east/north covariance (a NavSatFix's). ``Datum.forward`` /
+``inverse`` convert positions; ``Datum.earth_pose`` is ``map`` in REP-105's ``earth`` (ECEF,
+EPSG:4978: the origin with east, north, up axes, as ``navsat_transform``'s ``utm`` → ``map``), for
+placing the map on a globe only.
 
-The ``map`` frame is the transverse Mercator projection of the WGS-84 ellipsoid about the origin
-(φ0, λ0) with scale 1 on the central meridian and no false easting/northing (PROJ
-``+proj=tmerc +lat_0=φ0 +lon_0=λ0 +k_0=1 +x_0=0 +y_0=0 +ellps=WGS84``, Poder/Engsager's
-series, accurate to millimetres within thousands of km of the meridian): x east, y north (REP-103),
-the origin at (0, 0). It is conformal, so an ellipse keeps its shape; its point scale is
-k ≈ 1 + x²/(2R²): 1.1·10⁻⁵ at 30 km, 10⁻³ (1 m per km) at 285 km from the central meridian, the
-same extent ``projection.MAX_SCALE_ERROR`` allows a tangent plane. Grid north (+y) turns from true north by
-the meridian convergence γ ≈ Δλ·sin φ (0.3° at 30 km east of the origin at 51° N):
-``Datum.to_map_velocity`` rotates a course over ground by it, so a velocity and the track of the
-positions agree.
-
-Within a few km of the origin this map and the tangent plane of ``projection.LocalTangentPlane`` agree to
-millimetres; at 30 km they differ by about ρ³/(6R²) ≈ 0.1 m (the test measures it).
-
-A position's covariance given in east/north metres on the earth (a GNSS fix's ``NavSatFix``
-covariance is in the local ENU tangent plane of the fix) is turned into ``map`` by the same
-convergence γ (``Datum.to_map_covariance``): the projection is conformal, so the only change is
-that rotation (and a scale within 10⁻³ of 1, which we neglect).
-
-The map in the earth (``Datum.earth_pose``): REP-105's ``earth`` frame is ECEF; the pose of ``map``
-in it is the origin's ECEF position (PROJ, EPSG:4978) with the axes east, north, up at the origin,
-as ``navsat_transform`` publishes its ``utm`` → ``map`` link. That rigid transform places a map point
-exactly at the origin and along its axes; away from it the map (a projection onto the ellipsoid)
-and this plane part by the ellipsoid's drop below the plane, ρ²/(2R) (70 m down at 30 km, so use it
-to place the map on a globe, not to convert a ship's position: ``Datum.forward``/``inverse`` do that).
-
-One datum per run (``RunDatum``): each node that turns latitude/longitude into ``map`` metres keeps
-this node's view of the run's datum. The first datum heard on the latched topic, or this node's
-own (its ``origin`` parameter, or its first fix), is the run's; a datum published earlier wins over a
-later one (the earlier stamp, then the smaller latitude, then longitude: a rule every node applies
-alike, so two nodes that published at once agree which one lost). A node whose own datum lost has
-a ``conflict``: it refuses its input with a reason naming both datums rather than publish a second
-``map`` that looks like the first. That rule holds for ``SETTLE_S`` after a node fixed or took its
-datum; later a different datum, however it is stamped, is refused: one message on the topic must
-not stop a running picture.
+``RunDatum``: each node's view of the run's datum. The first datum heard on the latched topic, or
+this node's own (``origin`` parameter or first fix), is the run's; an earlier-published datum wins
+(earlier stamp, then smaller latitude, then longitude). A node whose own datum lost has a
+``conflict`` and refuses its input naming both; after ``SETTLE_S`` any different datum is refused.
+Why PROJ and one origin, and the error figures: docs/MODULES.md, "One datum per run".
 """
 
 from __future__ import annotations

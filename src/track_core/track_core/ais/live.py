@@ -3,12 +3,9 @@
 The AIS fields arrive already decoded (numbers, in the units of ITU-R M.1371: degrees, knots);
 this module decides what they mean for a tracker, with no ROS and no NMEA in it.
 
-Position. The report's position-accuracy flag says whether the fix is better than 10 m (1: high,
-typically DGNSS) or not (0: low, plain GNSS). The flag gives a bound, not a distribution; we read
-the bound as a 2σ radius, so a high-accuracy fix gets σ = ``SIGMA_HIGH`` = 5 m per axis (2σ
-circle = the flag's 10 m) and a low-accuracy one σ = ``SIGMA_LOW`` = 15 m per axis (2σ = 30 m, a
-generous bound for an uncorrected GNSS fix, which the flag only says is worse than 10 m). Both
-are circular: the flag carries no direction.
+Position. The position-accuracy flag (1: better than 10 m, typically DGNSS; 0: worse) is read as a
+2σ radius: σ = ``SIGMA_HIGH`` = 5 m per axis for high accuracy, ``SIGMA_LOW`` = 15 m for low (2σ =
+30 m, a generous bound for plain GNSS); circular, since the flag carries no direction.
 
 Velocity. From speed over ground (SOG, knots, resolution 0.1 kn) and course over ground (COG,
 degrees clockwise from true north, resolution 0.1°), turned to grid north by the datum

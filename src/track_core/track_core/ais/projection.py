@@ -16,26 +16,11 @@ of the plane is moved along the origin's normal back onto the ellipsoid (a quadr
 normal offset), and the geodetic latitude of a point on the surface is
 atan(Z / ((1 − e²) √(X² + Y²))).
 
-Accuracy. Distances in the plane are shortened radially by about cos(ρ/R) (ρ the distance
-from the origin, R ≈ 6371 km) and are nearly exact tangentially, so the local scale error is
-≈ ρ²/(2R²): 1.1·10⁻⁵ at 30 km. Over the Solent data (50.52–50.88° N, 1.39–0.73° W, i.e.
-within ~35 km of the centroid) any point-to-point distance is within 2·10⁻⁵ of the
-ellipsoidal distance and within 0.35 m absolute (measured on random pairs by the unit test,
-which checks < 2·10⁻⁵ and < 0.5 m). AIS positions themselves are good to a few metres and the
-simulated sources' errors are tens of metres, so the projection error is negligible. (An
-equirectangular projection x = N(φ0) cos φ0 Δλ, y = M(φ0) Δφ would be off by ~0.4 % in
-scale at ±0.2° of latitude from the origin, i.e. ~100 m at 30 km.)
-
-**Extent.** One plane holds a region, not a continent: the radial scale error 1 − cos(ρ/R)
-reaches ``MAX_SCALE_ERROR`` (0.1 %, 1 m per km) at ρ = 285 km, and beyond a quarter of the globe
-the projection folds back. :func:`extent_problem` names a set of points that reaches further than
-that from the origin (e.g. a continent-wide file with one report per ship: 6,740 km): the reader's
-users split such a file by region, or cut it with ``max_distance_km``. We refuse rather than
-split: ships near a split line would be scored in two planes, and the association of two
-sources only makes sense among ships that are near each other anyway.
-
-The origin is the data centroid: by default the median latitude and longitude of the valid
-reports (:func:`track_core.ais.reader.read_ais`), robust to stray positions.
+The local scale error is ≈ ρ²/(2R²) (ρ from the origin). :func:`extent_problem` names a set of
+points reaching beyond ``MAX_SCALE_ERROR`` (0.1 %: ρ = 285 km); such a file is refused, to be split
+by region or cut with ``max_distance_km``. The origin is the data centroid: the median latitude
+and longitude of the valid reports (:func:`track_core.ais.reader.read_ais`).
+Accuracy on the Solent and why refuse: docs/results/fusion.md, "The tangent plane".
 """
 
 from __future__ import annotations

@@ -2,63 +2,27 @@
 
 Default: the Solent file ``ais_solent/*.csv`` of the data folder (``track_core.data``).
 
-**Columns** (:class:`ColumnMap`). Columns are found by their header name, so their order
-(latitude before or after longitude, extra columns anywhere) does not matter. A mapping names
-the columns of ``time``, ``mmsi``, ``lat``, ``lon`` and, optionally, ``cog`` [degrees from
-north] and ``sog`` [knots], plus ``time_format`` and ``delimiter``. It is given as a
-:class:`ColumnMap`, a preset name, or a text ``"time=BaseDateTime;lat=LAT;lon=LON;cog=;sog="``
-(``key=value`` separated by ``;``, an empty value means "absent"; keys not given keep the
-Solent default; ``delimiter`` is one character or ``comma``, ``semicolon``, ``tab``, ``space``,
-``pipe``). ``columns=None`` detects the preset whose columns the header holds:
+Columns (:class:`ColumnMap`) are found by header name: ``time``, ``mmsi``, ``lat``, ``lon``,
+optional ``cog`` [degrees from north] and ``sog`` [knots], ``time_format``, ``delimiter``; given as
+a :class:`ColumnMap`, a preset (``solent``, ``marinecadastre``, ``dma``) or a text
+``"time=BaseDateTime;lat=LAT;lon=LON;cog=;sog="`` (empty = absent); ``columns=None`` detects the
+preset from the header. ``time_format``: ``auto`` (a number ≥ 10¹¹ is epoch ms, below epoch s, else
+ISO 8601), ``iso``, ``epoch_ms``, ``epoch_s`` or a ``strptime`` format; times without a zone are
+UTC. Without ``cog``/``sog`` columns they are computed from the positions (``derived['cog_sog']``);
+their "not available" codes (COG ≥ 360, SOG ≥ 102.3) become NaN.
 
-| preset | time | mmsi | lat | lon | cog | sog | time format |
-|---|---|---|---|---|---|---|---|
-| ``solent`` (Stone Soup demo) | Time | MMSI | Latitude_degrees | Longitude_degrees | COG_degrees | SOG_knots | auto |
-| ``marinecadastre`` (US) | BaseDateTime | MMSI | LAT | LON | COG | SOG | iso |
-| ``dma`` (Danish Maritime Authority) | # Timestamp | MMSI | Latitude | Longitude | COG | SOG | %d/%m/%Y %H:%M:%S |
-
-``time_format``: ``auto`` (a plain number is epoch **milliseconds** when ≥ 10¹¹ and epoch
-seconds below: 10¹¹ s is the year 5138, 10¹¹ ms is 1973; anything else is ISO 8601),
-``iso`` (``YYYY-MM-DD HH:MM:SS[.fff]``, ``T`` separator allowed), ``epoch_ms``, ``epoch_s``, or
-a ``strptime`` format. Times without a zone are UTC. When the mapping has no ``cog``/``sog``
-column (or the header lacks it) they are **computed from positions**: course and speed over
-ground from each kept report to the ship's next kept report (the last report of a ship uses the
-segment before it; a ship with a single report gets NaN); ``AisData.derived['cog_sog']`` says so.
-Present COG/SOG columns keep their values; their "not available" codes (COG ≥ 360, SOG ≥
-102.3) and unparsable entries become NaN and the row is kept.
-
-**Rows that cannot be used** are skipped and counted under one reason, the first that applies:
-
-- ``malformed row``: a different number of fields from the header;
-- ``bad time``: missing, unparsable or not finite;
-- ``bad MMSI``: not a positive integer;
-- ``no position``: latitude or longitude empty, or AIS's "not available" values 91 / 181: a
-  message that carries no position (static and voyage data, types 5 and 24, in an all-messages
-  export), not a fault of the column mapping;
-- ``bad position``: latitude/longitude unparsable, NaN/inf, or outside [−90, 90] / [−180, 180];
-- ``outside region``: further from the median position of the file than the region radius:
-  a corrupted position that is still a valid coordinate (the Solent file has one: longitude
-  54.83° for a ship moored at −1.092°). ``max_distance_km='auto'`` (default) derives the radius
-  from the data: with the rows' distances from the median sorted, the first **jump** to more
-  than ``REGION_FACTOR`` (3) × the distance before it (and beyond ``REGION_FLOOR_KM``, 10 km)
-  after which at most ``REGION_TAIL`` (1 %) of the rows (at least one) remain ends the region;
-  without such a jump nothing is outside. Stray positions are few and isolated, traffic is
-  many rows with no gap of that size before it ends: a second port 150 km off with 31 % of
-  the rows stays, however far. Solent: the traffic reaches 33.6 km from the median, the
-  corrupt row is 3,835 km off: radius 33.6 km, one row outside. A number fixes the radius
-  (the former default was 100 km); ``None`` switches the rule off;
-- ``duplicate``: same MMSI, time **and position** as a row already kept. Reports of one ship
-  with the same time and *different* positions (stamps truncated to the minute: a ship reports
-  every 2-10 s) are kept: ordered along the track and their times spread over the stamp's
-  resolution (:func:`refine_same_time`; ``derived['time_refined']`` counts them);
-- ``implied speed``: the jump from the ship's previous kept report needs more than
-  ``max_speed_kn`` (100 kn).
-
-**Loud discards**: a rule that drops more than ``warn_fraction`` (2 %) of the rows logs a
-warning naming the rule, the count and the parameter that controls it; the same lines are in
-:attr:`AisData.warnings`. :attr:`AisData.skipped` holds the counts, :attr:`AisData.derived` the
-derived defaults (region radius, COG/SOG origin, column mapping), :meth:`AisData.describe` one
-line for reports. Kept rows are sorted by time.
+Rows that cannot be used are skipped and counted under the first reason that applies: ``malformed
+row``, ``bad time``, ``bad MMSI``, ``no position`` (empty, or 91 / 181), ``bad position``, ``outside
+region`` (further from the median position than the region radius; ``max_distance_km='auto'`` ends
+the region at the first jump of the sorted distances to more than ``REGION_FACTOR`` (3) × the one
+before, beyond ``REGION_FLOOR_KM`` (10 km), leaving at most ``REGION_TAIL`` (1 %) of the rows; a
+number fixes it, ``None`` turns it off), ``duplicate`` (same MMSI, time and position; same time at
+another position is kept and spread by :func:`refine_same_time`), ``implied speed`` (over
+``max_speed_kn``, 100 kn, from the previous kept report). A rule dropping more than
+``warn_fraction`` (2 %) of the rows logs a warning naming its parameter (:attr:`AisData.warnings`);
+:attr:`AisData.skipped` holds the counts, :attr:`AisData.derived` the derived defaults,
+:meth:`AisData.describe` one line. Rows sorted by time. Presets and reasons in full: docs/MODULES.md,
+"The AIS CSV reader in full".
 """
 
 from __future__ import annotations

@@ -1,52 +1,27 @@
 """The real ships as ground truth, and simulated report sources observing them.
 
-:class:`ShipTruth` — the AIS reports of each ship projected to east/north metres
-(:mod:`.projection`) and linearly interpolated in time. A ship exists from its first to its
-last AIS report; inside a gap between two reports longer than the ship's gap limit its
-position is unknown and no source reports it. The gap limit is **derived per ship from its own
-report interval** (``max_gap=None``, default): ``gap_factor`` (20) × the median interval between
-its reports, at most ``gap_cap`` (3600 s: an hour of straight-line interpolation is the most we
-trust); a ship with a single report gets the median limit of the others. A number for
-``max_gap`` is one limit for every ship (the former default, 400 s, suited only Solent's ~10 s
-reports). Solent: limits 42 s–1 h (median 1208 s; median report interval 60 s, 2–1080 s per
-ship); 99.78 % of the gaps bridged (400 s: 99.77 %) and the ships known for 95.5 % of their
-lifetimes (400 s: 90.0 %: moored ships reporting every 3–18 min were lost between reports).
+:class:`ShipTruth`: the AIS reports of each ship projected to east/north metres (:mod:`.projection`)
+and linearly interpolated in time, from its first to its last report; inside a gap longer than the
+ship's gap limit its position is unknown and no source reports it. ``max_gap=None`` (default)
+derives the limit per ship: ``gap_factor`` (20) × its median report interval, at most ``gap_cap``
+(3600 s); a ship with one report gets the others' median. A number is one limit for every ship.
 :meth:`ShipTruth.gap_summary` reports the limits and the bridged share of the ships' time.
 
-:class:`SourceModel` — one surveillance source: a report grid ``t_start + offset + k·period``;
-at each instant it reports every ship it sees (position known, within ``max_range`` of its
-``site``), each report independently missing with probability ``dropout``; the report is the
-true position plus Gaussian noise whose 2σ ellipse is the one the report carries (eqs. 56–59:
-1σ semi-axes ``sigma_major``, ``sigma_minor``; consistent noise, the covariance is the true
-error covariance). The major axis bearing is
+:class:`SourceModel`: one surveillance source, a report grid ``t_start + offset + k·period``; at
+each instant it reports every ship it sees (position known, within ``max_range`` of its ``site``),
+each report missing with probability ``dropout``; a report is the true position plus Gaussian noise
+whose 2σ ellipse is the one it carries (eqs. 56–59: 1σ semi-axes ``sigma_major``, ``sigma_minor``;
+consistent noise). The major axis: ``'fixed'`` (``bearing_deg`` clockwise from north), ``'radial'``
+(across the line of sight from ``site``) or ``'random'`` (uniform in [0°, 180°) per report). Each
+source numbers the ships with its own local track ids (``id_prefix`` + three digits, shuffled); the
+MMSI is kept in :attr:`SourceReports.mmsi` for evaluation only.
 
-- ``'fixed'``: ``bearing_deg`` clockwise from north for every report;
-- ``'radial'``: across the line of sight from ``site`` (a radar measures range well and
-  bearing poorly, so its ellipse is long across the beam);
-- ``'random'``: uniform in [0°, 180°) per report (a moving platform sees each ship from a
-  changing direction).
-
-Each source numbers the ships it reports with its **own local track ids** (``id_prefix`` +
-three digits, in an order shuffled by the source's generator); the MMSI is kept in
-:attr:`SourceReports.mmsi` as truth for evaluation and is never part of a report.
-
-**Sites** (``SourceModel.site``): ``(lat, lon)`` in degrees, ``None`` for the projection origin
-(the data's median position), or ``'hull:<bearing>'``: the point where the ray from the mean
-report position at that bearing (degrees clockwise from north) leaves the **convex hull of the
-traffic** (``scipy.spatial.ConvexHull`` of every projected AIS report): a coastal sensor at
-the edge of the traffic, wherever the data are. A hull edge may span open sea where no ship
-sails (sparse traffic along two coasts): when the hull point is more than ``SITE_SNAP_M`` (10 km)
-from every report, the site is the report nearest to it instead, so the radar stands where the
-traffic is. A coastal radar stands within a few km of the water it watches (the Solent's hull:280
-point is on the western shore, 2.8 km from the nearest report, and stays there).
-:func:`resolve_site` gives the east/north position.
-
-Defaults (:data:`RADAR`, :data:`PATROL`): a coastal radar at ``'hull:280'`` (in the Solent: on
-the traffic's western edge at 50.8071° N, 1.3385° W, 2.5 km from Calshot at the mouth of
-Southampton Water, where the former fixed default sat) with 1σ 15 m × 8 m ellipses across the
-beam every 5 s, 2 % missed reports; a patrol aircraft with 1σ 60 m × 20 m ellipses at random bearings every 30 s, 25 %
-missed reports. The 30 s patrol grid falls on the 5 s radar grid, so the two share an instant
-every 30 s.
+Sites: ``(lat, lon)``, ``None`` (the projection origin) or ``'hull:<bearing>'``: where the ray from
+the mean report position at that bearing leaves the traffic's convex hull, moved to the nearest
+report when that point is over ``SITE_SNAP_M`` (10 km) from every report (:func:`resolve_site`).
+Defaults (:data:`RADAR`, :data:`PATROL`): a coastal radar at ``'hull:280'``, 1σ 15 m × 8 m across
+the beam every 5 s, 2 % missed; a patrol aircraft, 1σ 60 m × 20 m at random bearings every 30 s, 25
+% missed (the two share an instant every 30 s). Solent figures: docs/results/fusion.md.
 """
 
 from __future__ import annotations

@@ -1,77 +1,48 @@
 """Track-to-track association of every pair of tracks: what the ``fusion`` node computes, without ROS.
 
-``PairAssociator`` keeps the latest report per track (``TrackTable``) and the source of each
-track. ``score(t)`` brings every live track to ``t``, enumerates the pairs i < j of the table's
-order, masks the pairs of one source (a source does not report a ship twice) unless
-``same_source_pairs``, scores them in one batch (geofeasibility, paper eqs. 49–71; ``mc`` shares
-one draw among the pairs of an instant), adds the clipped instant score to the pair's window of
-the last ``window`` instants, combines the window (harmonic or geometric mean, §1), associates
-the pair when the combination is ≥ ``threshold`` and fuses each associated pair by covariance
-intersection (their correlation is unknown).
+``PairAssociator`` keeps the latest report per track (``TrackTable``) and the source of each track.
+``score(t)`` brings every live track to ``t``, enumerates the pairs i < j of the table's order,
+masks the pairs of one source (a source does not report a ship twice) unless ``same_source_pairs``,
+scores them in one batch (geofeasibility, paper eqs. 49–71; ``mc`` shares one draw among the pairs
+of an instant), adds the clipped instant score to the pair's window of the last ``window`` instants,
+combines the window (harmonic or geometric mean, §1), associates the pair when the combination is ≥
+``threshold`` and fuses each associated pair by covariance intersection (their correlation is
+unknown).
 
-Candidates (``gate=True``, method ``exact``): only the pairs whose 2σ ellipses may overlap are
-scored (``track_core.geofeasibility.gate``: cKDTree radius gate and separating-ellipse test), with
-integer source codes masking the same-source ones; every other pair scores exactly 0 there (the
-exact score of disjoint ellipses), so nothing is computed or stored for it. ``Instant.pairs`` holds
-the candidates; ``Instant.all_pairs()`` lists every pair with the candidates' values and 0 for the
-others, equal to scoring every pair (tests compare them with the node's old path). A pair's window
-holds its last min(n, ``window``) instant scores, n being the instants at which both of its tracks
-were live (``liveness.LiveIntervals``, nothing stored per pair); ``PairWindows`` keeps the runs of
-the pairs whose newest score is positive, and a stored run broken by a non-candidate instant is
-dropped at that instant. A tick costs O(n log n + candidates) instead of O(n²). The other methods
-score every pair of different sources (their score is not 0 outside the gate).
-
-Floor (``floor`` ε > 0, ``geofeasibility.track``: a disjoint instant enters the mean as ε instead of
-vetoing the window): a zero no longer breaks a run, so ``PairWindows`` keeps the window of every
-pair that was a candidate (positive score) within its last ``window`` instants, and at each instant
-those of them that are live but not candidates are added with score 0 (listed in ``Instant.pairs``
-with their combination, associated and fused when it stays ≥ ``threshold``). A pair with no positive
-score in its window combines to 0 as before, so the cost stays O(n log n + candidates + stored
-windows). ``floor`` 0 (the default) is the paper's means, and the code path, bit for bit.
-
-Release (``release_ratio`` ρ < 1: hysteresis, as track management confirms and deletes at two
-levels): a pair associated at its previous scored instant stays associated while its combination is
-≥ ρ·``threshold``; a pair not associated needs ``threshold``. The paper decides each instant afresh (one
-level); with a window of K and a floor ε one disjoint instant lowers a combination by the factor
-ε^(1/K), so ρ = ε^(1/K) (``release_ratio_of``) keeps an association through one such instant and
-nothing weaker: without it a pair at the threshold flickers off and on. ρ = 1 (the default) is the
-paper's rule, bit for bit. A pair that was not associated is unaffected, so the release never makes
-a new association.
-
-Prior (``prior_weight`` ν > 0, ``prior_score`` s̄: ``geofeasibility.track.with_prior``): the
-combination of a pair's window of n instants includes ν instants scoring s̄, so a young pair
-(n = 1, 2) is not decided on one or two instant scores alone, and the prior's weight fades as the
-window fills. The decision and ``combined`` use it. A pair with no positive score in its window
-stays at 0. One disjoint instant then lowers a combination by ε^(1/(K + ν)), and
-``release_ratio_of(floor, window, prior_weight)`` gives that ratio. ν = 0 (the default) is the paper's
-combination, bit for bit.
-
-Isolation: when the batch fails (a degenerate covariance slipped past the caller's checks), each
-pair is scored alone; a pair whose score raises (or comes out not finite) is skipped and reported in
-``Instant.skipped`` (ids and reason, its window untouched) and every other pair is scored as
-usual. Valid input never takes that path, so its results (and the ``mc`` draws) are unchanged.
-
-With ``stamp_rate`` the instants are those of the data (``StampSchedule``): ``push`` queues a
-report and returns the instants it made due, each scored with the reports stamped up to it.
-Without it ``push`` applies the report at once and the caller scores at its own ticks.
+- ``gate=True`` (``exact``): only pairs whose 2σ ellipses may overlap are scored
+  (``geofeasibility.gate``), the others are exactly 0; ``Instant.pairs`` holds the candidates,
+  ``Instant.all_pairs()`` every pair. A tick costs O(n log n + candidates) instead of O(n²).
+- ``floor`` ε > 0: a disjoint instant enters the mean as ε instead of vetoing the window.
+- ``release_ratio`` ρ < 1: an associated pair stays so while its combination is ≥ ρ·``threshold``
+  (``release_ratio_of``: ρ = ε^(1/K), or ε^(1/(K + ν)) with a prior).
+- ``prior_weight`` ν > 0, ``prior_score`` s̄: the window's combination includes ν instants of s̄.
+- Defaults (ε = 0, ρ = 1, ν = 0) are the paper's rule, bit for bit.
+- A failing batch is scored pair by pair; a pair that raises or is not finite is skipped
+  (``Instant.skipped``, window untouched).
+- ``stamp_rate``: instants of the data (``StampSchedule``): ``push`` returns the instants it made
+  due; without it the caller scores at its own ticks. In full: docs/MODULES.md, "The pair
+  associator".
 """
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from track_core.filters.covariance_intersection import covariance_intersection
+from track_core.fusion.config import AssociatorConfig
 from track_core.fusion.liveness import LiveIntervals
 from track_core.fusion.schedule import StampSchedule
 from track_core.fusion.tracks import TrackReport, TrackTable
-from track_core.geofeasibility import PairWindows, ScoreWindow, check_pairs, score
+from track_core.geofeasibility import PairWindows, check_pairs, score
 from track_core.geofeasibility.gate import GATED_METHODS, candidate_pairs
-from track_core.geofeasibility.track import THRESHOLD, check_prior, with_prior
+from track_core.geofeasibility.track import with_prior
 
-METHODS = ('exact', 'glr', 'glr_thresholded', 'mc')
+_POSITIONAL = ('method', 'threshold', 'combine', 'window')   # PairAssociator's positional settings
+LIVE = ('threshold', 'release_ratio', 'prior_weight', 'prior_score', 'stale_after', 'max_prediction')
 _STRIDE = np.int64(1) << 31   # pair key = slot(a) · 2³¹ + slot(b)
 
 
@@ -160,28 +131,38 @@ class Instant:
 
 
 class PairAssociator:
-    def __init__(self, method: str = 'exact', threshold: float = THRESHOLD, combine: str = 'geometric',
-                 window: int = 10, *, n_samples: int = 500, same_source_pairs: bool = False,
-                 stale_after: float = 2.0, max_prediction: float = 10.0, q_s: float = 0.0, seed: int = 0,
-                 stamp_rate: float | None = None, stamp_streams: tuple[str, ...] = (),
-                 stamp_max_wait: float = float('inf'), gate: bool = True, floor: float = 0.0,
-                 release_ratio: float = 1.0, prior_weight: float = 0.0, prior_score: float = 1.0) -> None:
-        if method not in METHODS:
-            raise ValueError(f'method must be one of {", ".join(METHODS)}, got {method!r}')
-        if not 0.0 <= threshold <= 1.0 or window < 1 or not 0.0 < release_ratio <= 1.0:
-            raise ValueError(f'need 0 <= threshold <= 1, 0 < release_ratio <= 1 and window >= 1; got {threshold}, '
-                             f'{release_ratio}, {window}')
-        ScoreWindow(combine, floor=floor)  # checks the combination's name and the floor
-        self.prior_weight, self.prior_score = check_prior(prior_weight, prior_score)
-        self.method, self.threshold, self.combine, self.window = method, threshold, combine, int(window)
-        self.floor, self.release_ratio = float(floor), float(release_ratio)
-        self.n_samples, self.same_source_pairs = n_samples, same_source_pairs
-        self.rng = np.random.default_rng(seed)
-        self.table = TrackTable(stale_after, max_prediction, q_s)
-        self.gate = gate and method in GATED_METHODS
-        self.schedule = (StampSchedule(stamp_rate, streams=stamp_streams, max_wait=stamp_max_wait)
-                         if stamp_rate is not None else None)
+    """The pair associator of ``config`` (``AssociatorConfig``; module docstring). ``fields`` override the
+    config's fields by name (the first four may be positional: method, threshold, combine, window);
+    ``stamp_streams``: the input streams whose watermarks the stamp schedule waits for."""
+
+    def __init__(self, *args, config: AssociatorConfig | None = None, stamp_streams: tuple[str, ...] = (),
+                 **fields) -> None:
+        if args and isinstance(args[0], AssociatorConfig):
+            config, args = args[0], args[1:]
+        if len(args) > len(_POSITIONAL):
+            raise TypeError(f'PairAssociator takes at most {len(_POSITIONAL)} positional settings, got {len(args)}')
+        config = config or AssociatorConfig()
+        if args or fields:
+            config = dataclasses.replace(config, **dict(zip(_POSITIONAL, args, strict=False)), **fields)
+        self.config = c = config
+        self.method, self.combine, self.window = c.method, c.combine, int(c.window)
+        self.floor = float(c.floor)
+        self.table = TrackTable(c.stale_after, c.max_prediction, c.q_s)
+        self.tune(c)
+        self.n_samples, self.same_source_pairs = c.n_samples, c.same_source_pairs
+        self.rng = np.random.default_rng(c.seed)
+        self.gate = c.gate and c.method in GATED_METHODS
+        self.schedule = (StampSchedule(c.stamp_rate, streams=stamp_streams, max_wait=c.stamp_max_wait)
+                         if c.stamp_rate is not None else None)
         self._clear()
+
+    def tune(self, config: AssociatorConfig) -> None:
+        """Take the settings of ``config`` that may change between instants (the node's live parameters:
+        ``threshold``, ``release_ratio``, the prior, ``stale_after``, ``max_prediction``)."""
+        self.threshold, self.release_ratio = float(config.threshold), float(config.release_ratio)
+        self.prior_weight, self.prior_score = float(config.prior_weight), float(config.prior_score)
+        self.table.stale_after, self.table.max_prediction = config.stale_after, config.max_prediction
+        self.config = dataclasses.replace(self.config, **{k: getattr(config, k) for k in LIVE})
 
     def _clear(self) -> None:
         self.source: dict[str, str] = {}

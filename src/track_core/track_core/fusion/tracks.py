@@ -16,6 +16,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from track_core.fusion.config import AssociatorConfig
+
+_A = AssociatorConfig()  # the defaults: the associator's
+
 
 @dataclass(frozen=True)
 class TrackReport:
@@ -27,7 +31,8 @@ class TrackReport:
 
 
 class TrackTable:
-    def __init__(self, stale_after: float = 2.0, max_prediction: float = 10.0, q_s: float = 0.0) -> None:
+    def __init__(self, stale_after: float = _A.stale_after, max_prediction: float = _A.max_prediction,
+                 q_s: float = _A.q_s) -> None:
         if not stale_after > 0 or not max_prediction > 0 or not q_s >= 0:
             raise ValueError(f'need stale_after > 0, max_prediction > 0, q_s >= 0; got '
                              f'{stale_after}, {max_prediction}, {q_s}')

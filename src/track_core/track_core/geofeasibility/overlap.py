@@ -8,33 +8,23 @@ intersection points of two conics.
    y = L⁻¹(x − μ_A), L Lᵀ = 4R_A. The other becomes E = {c + M w : |w| ≤ 1}, M lower
    triangular with M Mᵀ = L⁻¹ 4R_B L⁻ᵀ, det M > 0 (so the parametrisation
    p(s) = c + M (cos s, sin s) runs counter-clockwise) and area(E) = π det M.
-2. **Quartic.** p(s) ∈ C ⇔ f(s) = |p(s)|² − 1 = 0, a trigonometric polynomial of degree 2.
-   With s = s0 + σ and u = tan(σ/2), (1 + u²)² f is a quartic in u. s0 is chosen per pair
-   among 8 angles to maximise |f(s0 + π)| (the leading coefficient), so no root sits at
-   u = ∞. All quartics are solved at once as eigenvalues of (n, 4, 4) companion matrices;
-   near-real roots are polished by guarded Newton steps on f(s) itself.
-3. **Area.** Sorted by their angle t on C, consecutive intersection points P_k, P_k+1 bound one
-   arc of C and one arc of E (two convex curves meet their common points in the same cyclic
-   order); exactly one of the two lies inside the other curve and belongs to the boundary of
-   C ∩ E (decided by one signed-distance comparison at the arc midpoints, so the choice is
-   always consistent). Then
+2. **Quartic.** p(s) ∈ C ⇔ f(s) = |p(s)|² − 1 = 0; with s = s0 + σ, u = tan(σ/2), (1 + u²)² f is a
+   quartic in u (s0 among 8 angles maximising |f(s0 + π)|, so no root at u = ∞), solved for all
+   pairs as eigenvalues of (n, 4, 4) companion matrices, near-real roots polished by guarded Newton.
+3. **Area.** Sorted by their angle t on C, consecutive intersection points bound one arc of C and
+   one of E; the one inside the other curve (a signed-distance test at the arc midpoints) bounds
+   C ∩ E:
 
        area(C ∩ E) = polygon(P_0 … P_m−1) + Σ_k segment_k,
        circle segment  = ½ (Δt − sin Δt),   ellipse segment = ½ det M (Δs − sin Δs).
 
-   With no crossing (m ≤ 1) the overlap is all of the smaller ellipse when either centre
-   lies in the other ellipse, and 0 otherwise.
-4. **Degenerate cases.** Tangency gives a double root: the two computed roots fall within 1e-6
-   of each other on both curves (or form a complex pair) and are removed together, which
-   changes the area by at most the sliver between the curves there (≲ 1e-18). Identical
-   ellipses give f ≡ 0 to rounding (no roots, containment → exactly 1); near-identical ones give roots anywhere on
-   curves that are δ apart, which moves the area by O(δ). Only rows with near-duplicate roots
-   go through a small Python loop.
+   With no crossing (m ≤ 1) the overlap is all of the smaller ellipse when either centre lies in
+   the other ellipse, and 0 otherwise.
+4. **Degenerate cases.** A tangency's double root (two roots within 1e-6, or a complex pair) is
+   removed together (≲ 1e-18 of area); identical ellipses give no roots (overlap exactly 1).
 
-Accuracy: better than 1e-9 absolute on the normalized overlap for aspect ratios up to 10⁴
-(tests compare with closed-form circles and an independent quadrature). For a *rotated*
-ellipse of aspect κ the float64 matrix itself only defines the minor axis to ~eps·κ², which
-bounds what any method can resolve.
+Accuracy: better than 1e-9 absolute for aspect ratios up to 10⁴ (tests: closed-form circles, an
+independent quadrature); a rotated ellipse of aspect κ is itself defined only to ~eps·κ².
 """
 
 from __future__ import annotations

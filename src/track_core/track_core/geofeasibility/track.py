@@ -1,38 +1,22 @@
 """Track-level geofeasibility: combine per-instant scores over the common instants (paper §1).
 
-The paper scores one common time instant and says several such scores "would be combined
-(probably by using a harmonic or geometric mean)" into a track score. Here:
+The paper scores one common time instant and says several such scores "would be combined (probably
+by using a harmonic or geometric mean)" into a track score. Here:
 
-- **Common instants** (:func:`common_instants`): the report times of track 1 that have a
-  report of track 2 within ``tol`` seconds (nearest one, each report used at most once). No
-  interpolation: bringing tracks to common instants by prediction is the caller's job (the
-  fusion node predicts with the track velocity before scoring).
-- **Window**: only the common instants in the last ``window`` seconds, [t_last − window,
-  t_last] with t_last the newest common instant, and at most the newest ``max_instants`` of
-  them; ``None`` disables either limit. Old geometry stops vetoing a pair after ``window``.
-- **Means** (:func:`combine_scores`): harmonic K / Σ 1/g_k or geometric exp(mean ln g_k).
-  Both are ≤ the arithmetic mean and are 0 as soon as one instant scores 0: one instant at
-  which the ellipses are disjoint makes the pair infeasible within the window.
-- **Floor** ε (``floor``, default 0: the means above, as the paper's): the paper sets no rule for
-  an instant whose ellipses are disjoint (eq. 47: g = 0) inside a combination. Both ellipses are
-  2σ regions, so "disjoint" is finite evidence against the pair, not proof: a consistent track's
-  2σ ellipse misses its target with probability e⁻² ≈ 0.135 (2 degrees of freedom), and one
-  track in a discovery phase (a belief still on the wrong mode of its first readings) is disjoint
-  from its true partner for an instant or two. With ``floor`` = ε > 0 every instant score enters
-  the mean as max(g_k, ε), so one disjoint instant costs the factor ε^(1/n) in the geometric mean
-  instead of vetoing the window; a window with no positive score still combines to 0 (nothing
-  speaks for the pair), so a pair that was never a candidate, or not within the last K instants,
-  stays at 0 and is not stored. Where no instant scores below ε the combination is unchanged.
-  ``FLOOR_2SIGMA`` = e⁻² is the value argued above (the maritime scenario uses it).
-- **Prior** ν, s̄ (:func:`with_prior`, default ν = 0: none): a pair's window holds n ≤ K scores,
-  and a young one (n = 1, 2) decides on one or two instants, of which a true pair with consistent
-  tracks misses the threshold at about a quarter each. The prior enters the mean as ν more instants
-  scoring s̄ (the typical score of a true pair): geometric exp((Σ ln g_k + ν ln s̄)/(n + ν)),
-  harmonic (n + ν)/(Σ 1/g_k + ν/s̄). Its weight fades as the window fills (ν/(n + ν)). It is the
-  posterior mean of a pair's mean score under a prior worth ν instants, the short-pair rule of
-  ``track_core.ais.association`` on scores instead of counts. It leans towards association, which
-  is the paper's asymmetry: "acceptance of false track pairs ... is not penalized as much as the miss
-  of a true, but distant track pair" (§3). A combination of 0 stays 0 (nothing speaks for the pair).
+- **Common instants** (:func:`common_instants`): the report times of track 1 that have a report of
+  track 2 within ``tol`` s (nearest, each used once). No interpolation: the caller predicts.
+- **Window**: the common instants in [t_last − ``window``, t_last], at most the newest
+  ``max_instants``; ``None`` disables either limit.
+- **Means** (:func:`combine_scores`): harmonic K / Σ 1/g_k or geometric exp(mean ln g_k); both are 0
+  as soon as one instant scores 0.
+- **Floor** ε (``floor``, default 0 = the paper's means): every instant enters as max(g_k, ε), so a
+  disjoint instant (eq. 47: g = 0) costs ε^(1/n) in the geometric mean instead of a veto; a window
+  with no positive score still combines to 0. ``FLOOR_2SIGMA`` = e⁻² (a consistent 2σ ellipse
+  misses its target with probability e⁻²; the maritime scenario uses it).
+- **Prior** ν, s̄ (:func:`with_prior`, default ν = 0): ν more instants scoring s̄ enter the mean:
+  geometric exp((Σ ln g_k + ν ln s̄)/(n + ν)), harmonic (n + ν)/(Σ 1/g_k + ν/s̄); a combination of 0
+  stays 0. It leans towards association, the paper's asymmetry (§3). Why the floor and the prior:
+  docs/MODULES.md, "Floor and prior of the track score".
 """
 
 from __future__ import annotations

@@ -5,6 +5,7 @@ paper's diffusion or a velocity-aware prediction, ``prediction.py``), ``receive_
 ``encode_handoff`` / ``validate_handoff`` (the handoff package), ``simulate_measurement``.
 """
 
+from track_core.idsq.config import LeaderConfig
 from track_core.idsq.grid import (
     SPARSITY_THRESHOLD,
     Estimate,
@@ -37,6 +38,7 @@ __all__ = [
     'Estimate',
     'GridSpec',
     'Handoff',
+    'LeaderConfig',
     'LeaderStepResult',
     'Motion',
     'SensorLayout',

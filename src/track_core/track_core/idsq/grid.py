@@ -1,35 +1,20 @@
 """Sparse 2-D grid belief (§2.3) and its prediction by a uniform-disk convolution (§2.1, eq. 3).
 
 Interpretations (the paper is terse here):
-
-- Grid: square cells of ``cell`` metres (5 m, §5.1) covering the field
-  ``[x0, x0 + nx·cell] × [y0, y0 + ny·cell]`` in the ENU frame (x east, y north). A cell is
-  addressed by its flat index ``iy·nx + ix``; its position is its centre.
+- Grid: square cells of ``cell`` metres (5 m, §5.1) covering ``[x0, x0 + nx·cell] × [y0, y0 +
+  ny·cell]`` in ENU (x east, y north); a cell is its flat index ``iy·nx + ix``, at its centre.
 - Belief values are probability *masses* per cell (sum 1), not densities.
-- Sparsity (§2.3: "we store only the grid points which have likelihood value above a fixed
-  threshold"): after every update and prediction, cells whose mass is below
-  ``SPARSITY_THRESHOLD`` (0.1 %) *of the largest cell mass* are dropped and the rest
-  renormalised to sum 1. Relative, not absolute, so that the uniform start belief over the whole
-  field (1500 cells, 6.7e-4 each) is kept whole; for a Gaussian-shaped cloud 0.1 % of the peak
-  is the 3.7-σ contour (≈ 99.9 % of the mass kept). The paper gives no value; this one is set by
-  that mass argument, not fitted to Table 4. Sensitivity on the §5.1 simulation (20 runs, seed 0,
-  K = 24 / 40 / 64): 1 % → error 25.5 / 20.6 / 10.6 m, 80 / 62 / 47 cells, spread
-  180 / 147 / 108 m²; 0.1 % → 22.0 / 13.9 / 9.9 m, 130 / 86 / 68 cells, 211 / 143 / 117 m²;
-  0.01 % → 21.2 / 13.8 / 9.9 m, 173 / 109 / 85 cells, 219 / 146 / 118 m². Table 4 has
-  189 / 145 / 109 cells but 458 / 362 / 285 m²: the paper's belief is wider in its *core* (the
-  spread hardly depends on the threshold), so calibrating the threshold on the cell-count column
-  would only compensate for that other, unexplained difference.
+- Sparsity (§2.3): after every update and prediction, cells below ``SPARSITY_THRESHOLD`` (0.1 %)
+  *of the largest cell mass* are dropped and the rest renormalised. Relative, so the uniform start
+  belief is kept whole; for a Gaussian cloud it is the 3.7-σ contour (≈ 99.9 % of the mass). The
+  paper gives no value; set by that argument, not fitted (sensitivity: docs/results/idsq.md).
 - MMSE estimate (eq. 2) = belief-weighted centroid of the cell centres; spread = weighted
-  variance ‖x̂ − x̂_MMSE‖² (Table 4), i.e. the trace of the weighted covariance. The paper calls x̂
-  "the blocks in the belief state", which could also mean the plain mean over the stored blocks;
-  ``Estimate.block_spread`` is that reading (``idsq-table4`` prints both; docs/results/idsq.md).
-- Prediction: the dynamics pdf p(x⁽ᵗ⁺¹⁾|x⁽ᵗ⁾) is a uniform disk of radius v_max·Δt (§2.1;
-  "speed" there is distance per sample interval). On a 5 m grid a 7.5 m disk covers only
-  fractions of the outer cells, so the kernel weight of a cell is the fraction of its area
-  inside the disk (supersampled 16 × 16), renormalised to sum 1. The convolution is
-  ``scipy.signal.fftconvolve`` on the bounding box of the support padded by the kernel radius;
-  FFT round-off (≈1e-17, possibly negative) is clipped to 0. Mass that the disk pushes outside
-  the field is dropped before renormalising (the field is the tracker's whole world).
+  ‖x̂ − x̂_MMSE‖² (Table 4), the trace of the weighted covariance. ``Estimate.block_spread`` is the
+  other reading (plain mean over the stored blocks; ``idsq-table4`` prints both).
+- Prediction: p(x⁽ᵗ⁺¹⁾|x⁽ᵗ⁾) is a uniform disk of radius v_max·Δt (§2.1); a cell's kernel weight is
+  the fraction of its area inside the disk (supersampled 16 × 16), renormalised; the convolution is
+  ``scipy.signal.fftconvolve`` on the support's bounding box padded by the kernel radius, round-off
+  clipped to 0; mass pushed outside the field is dropped before renormalising.
 """
 
 from __future__ import annotations

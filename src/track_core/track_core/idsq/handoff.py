@@ -7,38 +7,23 @@ Wire format (little-endian, our choice; the paper only says the sparse belief is
             grid x0 f64, y0 f64, cell f64, nx u16, ny u16, n_cells u32
     body    n × u32 flat cell index, then n × f32 mass
 
-so a handoff costs ``HEADER_BYTES + 8·n`` bytes (``payload_bytes``): this is the communication
-cost per step we report. The sender is the receiver's *previous leader* (triplet rule).
+so a handoff costs ``HEADER_BYTES + 8·n`` bytes (``payload_bytes``): the communication cost per
+step we report. The sender is the receiver's *previous leader* (triplet rule).
+- Version 2 (``prediction='drift'``): the header, ``'<ffH'`` = 10 bytes (v̂x, v̂y f32 [m/s],
+  observation count u16), the body: ``HEADER_BYTES + MOTION_BYTES + 8·n``. No motion: version 1.
+- Version 3 (``prediction='bank'``): n = stored (hypothesis, cell) entries, ``'<fH'`` = 6 bytes
+  (lattice spacing f32 [m/s], J u16), then n × u32 key j·n_cells + cell and n × f32 mass:
+  ``HEADER_BYTES + BANK_BYTES + 8·n``; the receiver rebuilds the lattice from the spacing and v_max.
+- Revoke: ``'<4sBxHHI'`` = 14 bytes, magic b'IDSR', version 1, sender, receiver, step
+  (``encode_revoke``, ``decode_revoke``).
 
-Version 2 (the velocity-aware ``prediction='drift'``, ``prediction.py``): the same header with
-version 2, then ``'<ffH'`` = 10 bytes of motion (v̂x, v̂y f32 [m/s], observation count u16), then
-the same body: ``HEADER_BYTES + MOTION_BYTES + 8·n``. A belief without motion (the paper's
-diffusion) is sent as version 1, byte for byte as before.
-
-Version 3 (``prediction='bank'``, the joint position-velocity grid): header with version 3 and
-n = the number of stored (hypothesis, cell) entries, then ``'<fH'`` = 6 bytes (lattice spacing
-f32 [m/s], number of hypotheses J u16), then n × u32 key j·n_cells + cell and n × f32 mass:
-``HEADER_BYTES + BANK_BYTES + 8·n``. The receiver rebuilds the lattice from the spacing and its
-v_max, and the position belief as the marginal of the joint.
-
-Revoke (the chain rule of ``leader_protocol``): ``'<4sBxHHI'`` = 14 bytes, magic b'IDSR', version
-1, sender u16, receiver u16, step u32: "the handoff of ``step`` that ``sender`` sent you is void"
-(``encode_revoke``, ``decode_revoke``).
-
-On DDS the package travels as ``track_msgs/IdsqHandoff`` (and the revoke as ``IdsqRevoke``), field for
-field: ``Package`` is that field-level form, shared by both wire forms. ``to_package`` rounds the
-belief as the bytes do (u32 cells, f32 mass, f32 velocity and lattice spacing) and ``from_package``
-reads it back with every structural check (version, lengths, grid, motion, joint belief), so a
-belief is the same to the bit whichever way it came. The bytes remain the size we report
-(``payload_bytes``) and the input of the core-only loops and tests.
-
-``validate_handoff`` returns ``None`` or a one-line reason (never raises) so that a node can
-refuse a malformed package with a warning and let the sender re-select; ``decode_handoff`` and
-``from_package`` raise ``ValueError`` with the same kind of one-line reason for an unreadable
-package, and ``peek_header`` still reads who sent the bytes (sender, receiver, step) so that the
-refusal can be answered (the typed message always has them). ``read_package`` turns bytes into
-what ``leader_protocol.HandoffLedger.on_handoff`` takes: a ``Handoff``, an ``Unusable`` or a
-``Revocation``.
+On DDS the package is ``track_msgs/IdsqHandoff`` (revoke: ``IdsqRevoke``) field for field:
+``Package``; ``to_package`` rounds as the bytes do and ``from_package`` reads back with every
+structural check, so a belief is the same to the bit either way. ``validate_handoff`` returns
+``None`` or a one-line reason (never raises); ``decode_handoff`` and ``from_package`` raise
+``ValueError`` with one; ``peek_header`` still reads sender, receiver, step so a refusal can be
+answered; ``read_package`` gives what ``HandoffLedger.on_handoff`` takes (``Handoff``, ``Unusable``
+or ``Revocation``).
 """
 
 from __future__ import annotations

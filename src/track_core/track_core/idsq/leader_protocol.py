@@ -1,107 +1,30 @@
 """One sensor's side of the IDSQ leader protocol, as a pure state machine (no ROS, no clock).
 
 ``HandoffLedger`` is what an ``acoustic_sensor`` / ``doa_sensor`` node decides; the node only
-converts messages, keeps the endpoints and the steady-clock timers, and carries out the
-effects each call returns (``Reply``, ``Send``, ``Disarm``, ``Led``, ``Reselect``, ``SelfLead``,
-``Log``), in order.
+converts messages, keeps the endpoints and the steady-clock timers, and carries out the effects
+each call returns (``Reply``, ``Send``, ``Disarm``, ``Led``, ``Reselect``, ``SelfLead``, ``Log``),
+in order. Protocol: Table 1 of Liu, Reich, Zhao 2002, one leader at a time.
 
-Protocol (Table 1 of Liu, Reich, Zhao 2002, one leader at a time):
-
-- A sensor sleeps until a handoff (``handoff.Handoff``: step, sender = previous leader, receiver,
-  grid, sparse belief; read from ``track_msgs/IdsqHandoff`` by the node, or from the package bytes
-  by ``handoff.read_package``) arrives. ``validate_handoff`` checks it (NaN / negative /
-  unnormalised mass, wrong grid, wrong receiver, bad indices); an unreadable one comes as
-  ``handoff.Unusable`` with its reason. It is also refused when the sensor already holds a
-  belief (*busy*) or has led a later step (*stale*). The sender gets an ack or a nack with the
-  reason (at the address the message carries; bytes whose header is unreadable go unanswered).
-  A handoff whose step is more than ``STEP_WINDOW`` away from the sensor's horizon
-  (``horizon``: the latest reading step, led step or pending step; -1 at the start) is
-  refused too (*window*): its reading would never come, and the sensor would stay busy for good.
-  A reading more than ``READING_WINDOW`` steps after the horizon is refused by ``reading_problem``
-  (an absurd stamp maps to a huge step; buffering it would evict the real ones). Refusals
-  change nothing but the ``refused`` counter.
-- Readings (``on_reading``): the sensor's own front end (or the simulator standing in for it,
-  ``readings.FieldSimulator``) gives one reading per step, z of eq. 6 (amplitude) or eq. 11 (the
-  bearing θ, clockwise from north); the sensor buffers them whether it leads or not. It never sees
-  the truth.
-- The accepted belief p(x⁽ᵗ⁾|z̄⁽ᵗ⁾) is held until the reading of step t + 1 is in; the sensor
-  then leads step t + 1 with ``leader_step``: diffuse, update with its reading of that step, MI of
-  each neighbour except the previous leader (triplet rule), choose the next leader, encode the
-  handoff (``Led``, then ``Send``).
-- A missing reading (beyond the paper): a front end that is late or silent must not stop the
-  track. The node waits for the reading of the step it holds a belief for up to its
-  ``reading_timeout`` (a steady-clock timer), then calls ``reading_missed``: the sensor leads the
-  step *predict-only* (Table 1 step 1, the belief diffused, no update; eq. 3 with no z), picks the
-  next leader by MI as usual and hands on; counted in ``missed``. Handing on without a
-  measurement keeps the chain, its timing and the MI choice; selecting another sensor instead
-  would need a second handoff round for a reading the next leader gives anyway one step later.
-  A reading that comes after its step was led without it is dropped, counted in ``late`` (one
-  warning line, through the node's refusal channel). Reading order does not matter otherwise:
-  a reading of a later step never makes an earlier one missing (two front ends may interleave).
-- Start (§5.1): the acoustic sensor with the highest step-0 amplitude leads step 0 from the uniform
-  belief. Every sensor tells the others its step-0 amplitude (``on_election``; on DDS each node
-  relays its own step-0 reading's amplitude on the shared election topic), and each decides
-  ``start_leader`` on the same K numbers: all agree without further messages; this stands in for
-  the election the paper does not describe. The election closes when all K amplitudes are in, or
-  when the node's ``reading_timeout`` after its first election message calls
-  ``election_timeout``: it then decides on those it has (counted in ``unheard``); sensors that
-  heard different subsets may disagree (two start leaders, whose chains the first handoffs'
-  *busy* rule merges, or none, and the track starts at the next election). ``SensorSetup.start`` =
-  'election' (beyond the paper; ``start_belief``): the start leader also keeps the step-0 amplitude
-  readings of its radio neighbours, which its election compared with its own (a DOA array is a set
-  of microphones too), and leads step 0 from the uniform belief updated with each of them (eq. 6, as a
-  leader's own reading). One amplitude reading bounds the range only (a disk of radius a_hi/z), and a
-  near DOA leader's bearing at step 1 then favours the far end of its ray (its near-field σ(r) is
-  wide, the wedge grows with r): the belief sat 30-50 m off for 2-3 steps. The neighbours' disks
-  intersect round the source. After step 0 the protocol is the paper's, one leader per step.
-- Leader failure (beyond the paper): a handoff not acknowledged before its timeout (the node's
-  steady-clock timer calls ``timeout``) or refused with a nack is re-sent to the next sensor of
-  ``handoff_order``: the other candidates by decreasing MI, then the previous leader (if a
-  neighbour), finally the sensor itself, which then leads the next step too, so the track never
-  stops. A neighbour that timed out is tried last afterwards, until it acknowledges again.
-  Outstanding handoffs are kept per step: a sensor may lead again before the ack of its
-  previous handoff arrives (a leader ring under load).
-- One chain (beyond the paper): the *sender decides* who leads next. A handoff that
-  times out can still be delivered later (a partition that heals: reliable DDS re-sends it, and a
-  transient-local writer replays its history to a reader that matches again), or the receiver
-  took it in time and its ack was held up; either way the receiver leads a second, parallel chain
-  (measured before this rule: a 5 s unplug of one of 3 hosts left 4 chains). So each sensor
-  remembers, for the last ``STEP_WINDOW`` steps it led, every receiver it sent the handoff to
-  (``sent``) and the one that took it in time (``handed``: the acker, or itself after a self-lead).
-  An ack from any other receiver it sent to is answered with a *revoke* (``Revoke``; on DDS a
-  ``track_msgs/IdsqRevoke`` on the receiver's own revoke topic; ``on_revoke`` takes it): "the
-  handoff of step t I sent you is void". A sensor revoked for step t by the sensor its belief
-  came from (``parent``) drops that belief if it still holds it; if it already led t + 1 it
-  voids that step (``Void``; it no longer counts for the stale rule) and
-  revokes every handoff of step t + 1 it sent, its own continuation after a self-lead included,
-  so the revoke walks the void chain to its head, which stops leading. The kept chain is the
-  one every sender vouches for; nothing depends on clocks, timing or which message came first,
-  and a run without late acks takes exactly the path it took before this rule. The void chain
-  leaves the estimates it published before its revoke came (a few duplicated steps, counted by
-  ``tools/unplug_host.py``). A revoke that cannot be delivered (all its history evicted) leaves
-  the void chain running; the handoff QoS keeps enough history that this did not happen in the
-  unplug runs (``track_msgs_py.qos.HANDOFF_QOS``).
-  Revokes and handoffs travel on two topics, so nothing orders a revoke after the handoff it
-  voids: a revoke that overtakes its handoff finds nothing to cut, the receiver then takes the
-  handoff and acks it, and that ack, from a receiver the sender no longer vouches for, is answered
-  with the revoke again (the rule above): the chain still ends, one round trip later.
-  Fewer void chains to revoke: a handoff that reaches the receiver more than ``ack_timeout``
-  after it was published (``age``: DDS reception minus source timestamp, so the receiver's own
-  executor delay does not count) is refused as *expired*: its sender has re-selected by then.
-  This assumes host clocks agree to well within ``ack_timeout``; where they do not, the revoke
-  still ends the chain.
-- Several sources (beyond the paper, the simulator's business: ``readings.FieldSimulator``): each
-  sensor hears the loudest source at its position, the nearest one (same amplitude A, A/r falls
-  with range).
-- Time: the reading of step s is stamped (s + 1)·Δt, and every leader output of step s carries
-  that stamp; a leader that falls behind uses the buffered readings, so the track does not
-  depend on timing.
-
-Randomness: the simulated reading of sensor k at step s uses one standard normal drawn from
-``SeedSequence(seed, spawn_key=(3, k, s))`` (``readings.measurement_normal``), the ``random``
-selection baseline a Generator from ``spawn_key=(4, k, s)`` (``selection_rng``): nothing depends on
-the process a sensor runs in or on callback order. (The core experiments draw one (T, K) matrix
-per run instead; keys 0-2 are theirs.)
+- ``on_handoff``: ``validate_handoff`` checks a ``handoff.Handoff`` (or gets ``handoff.Unusable``);
+  it is refused (a nack with the reason; only ``refused`` changes) when bad, *busy* (a belief held),
+  *stale* (a later step led), *window* (over ``STEP_WINDOW`` from ``horizon``) or *expired*
+  (``age`` over ``ack_timeout``). ``reading_problem`` refuses readings ``READING_WINDOW`` ahead.
+- ``on_reading``: z of eq. 6 (amplitude) or eq. 11 (bearing θ, clockwise from north), buffered.
+  The belief p(x⁽ᵗ⁾|z̄⁽ᵗ⁾) is held until the reading of t + 1 is in; ``leader_step`` then diffuses,
+  updates, scores each neighbour but the previous leader by MI and hands on (``Led``, ``Send``).
+- ``reading_missed`` (beyond the paper): after ``reading_timeout`` the step is led predict-only
+  (eq. 3 with no z; ``missed``); a reading that comes later is dropped (``late``).
+- Start (§5.1): ``on_election`` gathers every sensor's step-0 amplitude, ``elected`` picks the
+  loudest acoustic sensor (``election_timeout`` decides on those heard, ``unheard``);
+  ``SensorSetup.start`` = 'election' also updates the step-0 belief with the neighbours' amplitudes.
+- ``timeout`` / a nack re-send to the next of ``handoff_order`` (by decreasing MI, then the
+  previous leader, then itself: the track never stops).
+- One chain: the sender decides. An ack from a receiver it no longer vouches for gets a ``Revoke``;
+  ``on_revoke`` drops or voids (``Void``) the revoked belief and revokes downstream.
+- The reading of step s is stamped (s + 1)·Δt, like every leader output of step s. Randomness:
+  ``SeedSequence(seed, spawn_key=(3, k, s))`` for a simulated reading, ``(4, k, s)`` for the
+  ``random`` baseline (keys 0-2 are the core experiments').
+Why each rule: docs/MODULES.md, "The IDSQ leader protocol"; measured: docs/results/idsq.md.
 """
 
 from __future__ import annotations
@@ -110,6 +33,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from track_core.idsq.config import STARTS, LeaderConfig
 from track_core.idsq.grid import GridSpec, SparseBelief, uniform_belief
 from track_core.idsq.handoff import (
     Handoff,
@@ -161,7 +85,6 @@ def selection_rng(seed: int, sensor: int, step: int) -> np.random.Generator:
 loudest = loudest_source  # (sources (2,) or (M, 2), sensor (2,)) → the nearest source: what the sensor hears
 
 
-STARTS = ('uniform', 'election')
 
 
 def start_belief(layout: SensorLayout, leader: int, amplitudes: np.ndarray, grid: GridSpec, p: TrackerParams,
@@ -201,7 +124,8 @@ def start_leader_of(layout: SensorLayout, truth0: np.ndarray, noise: SimNoise, s
     return start_leader(layout, start_amplitudes(layout, truth0, noise, seed))
 
 
-def protocol_track(seed: int, n_sensors: int, n_steps: int, doa_fraction: float = 0.3, cell: float = 5.0,
+def protocol_track(seed: int, n_sensors: int, n_steps: int, doa_fraction: float = 0.3,
+                   cell: float = LeaderConfig.cell,
                    tracker: TrackerParams | None = None,
                    noise: SimNoise | None = None) -> tuple[np.ndarray, np.ndarray, list[int]]:
     """The track a network of nodes must publish, computed with the core alone: (means (T, 2),
@@ -385,10 +309,17 @@ class SensorSetup:
     grid: GridSpec
     tracker: TrackerParams
     seed: int = 0  # of the ``random`` selection baseline (``selection_rng``)
-    selection: str = 'mi'
-    ack_timeout: float = 2.0  # only named in the timeout warning; the node's timer measures it
-    start: str = 'uniform'  # the start leader's belief at step 0 (``start_belief``)
-    reading_timeout: float = 10.0  # only named in the warnings; the node's timers measure it
+    selection: str = LeaderConfig.selection
+    ack_timeout: float = LeaderConfig.ack_timeout  # only named in the timeout warning; the node's timer measures it
+    start: str = LeaderConfig.start  # the start leader's belief at step 0 (``start_belief``)
+    reading_timeout: float = LeaderConfig.reading_timeout  # only named in the warnings; the node's timers measure it
+
+    @classmethod
+    def of(cls, me: int, position: np.ndarray, is_doa: bool, config: LeaderConfig, seed: int = 0) -> SensorSetup:
+        """Sensor ``me``'s setup from the one configuration (``config.LeaderConfig``)."""
+        c = config
+        return cls(me, position, is_doa, c.grid, c.tracker, seed, c.selection, c.ack_timeout, c.start,
+                   c.reading_timeout)
 
 
 class HandoffLedger:

@@ -1,7 +1,6 @@
 """Sensor models (§3): acoustic amplitude (eqs. 5-6) and DOA bearing (eq. 11, Fig. 6).
 
 Conventions and interpretations:
-
 - Frame: ENU, x east, y north. The paper's bearing θ is measured from the grid's *vertical*
   axis (Fig. 4: "with respect to the vertical grid axis"; field DOA arrays were aligned to
   magnetic north), clockwise, i.e. θ = atan2(dx, dy), wrapped to (−π, π] with
@@ -9,20 +8,10 @@ Conventions and interpretations:
 - Eq. 11 ignores the 2π periodicity; we evaluate it on the wrapped innovation wrap(z − θ), which
   equals eq. 11 when σ is small and is correct across ±π.
 - Fig. 6 σ(r) (tracker's DOA model): σ₀ = 10° on [r_near, r_far] = [20, 100] m; the slopes are
-  not given. Far field: +0.2°/m beyond r_far (σ(200 m) = 30°); capped at σ_max = 90° (beyond that
-  a bearing says nothing and the wrapped Gaussian is no longer a density on the circle to any
-  useful accuracy). Near field: σ grows linearly as r falls (Fig. 6) and reaches the cap at the
-  sensor, σ(0) = σ_max, i.e. the slope is (σ_max − σ₀)/r_near = 4°/m by default (``near_slope=None``
-  derives it from the other three; a number overrides). Reason: §3.2 / Fig. 7 say the likelihood
-  "fans out" in the near range, where "the angle measurement does not provide much evidence about
-  the target's location", and a source *at* the array has no bearing at all; the fixed 1.5°/m we
-  used before (σ(0) = 40°) claimed a bearing from 1.5 m was as good as ±40°, so the near cells off
-  the measured ray were cut like far ones (a cell 60° off kept exp(−½(60/38)²) = 0.28 of its
-  prior weight; now exp(−½(60/84)²) = 0.78 at σ(1.5 m) = 84°) and, with the wedge's area growing
-  with r, the posterior of a DOA leader 1.5 m from the target went 17 m out along its bearing
-  (maritime seed 3, t = 28 s). Now the near disk keeps its prior shape and the ray
-  adds to it; the sensor's MI falls as well (the bearings of near cells are predicted to say
-  little). Table 4 (diffusion, 20 runs, seed 0) changes by ≤ 0.3 m: see the README.
+  not given. Far field: +0.2°/m beyond r_far (σ(200 m) = 30°), capped at σ_max = 90°. Near field:
+  σ grows linearly as r falls and reaches the cap at the sensor, σ(0) = σ_max: slope (σ_max −
+  σ₀)/r_near = 4°/m by default (``near_slope=None`` derives it; a number overrides), since the
+  likelihood "fans out" in the near range (§3.2, Fig. 7). Measured reasons: docs/results/idsq.md.
 - Eq. 6 is the density of z given the range r (a ~ U[a_lo, a_hi], w ~ N(0, σ²)). Φ is the
   standard normal CDF (``scipy.stats.norm.cdf``). r = 0 gives 0 (the limit of eq. 6).
 - Simulation (§5.1): acoustic z = A/‖x − ζ‖ + N(0, 0.05²); DOA z = θ + N(0, (3°)²), wrapped.

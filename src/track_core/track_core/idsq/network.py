@@ -5,25 +5,11 @@
   least two neighbours). ``SensorLayout.neighbours`` holds these lists (no leader history).
 - Triplet rule (§5.1: "the previous leader is not included in the neighborhood of the current
   leader"): the leader's neighbourhood N — the candidates it scores — is built by the same
-  "40 m, or else the two nearest" rule *over the sensors other than the previous leader*. So a
-  leader with exactly two sensors in range, one of them the previous leader, still chooses
-  among two: the remaining in-range one and its nearest other sensor.
-
-  Why this order (exclude, then apply "at least two") and not "take ``neighbours[leader]``, then
-  remove the previous leader": Table 4's "avg. neigh. size" column. It is 2.0 at K = 24, where
-  almost every sensor has exactly two neighbours (4 columns 37.5 m apart, rows 41.7 m apart):
-  counted after removing the previous leader it would be ≈ 1.2, counted before it the K = 64
-  value would be ≈ 6.8 (leaders sit in the two inner columns, which have more neighbours), not
-  6.0. With this rule the mean |N| of the leaders over 20 runs (seed 0) is 2.06 2.20 2.51 2.78
-  3.09 3.53 4.00 4.50 4.92 5.44 5.81 for K = 24 … 64 against the paper's 2.0 2.2 2.4 2.9 3.0 3.5
-  4.0 4.6 5.1 5.5 6.0. The other order also breaks tracking in sparse fields: with degree-2
-  sensors the triplet rule then leaves one candidate, the leader is marched around the network's
-  ring with no choice at all, far from the target, and the K = 24 error was 40.1 m (paper 24.1)
-  with a median run of 37 m; with this rule it is 22.0 m.
-
-  A node therefore needs the positions of its in-range sensors *and* of its nearest few (the
-  shared layout has all positions). If no other sensor than the previous leader exists, the
-  previous leader is allowed back rather than stopping the track.
+  "40 m, or else the two nearest" rule *over the sensors other than the previous leader*
+  (exclude first, then "at least two": this order matches Table 4's "avg. neigh. size"; the
+  figures: docs/results/idsq.md). A node therefore needs the positions of its in-range sensors
+  *and* of its nearest few (the shared layout has all). If no sensor but the previous leader
+  exists, the previous leader is allowed back rather than stopping the track.
 - Start (§5.1): the acoustic-amplitude sensor with the highest amplitude reading at t = 0.
   With no acoustic sensor (100 % DOA, Table 5) "highest amplitude" is undefined; we use the
   amplitude every sensor's microphones hear (DOA arrays are microphones too).

@@ -2,52 +2,22 @@
 
 ``TrackerParams.prediction`` selects it; the Table 4/5 reproduction uses the default.
 
-``'diffusion'`` (default, the paper's): p(x⁽ᵗ⁺¹⁾|x⁽ᵗ⁾) is the uniform disk of radius v_max·Δt
-centred on x⁽ᵗ⁾ (``grid.diffuse``). It has no drift, so the MMSE mean of a belief that follows a
-steadily moving vehicle lags it (``experiments`` module docstring).
-
-``'drift'`` (ours): the belief also carries a velocity estimate v̂ (``Motion``), and the dynamics
-pdf is the same kind of uniform disk, radius ``drift_speed``·Δt, centred on x⁽ᵗ⁾ + v̂·Δt: the
-grid is shifted by v̂·Δt while it is diffused (one convolution with a shifted, area-weighted disk
-kernel, ``shifted_disk_kernel``; sub-cell shifts exact to the kernel's 1/16-cell supersampling).
-v̂ is an exponential average of the MMSE velocity of consecutive posteriors (eq. 2 means):
-
-    v̂⁽ᵗ⁾ = v̂⁽ᵗ⁻¹⁾ + β · ((x̂⁽ᵗ⁾ − x̂⁽ᵗ⁻¹⁾)/Δt − v̂⁽ᵗ⁻¹⁾),   β = drift_gain (0.3), first observation taken whole,
-
-clipped to |v̂| ≤ v_max. An observation is used only when both posteriors are concentrated
-(spread below ``drift_gate``·(v_max·Δt)²): during the discovery phase from a uniform start the
-mean jumps across the field and says nothing about the velocity. Until then (v̂ unknown) the
-drift prediction is the paper's disk. Handoff: version 2, +10 bytes (v̂, count).
-
-``'bank'`` (ours): a small set of velocity hypotheses, each with its own grid, weighted by the
-likelihood, i.e. a coarse joint position–velocity grid (``Bank``). The hypotheses are the
-velocities of a square lattice with spacing ``bank_step`` (5 m/s) inside |v| ≤ v_max (29 at
-v_max = 15 m/s). Prediction: with probability q a hypothesis moves to one of its 4 lattice
-neighbours (a manoeuvre), then each hypothesis' grid is shifted by v_j·Δt and
-diffused by a disk of radius ``bank_step``/√2·Δt (the half-diagonal of a lattice cell), all J
-grids in one batched FFT convolution. Update: every (j, cell) mass × p(z|cell), so hypotheses
-that predicted the measurement gain weight. The joint is sparsified with the paper's relative
-threshold against its own peak; estimates, MI and the ``SparseBelief`` seen by the rest of the
-tracker are the position marginal. Start (uniform belief): all hypotheses equally likely. The
-handoff (version 3) carries the whole joint: 6 + 8 bytes per stored (hypothesis, cell) entry.
-
-The switching is a manoeuvre *rate*: ``bank_switch`` (0.1) is the probability per ``bank_switch_dt``
-(0.5 s, the §5.1 step it was set for), so a step of Δt switches with q = 1 − (1 − 0.1)^(Δt/0.5 s)
-(``TrackerParams.switch_per_step``): 0.1 in Table 4, 0.19 at the maritime Δt = 1 s. A fixed
-probability per step would halve the rate at Δt = 1 s, and the bank then collapses onto one lattice
-velocity and runs ahead of a manoeuvring target, overconfident.
-
-Which prediction (the figures are in ``docs/results/idsq.md`` and ``docs/results/maritime.md``;
-no parameter was fitted to a result):
-
-- §5.1 simulation (``idsq-table4``): both velocity-aware predictions remove most of the lag of the
-  paper's diffusion.
-- Maritime scenario: the bank keeps the true sonar|network pair associated more often than the
-  drift, at similar error, for several times the drift's bytes per handoff; the maritime scenario
-  uses the bank (the association is its goal), and ``drift`` stays selectable for a network
-  where the bytes matter more.
-- ``drift_speed`` (m/s) bounds |v − v̂| over one step; default v_max (the paper's disk, only its
-  centre moves).
+- ``'diffusion'`` (default, the paper's): p(x⁽ᵗ⁺¹⁾|x⁽ᵗ⁾) is the uniform disk of radius v_max·Δt
+  centred on x⁽ᵗ⁾ (``grid.diffuse``); no drift, so the MMSE mean lags a moving vehicle.
+- ``'drift'``: the disk, radius ``drift_speed``·Δt, centred on x⁽ᵗ⁾ + v̂·Δt
+  (``shifted_disk_kernel``, 1/16-cell supersampling), with v̂⁽ᵗ⁾ = v̂⁽ᵗ⁻¹⁾ + β((x̂⁽ᵗ⁾ − x̂⁽ᵗ⁻¹⁾)/Δt
+  − v̂⁽ᵗ⁻¹⁾), β = ``drift_gain`` (0.3), the first observation taken whole, |v̂| ≤ v_max, used only
+  when both posteriors' spread is below ``drift_gate``·(v_max·Δt)² (``Motion``); the paper's disk
+  until then. Handoff version 2, +10 bytes.
+- ``'bank'``: velocity hypotheses on a square lattice of spacing ``bank_step`` (5 m/s) inside |v| ≤
+  v_max (29 at 15 m/s), each with its own grid (``Bank``): a hypothesis moves to one of its 4
+  neighbours with probability q, each grid is shifted by v_j·Δt and diffused by a disk of radius
+  ``bank_step``/√2·Δt (one batched FFT convolution); the update multiplies every (j, cell) mass by
+  p(z|cell); sparsified against the joint's peak; estimates, MI and ``SparseBelief`` use the
+  position marginal. Handoff version 3: 6 + 8 bytes per stored (hypothesis, cell) entry.
+- q is a rate: ``bank_switch`` (0.1) per ``bank_switch_dt`` (0.5 s), q = 1 − (1 − 0.1)^(Δt/0.5 s)
+  (``TrackerParams.switch_per_step``). Which to use, and why: docs/MODULES.md, "The IDSQ prediction";
+  the maritime scenario uses the bank.
 """
 
 from __future__ import annotations

@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from track_core.idsq.config import LeaderConfig
 from track_core.idsq.grid import GridSpec, SparseBelief, estimate, uniform_belief
 from track_core.idsq.handoff import decode_handoff
 from track_core.idsq.models import SimNoise, TrackerParams, amplitude_readings, simulate_measurement
@@ -48,11 +49,11 @@ class Scenario:
 
     n_sensors: int = 40
     doa_fraction: float = 0.3
-    width: float = 150.0
-    height: float = 250.0
+    width: float = LeaderConfig.width
+    height: float = LeaderConfig.height
     jitter_var: float = 25.0
     speed: float = 7.0
-    comm_range: float = 40.0
+    comm_range: float = LeaderConfig.comm_range
     noise: SimNoise = field(default_factory=SimNoise)
     tracker: TrackerParams = field(default_factory=TrackerParams)
 
@@ -66,7 +67,7 @@ class Scenario:
 
     @property
     def grid(self) -> GridSpec:
-        return GridSpec.for_field(self.width, self.height, 5.0)
+        return GridSpec.for_field(self.width, self.height, LeaderConfig.cell)
 
     @property
     def n_steps(self) -> int:

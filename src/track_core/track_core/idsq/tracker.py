@@ -6,32 +6,22 @@ the chosen next leader and the encoded handoff payload. It is pure (no state kep
 calls); the node keeps the step number and the previous leader (from the handoff).
 
 Interpretations:
-
-- Prediction (Table 1 step 1): ``p.prediction`` selects the paper's diffusion (default) or a
-  velocity-aware one (``prediction.py``, beyond the paper: ``drift`` or the hypothesis ``bank``);
-  the posterior then carries its motion state (v̂, or the joint position-velocity belief), and the
-  MI prediction of step 4 and the handoff use it. The update of a bank belief weights every
-  (hypothesis, cell) mass by the likelihood of its cell.
-- Table 1 step 4 scores I(x⁽ᵗ⁺²⁾; z_k⁽ᵗ⁺²⁾|z̄⁽ᵗ⁺¹⁾): the posterior is diffused once more (Table 3
-  step 1) before the MI of each candidate is computed; the *posterior* (not the diffused
-  belief) is handed off, and the receiver diffuses it (Table 1 steps 0-1).
-- A measurement whose likelihood is 0 on the whole support (an outlier outside every
-  crater) would empty the belief; the update is then skipped (prior kept) with a warning.
-- Amplitude above the grid's reach: eq. 6 at a cell centre r away allows z up to a_hi/r (plus
-  noise), and the grid holds no centre nearer the sensor than its own cell's, so a target within a
-  metre or two of an acoustic leader (z = A/r large) would have zero likelihood on every cell and
-  the update would be skipped (the uniform start belief kept: an error of ~140 m). Such a z is
-  clipped to a_hi/r_min, r_min the range of the nearest cell of the support: "nearer than any
-  cell centre" puts the mass on the cells nearest the sensor. Every z the grid can explain is
-  unchanged.
-- Candidates are the leader's neighbourhood after the triplet rule (``network.candidates``:
-  within 40 m or else the two nearest, among the sensors other than the previous leader);
-  ``neighbourhood_size`` is their number, Table 4's "avg. neigh. size".
-- Baselines: ``selection='nearest'`` picks the candidate nearest to the predicted MMSE estimate
-  of the target (the classic closest-sensor heuristic; nearest to the *leader* would ignore the
-  target); ``'random'`` picks a candidate uniformly with the given Generator.
-- Centralized (§2.2): every sensor's measurement is fused each step, with the product of
-  likelihoods (eq. 4) on the same sparse grid.
+- Prediction (Table 1 step 1): ``p.prediction``, the paper's diffusion (default), ``drift`` or the
+  hypothesis ``bank`` (``prediction.py``); the posterior carries its motion state, which the MI
+  of step 4 and the handoff use; a bank update weights every (hypothesis, cell) mass by its cell's
+  likelihood.
+- Step 4 scores I(x⁽ᵗ⁺²⁾; z_k⁽ᵗ⁺²⁾|z̄⁽ᵗ⁺¹⁾): the posterior is diffused once more (Table 3 step 1)
+  before each candidate's MI; the *posterior* is handed off and the receiver diffuses it.
+- A measurement with zero likelihood on the whole support is skipped (prior kept, a warning).
+- An amplitude above the grid's reach (a target within a cell of an acoustic leader, z = A/r
+  large) is clipped to a_hi/r_min, r_min the range of the support's nearest cell; every z the grid
+  can explain is unchanged.
+- Candidates: the leader's neighbourhood after the triplet rule (``network.candidates``: within
+  40 m or else the two nearest, the previous leader excluded); ``neighbourhood_size`` is Table 4's
+  "avg. neigh. size".
+- Baselines: ``selection='nearest'`` (the candidate nearest the predicted MMSE estimate),
+  ``'random'`` (uniform, with the given Generator); centralized (§2.2): every sensor's measurement
+  fused each step by the product of likelihoods (eq. 4) on the same sparse grid.
 """
 
 from __future__ import annotations

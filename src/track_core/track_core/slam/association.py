@@ -2,11 +2,9 @@
 
 Vectorised over (observation × landmark) pairs; no Python loop over landmarks.
 
-- Range: observations farther than ``max_range`` (the usable sensor range) are ignored: neither
-  associated nor mapped. The failure detector below watches the landmarks predicted within
-  ``max_range``, so every landmark association may use is watched (on Victoria Park, where the
-  laser reports trunks up to 75 m, an unwatched long-range association would otherwise be
-  possible while the heading error times the range exceeds the trunk spacing).
+- Range: observations farther than ``max_range`` are ignored (neither associated nor mapped), so
+  the failure detector, which watches the landmarks predicted within ``max_range``, watches every
+  landmark association may use (Victoria Park's laser reports trunks up to 75 m).
 - Gate: a pair (i, j) is compatible when νᵢⱼᵀ Sⱼ⁻¹ νᵢⱼ < ``gate`` (χ²₂, default 99 %: 9.21).
   ``Sⱼ = Hⱼ P Hⱼᵀ + R`` is the innovation covariance of landmark j (it does not depend on the
   observation, so it is computed once per landmark).

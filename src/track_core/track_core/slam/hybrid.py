@@ -1,60 +1,29 @@
 """Hybrid CEKF ⇄ particle-filter SLAM (§3), driven one input / one scan at a time.
 
-``HybridSlam.process_input(t, speed, steer)`` and ``process_scan(t, z)`` are what a ``slam``
-node calls from its two callbacks; both take time as float seconds and return ``False`` when the
-message is refused. Inputs are held (zero-order hold) until the next input or scan.
+``HybridSlam.process_input(t, speed, steer)`` and ``process_scan(t, z)`` are what a ``slam`` node
+calls from its two callbacks; both take time as float seconds and return ``False`` when the message
+is refused. Inputs are held (zero-order hold) until the next input or scan.
 
 Switching (§3.1):
-- CEKF → PF when the failure detector fires (``association.py``: the uncertainty-vs-separation
-  rule). The ambiguity test (more than one candidate in a gate) also triggers only with
-  ``trigger_on_ambiguity``: on real data close trunks make it fire at almost every scan.
-  The CEKF is flushed (global update), the landmarks that can be in view
-  (mean within ``max_range`` + ``n_sigma``·σ_pos + ``candidate_margin`` of the vehicle) are
-  re-referenced to two base landmarks (the one nearest the vehicle and the candidate farthest
-  from it) and bounded block-diagonally (eq. 11); the SIR filter is helix-initialised from this
-  scan (eqs. 12–13) and weighted with the same scan. The map is frozen while in PF mode (pure
-  localisation, eq. 2): no map update and no new landmarks.
-- Every scan is used by whichever filter runs: the scan on which the detector fires starts the PF
-  whatever its size. When it holds fewer observations than a rich scan (in Fig. 1 the first trunk
-  of the start area comes into view alone), the helix family of eqs. 12–13 is one ring per
-  candidate landmark within the CEKF prior gate rather than a few points; the cloud stays spread
-  and the next, richer scan concentrates it (paper, §4: "This scan included observation to
-  several beacons"). Holding such a scan instead (using it in neither filter) threw its
-  information away and, on real data where the detector fires on sparse scans, hundreds of
-  scans; starting from it costs one PF scan more on the loop world (slam-loop: median 2 → 3 PF
-  scans, the same error after convergence). ``n_cekf_scans``/``n_pf_scans`` count the scans each
-  filter used (a hand-over scan is used by both: the PF's last and the CEKF's first).
-- PF → CEKF when the PF converges (std < 2·jitter in x, y, φ) or after ``max_pf_scans`` scans
-  (documented fallback, event ``pf_timeout``). While the PF runs, the CEKF keeps predicting
-  with the same inputs (dead reckoning, no scan update, map frozen). Restoration of the
-  vehicle–map cross-covariances (interpretation), ``restore``:
-  - ``'update'`` (default): the PF estimate is the pose *in the base frame*, so it is fused
-    into the CEKF as an observation z = T(x_v; b₁, b₂) (eq. 10 applied to the pose) with
-    covariance the PF's weighted covariance: an iterated EKF update of the full state
-    (``CekfSlam.fuse``, 3 Gauss–Newton steps for the large loop-closure innovation). The pose
-    moves to the PF solution (its covariance is far smaller than the CEKF's), and every
-    cross-covariance follows from the update itself: the vehicle keeps its correlation with the
-    landmarks it saw recently and gains the one through b₁, b₂. The PF estimate is treated as
-    independent of the map, which the conservative eq. 11 map bound in its likelihood covers.
-  - ``'replace'``: the global pose is g(b₁, b₂, pose_l), pose_l independent of the map, so
-    P_vv = G_b P_bb G_bᵀ + G_l P_pf G_lᵀ and P_vm = G_b P_b,m: the vehicle keeps only its
-    correlation through the two base landmarks. On Victoria Park with immediate landmark
-    initialisation (a cluttered map) this loses so much vehicle–map information that the
-    detector fires again after every hand-over (276 switches, 14 m GPS error, against 160 and
-    3.4 m with ``'update'``); with the tentative-landmark rule both give one switch.
-  The converged scan is then used for a normal CEKF update and the detector is muted for
-  ``cooldown_scans`` scans so that the loop-closing update can shrink the map errors.
+- CEKF → PF when the failure detector fires (``association.py``; the ambiguity test only with
+  ``trigger_on_ambiguity``). The CEKF is flushed, the landmarks that can be in view (within
+  ``max_range`` + ``n_sigma``·σ_pos + ``candidate_margin``) are re-referenced to two base landmarks
+  and bounded block-diagonally (eq. 11); the SIR filter is helix-initialised from this scan (eqs.
+  12–13) and weighted with it. The map is frozen in PF mode (pure localisation, eq. 2).
+- Every scan is used by the filter that runs (the firing scan starts the PF whatever its size);
+  ``n_cekf_scans``/``n_pf_scans`` count them (a hand-over scan counts for both).
+- PF → CEKF when the PF converges (std < 2·jitter in x, y, φ) or after ``max_pf_scans`` (event
+  ``pf_timeout``); meanwhile the CEKF dead-reckons. ``restore='update'`` (default): the PF pose in
+  the base frame is fused as an observation z = T(x_v; b₁, b₂) (eq. 10) with the PF's covariance, an
+  iterated EKF update (``CekfSlam.fuse``, 3 Gauss–Newton steps); ``'replace'``: P_vv = G_b P_bb G_bᵀ
+  + G_l P_pf G_lᵀ, P_vm = G_b P_b,m. Then a normal CEKF update, and the detector is muted for
+  ``cooldown_scans``.
 
-Outputs: ``pose``/``pose_cov``, ``particles()`` (the live cloud, PF mode only), ``last_particles``
-(the cloud of the last PF step, kept after the hand-over so that an episode that starts and converges
-within one scan can still be shown) and ``map_estimate()`` (exact means and 2×2 covariances, the
-filter untouched).
-
-Bad input: an observation with a non-finite value, a range ≤ 0 or a bearing outside
-``bearing_limits`` (the data set's [0, π]) is dropped with a throttled warning (the rule is the
-module function ``valid_observations``, also callable by a node); a non-finite input or time
-stamp, or one earlier than the last processed one, is refused (``False``) without touching the
-state: the check comes before any prediction. Equal stamps are accepted.
+Outputs: ``pose``/``pose_cov``, ``particles()`` (PF mode), ``last_particles`` (the last PF step's
+cloud) and ``map_estimate()`` (exact means and 2×2 covariances, the filter untouched). Bad input: an
+observation non-finite, range ≤ 0 or bearing outside ``bearing_limits`` is dropped
+(``valid_observations``); a non-finite or earlier input or stamp is refused (``False``) before any
+prediction; equal stamps are accepted. Reasons, measured: docs/results/slam.md.
 """
 
 from __future__ import annotations

@@ -1,40 +1,25 @@
 """Point landmarks (tree trunks, poles, posts) from one planar laser scan.
 
-Why. The hybrid SLAM maps point landmarks observed in range and bearing (eq. 5); on Victoria Park
-the trunks came pre-extracted (ACFR's detector), so a robot with a plain ``sensor_msgs/LaserScan``
-needs this front end. It follows the usual trunk detector of that data set's authors: the scan is
-cut into segments where the range jumps, and a segment is kept as a trunk or pole when it is narrow
-and round.
+The hybrid SLAM maps point landmarks observed in range and bearing (eq. 5); Victoria Park's trunks
+came pre-extracted, so a robot with a plain ``sensor_msgs/LaserScan`` needs this front end (the
+usual trunk detector of that data set's authors). Steps (``extract``, vectorised over beams and
+segments):
+1. Beams with a finite range in [range_min, range_max] (the scan's limits and ``max_range``).
+2. Segments: consecutive valid beams whose ranges differ by at most ``jump`` + ``jump_ratio``·r.
+3. Candidates: ``min_points`` ≤ n ≤ ``max_points``; width = chord of the end points + r·Δθ.
+4. Round: a Kåsa circle fit x² + y² + Dx + Ey + F = 0 (one batched 3×3 least-squares solve) with
+   diameter ≤ ``max_fit_diameter``, RMS residual ≤ ``max_residual`` and the centre behind the
+   points (convex towards the laser: walls and concave corners refused).
+5. Detection: diameter d = the width, range = the nearest beam's range + d/2 (the axis, as
+   ``victoria.load``'s ``add_radius``), bearing = the middle of the segment's angular extent; kept
+   when ``min_diameter`` ≤ d ≤ ``max_diameter``.
+6. It stands out: the beam beyond each end is a no-return (REP-117) or farther by a jump; a segment
+   at the scan's first or last beam is refused.
 
-Steps (``extract``, vectorised over beams and segments: no Python loop over either):
-
-1. Beams with a finite range in [range_min, range_max] (the scan's own limits and ``max_range``).
-2. Segments: consecutive valid beams whose ranges differ by at most ``jump`` + ``jump_ratio``·r (and
-   with no invalid beam between them) belong together.
-3. A segment is a candidate with ``min_points`` ≤ n ≤ ``max_points`` beams. Its width is the chord
-   between its first and last points plus one beam footprint (r·Δθ).
-4. Shape: an algebraic (Kåsa) circle fit on its points, x² + y² + Dx + Ey + F = 0 solved by least
-   squares (one batched 3×3 solve for all segments). It is round when the fitted diameter is at most
-   ``max_fit_diameter``, the RMS distance of the points to the fitted circle at most ``max_residual``,
-   and the fitted centre lies *behind* the points (farther from the laser than their mean range:
-   convex towards the laser). A straight piece of wall fits an enormous circle, a concave corner a
-   circle in front of the points: both are refused.
-5. A detection: diameter d = the width (robust for short arcs, where the fitted radius is noisy),
-   range to the centre = the nearest beam's range + d/2 (the laser hits the surface; the
-   landmark is the axis, as ``victoria.load``'s ``add_radius``), bearing = the middle of the
-   segment's angular extent; kept when ``min_diameter`` ≤ d ≤ ``max_diameter``.
-6. It must stand out from its background: the beam just outside each end is a no-return (+inf or
-   beyond the range limit, REP-117) or farther by a jump. Otherwise a wall cut into short pieces by
-   dropouts would pass as a row of poles; a segment at the scan's first or last beam (partly seen)
-   is refused too.
-
-Covariance of (range, bearing, diameter), from the laser's ``sigma_range`` and the beam spacing Δθ
-(a model, not fitted): σ_d² = 2σ_range² + (r·Δθ)²/3 (two end points, and where the edge falls within a
-beam); range = r_min + d/2, so σ_r² = σ_range² + σ_d²/4 and cov(r, d) = σ_d²/2; σ_β² = Δθ²/12 +
-(σ_range/r)² (the edges' quantisation).
-
-Bearings are REP-103 in the laser frame (0 = ahead, counter-clockwise positive); the filter's eq. 5
-convention (0 = right) is this + π/2 (``to_eq5_bearing``).
+Covariance of (range, bearing, diameter), from ``sigma_range`` and Δθ (a model, not fitted):
+σ_d² = 2σ_range² + (r·Δθ)²/3; σ_r² = σ_range² + σ_d²/4, cov(r, d) = σ_d²/2;
+σ_β² = Δθ²/12 + (σ_range/r)². Bearings are REP-103 in the laser frame (0 = ahead,
+counter-clockwise); eq. 5's (0 = right) is this + π/2 (``to_eq5_bearing``).
 """
 
 from __future__ import annotations

@@ -7,42 +7,24 @@ Vehicle (data README, Masson/Guivant/Nebot §4): state ``(x, y, φ)`` at the las
     ẏ = v_c sin φ + (v_c/L) tan α (a cos φ − b sin φ)
     φ̇ = (v_c/L) tan α
 
-discretised by one explicit Euler step of length ``dt`` (the ACFR convention; inputs arrive
-every 25 ms on the real run).
+discretised by one explicit Euler step of length ``dt`` (inputs every 25 ms on the real run).
+``a = 3.78 m`` (the data README; the original readme's 0.95 m is from the front axle).
 
-Input models (two, named; ``INPUT_MODELS``). The filter's state is always the laser *position*
-with the robot's heading, and both models have the same structure: the rates depend on the pose
-only through φ, and φ̇ not on the pose, so F = ∂x⁺/∂x = I + v e₃ᵀ (what the CEKF's batched
-prediction needs, ``cekf.py``).
+Input models (``INPUT_MODELS``), both with F = ∂x⁺/∂x = I + v e₃ᵀ (the CEKF's batched prediction):
+``VehicleParams`` (``'acfr'``): the car above, geometry L, H, a, b; ``UnicycleParams``
+(``'unicycle'``): u = (v, ω) of ``base_link`` (Odometry's twist, REP-105), the laser a ahead and b
+left of it:
 
-- ``VehicleParams`` (``'acfr'``): the ACFR car above, u = (encoder speed v_e, steering angle α),
-  with the geometry L, H, a, b as parameters.
-- ``UnicycleParams`` (``'unicycle'``): any unicycle or differential-drive robot, u = (v, ω) = the
-  forward speed and yaw rate of ``base_link`` (``nav_msgs/Odometry``'s twist, REP-105), with the
-  laser a ahead and b left of ``base_link``:
+    ẋ = v cos φ − ω (a sin φ + b cos φ),  ẏ = v sin φ + ω (a cos φ − b sin φ),  φ̇ = ω
 
-      ẋ = v cos φ − ω (a sin φ + b cos φ),  ẏ = v sin φ + ω (a cos φ − b sin φ),  φ̇ = ω
+(the ACFR car is this model with v = v_c, ω = (v_c/L) tan α, ``acfr_to_unicycle``). Process noise
+is input noise ``σ_u`` (or a 2×2 covariance per input, ``process_noise(..., Su=...)``) through the
+input Jacobian, plus an optional additive ``q_pose`` per second (the paper gives no values).
 
-  (d/dt of p + R(φ)(a, b)). The ACFR car is this model at its rear-axle centre with
-  v = v_c and ω = (v_c/L) tan α (``acfr_to_unicycle``), so both give the same prediction.
-
-Input noise: ``σ_u`` = (σ of u₀, σ of u₁) from the parameters, or a full 2×2 covariance per input
-(``process_noise(..., Su=...)``; an odometry message's twist covariance).
-
-Observation (eq. 5): ``z_r = |m − p|``, ``z_β = atan2(m_y − y, m_x − x) − φ + π/2``. This is
-*exactly* the data set's bearing convention (0 = vehicle's right, π/2 ahead, π left), so the
-Victoria Park bearings enter unchanged; the vehicle-frame bearing of the README is ``z_β − π/2``.
-Bearings and bearing innovations are wrapped to (−π, π] with ``filters.wrap_angle``.
-
-Interpretations:
-- ``a = 3.78 m``: the data README gives a = 3.78 m ahead of the rear axle; the original ACFR
-  readme gives 0.95 m, measured from the *front* axle (2.83 + 0.95 = 3.78). We use 3.78.
-- Process noise is input noise (σ_v, σ_α) mapped through the input Jacobian, plus an optional
-  small additive pose noise ``q_pose`` per second (model error); the paper gives no values.
-
-Everything is vectorised over leading axes: poses ``(..., 3)``, landmarks ``(..., 2)``.
-``vehicle_step_scalar`` is the same step and Jacobians for one pose in plain floats (the CEKF's
-per-input hot path: 40 inputs/s on the real run; tested equal to the array version).
+Observation (eq. 5): ``z_r = |m − p|``, ``z_β = atan2(m_y − y, m_x − x) − φ + π/2``: the data set's
+bearing convention (0 = vehicle's right, π/2 ahead, π left); bearings and innovations wrapped to
+(−π, π] (``filters.wrap_angle``). Vectorised over leading axes (poses ``(..., 3)``, landmarks
+``(..., 2)``); ``vehicle_step_scalar`` is the same step in plain floats (the CEKF's hot path).
 """
 
 from __future__ import annotations

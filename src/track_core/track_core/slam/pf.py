@@ -1,40 +1,27 @@
 """De-correlated map (eqs. 10–11), helix initialisation (eqs. 12–13) and SIR localisation (§2.1).
 
-Re-referencing (§3.1, eq. 10). The local map and the vehicle are expressed in the frame of two
-base landmarks b₁, b₂: origin b₁, x axis towards b₂ (γ = atan2(b₂ − b₁)), so a point m becomes
-Rᵀ(γ)(m − b₁) and a pose (p, φ) becomes (Rᵀ(γ)(p − b₁), φ − γ). Covariances are propagated with
-the exact Jacobian of this map; the common (map-wide) translation/rotation error disappears.
+Re-referencing (§3.1, eq. 10): origin b₁, x axis towards b₂ (γ = atan2(b₂ − b₁)); a point m becomes
+Rᵀ(γ)(m − b₁), a pose (p, φ) becomes (Rᵀ(γ)(p − b₁), φ − γ); covariances through the exact
+Jacobian, so the common translation/rotation error disappears.
 
-Bound (eq. 11). The paper writes p̃ᵢ = pᵢ + Σⱼ |kᵢⱼ Cᵢⱼ| with kᵢⱼ = 1/kⱼᵢ > 0. For 2×2 landmark
-blocks an element-wise |·| is not a guaranteed bound, so we read |kᵢⱼ Cᵢⱼ| as kᵢⱼ·(Cᵢⱼ Cᵢⱼᵀ)^½
-(the left polar factor; the partner block receives kⱼᵢ·(Cᵢⱼᵀ Cᵢⱼ)^½). For every pair
-[[k U Σ Uᵀ, −C], [−Cᵀ, V Σ Vᵀ / k]] = [√k U; −V/√k] Σ [·]ᵀ ⪰ 0, hence bound − P ⪰ 0 (tested).
-We use kᵢⱼ = 1.
+Bound (eq. 11): p̃ᵢ = pᵢ + Σⱼ |kᵢⱼ Cᵢⱼ|, kᵢⱼ = 1/kⱼᵢ > 0. For 2×2 blocks we read |kᵢⱼ Cᵢⱼ| as
+kᵢⱼ·(Cᵢⱼ Cᵢⱼᵀ)^½ (the partner block kⱼᵢ·(Cᵢⱼᵀ Cᵢⱼ)^½), a guaranteed bound: for every pair
+[[k U Σ Uᵀ, −C], [−Cᵀ, V Σ Vᵀ / k]] = [√k U; −V/√k] Σ [·]ᵀ ⪰ 0 (tested). We use kᵢⱼ = 1.
 
-Likelihood (eq. 9, documented approximation). The integral over the landmark position is
-evaluated in closed form for a Gaussian landmark N(m̂ⱼ, p̃ⱼ) and, being association-free, summed
-over the landmarks of the map (the paper's sum-of-Gaussians map) plus a uniform clutter
-density c for spurious returns: p(z|x) = Πₒ [c + Σⱼ pⱼ(zₒ | x)]. Landmarks predicted in view but
-not observed carry no (negative) information. Two linearisations, equal to first order:
+Likelihood (eq. 9, documented approximation): association-free over the map's Gaussian landmarks
+N(m̂ⱼ, p̃ⱼ) plus a uniform clutter density c: p(z|x) = Πₒ [c + Σⱼ pⱼ(zₒ | x)]; landmarks in view
+but unobserved carry no information.
+- ``log_likelihood`` (used), in the map plane: wₒ(x) = p + zᵣ (cos θ, sin θ), θ = φ + z_β − π/2,
+  pⱼ = zᵣ · N(wₒ; m̂ⱼ, p̃ⱼ + J R Jᵀ) (J = ∂w/∂z, |det J| = zᵣ), over the landmarks within ``n_sigma``
+  of wₒ (at most ``k_max``, a k-d tree per map): O(N·o·k_max·log c).
+- ``log_likelihood_dense`` (reference, tested equal to first order): pⱼ = N(zₒ; h(x, m̂ⱼ),
+  Hₘp̃ⱼHₘᵀ + R) over every landmark.
 
-- ``log_likelihood`` (used): in the map plane. The observation is turned into the point
-  wₒ(x) = p + zᵣ (cos θ, sin θ), θ = φ + z_β − π/2, with sensor covariance J R Jᵀ
-  (J = ∂w/∂z, |det J| = zᵣ), so pⱼ = zᵣ · N(wₒ; m̂ⱼ, p̃ⱼ + J R Jᵀ) is a density in (r, β) like
-  the measurement-space form. Only landmarks within ``n_sigma`` standard deviations of wₒ (at
-  most ``k_max`` nearest, found with a k-d tree built once per map) are summed; the rest add
-  less than exp(−n_sigma²/2) of a peak each. Cost O(N·o·k_max·log c) instead of O(N·o·c).
-- ``log_likelihood_dense`` (reference, tested against the above): in measurement space,
-  pⱼ = N(zₒ; h(x, m̂ⱼ), Hₘp̃ⱼHₘᵀ + R), over every landmark.
-
-Helix (eqs. 12–13). Family Cᵢ per (observation, landmark) pair: x = xᵢ + z_r cos τ,
-y = yᵢ + z_r sin τ, φ = τ − z_β − π/2, with z_r, z_β, xᵢ, yᵢ perturbed by their noises (eq. 13).
-τ is restricted to the window allowed by the CEKF heading (φ̂ ± n_sigma σ_φ) and particles
-outside the CEKF position gate (χ²₂ 99.9 %) are rejected, as §3.1 suggests ("restricted by
-considering the expected value and deviation of φ"). If no sample survives, the prior Gaussian
-is sampled instead.
-
-Convergence (§3.1): the weighted standard deviations of x, y and φ are all below twice the
-propagation noise; here the propagation noise is the per-scan roughening noise ``jitter``.
+Helix (eqs. 12–13): per (observation, landmark) pair x = xᵢ + z_r cos τ, y = yᵢ + z_r sin τ,
+φ = τ − z_β − π/2, z_r, z_β, xᵢ, yᵢ perturbed by their noises (eq. 13); τ within φ̂ ± n_sigma σ_φ of
+the CEKF heading, particles outside the CEKF position gate (χ²₂ 99.9 %) rejected (§3.1); none left:
+the prior Gaussian is sampled. Convergence (§3.1): the weighted stds of x, y and φ all below twice
+the propagation noise, here the per-scan roughening ``jitter``.
 """
 
 from __future__ import annotations

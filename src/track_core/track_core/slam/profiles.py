@@ -30,12 +30,28 @@ from track_core.slam.sim import LoopWorld
 
 @dataclass(frozen=True)
 class SlamProfile:
-    """The three configuration groups of ``HybridSlam`` and the initial laser pose [x, y, heading]."""
+    """The three configuration groups of ``HybridSlam``, the initial laser pose [x, y, heading] and its
+    variances [m², m², rad²] (the node's ``pose0``, ``pose0_var``; the experiments' start)."""
 
     slam: SlamParams
     pf: PFParams
     hybrid: HybridParams
     pose0: tuple[float, float, float]
+    pose0_var: tuple[float, float, float] = (1e-6, 1e-6, 1e-6)
+
+    def __post_init__(self) -> None:
+        for name, kind in (('slam', SlamParams), ('pf', PFParams), ('hybrid', HybridParams)):
+            if not isinstance(getattr(self, name), kind):
+                raise ValueError(f'{name}={getattr(self, name)!r} must be a {kind.__name__}')
+        if len(self.pose0) != 3 or not np.all(np.isfinite(self.pose0)):
+            raise ValueError(f'pose0={self.pose0!r} must be 3 finite numbers')
+        var = np.asarray(self.pose0_var, dtype=float)
+        if var.shape != (3,) or not np.all(np.isfinite(var) & (var > 0)):
+            raise ValueError(f'pose0_var={self.pose0_var!r} must be 3 finite numbers > 0')
+
+    def prior(self) -> tuple[np.ndarray, np.ndarray]:
+        """The filter's start: (pose0, diag(pose0_var))."""
+        return np.array(self.pose0, dtype=float), np.diag(np.asarray(self.pose0_var, dtype=float))
 
 
 VICTORIA_PARK = SlamProfile(
@@ -55,8 +71,9 @@ def loop_sim_params(w: LoopWorld) -> tuple[SlamParams, PFParams]:
     return sp, pp
 
 
-def loop_sim() -> SlamProfile:
-    w = LoopWorld()
+def loop_sim(w: LoopWorld | None = None) -> SlamProfile:
+    """The profile of the loop world ``w`` (default ``LoopWorld()``, the node's ``loop_sim``)."""
+    w = LoopWorld() if w is None else w
     sp, pp = loop_sim_params(w)
     return SlamProfile(slam=sp, pf=pp, hybrid=HybridParams(trigger_on_ambiguity=True),
                        pose0=tuple(float(v) for v in w.start()))

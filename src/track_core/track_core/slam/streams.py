@@ -1,37 +1,22 @@
 """``StreamMerger``: the two SLAM input streams (vehicle inputs, laser scans) merged into stamp order.
 
-Why. The filter must see inputs and scans in stamp order (an input predicts from its stamp, a scan
-updates at its stamp), but a node receives the two streams on separate subscriptions and the
-executor takes one message per ready subscription per round, so with a backlog the (8× rarer)
-scans run ahead of the inputs that precede them. Events are therefore held in a buffer and released
-in stamp order (at equal stamps the scan first, as ``victoria.events``) up to the *watermark*: the
-older of the last input stamp and the last scan stamp received. Each stream is monotonic on its own
-(``offer`` refuses a stamp that goes backwards, or one older than what was already released), so
-nothing older than the watermark can still come.
+The filter must see inputs and scans in stamp order, but a node receives them on two
+subscriptions and, with a backlog, the (8× rarer) scans run ahead of the inputs before them. So
+events are buffered and released in stamp order (at equal stamps the scan first, as
+``victoria.events``) up to the *watermark*: the older of the last input and the last scan stamp.
+Each stream is monotonic (``offer`` refuses a stamp going backwards or older than what was
+released), so nothing older than the watermark can still come.
 
-Pause rule. A stream that pauses (no trees in view; no scan publisher at all) must not stall the
-filter: it is left out of the watermark once it has been silent for ``pause_wall`` seconds *and*
-the other stream has delivered at least two events meanwhile. That is sound only if "silent"
-means "nothing queued", so the node offers everything waiting in both subscriptions before it
-asks for the watermark; and only if it means "no message at all": a stream whose messages are
-refused (malformed, late) is not silent. The caller says when each stream last delivered any
-message (``heard``; the merger itself is left untouched by a refused message). Otherwise a flood of
-broken scans pauses the scan stream, the inputs are processed past the next valid scans, each of
-those is refused as late, and the stream never counts as heard again. When neither stream bounds the watermark (both
-paused, or one never heard from and not paused) ``watermark`` is ``None`` and a drain releases
-everything buffered; this is the node's original behaviour, kept (the saved cases
-check it).
-
-Flush on idle. Everything buffered is released when no event has been offered for ``flush_idle``
-seconds (the end of a bag), counted from the end of the last message callback
-(``end_callback``), so that a node busy with a long update is not idle.
-
-Drain budget. One drain releases events for at most ``drain_budget`` seconds of the caller's
-clock; the next callbacks (and the idle timer) continue where it stopped, so a backlog never
-blocks an executor for long.
-
-Time enters only as arguments (``now`` in seconds of any monotonic clock, or a ``clock``
-callable that a drain reads between events); stamps are integer nanoseconds (exact comparisons).
+- Pause: a stream silent for ``pause_wall`` s while the other delivered at least two events is left
+  out of the watermark. "Silent" means nothing queued and no message at all: the node offers
+  everything waiting first, and says when each stream last delivered any message (``heard``),
+  refused ones included. With neither stream bounding it, ``watermark`` is ``None`` and a drain
+  releases everything.
+- Flush on idle: everything is released when nothing was offered for ``flush_idle`` s after the
+  last callback (``end_callback``).
+- Drain budget: one drain releases events for at most ``drain_budget`` s of the caller's clock.
+Time enters only as arguments (``now`` of any monotonic clock, or a ``clock`` callable read between
+events); stamps are integer nanoseconds.
 """
 
 from __future__ import annotations
@@ -46,6 +31,8 @@ import numpy as np
 from track_core.slam.hybrid import valid_observations
 
 INPUT, SCAN = 'inputs', 'scan'
+BEARING_TOLERANCE = 1e-6
+"""[rad] bearings this far outside the limits are clipped, not dropped (float32 rounding): the node's default."""
 _PRIORITY = {SCAN: 0, INPUT: 1}  # at equal stamps the scan first (victoria.events)
 _OTHER = {INPUT: SCAN, SCAN: INPUT}
 

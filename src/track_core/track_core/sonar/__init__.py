@@ -13,9 +13,16 @@
 from track_core.sonar.gaussian_sum import GaussianSumUKF
 from track_core.sonar.models import SensorMode, SonarParams, bearing, measure, residual, simulate_measurement
 from track_core.sonar.scenario import ObserverTrajectory, RunResult, Scenario, run_once
-from track_core.sonar.scheduler import DEFAULT_P_D, CovarianceScheduler, FixedScheduler, Reading, desired_covariance
+from track_core.sonar.scheduler import (
+    DEFAULT_P_D,
+    CovarianceScheduler,
+    FixedScheduler,
+    Reading,
+    SchedulerConfig,
+    desired_covariance,
+)
 from track_core.sonar.smart_target import SmartTarget, SmartTargetParams
-from track_core.sonar.sspf import SSPF, SonarEstimate, make_tracker, rb_ukf
+from track_core.sonar.sspf import SSPF, SonarEstimate, SSPFConfig, make_tracker, rb_ukf
 from track_core.sonar.ukf import UKFTracker, make_ukf
 
 __all__ = [
@@ -27,7 +34,9 @@ __all__ = [
     'ObserverTrajectory',
     'Reading',
     'RunResult',
+    'SSPFConfig',
     'Scenario',
+    'SchedulerConfig',
     'SensorMode',
     'SmartTarget',
     'SmartTargetParams',

@@ -1,59 +1,30 @@
 """Covariance-control sensor scheduling, the paper's eq. 7 (after Kalandros & Pao's norm/sensors rule).
 
-After step k the filter's output covariance Cov_k is compared with the desired covariance P_D:
-use the active sensor at step k+1 if ‖P_D − Cov_k‖₂ > δ (spectral norm, the largest
-singular value), otherwise the passive one. The first step is active (Algorithm 3, initialisation).
+After step k the filter's output covariance Cov_k is compared with the desired covariance P_D: use
+the active sensor at step k+1 if ‖P_D − Cov_k‖₂ > δ (spectral norm, the largest singular value),
+otherwise the passive one. The first step is active (Algorithm 3, initialisation).
 
-P_D interpretation. Table 1 prints P_D = "diag([5 0.25 0.2])" for a 4-dimensional state,
-which is garbled in the source. We read it as one [position, velocity] block per axis,
-diag([5, 0.25]) for x and again for y, i.e. ``DEFAULT_P_D = diag([5, 0.25, 5, 0.25])`` in the
-state order [x, ẋ, y, ẏ] (m², (m/s)²): a desired position std of √5 ≈ 2.2 m and a desired
-velocity std of 0.5 m/s per axis; the trailing "0.2" is taken as a truncated repeat of 0.25.
-Because ‖P_D − Cov‖₂ is dominated by the largest position eigenvalue of Cov, the schedule is
-insensitive to the velocity entries (0.2 vs 0.25 changes nothing measurable). P_D is a
-parameter: pass any symmetric PSD 4×4 matrix, or a length-4 vector for its diagonal.
+P_D: Table 1 prints "diag([5 0.25 0.2])" for a 4-dimensional state (garbled). We read one [position,
+velocity] block per axis: ``DEFAULT_P_D = diag([5, 0.25, 5, 0.25])`` in the state order [x, ẋ, y, ẏ]
+(m², (m/s)²), the trailing "0.2" a truncated repeat of 0.25 (‖P_D − Cov‖₂ is dominated by the
+position eigenvalues, so it changes nothing). P_D is a parameter: any symmetric PSD 4×4 matrix, or a
+length-4 vector for its diagonal. ``Reading`` (``sonar-table2 --reading``) selects other readings:
+variances or standard deviations, two-sided or one-sided ('excess': λmax(Cov − P_D) > δ), the full
+matrix or the position block, posterior or predicted covariance.
 
-Why Table 2's δ = 5 cannot give 13/40 active epochs here (kept reading; README has the numbers).
-- Weyl's inequality: ‖P_D − Cov‖₂ ≥ λmax(Cov) − λmax(P_D) = λmax(Cov) − 5. A passive step at
-  δ = 5 therefore needs λmax(Cov) ≤ 10 m², i.e. a position std ≤ 3.2 m on every axis. For δ ≥
-  λmax(P_D) = 5 the two-sided rule and the one-sided 'excess' rule λmax(Cov − P_D) > δ pick the
-  same sensor, because λmax(P_D − Cov) ≤ 5: the choice of side does not matter for Table 2.
-- The posterior Cramér–Rao bound B with the active sonar at *every* step (``scenario.pcrlb``, the
-  best any schedule can do), on the noise-free truth: min_k λmax(B_pos) = 17.45 m² (step 13; range
-  noise 5 m, and 1° of bearing is 5–8 m across the line of sight at 300–450 m). A consistent Cov is
-  ≥ B, so Cov − P_D ≥ B − P_D and ‖P_D − Cov‖₂ ≥ λmax(B − P_D) ≥ 14.45 (the full-state floor of
-  the eq. 7 distance itself; Weyl alone gives 12.45). Averaged over random truths the numbers move
-  a little (17.2–17.7 m²), so these are quoted for the noise-free truth. δ = 5 and δ = 10 keep the
-  active sonar on.
-- Readings (``Reading``; ``sonar-table2 --reading``): P_D as variances or as standard deviations,
-  two-sided or one-sided rule, the full 4×4 or the position block, posterior or predicted
-  (F Cov Fᵀ + Q) covariance. With the default filter every reading except the one below keeps
-  δ = 5 at 40/40 (the README lists the figures). 'std,excess,position' (P_D = diag(25, ·, 25, ·),
-  one-sided, position block) is the one that lets a consistent filter go passive at δ = 5: the
-  rule asks λmax(Cov_pos − 25 I) > 5, i.e. a position variance above 30 m², which is above the
-  17.45 m² floor. It is the closest to the paper's 13/40 that we know of.
-- Only readings whose Cov is far below the error make the default reading switch at δ = 5: the
-  per-particle UKF covariance P̃ⁱ alone (≈ Q, so ‖P_D − P̃‖₂ ≈ 4.7 and δ = 5 is never active), or a
-  filter that collapses (the point-particle proposals without repair), so ‖P_D − Cov‖₂ ≈ ‖P_D‖₂ = 5.
-Our δ sweep traces the paper's trade-off (active epochs against RTAMS) at larger δ: δ = 50 gives
-about 12/40 active, the paper's δ = 5–10 ping count, which is why the closed-loop experiment and
-the node use δ = 50.
+Table 2's δ = 5 keeps the active sonar on here: by Weyl, ‖P_D − Cov‖₂ ≥ λmax(Cov) − 5, and the
+posterior Cramér–Rao bound of an always-active sonar keeps λmax(Cov) above 10 m². The closed-loop
+experiment and the node use δ = 50 (about the paper's ping count).
 
-Initial pings (``initial_pings``, default 1 = Algorithm 3's initialisation; beyond the paper). The
-first ``initial_pings`` steps are active whatever Cov, then eq. 7 decides. After one active reading
-the posterior is as tight as a good reading makes it (σ ≈ 5 m at 200-300 m), so eq. 7 sees nothing
-wrong when that one reading is a 2.5-3σ range draw; an observer that trails its target (the maritime
-scenario) then takes bearings that carry no range, and the error stays until eq. 7 asks again
-(3-4 steps). A second reading averages the first one's range error with an independent one. Why
-not a re-ping on a surprising reading instead (the normalised innovation squared of the active
-reading above a χ² quantile): the reading that leaves the filter off is not surprising against its
-prediction, whose range spread (prior or predicted, ≥ 7 m) is wider than σ_d; over the maritime
-tuning seeds no active reading that left a posterior NEES above χ²₂(0.95) had an NIS above it
-(docs/results/maritime.md has the counts).
+``initial_pings`` (default 1 = Algorithm 3's initialisation; beyond the paper): the first
+``initial_pings`` steps are active whatever Cov, then eq. 7 decides (a second reading averages out a
+first reading's range error, which eq. 7 cannot see). The bound, the readings and the counts:
+docs/results/sonar.md, "The scheduler".
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -134,34 +105,70 @@ def desired_covariance(P_D: np.ndarray | list | tuple | None) -> np.ndarray:
     return check_covariance(P, 'P_D')
 
 
+@dataclass(frozen=True)
+class SchedulerConfig:
+    """The settings of eq. 7, defaults Table 1's and Algorithm 3's: threshold ``delta`` δ [m²], desired
+    covariance ``P_D`` (4 numbers: its diagonal; 16: a row-major 4×4; kept as its diagonal when diagonal),
+    the distance (``metric``, ``block``, ``cov_kind``: see ``Reading``) and ``initial_pings``, the
+    active steps at the start before eq. 7 decides."""
+
+    delta: float = DELTA
+    P_D: tuple[float, ...] = tuple(np.diag(DEFAULT_P_D).tolist())
+    metric: str = 'spectral'
+    block: str = 'full'
+    cov_kind: str = 'posterior'
+    initial_pings: int = 1
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.initial_pings, int | np.integer) and self.initial_pings >= 1):
+            raise ValueError(f'initial_pings must be an integer >= 1, got {self.initial_pings!r}')
+        for name, allowed in (('metric', METRICS), ('block', BLOCKS), ('cov_kind', COV_KINDS)):
+            if getattr(self, name) not in allowed:
+                raise ValueError(f'{name} must be one of {allowed}, got {getattr(self, name)!r}')
+        d = self.delta
+        if not (isinstance(d, int | float | np.floating | np.integer) and math.isfinite(d) and d >= 0):
+            raise ValueError(f'delta must be a finite number >= 0, got {d!r}')
+        P = desired_covariance(DEFAULT_P_D if self.P_D is None else _square(self.P_D))
+        diagonal = np.array_equal(P, np.diag(np.diag(P)))
+        object.__setattr__(self, 'P_D', tuple((np.diag(P) if diagonal else P.ravel()).tolist()))
+
+    @property
+    def P_D_matrix(self) -> np.ndarray:  # noqa: N802 - the paper's symbol
+        """P_D as the 4×4 matrix."""
+        return desired_covariance(_square(self.P_D))
+
+
+def _square(P_D) -> np.ndarray:
+    """16 numbers as the row-major 4×4 matrix; anything else as it is (``desired_covariance`` checks it)."""
+    P = np.asarray(P_D, dtype=float)
+    return P.reshape(4, 4) if P.shape == (16,) else P
+
+
 class CovarianceScheduler:
-    """Eq. 7: ``decide(cov)`` returns the sensor for the next step and remembers it.
+    """Eq. 7 with the settings of ``config`` (``SchedulerConfig``; ``fields`` override its fields by name,
+    ``P_D`` and ``delta`` may be positional): ``decide(cov)`` returns the sensor for the next step and
+    remembers it.
 
     ``next_mode`` is the mode to use at the coming step (ACTIVE before the first step); with ``first``
-    ACTIVE the first ``initial_pings`` steps are active whatever Cov (module docstring).
+    ACTIVE the first ``initial_pings`` steps are active whatever Cov (module docstring). ``params``: the
+    F and Q of the predicted covariance (``cov_kind`` 'predicted').
     """
 
-    def __init__(self, P_D: np.ndarray | None = None, delta: float = DELTA,
-                 first: SensorMode | str = SensorMode.ACTIVE, metric: str = 'spectral', *,
-                 block: str = 'full', cov_kind: str = 'posterior', params: SonarParams | None = None,
-                 initial_pings: int = 1) -> None:
-        if not (isinstance(initial_pings, int | np.integer) and initial_pings >= 1):
-            raise ValueError(f'initial_pings must be an integer >= 1, got {initial_pings!r}')
-        self.initial_pings = int(initial_pings)
+    def __init__(self, *args, config: SchedulerConfig | None = None, first: SensorMode | str = SensorMode.ACTIVE,
+                 params: SonarParams | None = None, **fields) -> None:
+        if len(args) > 2:
+            raise TypeError(f'CovarianceScheduler takes at most 2 positional settings (P_D, delta), got {len(args)}')
+        config = config or SchedulerConfig()
+        fields = {**dict(zip(('P_D', 'delta'), args, strict=False)), **fields}
+        fields = {k: v for k, v in fields.items() if v is not None or k != 'P_D'}   # P_D None: the default
+        self.config = c = dataclasses.replace(config, **fields) if fields else config
+        self.initial_pings = int(c.initial_pings)
         self.steps = 0
-        if metric not in METRICS:
-            raise ValueError(f'metric must be one of {METRICS}, got {metric!r}')
-        if block not in BLOCKS:
-            raise ValueError(f'block must be one of {BLOCKS}, got {block!r}')
-        if cov_kind not in COV_KINDS:
-            raise ValueError(f'cov_kind must be one of {COV_KINDS}, got {cov_kind!r}')
-        self.metric, self.block, self.cov_kind = metric, block, cov_kind
+        self.metric, self.block, self.cov_kind = c.metric, c.block, c.cov_kind
         p = params or SonarParams()
         self._F, self._Q = p.F, p.Q
-        if not (isinstance(delta, int | float | np.floating | np.integer) and math.isfinite(delta) and delta >= 0):
-            raise ValueError(f'delta must be a finite number >= 0, got {delta!r}')
-        self.P_D = desired_covariance(P_D)
-        self.delta = float(delta)
+        self.P_D = c.P_D_matrix
+        self.delta = float(c.delta)
         self.first = SensorMode.parse(first)
         self.next_mode = self.first
 

@@ -1,94 +1,35 @@
 """The paper's trackers: RB-UKF proposal (Algorithm 2) inside a particle filter with covariance-control
 scheduling (Algorithm 3), and the PaPF/AcPF baselines of Section 5.
 
-One ``SSPF`` object holds the whole filter state explicitly (particles, their UKF covariances,
-the scheduler's next mode, a step counter) and is driven one measurement at a time by
-``step(z, mode, observer_xy)``, so an experiment loop and a ROS node use it the same way.
-All N particles are processed at once: (N, 4) means, (N, 4, 4) covariances, (N, 9, 4) sigma points.
+One ``SSPF`` object holds the whole filter state (particles, their UKF covariances, the scheduler's
+next mode, a step counter) and is driven one measurement at a time by ``step(z, mode,
+observer_xy)``, so an experiment loop and a ROS node use it the same way. All N particles at once:
+(N, 4) means, (N, 4, 4) covariances, (N, 9, 4) sigma points.
 
-Proposal covariance (a choice the paper leaves open). Algorithm 3 runs the RB-UKF "to x_kⁱ",
-i.e. from the particle itself; the covariance attached to the particle is not stated.
-- ``proposal='rb'`` (default): every particle is a Gaussian N(mⁱ, Pⁱ) that carries
-  its own UKF covariance (the unscented particle filter's per-particle P, van der Merwe et al.
-  2000, Rao-Blackwellised as in Briers et al. 2003, the paper's ref. 11). Algorithm 2 updates each
-  one; the weight is its predictive likelihood wⁱ ∝ wⁱ_prev N(νⁱ; 0, Sⁱ) (x integrated out instead
-  of sampled: the expectation of Algorithm 3's p(z|x)p(x|x_prev)/q(x) under q). The prior is split
-  as N(m₀, P₀) = ∫ N(m; m₀, (1−b)P₀) N(x; m, bP₀) dm with b = ``split`` = 0.25, so the N means are
-  drawn from N(m₀, 0.75 P₀) and each Pⁱ = 0.25 P₀. A wide prior is split finer: by default
-  (``split=None``) b = min(0.25, (50 m / σ)²) with σ the prior's largest position standard deviation,
-  so no particle starts wider than 50 m (at σ = 300 m, b = 0.028): one UKF is overconfident on a
-  bearing over hundreds of metres (``sonar-wide-prior``), 200 narrower ones are not. Such a prior's
-  means are drawn from N(m₀, c(1−b)P₀), c = ``prior_inflation`` = 2, and weighted back by
-  N(m; m₀, (1−b)P₀)/N(m; m₀, c(1−b)P₀) (defensive importance sampling), so a truth in the prior's
-  tail still has particles near it. The paper's 20 m prior keeps b = 0.25 and equal weights.
-  Selection: systematic resampling, then, after a degenerate selection, the Liu–West move of the
-  means (below). Output: the mixture's moments, Algorithm 3's Cov plus the
-  particles' own covariances, Cov = Σ wⁱ (Pⁱ + (mⁱ − m̄)(mⁱ − m̄)ᵀ). ``split=1`` makes every particle
-  the whole prior, i.e. exactly the UKF peer (``ukf.UKFTracker``; tested).
-- ``proposal='transition'``: the particle is a point, P_kⁱ = 0, so the linear prediction gives
-  N(F x_kⁱ, Q) and the UKF update approximates the locally optimal proposal
-  p(x_{k+1} | x_kⁱ, z_{k+1}). The weights p(z|x)p(x|x_prev)/q(x) stay nearly uniform.
-- ``proposal='bootstrap'``: the point particle is drawn from eq. 1's transition N(F xⁱ, Q) and
-  weighted by p(z | xⁱ) alone (Gordon et al. 1993); no UKF, no per-particle covariance, no move.
-  It needs many particles, so it is the large-N reference of the experiments (``sonar-wide-prior``)
-  and the proposal that scales to N = 10⁶ (``track-bench sonar``).
-- ``proposal='propagated'``: each particle carries its UKF posterior covariance P_{k+1}ⁱ to the
-  next step, but the particle itself is the sample and the weight uses p(x|x_prev) = N(F x_prev, Q):
-  the proposal is much wider than that transition (position var. ≈ q_s T³/3), so the weights
-  degenerate (ESS of a few particles); kept for comparison.
+Proposal (the paper leaves the particle's covariance open):
+- ``'rb'`` (default): each particle is N(mⁱ, Pⁱ) updated by Algorithm 2, weighted by its predictive
+  likelihood wⁱ ∝ wⁱ_prev N(νⁱ; 0, Sⁱ); the prior is split, means from N(m₀, (1−b)P₀), Pⁱ = bP₀, b =
+  ``split`` (None: min(0.25, (50 m/σ)²)); a wide prior's means come from c(1−b)P₀, c =
+  ``prior_inflation``, weighted back. Output Cov = Σ wⁱ (Pⁱ + (mⁱ − m̄)(mⁱ − m̄)ᵀ); ``split=1`` is
+  the UKF (``ukf.UKFTracker``). Merge/split (``merge``): near-identical Gaussians become one UKF,
+  split again when σ > 0.05 r.
+- ``'transition'``: point particles, UKF update of N(F xⁱ, Q) (locally optimal proposal);
+  ``'bootstrap'``: eq. 1's N(F xⁱ, Q) weighted by p(z | xⁱ) (Gordon et al. 1993; scales to N = 10⁶);
+  ``'propagated'``: each particle carries its UKF covariance (weights degenerate; for comparison).
+- ``target_model=SmartTargetParams(...)`` ('rb', beyond the paper): each particle draws whether its
+  target heard the ping, P_det(range), and moves by ``smart_target.evasive_transition``.
 
-Why 'rb' is the default: with point particles (P_kⁱ = 0) the cloud's covariance is the only
-uncertainty the filter has; at N = 200 it misses the error of the particle mean and the particles'
-histories coalesce, so the filter is overconfident (ANEES above its χ² band) and can shrink to one
-particle. The cause is the point representation, not the weight formula, so 'rb' carries the
-uncertainty analytically in the within-particle covariances Pⁱ; its split b, the resampling rule and
-the Liu–West move change the error by no more than their standard errors. The measured ANEES and
-errors are in ``docs/results/sonar.md``.
-
-Collapse. 'rb' cannot collapse: each Pⁱ is a UKF posterior of a prediction ≥ Q, so Cov ≥ min Pⁱ > 0
-whatever the weights (smallest eigenvalue ≥ 0.1 m² in the tests). For the point-particle proposals
-a selected cloud whose covariance is singular (``collapsed``: λmin ≤ 1e-9·max(λmax, λmin(Q))) is
-re-spread with the particles' mean UKF covariance, counted in ``SSPF.repairs``, flagged in the
-estimate (``repaired``) and logged; the experiments report the count.
-
-Smart-target model (``target_model=SmartTargetParams(...)``, 'rb' only, beyond the paper). The
-observer knows when it pinged; each particle then draws whether its target heard the ping with
-P_det(range), and evading particles move by ``smart_target.evasive_transition``, each particle's
-Gaussian predicted through it by its sigma points (``prediction``). The discrete part is sampled, the
-continuous part stays Gaussian (a Rao-Blackwellised jump-Markov filter). A Gaussian sum of UKFs
-given the same model, one per last-heard time (``gaussian_sum.GaussianSumUKF``), ties it in the
-closed loop (``smart-target``): the gain over the CV filters is the model's.
-
-Merge and split ('rb', CV model, ``merge=True`` by default; ``SSPF._merge_or_split``). On a
-near-Gaussian posterior the N Gaussians become copies of one UKF (between-component share of the
-covariance → 0 after about 15 steps of the paper's scenario), so they are merged into their moment
-match and the filter costs one UKF step; a single Gaussian whose position spread grows wide against
-its range (σ > 0.05 r) is split into N again. Not with the smart-target model, whose particles
-differ in what their target heard.
-
-First step ('transition'/'propagated'). The prior p(x₀) = N(m₀, P₀) is Gaussian and the model
-linear, so the first proposal is one RB-UKF on N(m₀, P₀) itself and the transition density in the
-weight is the exact predicted prior N(F m₀, F P₀ Fᵀ + Q). Starting from N points drawn from a 20 m
-prior instead leaves only the few that land within a few metres of an active fix (ESS ≈ 1).
-
-Selection. By default (``resample_threshold=None``) the filter resamples systematically at every step, as
-Algorithm 3 does (threshold 1), except after a wide 'rb' prior, whose defensive weights are carried
-until ESS < N/2 (``WIDE_RESAMPLE_THRESHOLD``): selecting at the first step would drop the tail means
-before any bearing could favour them (``sonar-wide-prior``, tuned on seeds 0 and 1). A value in (0, 1]
-resamples only when ESS < threshold·N (weights carried), whatever the prior.
-``regularize=True`` (default; not in the paper) moves the selected particles (their means, for
-'rb') with a Liu–West shrinkage kernel, x ← a x + (1−a) x̄ + h L e, h = (4/(N(n+2)))^{1/(n+4)},
-a = √(1−h²), L L' = the particles' (means') covariance, which keeps the cloud's mean and
-covariance but restores the diversity that resampling removes. For 'rb' the move runs only when the
-cloud needs it: after a selection whose ESS was below ``move_threshold``·N (default 0.5, counted in
-``SSPF.moves``). At N = 200, a = 0.87 pulls every mean 13 % towards the centre, so a move at every
-step turns a two-mode mixture into one Gaussian within a few steps (the bimodality coefficient of the
-means falls to that of a Gaussian, 1/3); an 'rb' particle already carries its spread in Pⁱ, and with
-ESS ≥ N/2 the duplicates a selection makes are few. ``move_threshold=1`` moves after every selection.
+Selection: systematic resampling at every step (``resample_threshold=None``; a wide 'rb' prior waits
+until ESS < N/2, ``WIDE_RESAMPLE_THRESHOLD``), or when ESS < threshold·N. ``regularize`` (default):
+a Liu–West move x ← a x + (1−a) x̄ + h L e, h = (4/(N(n+2)))^{1/(n+4)}, a = √(1−h²), L Lᵀ the
+cloud's covariance; for 'rb' only after a selection with ESS < ``move_threshold``·N (``moves``). A
+point cloud whose covariance is singular is re-spread (``repairs``, ``repaired``). Why each choice:
+docs/MODULES.md, "The SS-PF and its proposals"; figures: docs/results/sonar.md.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 from collections.abc import Callable
@@ -116,7 +57,7 @@ from track_core.filters import (
 )
 from track_core.filters.unscented import UnscentedWeights
 from track_core.sonar.models import SensorMode, SonarParams, measure, residual
-from track_core.sonar.scheduler import DELTA, CovarianceScheduler, FixedScheduler
+from track_core.sonar.scheduler import CovarianceScheduler, FixedScheduler, SchedulerConfig
 from track_core.sonar.smart_target import SmartTargetParams, batched_transition, evasive_transition
 
 log = logging.getLogger(__name__)
@@ -219,8 +160,45 @@ class SonarEstimate:
     repaired: bool = False  # a collapsed cloud was detected at this step and re-spread ('transition' only)
 
 
+@dataclass(frozen=True)
+class SSPFConfig:
+    """The settings of ``SSPF`` (module docstring): ``proposal``, selection (``resample_threshold``: None
+    = the default rule, else a share of N; ``regularize`` and ``move_threshold``: the Liu–West move),
+    the 'rb' prior (``split``: None = by the prior's width; ``prior_inflation``), ``merge``, and the
+    smart-target model (``target_model``, None = CV; ``prediction``)."""
+
+    proposal: str = 'rb'
+    resample_threshold: float | None = None
+    regularize: bool = True
+    split: float | None = None
+    move_threshold: float = MOVE_THRESHOLD
+    merge: bool = True
+    prior_inflation: float = PRIOR_INFLATION
+    prediction: str = 'unscented'
+    target_model: SmartTargetParams | None = None
+
+    def __post_init__(self) -> None:
+        if self.prediction not in PREDICTIONS:
+            raise ValueError(f'prediction must be one of {PREDICTIONS}, got {self.prediction!r}')
+        if not (math.isfinite(self.prior_inflation) and self.prior_inflation >= 1.0):
+            raise ValueError(f'prior_inflation must be a finite number >= 1, got {self.prior_inflation!r}')
+        if not 0.0 < self.move_threshold <= 1.0:
+            raise ValueError(f'move_threshold must be in (0, 1] (fraction of N), got {self.move_threshold!r}')
+        if self.target_model is not None and self.proposal != 'rb':
+            raise ValueError(f"target_model needs proposal='rb', got proposal={self.proposal!r}")
+        if self.split is not None and not 0.0 < self.split <= 1.0:
+            raise ValueError(f'split must be in (0, 1] (share of the prior covariance per particle), '
+                             f'got {self.split!r}')
+        r = self.resample_threshold
+        if r is not None and not 0.0 < r <= 1.0:
+            raise ValueError(f'resample_threshold must be in (0, 1] (fraction of N), got {r!r}')
+        if self.proposal not in PROPOSALS:
+            raise ValueError(f'proposal must be one of {PROPOSALS}, got {self.proposal!r}')
+
+
 class SSPF:
-    """Particle filter with RB-UKF proposal and a scheduler (eq. 7 or a fixed sensor).
+    """Particle filter with RB-UKF proposal and a scheduler (eq. 7 or a fixed sensor), with the settings of
+    ``config`` (``SSPFConfig``; ``fields`` override its fields by name).
 
     ``rng`` is the only randomness; the same seed and inputs reproduce a run bit for bit.
     Call ``initialize(mean, cov)`` (the prior p(x₀)) before the first ``step``.
@@ -232,45 +210,27 @@ class SSPF:
         scheduler: CovarianceScheduler | FixedScheduler | None = None,
         rng: np.random.Generator | None = None,
         *,
-        proposal: str = 'rb',
-        resample_threshold: float | None = None,
-        regularize: bool = True,
-        split: float | None = None,
-        target_model: SmartTargetParams | None = None,
-        move_threshold: float = MOVE_THRESHOLD,
-        merge: bool = True,
-        prior_inflation: float = PRIOR_INFLATION,
-        prediction: str = 'unscented',
+        config: SSPFConfig | None = None,
+        **fields,
     ) -> None:
-        if prediction not in PREDICTIONS:
-            raise ValueError(f'prediction must be one of {PREDICTIONS}, got {prediction!r}')
-        self.prediction = prediction
-        if not (math.isfinite(prior_inflation) and prior_inflation >= 1.0):
-            raise ValueError(f'prior_inflation must be a finite number >= 1, got {prior_inflation!r}')
-        self.prior_inflation = float(prior_inflation)
-        self.merge = bool(merge)
+        config = config or SSPFConfig()
+        self.config = c = dataclasses.replace(config, **fields) if fields else config
+        self.prediction = c.prediction
+        self.prior_inflation = float(c.prior_inflation)
+        self.merge = bool(c.merge)
         self.merges = 0
         self.splits = 0
-        if not 0.0 < move_threshold <= 1.0:
-            raise ValueError(f'move_threshold must be in (0, 1] (fraction of N), got {move_threshold!r}')
-        self.move_threshold = float(move_threshold)
+        self.move_threshold = float(c.move_threshold)
         self.moves = 0
         self.moved = False
-        if target_model is not None and proposal != 'rb':
-            raise ValueError(f"target_model needs proposal='rb', got proposal={proposal!r}")
-        self.target_model = target_model
-        if split is not None and not 0.0 < split <= 1.0:
-            raise ValueError(f'split must be in (0, 1] (share of the prior covariance per particle), got {split!r}')
-        self.split = None if split is None else float(split)
+        self.target_model = c.target_model
+        self.split = None if c.split is None else float(c.split)
         self.repairs = 0
-        if resample_threshold is not None and not 0.0 < resample_threshold <= 1.0:
-            raise ValueError(f'resample_threshold must be in (0, 1] (fraction of N), got {resample_threshold!r}')
-        self._resample_option = resample_threshold
-        self.resample_threshold = 1.0 if resample_threshold is None else float(resample_threshold)
-        self.regularize = regularize
+        self._resample_option = c.resample_threshold
+        self.resample_threshold = 1.0 if c.resample_threshold is None else float(c.resample_threshold)
+        self.regularize = c.regularize
+        proposal = c.proposal
         self.weights: np.ndarray | None = None
-        if proposal not in PROPOSALS:
-            raise ValueError(f'proposal must be one of {PROPOSALS}, got {proposal!r}')
         self.params = params or SonarParams()
         self.scheduler = scheduler if scheduler is not None else CovarianceScheduler()
         self.rng = rng if rng is not None else np.random.default_rng()
@@ -704,33 +664,20 @@ def make_tracker(
     params: SonarParams | None = None,
     rng: np.random.Generator | None = None,
     *,
-    P_D: np.ndarray | None = None,
-    delta: float = DELTA,
-    metric: str = 'spectral',
-    proposal: str = 'rb',
-    resample_threshold: float | None = None,
-    regularize: bool = True,
-    split: float | None = None,
-    block: str = 'full',
-    cov_kind: str = 'posterior',
-    target_model: SmartTargetParams | None = None,
-    move_threshold: float = MOVE_THRESHOLD,
-    merge: bool = True,
-    prior_inflation: float = PRIOR_INFLATION,
-    prediction: str = 'unscented',
-    initial_pings: int = 1,
+    config: SSPFConfig | None = None,
+    schedule: SchedulerConfig | None = None,
+    **fields,
 ) -> SSPF:
-    """'ss-pf' (eq. 7 scheduling; ``initial_pings`` active steps at the start, ``scheduler``), 'papf'
-    (passive only) or 'acpf' (active only)."""
-    if kind == 'ss-pf':
-        sched: CovarianceScheduler | FixedScheduler = CovarianceScheduler(
-            P_D, delta, metric=metric, block=block, cov_kind=cov_kind, params=params, initial_pings=initial_pings)
-    elif kind == 'papf':
-        sched = FixedScheduler(SensorMode.PASSIVE)
-    elif kind == 'acpf':
-        sched = FixedScheduler(SensorMode.ACTIVE)
-    else:
+    """'ss-pf' (eq. 7 scheduling with ``schedule``, ``SchedulerConfig``), 'papf' (passive only) or 'acpf'
+    (active only), an ``SSPF`` of ``config``; ``fields`` override fields of either config by name."""
+    if kind not in TRACKERS:
         raise ValueError(f'tracker must be one of {TRACKERS}, got {kind!r}')
-    return SSPF(params, sched, rng, proposal=proposal, resample_threshold=resample_threshold,
-                regularize=regularize, split=split, target_model=target_model, move_threshold=move_threshold,
-                merge=merge, prior_inflation=prior_inflation, prediction=prediction)
+    ours = {f.name for f in dataclasses.fields(SchedulerConfig)}
+    sched_fields = {k: v for k, v in fields.items() if k in ours}
+    sspf_fields = {k: v for k, v in fields.items() if k not in ours}
+    if kind == 'ss-pf':
+        sched: CovarianceScheduler | FixedScheduler = CovarianceScheduler(config=schedule, params=params,
+                                                                          **sched_fields)
+    else:
+        sched = FixedScheduler(SensorMode.PASSIVE if kind == 'papf' else SensorMode.ACTIVE)
+    return SSPF(params, sched, rng, config=config, **sspf_fields)

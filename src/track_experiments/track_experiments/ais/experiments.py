@@ -1,91 +1,32 @@
 """``track-experiment ais-association``: same-ship decisions between two simulated sources on real AIS ships.
 
-The Solent AIS reports (:mod:`.reader`, bad rows skipped and counted) are the truth. A coastal
-radar and a patrol aircraft (:mod:`.sources`, :data:`~.sources.RADAR`, :data:`~.sources.PATROL`)
-observe the ships, each under its own local track ids. For each score method (``exact``,
-``glr``, ``glr_thresholded``, ``mc`` with N = 500), every cross-source pair of local tracks is
-scored at every common instant (one batched ``score`` call per method); a pair is associated at
-an instant when its score is ≥ 0.5, declared the same ship when associated at at least half of
-its common instants, and the declared pairs are made one-to-one (Hungarian); precision, recall
-and F1 are computed against the MMSI (:mod:`.association` has the rule and the reasons). Also
-reported: the number of pair evaluations (the paper's operational benchmark is 100,000 per
-hour), the decisions before one-to-one, a decision-rule ablation (the paper's geometric mean
-over longer windows), a threshold sweep and a **noise sweep**: F1 per method as both sources'
-ellipses are scaled by k (the same noise draws, scaled).
+The Solent AIS reports (:mod:`.reader`, bad rows skipped and counted) are the truth. A coastal radar
+and a patrol aircraft (:mod:`.sources`, :data:`~.sources.RADAR`, :data:`~.sources.PATROL`) observe
+the ships, each under its own local track ids. For each score method (``exact``, ``glr``,
+``glr_thresholded``, ``mc`` with N = 500), every cross-source pair of local tracks is scored at
+every common instant (one batched ``score`` call per method); a pair is associated at an instant
+when its score is ≥ 0.5, declared the same ship when associated at at least half of its common
+instants, and the declared pairs are made one-to-one (Hungarian); precision, recall and F1 are
+computed against the MMSI (:mod:`.association` has the rule and the reasons). Also reported: pair
+evaluations (the paper's benchmark: 100,000 per hour), the decisions before one-to-one, a
+decision-rule ablation, a threshold sweep and a noise sweep (both sources' ellipses scaled by k, the
+same noise draws).
 
-``--runs R`` pools R independent realisations of the sources' noise (default 3; ``--quick``: 1
-run on the first 15 minutes, noise scales 1 and 4 only). ``--json`` writes ``{"ships",
-"pairs_scored", "methods": {method: {"precision", "recall", "f1", ...}}, "noise_sweep",
-"rule_ablation", "short_pair_rule", "threshold_sweep", "rows_skipped", "skipped", "warnings",
-"derived_defaults", "peak_rss_mb", "chunks", ...}``; PNGs: ``ais-association.png`` (map,
-tracks coloured by association, wrong pairs in red, with a zoom on the densest 4 km) and
-``ais-noise-sweep.png``.
+``--runs R`` pools R realisations of the sources' noise (default 3; ``--quick``: 1 run on the first
+15 minutes, noise scales 1 and 4). ``--json`` writes ``{"ships", "pairs_scored", "methods": {method:
+{"precision", "recall", "f1", ...}}, "noise_sweep", "rule_ablation", "short_pair_rule",
+"threshold_sweep", "rows_skipped", "skipped", "warnings", "derived_defaults", "peak_rss_mb",
+"chunks", ...}``; PNGs: ``ais-association.png`` (map, wrong pairs in red, a zoom on the densest 4
+km) and ``ais-noise-sweep.png``.
 
-**Any AIS file** (``--set KEY=VALUE``, repeatable): ``file`` (a CSV; default the Solent file),
-``columns`` (a preset or ``"time=...;mmsi=...;lat=...;lon=...[;cog=;sog=;time_format=...]"``,
-:mod:`.reader`; default: detected from the header), ``max_distance_km`` (``auto`` | ``off`` | km),
-``max_gap`` (``auto`` | s), ``radar_site`` (``hull:<bearing>`` | ``origin`` | ``lat,lon``),
-``duration`` (s of data), ``sweep`` (noise scales, e.g. ``1,4``), ``prior_weight`` (ν of the
-short-pair rule, 0: plain majority) and ``max_pairs`` (pair-instants per scored chunk). The
-defaults derived from the data are printed and written under ``derived_defaults``: region
-radius, COG/SOG origin, column mapping, gap limits (min/median/max, share of gaps and of ship
-time bridged), the radar site (lat/lon), the projection origin. Reader rules that drop more
-than 2 % of the rows are printed as warnings and listed under ``warnings``.
-
-**Memory**: the pair-instants are scored in chunks of ``max_pairs`` (1,000,000) and folded into
-per-track-pair sums (:class:`~.association.StreamingDecisions`); the sources are simulated in
-blocks; only the first run keeps its reports (for the map). What still grows with the
-duration is the reports of the run being scored (≈ 80 B each, both sources), not the
-pair-instants. ``peak_rss_mb`` is the process's peak resident memory (``getrusage``) at the
-end of the experiment.
-
-Results, Solent (whole file, 84.5 min, 89 ships seen by both sources, seeds 0–2 pooled; derived
-defaults: region radius 33.6 km, gap limits 42 s–1 h per ship, radar at hull:280):
-
-- 660,076 pair evaluations per method, i.e. 469,000 per hour of data: 4.7 times the paper's
-  operational 100,000 per hour, from only two sources. The gate leaves 23,400 (3.5 %) that
-  need geometry; one chunk; peak resident memory of the whole experiment 400 MB.
-- F1 (one-to-one): exact 1.000, mc 1.000, glr_thresholded 0.844, glr 0.727. Before one-to-one
-  exact has recall 1.0 but precision 0.74: ships moored 5–40 m apart are geometrically
-  feasible with each other under the patrol's 2σ ellipses (120 m × 40 m).
-- Against the former fixed defaults (gap limit 400 s for every ship, radar at Calshot, plain
-  majority; ``--set max_gap=400 --set radar_site=50.8184,-1.3072 --set prior_weight=0``):
-  bit-identical to the figures before this change, 590,725 pair evaluations, F1 exact 0.985,
-  mc 0.992, glr_thresholded 0.790, glr 0.660. The per-ship gap limits bridge the moored ships
-  that report every 3–18 min (ship time known 95.5 % instead of 90.0 %), which adds 11.7 % of
-  pair-instants and lengthens short pairs: exact 0.985 → 0.998 with the plain majority (radar
-  at Calshot or on the hull alike); at 400 s the hull site with the short-pair prior stays
-  at 0.985; with the derived gaps the prior gives 0.998 → 1.000 (one missed pair fewer,
-  table "short pairs").
-- GLR at threshold 0.5 misses about half of the true pairs: with consistent noise,
-  Δᵀ(R1 + R2)⁻¹Δ is χ²₂, so the GLR of a same-ship instant, exp(−χ²₂/2), is uniform on
-  [0, 1]: half of the true instants score below 0.5. At a threshold of 0.1–0.3 GLR and
-  thresholded GLR reach exact's F1 (threshold table).
-- The paper's geometric mean over all common instants: F1 0.23 (exact): one disjoint instant
-  (4.1 % of same-ship instants) vetoes the pair. Windows of 3 instants: 0.989; 10: 0.88.
-- Noise sweep, F1 of exact (mc) as both sources' 1σ axes are scaled by k: k = 0.5: 1.000
-  (1.000); 1: 1.000 (1.000); 2: 0.985 (0.985); 4: 0.948 (0.955); 8 (radar 120 m × 64 m,
-  patrol 480 m × 160 m): 0.858 (0.873). GLR falls from 0.73 to 0.58, thresholded GLR from
-  0.84 to 0.68. Larger ellipses make more nearby ships feasible and one-to-one has to pick
-  among more of them; the per-instant miss rate of a true pair does not depend on k.
-
-Results, another sea (the issue-16 data set is not available to us: :mod:`.synthetic`, seed 0,
-``python -m track_core.ais.synthetic syn.csv`` in MarineCadastre columns: 25,993 rows, 256
-ships over 4.5 days, median report interval ~12 min, 200 km square, 4 ports, 30 planted
-defects; ``--set file=syn.csv --set sweep=1``, seeds 0–2 pooled):
-
-- Derived defaults: only the 30 defects are discarded (5 bad times, 5 positions moved by 180°
-  of longitude, 20 duplicates), region radius 148 km, every gap limit at the 3600 s cap,
-  99.74 % of the gaps bridged, ships known 98.3 % of their lifetimes; radar on the hull.
-- 23,508,970 pair-instants per run (217,700 per hour), in 24 chunks; peak resident memory of
-  the 3 runs 1457 MB. F1 exact 0.997, mc 0.997, glr_thresholded 0.948, glr 0.713. The
-  short-pair prior changes exact nothing here (0.997 both) and lifts glr 0.700 → 0.713 and
-  glr_thresholded 0.944 → 0.948.
-- The former fixed defaults on the same file (``--set max_distance_km=100 --set max_gap=400
-  --set radar_site=50.8184,-1.3072 --set prior_weight=0``): the 100 km gate drops 5,057 rows
-  (19.5 %, with a warning naming ``max_distance_km``), 400 s bridges 13.8 % of the gaps and the
-  ships are known 5.8 % of their lifetimes: 84,009 pair-instants (280 times fewer), F1 exact
-  0.967 (recall 0.935).
+Any AIS file (``--set KEY=VALUE``): ``file``, ``columns`` (a preset or ``"time=...;mmsi=...;lat=...;
+lon=...[;cog=;sog=;time_format=...]"``), ``max_distance_km`` (``auto`` | ``off`` | km), ``max_gap``
+(``auto`` | s), ``radar_site`` (``hull:<bearing>`` | ``origin`` | ``lat,lon``), ``duration`` (s),
+``sweep`` (noise scales), ``prior_weight`` (ν of the short-pair rule, 0: plain majority),
+``max_pairs`` (pair-instants per scored chunk, 1,000,000; folded into
+:class:`~.association.StreamingDecisions`). Defaults derived from the data are printed and written
+under ``derived_defaults``; reader rules dropping over 2 % of the rows are ``warnings``. Results
+(Solent and a synthetic sea): docs/results/fusion.md, "AIS association".
 """
 
 from __future__ import annotations

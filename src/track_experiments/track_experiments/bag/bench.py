@@ -17,11 +17,9 @@ ROS_DOMAIN_ID, localhost-only discovery) with the publisher node:
 
 The stream (``Stream``): bursts of ``BURST`` messages from a reliable publisher (keep-last 100) are
 published while the executor is idle, then the executor drains them; the drain time is what is measured
-(a watcher timer, every millisecond, notices when the count is complete; the recorder counts a
-message once it is in the MCAP writer). A same-process publisher publishing while the consumer spins
-is limited by the GIL to about the consumer's own rate, which would measure the publisher.
-``BURST`` is 5000: Fast DDS holds at most 5000 samples per reader by default (``max_samples``;
-a reader given 20,000 at once kept 5000), so a longer burst would only measure that limit.
+(a 1 ms watcher timer notices when the count is complete; the recorder counts a message once it is
+in the MCAP writer), since a publisher publishing while the consumer spins is GIL-bound to the
+consumer's rate. ``BURST`` is 5000: Fast DDS holds at most 5000 samples per reader by default.
 
 Reported: the rates; messages lost (published - in the closed bag, must be 0) and the losses the
 recorder itself counted; the headline ``recorder_vs_events_executor_subscription``, then

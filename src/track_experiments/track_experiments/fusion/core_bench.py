@@ -1,8 +1,9 @@
 """``track-bench fusion-core``: the fusion core's CPU per tick against the track count, and its growth slope.
 
-The core (``PairAssociator``: exact score, gated, window 10, geometric mean) is fed one report per
-track per tick (1 s) and scores each tick; ``tick_s`` is the median CPU time (``time.process_time``)
-of ``score`` over the measured ticks, after ``window`` warm-up ticks (full windows). Layouts:
+The core (``PairAssociator`` of ``CONFIG``: the node's defaults, exact score, gated, geometric mean, with
+window 10 and reports stale after 2.5 s) is fed one report per track per tick (1 s) and scores each tick;
+``tick_s`` is the median CPU time (``time.process_time``) of ``score`` over the measured ticks, after
+``window`` warm-up ticks (full windows). Layouts:
 
 - ``sea`` (``track_experiments.fusion.sea.SyntheticSea``): a constant ship density, the picture a
   larger sea gives. ``slope`` is the least-squares slope of log tick_s against log n over its
@@ -20,15 +21,17 @@ tick, ``verdicts_equal`` whether every association agrees (must be 0 and true), 
 
 from __future__ import annotations
 
+import dataclasses
 import time
 
 import numpy as np
 
-from track_core.fusion import PairAssociator, TrackReport
+from track_core.fusion import AssociatorConfig, PairAssociator, TrackReport
 from track_experiments.cli import Outcome, RunConfig, format_table
 from track_experiments.fusion.sea import SyntheticSea
 
 WINDOW = 10
+CONFIG = AssociatorConfig(window=WINDOW, stale_after=2.5)
 REFERENCE_MAX, REFERENCE_QUICK = 1000, 300
 SEA_SIZES, SEA_QUICK = (1000, 2000, 5000, 10_000), (300, 1000)
 SOLENT_SIZES, SOLENT_QUICK = (100, 300, 1000, 3000), (300,)
@@ -52,7 +55,7 @@ class _Solent:
 
 
 def _core(gate: bool) -> PairAssociator:
-    return PairAssociator('exact', 0.5, 'geometric', WINDOW, stale_after=2.5, gate=gate)
+    return PairAssociator(dataclasses.replace(CONFIG, gate=gate))
 
 
 def _rows(inst) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -113,7 +116,7 @@ def slope(rows: list[dict], n_min: int = 1000) -> float | None:
 def bench(cfg: RunConfig) -> Outcome:
     rng = np.random.default_rng(cfg.seed)
     ticks = cfg.n_runs(full=WINDOW + 5, quick=WINDOW + 2)
-    out: dict = {'window': WINDOW, 'method': 'exact'}
+    out: dict = {'window': CONFIG.window, 'method': CONFIG.method}
     lines = []
     for name, sizes, make in (('sea', SEA_QUICK if cfg.quick else SEA_SIZES, SyntheticSea),
                               ('solent', SOLENT_QUICK if cfg.quick else SOLENT_SIZES, _Solent)):

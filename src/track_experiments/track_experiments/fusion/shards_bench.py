@@ -42,6 +42,8 @@ from track_experiments.fusion.sea import SyntheticSea
 TOPICS = ('/bench/radar/tracks', '/bench/patrol/tracks')
 EPOCH = 1.7e9
 WINDOW, STALE = 10, 2.5
+# The nodes' association parameters (the rest: the node's defaults); the reference's core has the same config.
+FUSION = {'schedule': 'stamps', 'rate': 1.0, 'window': WINDOW, 'stale_after': STALE}
 
 
 def _domain_id() -> int:
@@ -100,8 +102,7 @@ def _fusion(domain: int, name: str, region: list[float], margin: float, ticks: i
     context = Context()
     rclpy.init(context=context, domain_id=domain)
     node = FusionNode(node_name='fusion', namespace=name, context=context, parameter_overrides=[
-        Parameter('track_array_topics', value=list(TOPICS)), Parameter('schedule', value='stamps'),
-        Parameter('rate', value=1.0), Parameter('window', value=WINDOW), Parameter('stale_after', value=STALE),
+        Parameter('track_array_topics', value=list(TOPICS)), *(Parameter(k, value=v) for k, v in FUSION.items()),
         Parameter('publish_pairs', value='nonzero'), Parameter('region', value=region),
         Parameter('region_margin', value=float(margin)), Parameter('stamp_horizon', value=1e9),
         Parameter('stamp_lead', value=1e9)])
@@ -216,11 +217,9 @@ def run(n: int, ticks: int, nx: int, ny: int, seed: int) -> dict:
 def reference(n: int, ticks: int, seed: int) -> dict:
     """The unsharded node's pairs: its core with its defaults, fed the run's tracks in the node's order."""
     from track_core.fusion import PairAssociator, TrackReport
-    from track_nodes.fusion.params import FusionParams
+    from track_nodes.fusion.params import associator_config
 
-    p = FusionParams()
-    core = PairAssociator(p.method, p.threshold, p.combine, WINDOW, n_samples=p.n_samples, stale_after=STALE,
-                          max_prediction=p.max_prediction, q_s=p.q_s, seed=p.seed, stamp_rate=1.0)
+    core = PairAssociator(associator_config(FUSION))
     sea = SyntheticSea(n, np.random.default_rng(seed))
     half = sea.ships
     pairs, live, cpu = {}, [], []

@@ -2,7 +2,6 @@
 
 Every class of badness has a name (``Bad.kind``), so a report can say which ones a node refuses.
 The classes a template gets depend on what it has (its type's fields, not a list per type):
-
 - every float field (scalars and fixed arrays, one field per message, cycling over all of them):
   ``float.nan``, ``float.inf``, ``float.-inf``, ``float.1e308``, ``float.1e30``, ``float.denormal``
   (5e-324); and every float field at once: ``floats.1e308``, ``floats.1e30``, ``floats.denormal``;
@@ -11,23 +10,22 @@ The classes a template gets depend on what it has (its type's fields, not a list
 - every variable-length array: ``array.empty``, ``array.oversized``;
 - a ``header``: ``stamp.zero``, ``stamp.future`` (sec = 2147483647), ``stamp.backwards`` (an hour
   before the template), ``frame.wrong``, ``frame.empty``; ``child_frame_id``: ``frame.child_wrong``;
-- PointCloud2: ``cloud.point_step``, ``cloud.point_step_zero``, ``cloud.row_step``, ``cloud.field_missing``
-  (the n-th message drops field n mod k: the x, y, z every cloud starts with and the table's own),
-  ``cloud.no_fields``, ``cloud.truncated``, ``cloud.width_huge``, ``cloud.datatype``, ``cloud.offset``,
-  ``cloud.nan_data``, ``cloud.inf_data``;
+- PointCloud2: ``cloud.point_step``, ``cloud.point_step_zero``, ``cloud.row_step``,
+  ``cloud.field_missing`` (the n-th message drops field n mod k), ``cloud.no_fields``,
+  ``cloud.truncated``, ``cloud.width_huge``, ``cloud.datatype``, ``cloud.offset``, ``cloud.nan_data``,
+  ``cloud.inf_data``;
 - DiagnosticArray values: ``value.nan``, ``value.inf``, ``value.1e308``, ``value.denormal``,
   ``value.garbage``, ``value.key_missing``; a ``seq`` or ``step`` key: ``seq.max_i32``,
   ``seq.max_u32``, ``seq.ahead``, ``seq.behind``, ``seq.negative``;
-- UInt8MultiArray: ``payload.random``, ``payload.truncated``;
-- the IDSQ protocol (``track_msgs`` IdsqHandoff, IdsqAck, IdsqRevoke; prefix ``handoff``, ``ack``,
-  ``revoke``): ``<prefix>.step_max`` (0xFFFFFFFF), ``<prefix>.step_ahead``, ``<prefix>.step_behind``,
+- UInt8MultiArray: ``payload.random``, ``payload.truncated``; the IDSQ protocol (``track_msgs``
+  IdsqHandoff, IdsqAck, IdsqRevoke; prefix ``handoff``, ``ack``, ``revoke``):
+  ``<prefix>.step_max`` (0xFFFFFFFF), ``<prefix>.step_ahead``, ``<prefix>.step_behind``,
   ``<prefix>.receiver``; a handoff also ``handoff.version`` (unknown), ``handoff.lengths`` (one mass
   fewer than cells), ``handoff.foreign`` (a velocity in a version-1 package);
 - a typed protocol message with a ``seq`` (RFID command, step, found, status): ``seq.max_u32``,
   ``seq.ahead``, ``seq.behind``, ``seq.zero``; with a ``kind``: ``kind.unknown``;
 - any type: ``duplicate`` (the template again), ``raw.random`` (random bytes after a CDR header,
   published raw), ``raw.truncated`` (the template's CDR cut short).
-
 The generator is pure (no node, no publishing): ``Fuzzer(templates, seed).next()`` → ``Bad``.
 """
 

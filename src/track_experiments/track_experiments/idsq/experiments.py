@@ -13,20 +13,8 @@ Every configuration of every entry uses the runs ``SeedSequence((seed, K, round(
 so the selection rules within one entry see identical layouts, truths and noises. Averages are
 over all tracking steps and runs, as in Table 4. Each entry writes the error figure (Fig. 9 or its
 analogue) and a Fig. 8 snapshot (belief, sensors, leader, candidates, target) of K = 40, 30 % DOA.
-
-Known residual difference from the paper (seed 0, 20 runs): our Table 4 errors are 9-22 % below
-the paper's at every K (ratio K=24/K=64 2.21 vs 1.94; measured with the former 1.5°/m near-field DOA
-slope; with the derived 4°/m of models.py K = 24 / 40 / 64 are 8 / 11 / 19 % below, 22.27 / 14.20 /
-10.05 m, the other K not re-run) and the |N| column matches, but our belief
-spread is only 40-46 % of the paper's and the cell count 60-70 %. The error is mostly an
-along-track lag (mean north error −21 / −13 / −9 m at K = 24 / 40 / 64 after step 5, cross-track
-mean ≈ 0): the disk prediction has no drift, the vehicle does (the velocity-aware predictions of
-``prediction.py`` remove most of it: the extra columns of idsq-table4). The paper's posterior is wider in
-its core; neither the sparsity threshold (grid.py) nor the Fig. 6 slopes (models.py) account for
-it, and Table 5 points the same way: our DOA sensors help more (all-DOA 5.8 m vs the paper's
-10.8 m, all-amplitude 23.3 vs 18.5 m). We found no statement in the paper that would explain it
-and did not fit any parameter to close it: docs/results/idsq.md ("Why our belief is tighter") measures
-each candidate (likelihood width, prediction disk, pruning threshold, the unweighted "blocks" reading).
+The known residual difference from the paper (errors below Table 4's, a tighter belief; no
+parameter fitted to close it) is measured in docs/results/idsq.md.
 """
 
 from __future__ import annotations

@@ -33,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
+from track_core.idsq.config import LeaderConfig
 from track_core.idsq.leader_protocol import protocol_track
 from track_experiments.cli import Outcome, RunConfig, format_table, set_keys
 from track_experiments.plotting import pyplot
@@ -41,7 +42,7 @@ from track_experiments.soak.procs import Proc, launch_cmd
 FULL_SIZES, QUICK_SIZES = (24, 64, 100), (8, 16)
 FULL_STEPS, QUICK_STEPS = 40, 10
 PER_HOST = 10  # sensors per simulated host
-DT = 0.5  # [s] the tracker step of idsq_yaml's scenario
+DT = LeaderConfig().tracker.dt  # [s] the tracker step of idsq_yaml's scenario (the sensors' default)
 READY = re.compile(r'^ready: (\d+) nodes in ([\d.]+) s', re.M)
 CPU = re.compile(r'^cpu: ([\d.]+) s in (\d+) processes', re.M)
 HOSTS_LINE = re.compile(r'hosts: \d+ namespaces (\S+)-\*')
@@ -80,7 +81,7 @@ def hosts_for(k: int, per_host: int = PER_HOST) -> int:
 
 def run_field(out: Path, seed: int, k: int, n_hosts: int, steps: int) -> dict:
     """One recorded run of a ``k``-sensor field over ``n_hosts`` hosts; its row (see the module docstring)."""
-    from track_nodes.launch.generate import idsq_yaml
+    from track_nodes.idsq.scenario_files import idsq_yaml
     from track_nodes.launch.hosts import remove_leftovers
     from track_nodes.report.idsq import recorded_track
 

@@ -27,8 +27,8 @@ FRACTION_GOAL = 0.95
 
 
 def seed_scenario(seed: int) -> dict:
-    """The parsed maritime scenario of seed ``seed`` (``report.maritime_sim.seed_scenario``)."""
-    from track_nodes.report.maritime_sim import seed_scenario as scenario
+    """The parsed maritime scenario of seed ``seed`` (``track_nodes.idsq.scenario_files.seed_scenario``)."""
+    from track_nodes.idsq.scenario_files import seed_scenario as scenario
 
     return scenario(seed)
 

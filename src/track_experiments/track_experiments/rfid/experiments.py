@@ -1,76 +1,27 @@
 """``track-experiment`` entries ``rfid-table1`` (Table I) and ``rfid-reader`` (a commercial reader's phase stream).
 
 ``track-experiment rfid-table1``: Table I of the paper, the routes of Fig. 6, the obstacle variant.
-
 Per N ∈ {10, 20, 50, 100, 300, 1000}: M searches (200 in the full run) from 10 m with the worst-case
-errors (Section VI). Every N uses the same M run seeds, so the same starts. Reported per N (means
-over all M runs; a failed run counts with its ``max_steps`` steps): steps, turns, distance walked,
-wall time of one filter update with the suggestion, and the success rate. The paper's values are
-printed beside ours.
+errors (Section VI), the same M run seeds for every N; per N the means of steps, turns, distance
+walked, update wall time and the success rate (a failed run counts ``max_steps``), the paper's
+beside. Also ``rfid-fig6-route.png``, ``rfid-obstacles-route.png``, ``rfid-table1-obstacles.json``
+and ``rfid-table1-variants.json`` (``suggestion='mean'``, no re-initialisation, ``init_boost`` 10).
+``--json``: ``{"rows": [{particles, steps, turns, distance_m, update_ms, success_rate}]}``.
 
-Written beside the figures:
-- ``rfid-fig6-route.png``: one route (N = 100, run 0), drawn like Fig. 6.
-- ``rfid-obstacles-route.png``: one route in the obstacle variant (``world.office_obstacles``).
-- ``rfid-table1-obstacles.json``: the obstacle variant at N = 100 over the same M seeds.
-- ``rfid-table1-variants.json``: N = 10 and 100 with the paper's plain circular mean
-  (``suggestion='mean'``) and without the lost-filter re-initialisation, to show what those two
-  additions (``pf`` module doc) do, and N = 10 with prior boosting (``init_boost`` 10: the first update
-  and a re-initialisation weigh 10·N prior samples and keep N).
-
-``--json`` holds exactly ``{"rows": [{particles, steps, turns, distance_m, update_ms, success_rate}]}``.
-
-``track-experiment rfid-reader``: the reader signal processing and the filter on a commercial reader's
-phase stream, in simulation.
-
-Three parts, all seeded from ``--seed`` (one ``SeedSequence`` spawned per part and per trial):
-
-1. **MOVE sweep.** Per configuration, ``trials`` users start 4–10 m from the tag (uniform), facing it
-   ± 35°, with a 360° beam (so that no read is lost to the antenna pattern: every discarded MOVE is the
-   signal processing's), and walk ``MOVES_PER_TRIAL`` MOVEs of 0.5 m with the paper's step errors.
-   The reader is a commercial one (``READER``: LLRP sign, (0, 2π], 920.625 MHz, 0.015 rad per read)
-   unless the row says otherwise; the effects (lasting phase steps: size and rate; hopping over
-   ``CHANNELS`` with a dwell; per-read noise) are switched on one or a few at a time. Every MOVE's
-   stream is processed five ways: *ours* (``UnwrapConfig.real_reader(reader)``: re-lock, robust noise, learning
-   its noise over the trial's MOVEs), *online* (the same with the earlier ``noise='online'``: a 6σ̂ gate and
-   dφ std from σ̂), *join* (the same with ``step_bridge='join'``), *old* (the
-   processing without the real-reader additions: fixed noise, no re-lock, the carriers ignored; given the
-   right sign, so that only the unwrapping differs) and *naive* (``signal.naive_dphi``: ``np.unwrap``
-   of all reads, last minus first; it always gives a number). Reported: the share of MOVEs kept and
-   the median, 95th percentile and RMS of |dφ − dφ_true| over the MOVEs each method kept (dφ_true is
-   the geometric one of the step walked, ``ReaderOutput.truth_dphi``), and for ours against naive on
-   the same MOVEs (those ours kept); cov90: the share of kept MOVEs whose error is within ±1.645·``dphi_std``
-   (ours and online), and for ours cov 1σ and cov 2σ, the shares within ±1 and ±2 ``dphi_std`` (a Gaussian:
-   68.3 % and 95.4 %; the filter's likelihood leans on the 1σ one). The last three rows are the
-   heavy-tailed mode (``WorldParams.noise_dof`` 2, scale 0.03 rad), alone, with hopping, and with
-   hopping and lasting steps.
-2. **Sign convention and guidance.** ``runs`` searches of Table I's setting (N = 100, the paper's
-   worst-case errors) with the paper's reader, with an LLRP reader processed with its sign set, and
-   with the LLRP reader's stream fed as-is (processed with the paper's sign). The same run seeds, and
-   so the same starts, for all three (each search gets a fresh copy of its ``SeedSequence``). Success
-   rate, mean steps, and how often the guidance's convention check warned (``guidance`` module doc).
-3. **Filter against the batch fit.** ``trials`` walks of 5 straight MOVEs of 0.2 m with small motion
-   errors (s_r 2 mm, s_a 0.5°) past a tag beside the track (0.5–2 m to the side, 0–1.5 m ahead at the
-   start, like the issue's bench with tags at known positions along a 1 m track), read by the
-   commercial reader with hopping (0.2 s dwell). The filter (``PF_PARTICLES`` particles, Gaussian
-   weights, its s_step, s_r and s_a set to the walk's, ``dphi_std`` from the reader, prior distance
-   0.3–5 m, the read range of such a set-up, and no re-initialisation) and ``batch.fit_tag`` get the
-   same five dφ; the batch uses the commanded path. A tag far ahead of a short straight walk is barely
-   observable (the distance enters only through the bearing's change), so the set-up puts it beside. Error: the distance
-   between the estimated and the true tag in the final user frame, mirror side folded (the smaller of
-   the errors of (x, y) and (x, −y)), median over the trials. Also the paper's 1/m² weights with the
-   same settings, the 1/m² weights with the paper's fixed s_θ = 5.5° instead of the reader's dφ std,
-   and how often ``tag_posterior`` says the posterior is bimodal.
-
-4. **Mirror sides.** Part 3's straight walk (Student-t weights), then a TURN of 60° and 3 MOVEs: after
-   each part, how often ``tag_sides`` reports the side unknown, the true side's probability, and the
-   error of the true side's mode and of the likelier one (not folded: what one point would be off by).
-
-``--quick`` runs 6 trials per row, 6 searches per variant and 6 filter trials (and 6 walks in part 4);
-the full run 200, 200 and 100 (and 100). ``--json`` holds ``{"moves": [...], "sign": {...},
-"pf_batch": {...}, "sides": {...}}``.
-
-``--set file=LOG.csv`` (``--set epc=EPC`` to pick a tag): a recorded walk (``track_core.rfid.log``) instead of
-the simulation, processed the same ways (``log_replay``).
+``track-experiment rfid-reader``: the reader signal processing and the filter on a commercial
+reader's phase stream, in simulation; one ``SeedSequence`` per part and trial, from ``--seed``:
+1. MOVE sweep: ``trials`` walks of ``MOVES_PER_TRIAL`` MOVEs of 0.5 m read by ``READER`` with the
+   effects of each row (lasting steps, hopping over ``CHANNELS``, noise), processed five ways (ours,
+   online, join, old, naive); share of MOVEs kept, |dφ − dφ_true| statistics, dphi_std coverage.
+2. Sign convention and guidance: ``runs`` Table I searches with the paper's reader, an LLRP reader
+   with its sign set, and the LLRP stream fed as-is.
+3. Filter against the batch fit (``batch.fit_tag``): 5 straight MOVEs of 0.2 m past a tag beside the
+   track, mirror-folded tag error, for Gaussian, 1/m² and fixed-s_θ weights.
+4. Mirror sides: part 3's walk, a 60° TURN and 3 MOVEs; ``tag_sides`` after each part. ``--quick``:
+   6 trials/searches/walks a part (full: 200, 200, 100, 100). ``--json``: ``{"moves": [...], "sign":
+   {...}, "pf_batch": {...}, "sides": {...}}``. ``--set file=LOG.csv`` (``--set epc=EPC``): a
+   recorded walk (``track_core.rfid.log``) instead of the simulation (``log_replay``). In full:
+   docs/results/rfid.md, "What rfid-table1 and rfid-reader run".
 """
 
 from __future__ import annotations
@@ -86,7 +37,7 @@ from track_core.rfid.batch import fit_tag, path_from_moves, tag_in_user_frame
 from track_core.rfid.pf import PFParams, RfidParticleFilter
 from track_core.rfid.phase import PhaseModel
 from track_core.rfid.protocol import Command, CommandKind
-from track_core.rfid.search import SearchOutcome, run_search
+from track_core.rfid.search import MAX_STEPS, SearchOutcome, run_search
 from track_core.rfid.signal import PhaseProcessor, PhaseStream, UnwrapConfig, naive_dphi, process_move
 from track_core.rfid.world import SimReader, WorldParams, office_obstacles
 from track_experiments.cli import Outcome, RunConfig, format_table, set_keys
@@ -96,7 +47,6 @@ PARTICLES = (10, 20, 50, 100, 300, 1000)
 # Table I: N → (STEPS, TURNS, DISTANCE m, TIME ms); the paper reports 100 % success everywhere.
 PAPER_TABLE1 = {10: (30.0, 35.9, 15.4, 10.4), 20: (29.4, 35.0, 15.0, 11.8), 50: (29.2, 34.5, 15.0, 17.8),
                 100: (28.5, 33.2, 14.6, 29.2), 300: (28.3, 33.0, 14.5, 90.7), 1000: (28.0, 32.2, 14.3, 473.9)}
-MAX_STEPS = 200
 BOOST = 10        # the variant with prior boosting (pf: init_boost) at small N
 
 

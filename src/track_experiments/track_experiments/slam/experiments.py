@@ -1,48 +1,33 @@
 """``track-experiment`` entries ``slam-loop`` and ``victoria-park``.
 
 slam-loop: M runs of the Fig. 1 world (``sim.LoopWorld``), plain EKF-SLAM with nearest neighbour
-against the hybrid, on the same truth and the same input/sensor noise. A run *fails* when the
-final position error exceeds ``FAIL_M`` (3 m; the landmark separation is 8 m, so a wrong
-association leaves a multi-metre error). ``error_before_m`` is the mean error of the CEKF at the
-scan that started PF mode, ``error_after_m`` the mean error of the PF estimate at convergence
-(paper: 2.2 → 0.5 m); ``pf_scans_median`` the median number of scans processed in PF mode, the
-initialising scan included (1 = converged on the scan that started it, the paper's result; the
-scan that starts it is often the one on which the first trunk of the start area comes into view
-alone, so 3 here). ``scans_discarded`` counts the scans neither filter used (0: the switch uses
-every scan). Consistency: the pose (x, y, φ) NEES against the truth at every scan, averaged over the
-runs (``pose_anees``), its mean over the run and the share of scans inside the 95 % band of an
-average of M χ²₃ values (``anees_band``), for both filters.
-The sim uses ``trigger_on_ambiguity=True`` (the world is designed for it); Victoria Park uses the
+against the hybrid, on the same truth and noise. A run *fails* when the final position error exceeds
+``FAIL_M`` (3 m; landmarks are 8 m apart). ``error_before_m``: the CEKF's mean error at the scan
+that started PF mode; ``error_after_m``: the PF's at convergence (paper: 2.2 → 0.5 m);
+``pf_scans_median``: scans in PF mode, the initialising one included; ``scans_discarded``: scans
+neither filter used. Consistency: the pose (x, y, φ) NEES at every scan averaged over the runs
+(``pose_anees``), its mean and the share of scans inside the 95 % band of an average of M χ²₃ values
+(``anees_band``), for both filters. The sim uses ``trigger_on_ambiguity=True``; Victoria Park the
 uncertainty rule only.
 
-victoria-park: the whole real run (7230 scans with at least one tree, 61945 inputs, 1549 s;
-the laser's frames without a detection are absent from the text data, hence fewer than the
-7249 laser frames) through ``HybridSlam`` with the ``victoria_park`` profile
-(``track_core.slam.profiles``); ``--quick``: the first ``VP_QUICK_S`` = 120 s (for the test suite).
-Reported: ``gps_rmse_m`` after the rigid alignment of
-``victoria.gps_rmse`` (GPS jumps removed by its speed rule), the number of landmarks, of switches
-to PF mode, the wall-clock ``runtime_s`` of the filter loop (loading and plotting excluded) and
-the data ``duration_s``. The PNG shows the aligned path, the map and the GPS, the error against
-GPS with the filter's 3σ, and the cost of every scan update.
+victoria-park: the whole real run (7230 scans with at least one tree, 61945 inputs, 1549 s) through
+``HybridSlam`` with the ``victoria_park`` profile; ``--quick``: the first ``VP_QUICK_S`` = 120 s.
+Reported: ``gps_rmse_m`` after ``victoria.gps_rmse``'s rigid alignment (GPS jumps removed),
+landmarks, switches to PF mode, ``runtime_s`` of the filter loop and ``duration_s``; the PNG shows
+the aligned path, map and GPS, the error with 3σ, and the cost of every scan update. The filter loop
+runs with one BLAS thread (``blas.single_threaded_blas``).
 
-``--set inputs=odometry`` runs the same data converted to what a robot with standard drivers gives
-(``victoria.standard_stream``: Odometry of the rear-axle centre with its twist covariance, landmark
-detections with REP-103 bearings) through the standard-input path of the ``slam`` node
-(``odometry.OdometryInputs``, the unicycle model; ``--set motion=increments|twist``); ``inputs=both``
-runs both and reports the largest difference between the two paths (equal up to rounding).
-
-On the real run the detector (relative vehicle–landmark uncertainty against trunk separation)
-fires rarely: the absolute position σ reaches ~3 m on the long northern excursion, but the
-trunks in view stay known to < 1 m relative to the vehicle, so nearest neighbour remains safe
-and the CEKF closes that loop itself. The filter loop runs with one BLAS thread
-(``blas.single_threaded_blas``): on a shared, loaded machine OpenBLAS threads made the small
-per-scan products 10-250× slower.
+``--set inputs=odometry``: the same data as standard drivers give it (``victoria.standard_stream``)
+through the ``slam`` node's standard-input path (``odometry.OdometryInputs``; ``--set
+motion=increments|twist``); ``inputs=both`` runs both and reports their largest difference. Figures:
+docs/results/slam.md.
 """
 
 from __future__ import annotations
 
 import logging
 import time
+from dataclasses import replace
 
 import numpy as np
 from scipy.stats import chi2
@@ -55,9 +40,9 @@ from track_core.slam.hybrid import HybridParams, HybridSlam
 from track_core.slam.landmarks import to_eq5_bearing
 from track_core.slam.models import UnicycleParams
 from track_core.slam.odometry import OdometryInputs
-from track_core.slam.profiles import VICTORIA_PARK, loop_sim_params
+from track_core.slam.profiles import VICTORIA_PARK, loop_sim
 from track_core.slam.sim import LoopWorld, simulate
-from track_core.slam.streams import scan_observations
+from track_core.slam.streams import BEARING_TOLERANCE, scan_observations
 from track_experiments.cli import Outcome, RunConfig, format_table, set_keys
 from track_experiments.plotting import pyplot
 
@@ -72,9 +57,8 @@ def run_loop_once(w: LoopWorld, run, hybrid: bool, rng: np.random.Generator) -> 
 
 
 def _run_loop_once(w: LoopWorld, run, hybrid: bool, rng: np.random.Generator) -> dict:
-    sp, pp = loop_sim_params(w)
-    h = HybridSlam(w.start(), np.diag([1e-6] * 3), rng, sp, pp,
-                   HybridParams(enabled=hybrid, trigger_on_ambiguity=True))
+    prof = loop_sim(w)
+    h = HybridSlam(*prof.prior(), rng, prof.slam, prof.pf, replace(prof.hybrid, enabled=hybrid))
     si, hist, before, after, clouds = 0, [], [], [], {}
     for k in range(len(run.t)):
         h.process_input(run.t[k], *run.u_meas[k])
@@ -233,8 +217,8 @@ def run_victoria(vp: victoria.VictoriaPark, rng: np.random.Generator, progress=i
                  slam: SlamParams | None = None, hybrid: HybridParams | None = None) -> dict:
     """The hybrid filter over a loaded run (single-threaded BLAS, see ``blas.py``); path, cost, GPS RMSE."""
     with single_threaded_blas():
-        h = HybridSlam(np.zeros(3), np.diag([1e-6] * 3), rng, slam or VICTORIA_PARK.slam, VICTORIA_PARK.pf,
-                       hybrid or HybridParams())
+        h = HybridSlam(*VICTORIA_PARK.prior(), rng, slam or VICTORIA_PARK.slam, VICTORIA_PARK.pf,
+                       hybrid or VICTORIA_PARK.hybrid)
         T, X, S, cost = [], [], [], []
         t0 = time.perf_counter()
         for ev in progress(victoria.events(vp)):
@@ -265,8 +249,8 @@ def standard_events(sr: victoria.StandardRun, motion: str, bearing_limits: tuple
     for t, pose, (v, w), c in zip(sr.odom_t, sr.odom_pose, sr.twist, sr.twist_cov, strict=True):
         ev += [(ti, 1, 'input', (vi, wi, ci)) for ti, vi, wi, ci, _ in oi.offer(float(t), pose, v, w, c)]
     for t, d in zip(sr.scan_t, sr.detections, strict=True):
-        z, _ = scan_observations(d[:, 0], to_eq5_bearing(d[:, 1] + sr.laser[2]), d[:, 2], bearing_limits, 1e-6,
-                                 False)
+        z, _ = scan_observations(d[:, 0], to_eq5_bearing(d[:, 1] + sr.laser[2]), d[:, 2], bearing_limits,
+                                 BEARING_TOLERANCE, False)
         ev.append((float(t), 0, 'scan', z))
     ev.sort(key=lambda e: (e[0], e[1]))
     return ev
@@ -278,7 +262,7 @@ def run_victoria_standard(vp: victoria.VictoriaPark, rng: np.random.Generator, m
     (``victoria.standard_stream``), the unicycle model with the laser at (a, b) of base_link."""
     sr = victoria.standard_stream(vp)
     with single_threaded_blas():
-        h = HybridSlam(np.zeros(3), np.diag([1e-6] * 3), rng, VICTORIA_PARK.slam, VICTORIA_PARK.pf, HybridParams(),
+        h = HybridSlam(*VICTORIA_PARK.prior(), rng, VICTORIA_PARK.slam, VICTORIA_PARK.pf, VICTORIA_PARK.hybrid,
                        vehicle=UnicycleParams(a=sr.laser[0], b=sr.laser[1]))
         T, X = [], []
         t0 = time.perf_counter()

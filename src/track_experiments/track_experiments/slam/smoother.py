@@ -24,10 +24,9 @@ iSAM2 (relinearisation threshold 0.01, checked every 10 updates as GTSAM's defau
 scan by scan, each new pose and landmark initialised from its own estimate (previous pose ⊕
 odometry, pose ⊕ observation); two of its paths are reported: the final (smoothed) one, and the
 online one (each pose's estimate right after the update that added it: what it would have published,
-the filter's counterpart). LM optimises the whole graph at once from the
-filter's path and map (``--set lm_init=filter``) or from dead reckoning with landmarks placed from
-it (``lm_init=odometry``). All three paths are scored by ``victoria.gps_rmse`` (rigid alignment,
-GPS jumps removed). The filter's is its online estimate at each scan, as ``victoria-park`` reports it.
+the filter's counterpart). LM optimises the whole graph at once from the filter's path and map
+(``--set lm_init=filter``) or from dead reckoning (``lm_init=odometry``). All three paths, and the
+filter's online one, are scored by ``victoria.gps_rmse`` (rigid alignment, GPS jumps removed).
 """
 
 from __future__ import annotations
@@ -108,9 +107,9 @@ def record_run(vp: victoria.VictoriaPark, rng: np.random.Generator, hybrid: Hybr
     """The ``victoria-park`` filter run (ACFR inputs, ``victoria_park`` profile) with its association and
     odometry recorded for a smoother (module docstring)."""
     prof = VICTORIA_PARK
-    pose0, P0 = np.zeros(3), np.diag([1e-6] * 3)
+    pose0, P0 = prof.prior()
     with single_threaded_blas():
-        h = HybridSlam(pose0, P0, rng, prof.slam, prof.pf, hybrid or HybridParams())
+        h = HybridSlam(pose0, P0, rng, prof.slam, prof.pf, hybrid or prof.hybrid)
         h.cekf.association_log = log_ = []
         rel = _RelativeOdometry(h.vehicle, np.diag([prof.slam.sigma_v ** 2, prof.slam.sigma_steer ** 2]))
         t_last, u = None, np.zeros(2)

@@ -3,14 +3,11 @@
 The protocols and per-tick arrays have their own ``track_msgs`` messages (RFID commands and
 steps, the IDSQ handoff, ack, revoke and leader events, fusion pair scores); their records here
 convert with ``to_msg``/``from_msg``. A layout still carried in ``diagnostic_msgs/DiagnosticStatus``
-key/values (a mode, a target status, the AIS truth table) is an interface between two nodes, a
-summary and the tests. It has one typed record here, a frozen dataclass derived from
-``StatusRecord``, and every side reads and writes it through the record, never by hand:
-
-- ``record.to_values()`` / ``Record.from_values(mapping)``: the key/value strings;
-- ``record.to_status(name, level, message)`` / ``Record.from_status(status)``.
-
-Each field's annotation says how it is written (and parsed back):
+key/values (a mode, a target status, the AIS truth table) has one typed record here, a frozen
+dataclass derived from ``StatusRecord``, read and written only through it:
+``record.to_values()`` / ``Record.from_values(mapping)`` (the key/value strings),
+``record.to_status(name, level, message)`` / ``Record.from_status(status)``. Each field's
+annotation says how it is written (and parsed back):
 
 | annotation | written as | parsed by |
 |---|---|---|

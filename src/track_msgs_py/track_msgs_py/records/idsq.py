@@ -2,57 +2,25 @@
 ``IdsqHandoff``, ``IdsqAck``, ``IdsqRevoke``, ``IdsqLeaderEvent``), the leader's belief cloud
 (``/idsq/belief``) and the sensor layout (``/idsq/layout``).
 
-One record per layout, each with ``to_msg``/``from_msg``; ``from_msg`` raises ``RecordError`` with one
-line, which a node passes to its ``refuse``. The protocol messages:
+One record per layout, each with ``to_msg``/``from_msg``; ``from_msg`` raises ``RecordError`` with
+one line, which a node passes to its ``refuse``. Topics are in ``topics.py``.
 
-=====================  ===========================================  =============================================
-record                 topic (``topics.py``), message               mapping
-=====================  ===========================================  =============================================
-``IdsqReading``        ``/idsq/sensor_<id>/reading`` (and           ``amplitude`` as is (eq. 5's z); ``direction``
-                       ``/idsq/election``), ``track_msgs/           REP-103 (counter-clockwise from the x axis of
-                       IdsqReading``                                ``header.frame_id``, which must be ``map``),
-                                                                    read as the paper's θ = wrap(π/2 − direction)
-                                                                    (clockwise from north, eq. 11) by ``bearing``;
-                                                                    ``t`` = header.stamp, the time of the step
-``IdsqHandoff``        ``/idsq/sensor_<receiver>/handoff``,         field for field the package of
-                       ``track_msgs/IdsqHandoff``                   ``track_core.idsq.handoff.Package`` (u32 cells,
-                                                                    f32 mass: the receiver's belief is the one the
-                                                                    binary package gives, to the bit); ``t`` =
-                                                                    header.stamp, the time of the step
-``IdsqAck``            ``/idsq/sensor_<sender>/ack``,               ``accepted`` false is a nack; ``reason`` one
-                       ``track_msgs/IdsqAck``                       line of at most ``MAX_REASON`` characters
-``IdsqRevoke``         ``/idsq/sensor_<receiver>/revoke``,          the handoff of ``step`` from ``sender`` is void
-                       ``track_msgs/IdsqRevoke``
-``IdsqLeaderEvent``    ``/idsq/leader``, ``track_msgs/              ``event`` as a word (``LEADER_EVENTS``), the
-                       IdsqLeaderEvent``                            message's code on the wire; a field the event
-                                                                    does not carry (``EVENT_FIELDS``) is ``None``
-                                                                    here and 0 / -1 / NaN / empty there
-=====================  ===========================================  =============================================
-
-The revoke has a topic of its own (one type per topic, and ``ros2 topic echo`` shows what it is);
-nothing orders it against the handoffs, which the chain rule tolerates
-(``track_core.idsq.leader_protocol``). ``received_handoff`` is what a sensor hands its ledger: the
-``Handoff``, or an ``Unusable`` with the reason and the message's address, so that the refusal is
-answered. The conversions to core types import ``track_core.idsq`` only when called (it loads
-scipy.stats, about 1 s, which the other users of this module need not pay).
-
-``IdsqBelief`` is a ``PointCloud2``: float32 ``x``, ``y`` (the cell centre, map), ``z`` (0), ``p``
-(the cell's posterior mass), one point per cell of the sparse belief. The layout:
-
-=========================  ==========================================  ===============================================
-data                       message type                                fields
-=========================  ==========================================  ===============================================
-IDSQ sensor layout         sensor_msgs/PointCloud2 (``/idsq/layout``)  ``FLOAT32`` ``x``, ``y``, ``z`` (0) at 0, 4,
-(``SensorLayout``)                                                     8, 4 bytes padding, ``FLOAT64`` ``id``,
-                                                                       ``x_f64``, ``y_f64``, ``type`` (0 acoustic, 1
-                                                                       DOA) at 16, 24, 32, 40; ``point_step`` 48; one
-                                                                       point per sensor (float64: positions exact)
-=========================  ==========================================  ===============================================
-
-The layout carries its positions twice: float32 ``x``, ``y`` for the viewers and float64 ``x_f64``,
-``y_f64`` that every sensor node reads: it checks its ``position`` parameter against them and builds
-its neighbour lists from them, so all must read the same exact positions. A layout without
-``x_f64``/``y_f64`` (float64 ``id``, ``x``, ``y``, ``type`` only) reads its positions from ``x``, ``y``.
+- ``IdsqReading`` (``/idsq/sensor_<id>/reading``, ``/idsq/election``): ``amplitude`` as is (eq. 5's
+  z); ``direction`` REP-103 in ``map`` (``header.frame_id`` must be ``map``), read by ``bearing`` as
+  the paper's θ = wrap(π/2 − direction) (clockwise from north, eq. 11); ``t`` = the step's stamp.
+- ``IdsqHandoff`` (``/idsq/sensor_<receiver>/handoff``): field for field
+  ``track_core.idsq.handoff.Package`` (u32 cells, f32 mass: the belief to the bit).
+- ``IdsqAck`` (``/idsq/sensor_<sender>/ack``): ``accepted`` false is a nack, ``reason`` at most
+  ``MAX_REASON`` characters. ``IdsqRevoke`` (``/idsq/sensor_<receiver>/revoke``): the handoff of
+  ``step`` from ``sender`` is void; nothing orders it against the handoffs.
+- ``IdsqLeaderEvent`` (``/idsq/leader``): ``event`` as a word (``LEADER_EVENTS``); a field the event
+  does not carry (``EVENT_FIELDS``) is ``None`` here, 0 / -1 / NaN / empty on the wire.
+- ``received_handoff``: the ``Handoff``, or an ``Unusable`` with the reason and the address.
+- ``IdsqBelief``: PointCloud2, float32 ``x``, ``y`` (cell centre, map), ``z`` (0), ``p`` (mass).
+- ``SensorLayout``: PointCloud2, ``FLOAT32`` ``x``, ``y``, ``z`` at 0, 4, 8, ``FLOAT64`` ``id``,
+  ``x_f64``, ``y_f64``, ``type`` (0 acoustic, 1 DOA) at 16, 24, 32, 40; ``point_step`` 48; every
+  sensor reads the exact float64 positions (a layout without them: from ``x``, ``y``). The
+  conversions to core types import ``track_core.idsq`` only when called (scipy.stats, ~1 s).
 """
 
 from __future__ import annotations

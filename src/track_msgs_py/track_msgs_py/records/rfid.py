@@ -1,34 +1,23 @@
 """Typed records of the RFID search links ⇄ their ``track_msgs`` messages, and the phase cloud.
 
-=====================  ============================  ====================================================
-record                 topic, message                mapping
-=====================  ============================  ====================================================
-``RfidCommand``        ``/rfid/command``,            one ``protocol.Command``: ``seq``, ``kind`` ⇄ the
-                       ``track_msgs/RfidCommand``    ``TURN``/``MOVE``/``DONE`` constants, ``angle`` (rad),
-                       guidance → reader             ``angle_deg`` (written from ``angle``, read: checked
-                                                     finite, not used), ``repeat``, ``reason``
-``RfidStep``           ``/rfid/step``,               one ``protocol.StepResult`` + ``duration`` [s]; the
-                       ``track_msgs/RfidStep``       core's NaN (unknown ``dphi``, ``turn``,
-                       reader → guidance             ``dphi_std``) ⇄ ``None`` here ⇄ ``<field>_known``
-                                                     false and 0 on the wire, so no output carries a NaN
-``RfidUserStatus``     ``/rfid/user/status``,        the reader's truth (evaluation only), frame ``map``
-                       ``track_msgs/RfidUserStatus``
-``RfidFound``          ``/rfid/found``,              the guidance's one event when the tag is reached:
-                       ``track_msgs/RfidFound``      the result's ``seq`` and the search's counters
-``RfidPhase``          ``/rfid/phase``,              the raw reads of one MOVE (below)
-                       ``sensor_msgs/PointCloud2``
-=====================  ============================  ====================================================
+- ``RfidCommand`` (``/rfid/command``, guidance → reader): one ``protocol.Command``: ``seq``,
+  ``kind`` ⇄ the ``TURN``/``MOVE``/``DONE`` constants, ``angle`` (rad), ``angle_deg`` (written from
+  ``angle``; read: checked finite, not used), ``repeat``, ``reason``.
+- ``RfidStep`` (``/rfid/step``, reader → guidance): one ``protocol.StepResult`` + ``duration`` [s];
+  the core's NaN (unknown ``dphi``, ``turn``, ``dphi_std``) ⇄ ``None`` here ⇄ ``<field>_known``
+  false and 0 on the wire, so no output carries a NaN.
+- ``RfidUserStatus`` (``/rfid/user/status``): the reader's truth (evaluation only), frame ``map``.
+- ``RfidFound`` (``/rfid/found``): the guidance's one event when the tag is reached: the result's
+  ``seq`` and the search's counters.
+- ``RfidPhase`` (``/rfid/phase``, PointCloud2): the raw reads of one MOVE: float32 ``x``, ``y``,
+  ``z`` = where the reader was at each read (map, tag at the origin: the simulator's truth, for
+  drawing only; z = 0), then ``t`` (s since the step started), ``phase`` (wrapped, rad), ``rssi``
+  (dBm), ``carrier_mhz``.
 
 ``to_msg(t)`` stamps the header with ``t``; ``from_msg`` reads the fields back exactly (float64 on
 the wire) and raises ``RecordError`` with one line for input no sender of ours writes: an unknown
 kind value, a seq 0, a non-finite angle, duration or known ``dphi_std``. A NaN ``dphi`` or ``turn``
 passes, so that the core's bad-input rule (``protocol.step_result_problem``) words the warning.
-
-``RfidPhase``: float32 ``x``, ``y``, ``z`` = where the reader was at each read (map, tag at the
-origin: the simulator's truth, on the segment the user walked; z = 0), then ``t`` (s since the step
-started), ``phase`` (wrapped, rad), ``rssi`` (dBm), ``carrier_mhz``. Positions make the reads
-drawable where they were taken (coloured by phase, the wrapping is visible along the walk);
-nothing reads them back for processing.
 """
 
 from __future__ import annotations

@@ -38,12 +38,14 @@ def open_bag(path: Path) -> DurableBag:
     try:
         writer.open()
     except OSError as exc:
-        writer.abort()
+        with contextlib.suppress(OSError):  # closing flushes the header: on a full disk, that fails too
+            writer.abort()
         raise ValueError(f'{path}: cannot create bag: {exc.strerror or exc}') from None
     try:
         return DurableBag(writer, path)
     except OSError as exc:
-        writer.abort()
+        with contextlib.suppress(OSError):
+            writer.abort()
         with contextlib.suppress(FileNotFoundError):
             (path / RESERVE_NAME).unlink()
         raise ValueError(f'{path}: cannot start a bag: {exc.strerror or exc}') from None

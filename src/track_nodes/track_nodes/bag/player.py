@@ -6,39 +6,20 @@ Usage::
     .venv/lib/track_nodes/player BAG ...          (same, through the ros2-run shim)
     ... --ros-args -p bag:=BAG -p rate:=2.0       (parameters directly)
 
-- BAG: a bag directory (``metadata.yaml`` + .mcap), an .mcap file with summary, or a bag name
-  (→ ``bags/BAG/``).
-- Timing: a message recorded at bag time t is published at wall time
-  ``t0_wall + (t - t_start) / rate`` (``rate`` 2 = twice as fast), where ``t_start`` is the bag's
-  first message time plus ``--start-offset``; earlier messages are skipped.
-- The raw CDR bytes are published unchanged (no deserialisation); the classes for the publishers
-  come from the type names by importlib.
-- ``/clock`` (rosgraph_msgs/Clock) carries bag time: the time of each message just before it is
-  published, and between messages every ``clock_period`` wall seconds the interpolated bag
-  time. It never goes backwards (except when ``--loop`` restarts). So ``use_sim_time`` nodes
-  follow bag time at any rate. A ``/clock`` topic recorded in the bag is not replayed.
-- QoS of the publishers: reliable, keep-last 100; transient-local only for topics whose
-  recorded offered QoS was transient-local for every publisher, else volatile.
-- Before the first message: wait up to ``--wait`` (``wait_subscribers``) seconds (default 2) until
-  every topic to be played has at least one matched subscription, then 0.5 s for the match to
-  settle on the subscriber's side too (the publisher sees the match first; a volatile reader that
-  has not yet matched the writer would miss the first message). Topics still without a
-  subscriber after that are played anyway. A subscriber that announces itself on ``/track/ready``
-  (a ``TrackNode``: it subscribes before it spins) is waited for until it has announced, up to
-  ``READY_WAIT`` s more: what was sent before would reach it late, behind the clock.
-- The whole bag is validated before anything is published (opened and every message read
-  once), so a truncated bag never half-plays. A bad path, a directory that is not a bag, a bag
-  without metadata.yaml (killed recorder: recover it with ``track-bag-recover``), a truncated
-  or corrupt .mcap, a chunk whose CRC does not hold (named: ``bag.integrity``), a FIFO or device
-  where a bag or its file should be (it would hang), a ``--rate`` outside ``RATE_MIN``..``RATE_MAX``
-  (or NaN) or an unknown ``--topics`` entry → one line on stderr naming the file and the problem,
-  exit code 2. So are a ``metadata.yaml`` whose topics
-  or types differ from the .mcap's, and nothing to play (an empty bag, ``--start-offset`` past the
-  last message); wrong counts in ``metadata.yaml`` are a warning, and the .mcap's counts are
-  announced and played (``bag.playcheck``).
-- Exits with code 0 when the bag has been played (reliable messages acknowledged, up to 2 s),
-  unless ``--loop``. SIGINT, SIGTERM and SIGHUP stop it alike (``base.signals``); a playback cut
-  short ends with ``played K of N messages``.
+- BAG: a bag directory, an .mcap file with summary, or a bag name (→ ``bags/BAG/``).
+- A message of bag time t is published at wall time ``t0_wall + (t - t_start) / rate``, t_start the
+  first message time plus ``--start-offset``; the raw CDR bytes unchanged.
+- ``/clock`` carries bag time (each message's just before it, and every ``clock_period`` wall s in
+  between; never backwards except when ``--loop`` restarts); a recorded ``/clock`` is not replayed.
+- Publishers: reliable, keep-last 100; transient-local where every recorded publisher was.
+- Before the first message: up to ``--wait`` s (default 2) for a subscription to every topic, then
+  0.5 s; a ``/track/ready`` announcer is waited for up to ``READY_WAIT`` s more.
+- The whole bag is validated first (``bag.integrity``, ``bag.playcheck``): a bad path, no bag, a
+  truncated or corrupt .mcap, a CRC failure, a FIFO, a ``--rate`` outside
+  ``RATE_MIN``..``RATE_MAX``, an unknown ``--topics`` entry, metadata disagreeing with the .mcap or
+  nothing to play: one line on stderr, exit 2; wrong counts in ``metadata.yaml`` are a warning.
+- Exit 0 when played (unless ``--loop``); SIGINT, SIGTERM, SIGHUP stop it alike, a cut playback ends
+  with ``played K of N messages``. In full: docs/MODULES.md, "The player in full".
 """
 
 from __future__ import annotations

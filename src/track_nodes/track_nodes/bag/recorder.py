@@ -21,7 +21,7 @@ Usage::
   removes a bag with no message.
 - A callback also takes the messages queued behind its own (``bag.batching``, ≤ ``TAKE_LIMIT``) and
   appends them as one batch (``bag.durable.write_many``, ``bag.mcap_file``, chunk CRCs). In full:
-  docs/DESIGN.md, "The recorder in full"; throughput: docs/results/recorder.md.
+  docs/MODULES.md, "The recorder in full"; throughput: docs/results/recorder.md.
 """
 
 from __future__ import annotations

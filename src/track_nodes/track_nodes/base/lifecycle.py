@@ -1,11 +1,9 @@
 """Managed (lifecycle) nodes: ``managed(NodeClass)`` is the node run through the ROS 2 lifecycle states.
 
 The ``lifecycle_<executable>`` executables (``registry``) are the estimator nodes made managed here,
-in one place, for an orchestrator (``ros2 lifecycle set``, launch_ros' ``LifecycleNode``, nav2's
-lifecycle manager) that brings a system up in order. The plain executables stay as they are. The
-states and transitions are rcl's (``rclpy.lifecycle``; the services ``~/change_state``,
-``~/get_state``, ``~/get_available_states``, ``~/get_available_transitions`` and
-``~/get_transition_graph`` of ``lifecycle_msgs``):
+for an orchestrator (``ros2 lifecycle set``, launch_ros' ``LifecycleNode``, nav2's lifecycle
+manager); the plain executables stay as they are. States, transitions and services are rcl's
+(``rclpy.lifecycle``, ``lifecycle_msgs``: ``~/change_state``, ``~/get_state``, ...):
 
 - **unconfigured** (after construction): the parameters are declared and checked as in the plain
   node (a bad one still stops the process with one line), the node answers the lifecycle services

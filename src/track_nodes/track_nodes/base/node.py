@@ -1,46 +1,25 @@
 """``TrackNode``, the base of every node, and ``run_node``, the ``main`` of every executable.
 
 A node subclass names itself (``DEFAULT_NAME``), names its parameter dataclass (``Params``,
-``base/params.py``) and, in
-``setup()``, creates its core object and its endpoints; the base does the rest:
-
-- the standard constructor (``node_name``, ``context``, ``parameter_overrides``, ``cli_args``,
-  as the launcher and the tests call it), then every field of ``Params`` declared, the checked values
-  in ``self.p`` (an instance of ``Params``);
-- ``main(argv)`` (``base/run.py``): ``rclpy.init`` → build the node → spin until SIGINT, SIGTERM or SIGHUP (alike:
-  ``base.signals``) or shutdown → destroy (which closes files) → exit code. A bad parameter or bad input at start
-  (``ValueError``, ``OSError``) prints one line on stderr and exits 2, without a traceback.
-
-Refused input goes through ``refuse(topic, reason)``: counted per reason, logged at most once
-per reason every ``warn_throttle`` seconds with the count (``base.refusals``), and published on
-``/diagnostics`` (one ``DiagnosticStatus`` named after the node, a key per topic and reason) at
-most once a second while refusals happen, so ``ros2 topic echo /diagnostics`` shows them.
-
-Topics: the names of ``track_msgs_py.topics`` are given as they resolve in the root namespace;
-``create_publisher``/``create_subscription``/``count_publishers`` make them relative
-(``topics.relative``), so ``__ns`` and remapping apply. A name from a user's parameter (fusion's
-track topics) is taken as given (``as_given=True``): a leading '/' keeps it absolute. Log lines
-and ``/diagnostics`` keys name the resolved topic (``resolved``). Every endpoint takes rclpy's QoS
-overrides (``QoSOverridingOptions.with_default_policies``: history, depth, reliability, durability),
-read-only parameters such as ``-p qos_overrides./demo/track.publisher.depth:=50``.
-
-Display twins: a publisher of one of ``topics.DISPLAY_TWINS`` (Odometry or PointStamped, which Foxglove's 3D
-panel does not draw) publishes each message's drawable twin on ``<topic>/pose`` too (``base/twins.py``),
-unless the name is taken as given (a player's replay, whose recording holds the twins).
-
-Transforms (``track_msgs_py.tf``): ``send_transforms(*ts)`` publishes dynamic transforms on ``/tf``;
-``add_static_transforms(*ts)`` adds fixed ones (a later one with the same child frame replaces the
-earlier) and republishes ALL of the node's static transforms as one message on the latched
-``/tf_static``, as tf2_ros's StaticTransformBroadcaster does, stamped with the node clock's now (as
-its users do): under ``use_sim_time`` before the first ``/clock`` (now is 0, no time yet) the
-message waits for the clock's first reading, so no bag holds a 1970 static transform. Both
-publishers are made at the first call, so a node that never broadcasts has no /tf endpoint; a node
-that will broadcast calls ``advertise_transforms()`` in ``setup()``, so that a recorder (and the
-launcher, which waits for the recorder's subscriptions before it starts the clock) sees /tf before
-the first transform is sent.
-
-``python -m track_nodes <executable>`` (what the ``ros2 run`` shims call) looks the class up in
-``track_nodes.registry`` and calls ``main``.
+``base/params.py``) and, in ``setup()``, creates its core object and its endpoints; the base does
+the rest:
+- the standard constructor (``node_name``, ``context``, ``parameter_overrides``, ``cli_args``), then
+  every field of ``Params`` declared, the checked values in ``self.p``;
+- ``main(argv)`` (``base/run.py``): ``rclpy.init`` → build → spin until SIGINT, SIGTERM or SIGHUP
+  (``base.signals``) or shutdown → destroy → exit code; a bad parameter or input at start
+  (``ValueError``, ``OSError``) is one line on stderr and exit 2, no traceback;
+- ``refuse(topic, reason)``: counted per kind, a new kind logged at once, the rest in one line per
+  ``WARN_THROTTLE`` s (5; ``base.refusals``), and on ``/diagnostics`` at most once a second;
+- topics: ``track_msgs_py.topics`` names are made relative (``topics.relative``) so ``__ns`` and
+  remapping apply; a user's name is taken ``as_given``; every endpoint takes rclpy's QoS overrides
+  (``-p qos_overrides./demo/track.publisher.depth:=50``);
+- display twins: a publisher of ``topics.DISPLAY_TWINS`` also publishes ``<topic>/pose``
+  (``base/twins.py``), unless taken as given;
+- transforms (``track_msgs_py.tf``): ``send_transforms`` on ``/tf``; ``add_static_transforms``
+  republishes all the node's static transforms on the latched ``/tf_static`` (stamped now, waiting
+  for the first ``/clock`` under sim time); ``advertise_transforms()`` in ``setup()`` makes /tf
+  visible before the first transform. ``python -m track_nodes <executable>`` looks the class up in
+  ``track_nodes.registry`` and calls ``main``. In full: docs/MODULES.md, "TrackNode in full".
 """
 
 from __future__ import annotations

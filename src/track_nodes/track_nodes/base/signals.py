@@ -1,41 +1,21 @@
 """Stop signals: SIGTERM and SIGHUP end a process exactly as SIGINT (Ctrl-C) does.
 
-``timeout``, systemd, ``docker stop`` and CI cancellation send SIGTERM; closing a terminal sends
-SIGHUP. Their default action kills the process at once, so a recorder would leave an .mcap without
-summary and no ``metadata.yaml``. ``stop_on(signal.SIGTERM, signal.SIGHUP)`` gives each of them a
-handler that raises SIGINT in the process: whatever handles SIGINT then runs, unchanged (in a node
-process, the stop below: the nodes are destroyed in order, the recorder closing its bag, and the
-context is shut down last; elsewhere, Python's ``KeyboardInterrupt``).
+``stop_on(signal.SIGTERM, signal.SIGHUP)`` gives each of them a handler that raises SIGINT in the
+process: whatever handles SIGINT then runs, unchanged (in a node process the stop below; elsewhere
+Python's ``KeyboardInterrupt``). Without it ``timeout``, systemd, ``docker stop`` or a closed
+terminal would kill a recorder before it writes its summary and ``metadata.yaml``.
 
-A node process (``base/run.py``) initialises rclpy without its signal handlers
-(``SignalHandlerOptions.NO``). rclpy's handler wakes a thread of its own that shuts every context down
-at once, while the main thread goes on building or destroying the nodes: that race crashed the
-process (SIGSEGV in a C thread) at about one stop in seven with four nodes stopping at once. Here the
-main thread alone stops: the spin loop below ends, the nodes are destroyed, then the context.
-
-Python runs a signal handler in the main thread between two bytecodes, so a main thread blocked
-in C (an executor waiting with no timeout) would not see it; ``spin(executor)`` spins with a short
-timeout (``POLL`` wall seconds) for that reason. A loop of one's own must wake up as often.
-
-Teardown. Once a process is stopping, every further stop signal is a count (``HELD.count``), not an
-exception: ``ros2 launch`` at Ctrl-C delivers the terminal's SIGINT and then its own, and SIGTERM 5 s
-later; the second one used to land in the middle of destroying the nodes (Python's
-``KeyboardInterrupt`` left teardown half done: exit 130, "process has died"). So the
-Python handler of SIGINT that ``stop_on`` installs holds the stops (``hold_stops()``) before it raises
-the ``KeyboardInterrupt`` of the first one: no instant is left between the first stop and the hold, not
-even the few bytecodes before a ``finally``. Teardown is bounded by the DDS alarm
-(``base/teardown.py``), so nothing is lost.
-
-Spinning. A ``KeyboardInterrupt`` raised wherever the main thread happens to be can land inside an
-object's ``__init__`` (an executor's ``Task`` for the next callback): the half-built object's
-``__del__`` then prints a traceback, and a callback cut in the middle leaves its node's state half
-updated. So while ``spin(executor)`` runs, the first stop only marks the process as stopping; the loop
-ends after the callback in progress (a turn waits at most ``POLL``) and raises the
-``KeyboardInterrupt`` there. Outside ``spin`` (building the nodes, a tool's own loop) it raises at once.
-
-A signal that is ignored when ``stop_on`` is called (``nohup`` ignores SIGHUP) stays ignored. SIGINT
-is handled even where it was ignored (a non-interactive shell's ``&`` does that): a process that
-stops on SIGTERM stops on SIGINT too.
+- A node process (``base/run.py``) initialises rclpy without its signal handlers
+  (``SignalHandlerOptions.NO``): the main thread alone stops (spin ends, nodes destroyed, then the
+  context).
+- ``spin(executor)`` spins with a ``POLL`` wall-second timeout so the main thread sees a signal; a
+  loop of one's own must wake as often. While it runs, the first stop only marks the process as
+  stopping; the loop ends after the callback in progress and raises ``KeyboardInterrupt`` there.
+  Outside ``spin`` it raises at once.
+- Once stopping, every further stop signal is counted (``HELD.count``, ``hold_stops()``), not
+  raised, so teardown is never cut short (it is bounded by ``base/teardown.py``).
+- A signal ignored when ``stop_on`` is called (``nohup``'s SIGHUP) stays ignored; SIGINT is handled
+  even where it was ignored. Why each rule: docs/MODULES.md, "Stop signals".
 """
 
 from __future__ import annotations

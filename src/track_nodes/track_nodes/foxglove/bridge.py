@@ -5,45 +5,20 @@ Usage::
     track-foxglove [--port 8765] [--address 127.0.0.1] [-e REGEX] [--clock auto|sim|wall] [--ros-args ...]
     ros2 run track_nodes foxglove_bridge --ros-args -p port:=8765 -p address:=0.0.0.0
 
-then in Foxglove: *Open connection → Foxglove WebSocket → ws://HOST:8765*. Why not the C++
-``foxglove_bridge``: it is not on PyPI, and this package set installs from PyPI only; the server
-here is the Foxglove SDK's own (``foxglove-sdk``), which speaks the v1 messages of the Foxglove
-WebSocket protocol under the subprotocol name ``foxglove.sdk.v1`` (as the C++ bridge does from 3.0;
-the older name ``foxglove.websocket.v1`` is refused). Clients meet it through a WebSocket front
-(``foxglove/front.py``) that refuses another subprotocol in words and answers a client's close frame.
+then in Foxglove: *Open connection → Foxglove WebSocket → ws://HOST:8765*. The server is the
+Foxglove SDK's (``foxglove-sdk``, PyPI; the C++ bridge is not), subprotocol ``foxglove.sdk.v1``
+behind a front (``foxglove/front.py``) that refuses another subprotocol in words.
 
-- What is served: every topic of the graph that has a publisher (``regex``: only topics matching
-  it, ``re.search``; /tf and /tf_static included like any other), each as one channel with message
-  encoding ``cdr`` and a ``ros2msg`` schema named ``pkg/msg/Type``. The schema text is the full
-  definition with its dependencies concatenated (``MSG: pkg/Type`` sections, the MCAP/Foxglove
-  convention), from the same type store the recorder embeds in its bags (``bag.typestore``), so
-  ``track_msgs`` types decode too. A type the store does not know is left out with one warning.
-- Discovery: the graph is polled every ``discovery_period`` seconds (steady clock, also under
-  ``use_sim_time``); a new topic is advertised as it appears. A topic whose publishers go keeps its
-  channel, under the same id, for ``withdraw_after`` seconds, and is unadvertised only then: a node
-  restarted within that time is served again on the channel the clients already subscribe to. A
-  channel closed and re-created on every restart made clients resubscribe to a new id at once, and
-  the SDK's server answers a subscription that arrives right after the advertisement with "Unknown
-  channel ID" (it records the channel for the client only after sending the advertisement), which
-  left that panel dead until the user reconnected. A topic that comes back with another type gets a
-  new channel. A topic with several types is served with its first one (one warning).
-- Data: subscriptions are raw (the CDR bytes are forwarded as received, never deserialised), and
-  made only while a Foxglove client subscribes to the channel (the SDK's listener), so an unwatched
-  topic costs nothing. QoS as the recorder's (``bag.api.recording_qos``: best effort if any
-  publisher is, transient-local if all are) with a live queue (``LIVE_DEPTH``): a client that falls
-  behind loses the oldest, the ROS side never waits for it. A transient-local topic (/tf_static, the
-  sensor layout) is subscribed anew at every client subscription, so each client gets the latched
-  messages. While a topic has no publisher its subscription stays, so DDS matches the next
-  publisher; one whose QoS it does not suit (best effort, or transient-local) gets a new one.
-- Time (``clock``, as ``track-record --clock``): ``auto`` (the default) follows ``/clock`` once it is
-  published, as a bridge beside a scenario on /clock should: log times are the latest ``/clock``
-  value and that time is broadcast to the clients (the ``time`` capability, so Foxglove's timeline
-  is the scenario's); before any ``/clock``, and again once no node publishes it, log times are the
-  wall time of reception and the wall time is broadcast every ``TIME_PERIOD`` s. ``sim`` (or
-  ``use_sim_time:=true``): the node's clock under ``use_sim_time``. ``wall``: wall time and no time
-  capability (Foxglove then takes the log times as they come).
-- Stop: SIGINT, SIGTERM and SIGHUP (``base.signals``) stop the server and the node cleanly, exit 0;
-  a port already in use is one line and exit 2.
+- Served: every topic with a publisher (``regex``: ``re.search``), one channel each, encoding
+  ``cdr``, a ``ros2msg`` schema from ``bag.typestore`` (unknown types left out with one warning).
+- Discovery every ``discovery_period`` s (steady clock); a topic whose publishers go keeps its
+  channel id for ``withdraw_after`` s; another type gets a new channel.
+- Raw subscriptions, made only while a client subscribes; QoS as the recorder's with a live queue
+  (``LIVE_DEPTH``); transient-local topics resubscribed per client subscription.
+- Time (``clock``): ``auto`` follows ``/clock`` once published (broadcast to clients), else wall
+  time every ``TIME_PERIOD`` s; ``sim``: the node's clock; ``wall``: no time capability.
+- SIGINT, SIGTERM, SIGHUP stop cleanly (exit 0); a port in use is one line, exit 2. In full:
+  docs/MODULES.md, "The Foxglove bridge in full".
 """
 
 from __future__ import annotations

@@ -1,44 +1,26 @@
 """``ais_nmea_source``: live AIS from NMEA 0183 sentences (UDP or a file) as tracks in ``map``, one per MMSI.
 
-Why: a real maritime picture is fed by AIS receivers, which send ``!AIVDM``/``!AIVDO`` sentences
-over UDP (or write them to capture files); ``ais_source`` only simulates a radar from a CSV.
+Input: a UDP socket on ``udp_address``:``udp_port`` (0: none; 10110 the usual NMEA port) and/or a
+``file`` read ``file_lines`` lines per ``poll``; tag blocks and receiver times allowed
+(``track_nodes.fusion.nmea``: pyais, multi-part assembly bounded by ``max_pending`` and
+``fragment_timeout``). Read without blocking on a steady timer every ``poll`` s (``max_datagrams``).
 
-Input. A UDP socket bound to ``udp_address``:``udp_port`` (0: none; 10110 is the usual NMEA
-port: ``nc -u 127.0.0.1 10110 < capture.nmea`` feeds it), and/or a ``file`` of sentences read
-``file_lines`` lines per ``poll``. Lines may carry NMEA 4.0 tag blocks or receiver timestamps
-(``track_nodes.fusion.nmea``, which decodes with pyais and assembles multi-part messages in a
-bounded buffer: ``max_pending`` groups, ``fragment_timeout``). The socket is read without
-blocking on a steady-clock timer every ``poll`` seconds (at most ``max_datagrams`` a tick), so
-the node needs no thread and keeps reading under a paused ``/clock``.
+Output: each position report (types 1, 2, 3, 18, 19) alone in a TrackArray on ``ais/nmea/tracks``
+(``prefix``): id = MMSI, position in ``map`` through the run's datum, σ 5 m (high accuracy) or 15 m,
+velocity from SOG/COG or not estimated (``track_core.ais.live``); stamp ``arrival`` (default) or
+``receiver``; ``own_ship:=false`` drops ``!AIVDO``. Static data (types 5, 19, 24) go to the latched
+``ais/nmea/ships`` (DiagnosticArray, at most every ``ships_period`` s).
 
-Output. Each position report (types 1, 2, 3, 18, 19) is published when it is decoded, alone in a
-``track_msgs/TrackArray`` on ``ais/nmea/tracks`` (``prefix``): track id = the MMSI, position in
-``map`` through the run's datum, covariance from the position-accuracy flag (σ 5 m high, 15 m
-low), velocity from SOG/COG or not estimated (``track_core.ais.live``). Stamp: ``stamp:=arrival``
-(default) the node clock when the line arrived; ``receiver`` the line's receiver time when it has
-one (a replayed capture keeps its own times). ``own_ship:=false`` drops ``!AIVDO`` (the
-receiving ship's own reports). Static and voyage data (types 5, 19, 24: name, type, call sign)
-go to the latched ``ais/nmea/ships`` (DiagnosticArray, one status per MMSI, republished at most
-every ``ships_period`` s when something changed): Track.msg has no slot for them.
+Datum (``track_core.ais.datum``, ``track_nodes.fusion.map_datum``): ``origin`` [lat, lon] or
+``[0.0]``: the latched ``map_datum`` heard within ``datum_wait`` s, else the first fix, then
+published (NavSatFix) and as ``earth`` → ``map`` on ``/tf_static``. Datums differing by > 1 cm
+conflict: every report refused, naming both.
 
-The datum (``track_core.ais.datum``, wired by ``track_nodes.fusion.map_datum``): ``origin`` [lat,
-lon], or ``[0.0]``: the datum already on ``map_datum`` (latched), else this node's first fix. The
-node first listens on ``map_datum`` for ``datum_wait`` seconds (reading no input meanwhile; UDP
-datagrams wait in the socket), then publishes the datum it uses there (NavSatFix,
-transient-local) and as ``earth`` → ``map`` on ``/tf_static``, unless it took the run's, so every
-node and every bag agrees where ``map`` is. Two datums that differ (by more than 1 cm) conflict:
-the one heard first is the run's (two published at once: the earlier header stamp, then the
-smaller latitude, then longitude); a node whose ``origin`` is not the run's datum refuses every
-report, with a reason naming both.
-
-Refused input (``TrackNode.refuse``, one throttled line per kind, counted on /diagnostics) under
-``<prefix>/udp`` or ``<prefix>/file``: bad checksum, truncated or malformed sentences, unknown
-message types, out-of-range fields, reports of an MMSI older than its last one, and every report
-while the datum conflicts. Valid messages of other types (base stations, aids to navigation) are
-counted, not refused. A feed silent for ``silence`` seconds is reported once (a warning and a
-WARN status on /diagnostics) and again when it resumes. Memory is bounded: the fragment buffer
-(above) and the ship table (``max_ships``, the least recently heard forgotten first, and ships
-silent for ``forget_after`` s).
+Refused (``TrackNode.refuse`` under ``<prefix>/udp`` or ``<prefix>/file``): bad checksum, truncated
+or malformed sentences, unknown types, out-of-range fields, an MMSI's older report, any report under
+a datum conflict; other valid types are counted. Silence for ``silence`` s is reported once and on
+resuming. Memory bounded: the fragment buffer, ``max_ships`` (least recently heard forgotten first),
+``forget_after``. In full: docs/MODULES.md, "The ais_nmea_source node in full".
 """
 
 from __future__ import annotations

@@ -1,52 +1,29 @@
 """``ais_source``: one simulated surveillance source observing the real Solent AIS ships, on /clock.
 
-At start the node reads the AIS file (``file``; default the Solent file under
-``track_core.data.data_dir('ais_solent')``; bad rows are skipped, counted and logged in one
-line), projects it to east/north metres through the run's map datum (``track_core.ais.datum``:
-transverse Mercator about one origin, PROJ) and simulates this source's reports
-(``track_core.ais.sources``) for the data window [``start``, ``start`` + ``duration``] seconds
-after the first AIS report. The whole second of node time at the first timer tick (the origin) is
-data time ``start``: a report of data time τ is stamped origin + τ − ``start`` and published when
-the node clock reaches its stamp, so the replay runs as fast as ``/clock`` (the launcher's
-``--rate``).
+At start the node reads the AIS file (``file``; default the Solent file; bad rows skipped, counted,
+logged in one line; ``columns`` maps another export), projects it through the run's map datum
+(``track_core.ais.datum``: transverse Mercator, PROJ) and simulates this source's reports
+(``track_core.ais.sources``) for data time [``start``, ``start`` + ``duration``] after the first
+report. The first timer tick is data time ``start``: a report of data time τ is stamped origin + τ −
+``start`` and published when the node clock reaches it (as fast as ``/clock``).
 
-The source reports every ship it sees at ``offset + k·period`` (node time), each report missing
-with probability ``dropout``, as the true position plus Gaussian noise with its own 2σ ellipse
-(1σ ``sigma_major`` × ``sigma_minor``, major axis ``orientation``: ``fixed`` at ``bearing_deg``,
-``radial`` across the line of sight from ``site`` [lat, lon]; ``[0.0]``: on the convex hull of the
-traffic at ``site_bearing_deg``, or ``random`` per report). Ships beyond ``max_range`` of the site
-(0: no limit) are not seen. ``columns`` maps another AIS export's columns and ``max_gap`` 0
-derives each ship's gap limit from its report interval (``track_core.ais.reader``, ``.sources``).
+Reports at ``offset + k·period`` (node time), each missing with probability ``dropout``: the true
+position plus Gaussian noise with its 2σ ellipse (1σ ``sigma_major`` × ``sigma_minor``;
+``orientation`` ``fixed`` at ``bearing_deg``, ``radial`` from ``site`` (``[0.0]``: on the traffic's
+hull at ``site_bearing_deg``) or ``random``); ships beyond ``max_range`` (0: none) unseen;
+``max_gap`` 0 derives each ship's gap limit. With ``offset`` 4.5 s, ``period`` 5 s a fusion node
+ticking every 5 s with ``stale_after`` 1 s scores exactly the reports 0.5 s before each tick.
 
-Topics (``prefix`` e.g. ``/ais/radar``, see ``track_msgs_py.topics``):
+Topics (``prefix`` e.g. ``/ais/radar``): ``<prefix>/reports`` (TrackArray in ``map``, one per
+instant, local ids ``id_prefix`` + 3 digits, velocity not estimated; the MMSI never sent),
+``<prefix>/markers`` (2σ discs and labels), ``<prefix>/truth`` (with ``publish_truth``:
+DiagnosticArray, transient-local, once, ``mmsi`` and ``reports`` per ``<prefix>/reports/<local
+id>``).
 
-- ``<prefix>/reports`` (``track_msgs/TrackArray``): one message per report instant holding every
-  ship reported at it, ``header.frame_id`` ``map``, each track under the source's own local track
-  id (``id_prefix`` + 3 digits, shuffled) in ``tracks[].id``, its position and 2σ-ellipse
-  covariance with the velocity not estimated (``track_arrays.position_tracks``). The MMSI is
-  never sent. The fusion node takes it in ``track_array_topics`` (track id ``<topic>/<local id>``).
-- ``<prefix>/markers`` (MarkerArray): the same instant drawn, a 2σ disc and an id label per ship
-  (``track_msgs_py.markers.tracks``), living two report periods: what RViz and Foxglove show.
-- ``<prefix>/truth`` (DiagnosticArray, transient-local, evaluation only; with
-  ``publish_truth``): once, stamped at the origin (the node clock's first reading: under sim time
-  the first ``/clock``), one status per local track named like the fusion node's
-  track id ``<prefix>/reports/<local id>``, values ``mmsi`` and ``reports``
-  (``track_msgs_py.records.fusion.AisTruthEntry``).
-
-The datum (``track_nodes.fusion.map_datum``). ``origin`` [lat, lon] is this node's datum; a run
-whose datum (latched on ``map_datum``, published earlier by another node) differs is a conflict:
-the node refuses every report instant with a reason naming both. ``[0.0]``: the run's datum when
-one is heard before this node's first report, else the data centroid (median latitude and
-longitude), which the node then publishes on ``map_datum`` and as ``earth`` → ``map`` on
-``/tf_static``. Two sources of one file share the centroid, so their ``map`` frames agree; a
-source of another file takes the first one's datum (its reports re-simulated about it, the same
-seed), as long as it hears it before its first report.
-
-The stamps ``offset + k·period`` let a fusion node that ticks at multiples of its own period
-see one fresh instant per tick: with ``offset`` = 4.5 s, ``period`` = 5 s and a fusion tick
-every 5 s with ``stale_after`` = 1 s, each tick scores exactly the reports stamped 0.5 s
-before it (position reports are held, not predicted, so stale reports of moving ships would
-be scored against fresh ones).
+Datum (``track_nodes.fusion.map_datum``): ``origin`` [lat, lon] is this node's; one latched on
+``map_datum`` that differs is a conflict (every instant refused, naming both). ``[0.0]``: the run's
+datum if heard before the first report, else the data centroid, then published on ``map_datum`` and
+as ``earth`` → ``map`` on ``/tf_static``. In full: docs/MODULES.md, "The ais_source node in full".
 """
 
 from __future__ import annotations

@@ -1,64 +1,29 @@
 """``fusion``: geofeasibility scoring and track-to-track association of every pair of tracks.
 
-Inputs (each message validated: finite, symmetric PSD covariance, known frame, non-decreasing
-stamp per track, the ``InputPolicy`` bounds, no stamp beyond ``stamp_horizon``/``stamp_lead`` of
-the node clock; a bad one is refused with one throttled line per reason and counted on
-/diagnostics, state untouched):
+Inputs, each validated (finite, symmetric PSD covariance, known frame, non-decreasing stamp per
+track, ``InputPolicy`` bounds, ``stamp_horizon``/``stamp_lead``); a bad one is refused with one
+throttled line per reason, counted on /diagnostics, state untouched: ``track_array_topics``
+(TrackArray, track id ``<topic>/<track.id>``; a bad track refused alone), ``odometry_topics`` (track
+id ``<topic>/<child_frame_id>``, REP-105), ``pose_topics`` (one track a topic),
+``pose_track_topics`` (local id in ``header.frame_id`` as ``"<frame>#<local id>"``) and
+``navsatfix_topics`` (placed in ``map`` through the datum latched on ``map_datum``; refused without
+a datum or a covariance).
 
-- ``track_array_topics`` (track_msgs/TrackArray, one per source per tick, reliable: the topic is the
-  source, the track id ``<topic>/<track.id>``; a bad track of an array is refused alone,
-  ``track_problems``);
-- ``odometry_topics`` (nav_msgs/Odometry, track id ``<topic>/<child_frame_id>``);
-- ``pose_topics`` (PoseWithCovarianceStamped, one track per topic, its namespace the source);
-- ``pose_track_topics`` (PoseWithCovarianceStamped of many tracks of one source, the topic: local
-  id in ``header.frame_id`` as ``"<frame>#<local id>"``, ``topics.track_frame_id``): an older input
-  kept for such sources; that frame_id names no frame (no viewer can draw it), so our own sources
-  of many tracks (``ais_source``) publish a TrackArray;
-- ``navsatfix_topics`` (sensor_msgs/NavSatFix, one track per topic, its namespace the source): a
-  GNSS fix (the own ship's GPS, a buoy) placed in ``map`` through the run's datum
-  (``track_nodes.fusion.map_datum``: the one latched on ``map_datum``; the fusion node never fixes
-  one), with its east/north position covariance turned by the meridian convergence
-  (``track_msgs_py.ais.navsatfix_to_position``). Refused with a reason while no datum is known or
-  the run's datums conflict, and when the fix has no covariance (``COVARIANCE_TYPE_UNKNOWN``).
+Every input is scored in ``world_frame`` (``map``), moved there at its stamp through ``/tf`` and
+``/tf_static`` (``track_msgs_py.tf_buffer``; refused when its frame is off the tree or the transform
+is older than ``tf_tolerance``). Same-source pairs only with ``same_source_pairs``; velocities with
+``not_estimated`` variance are ignored. Schedule ``timer``: score every tick of a ``rate`` Hz timer;
+``stamps``: score t_k = k/``rate`` once every input has a report stamped ≥ t_k + 1/``rate`` (or
+``stamps_max_wait`` passed; ``track_core.fusion.StampSchedule``), so a replayed bag reproduces every
+score. ``track_core.fusion.PairAssociator`` predicts each track to the instant, scores the gate's
+candidates with ``method`` (eqs. 49–71), combines the last ``window`` instants (§1) and fuses the
+associated pairs by covariance intersection.
 
-Frames. Every input is scored in ``world_frame`` (``map``). An input in another frame (a radar's
-own frame, ``odom``, ``utm``) is moved into it at its stamp through a transform buffer fed by
-``/tf`` and ``/tf_static`` (``track_msgs_py.tf_buffer``, pytransform3d): position, covariance
-and, for a frame that moves (a radar on a ship), the velocity with the frame's own motion. An input
-whose frame is not on the tree, or whose transform is older than its stamp by more than
-``tf_tolerance`` (or older than the ``tf_history`` kept), is refused with the frame's name and
-counted. Odometry is read per REP-105 (pose in ``header.frame_id``, twist in ``child_frame_id``,
-``track_msgs_py.odometry``).
-
-Pairs within one source are not scored unless ``same_source_pairs``. Velocities with
-``not_estimated`` variance are ignored (the track is held like a position report).
-
-Schedule. ``timer`` (default): score at every tick of a ``rate`` Hz timer on the node clock.
-``stamps``: score the data instants t_k = k/``rate`` once every input topic has delivered a report
-stamped ≥ t_k + 1/``rate`` (or ``stamps_max_wait`` of data time has passed without one), with the
-reports stamped ≤ t_k (``track_core.fusion.StampSchedule``): a replayed bag reproduces every
-score, and nodes in other processes give the scores of a lock-step run whatever the arrival order.
-The core (``track_core.fusion.PairAssociator``) predicts each live track to the instant, scores
-the gate's candidates with ``method`` (eqs. 49–71), combines each pair's last ``window`` instants
-(§1) and fuses the associated pairs by covariance intersection.
-
-| topic | type | content |
-|---|---|---|
-| /fusion/scores | track_msgs/PairScoreArray | one array per instant: the pairs (``publish_pairs``) and the rule |
-| /fusion/associations | track_msgs/PairScoreArray | the associated pairs (``threshold``, ``release_ratio``) |
-| /fusion/fused | track_msgs/FusedTrackArray | covariance intersection of each associated pair |
-| /fusion/markers | MarkerArray | 2σ ellipses of tracks and fused pairs, links, at ``display_rate`` |
-
-Shards (``region``, ``region_margin``): a node that holds one rectangle of a large picture keeps
-only the tracks reported within the margin of it (a track leaving it is forgotten) and publishes
-the pairs whose midpoint lies in it; with ``schedule:=stamps`` and the margin of
-``track_core.fusion.region.margin_needed`` the shards of a tiling publish exactly one node's pairs
-(``track-bench fusion-shards``).
-
-``publish_pairs:=nonzero`` publishes only the pairs with a positive instant or combined score or
-associated (every other pair scored 0 throughout); ``all`` lists every pair of different sources
-(n²/2 a tick: for small pictures). Conversions: ``track_msgs_py.records.fusion``,
-``track_msgs_py.track_arrays``, ``track_msgs_py.markers.fusion``.
+Outputs: ``/fusion/scores`` and ``/fusion/associations`` (PairScoreArray; ``publish_pairs``:
+``nonzero`` or ``all``; ``threshold``, ``release_ratio``), ``/fusion/fused`` (FusedTrackArray),
+``/fusion/markers`` (2σ ellipses and links at ``display_rate``). Shards (``region``,
+``region_margin``): keep the tracks within the margin, publish the pairs whose midpoint is inside.
+In full: docs/MODULES.md, "The fusion node in full".
 """
 
 from __future__ import annotations
@@ -103,7 +68,7 @@ from track_msgs_py.validate import (
 )
 from track_nodes.base import ParameterError, TrackNode
 from track_nodes.fusion.map_datum import MapDatumLink
-from track_nodes.fusion.params import FusionParams
+from track_nodes.fusion.params import FusionParams, associator_config
 
 # Best effort accepts both reliable and best-effort publishers; depth covers a few rate periods.
 TRACK_QOS = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=50, reliability=ReliabilityPolicy.BEST_EFFORT)
@@ -134,13 +99,7 @@ class FusionNode(TrackNode):
             raise ParameterError(f'parameter region: {exc}') from None
         self.shard = ShardInput(self.region)
         streams = tuple(self.resolve_topic_name(t) for t in (*arrays, *odo, *pose, *multi, *fixes))
-        self.core = PairAssociator(p.method, p.threshold, p.combine, p.window, n_samples=p.n_samples,
-                                   same_source_pairs=p.same_source_pairs, stale_after=p.stale_after,
-                                   max_prediction=p.max_prediction, q_s=p.q_s, seed=p.seed,
-                                   stamp_rate=p.rate if p.schedule == 'stamps' else None,
-                                   stamp_streams=streams, stamp_max_wait=p.stamps_max_wait, floor=p.floor,
-                                   release_ratio=p.release_ratio, prior_weight=p.prior_weight,
-                                   prior_score=p.prior_score)
+        self.core = PairAssociator(associator_config(p), stamp_streams=streams)
         self.markers = FusionMarkers(lifetime=2.0 / min(p.rate, p.display_rate))
         self.stamps = StampMonotonic()
         self.policy = InputPolicy(horizon=p.stamp_horizon, lead=p.stamp_lead)
@@ -175,12 +134,11 @@ class FusionNode(TrackNode):
     def validate_params(self, p) -> None:
         if p.schedule == 'stamps' and p.rate != self.p.rate:
             raise ParameterError('parameter rate is fixed with schedule=stamps (it sets the scoring instants k/rate)')
+        associator_config(p)
 
     def apply_params(self, changed: set[str]) -> None:
-        p, core = self.p, self.core
-        core.threshold, core.release_ratio = float(p.threshold), float(p.release_ratio)
-        core.prior_weight, core.prior_score = float(p.prior_weight), float(p.prior_score)
-        core.table.stale_after, core.table.max_prediction = float(p.stale_after), float(p.max_prediction)
+        p = self.p
+        self.core.tune(associator_config(p))
         self.refusals.throttle = float(p.warn_period)
         self.policy = InputPolicy(horizon=p.stamp_horizon, lead=p.stamp_lead)
         if 'rate' in changed and self.timer is not None:

@@ -19,10 +19,8 @@ counts by. Times: a report carries the receiver time of its (first) sentence whe
 one, else ``None`` (the node stamps it on arrival).
 
 Multi-part messages (types 5 and 19 take two sentences) are assembled per (channel, sequence id,
-fragment count): the pending groups are bounded (``max_pending``, the oldest dropped first) and
-a group not completed within ``fragment_timeout`` seconds of its first fragment is dropped; both
-are counted (``dropped_fragments``), so a capture of a whole day, or a hostile stream of first
-fragments, cannot grow memory.
+fragment count), bounded by ``max_pending`` groups (oldest dropped first) and ``fragment_timeout``
+seconds, both counted (``dropped_fragments``): no stream can grow memory.
 
 Message types used: 1, 2, 3 (class A position), 18, 19 (class B position; 19 also carries name
 and type), 5 (class A static and voyage data), 24 (class B static data, parts A and B). The

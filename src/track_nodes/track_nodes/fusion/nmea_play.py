@@ -1,37 +1,23 @@
 """Play an NMEA 0183 AIS capture over UDP at its own pace: the receiver a capture file stands in for.
 
-Why: a live AIS source is tried with a live feed, and a recorded capture is the nearest thing to
-one that a test, a scenario or a user without a receiver has. ``nc -u HOST PORT < capture.nmea``
-sends a whole file at once (no pacing, and lines glued into large datagrams); this sends one
-sentence per datagram when its time comes, as receivers and decoders do.
+One sentence per datagram when its time comes, as receivers do (``nc -u HOST PORT < capture.nmea``
+sends the whole file at once).
 
-Pacing. A line's time is its receiver time (``track_nodes.fusion.nmea.split_line``: the tag
-block's ``c:``, a timestamp before the sentence or after its checksum). The first timed line is
-played at once; a line of receiver time t goes out (t − t_first) / ``rate`` seconds later (gaps
-longer than ``max_gap`` are cut to it, so a capture with a night in it does not stall). A line
-without a time goes out with the line before it; a capture without any times goes out at
-``untimed_rate`` lines a second. Lines that are no sentence at all are sent anyway: the source
-refuses and counts them, which is what a hostile or damaged capture should show.
+Pacing: a line's time is its receiver time (``track_nodes.fusion.nmea.split_line``: tag block
+``c:``, or a timestamp before the sentence or after its checksum); the first timed line goes at
+once, a line of time t (t − t_first) / ``rate`` s later (gaps cut to ``max_gap``); an untimed line
+goes with the one before it, a capture without times at ``untimed_rate`` lines a second. Lines that
+are no sentence are sent anyway (the source refuses and counts them). ``restamp`` (the node's
+default, ``--restamp``): each line gets a fresh tag block ``c:`` (ms) of the time it is played, so
+``ais_nmea_source`` with ``stamp:=receiver`` keeps the capture's spacing on the run's clock.
 
-Restamping (``restamp``, the default in the node, ``--restamp`` on the command line): each line is
-sent with a fresh tag block ``c:`` (milliseconds) holding the time it is played at on the player's
-clock, in place of its old tag block or timestamp: ``ais_nmea_source`` with ``stamp:=receiver`` then
-stamps the reports on the run's clock while keeping the capture's spacing exactly (UDP and the
-source's polling add no jitter). Without it the lines go out as they are.
-
-Two ways to run it:
-
-- ``track-nmea-play FILE --port N --rate R`` (wall clock, no ROS: ``main``), the documented command;
-  ``track-nmea-play --write-capture OUT [--csv FILE] [--duration S]`` writes a capture of a CSV of AIS
-  reports (default: the Solent file of the shared data) with pyais's encoder, for those without one;
-- the node ``nmea_player`` (``fusion.nmea_player``), paced by the node clock (``/clock`` under the
-  launcher: the ``ais_live`` scenario plays the capture in step with the simulated radar; its
-  ``start`` and origin follow ``ais_source``'s, so a report of data time τ is played at origin + τ − start).
-
-A capture written from a CSV has one ``!AIVDM`` type 1 (class A position) or 18 (class B) sentence per
-report with its tag block (``s:`` the CSV's name, ``c:`` the report's UTC time in ms), the position-accuracy flag
-high, SOG/COG from the file (not available where the file has none), and one type 5 (static data, two
-sentences) per ship before its first report, named ``SHIP <mmsi>``.
+- ``track-nmea-play FILE --port N --rate R`` (wall clock, no ROS: ``main``);
+  ``track-nmea-play --write-capture OUT [--csv FILE] [--duration S]`` writes a capture of an AIS
+  CSV (default: the Solent file) with pyais's encoder: per report one ``!AIVDM`` type 1 (class A)
+  or 18 (class B) sentence with tag block (``s:`` the CSV's name, ``c:`` UTC ms), accuracy high,
+  SOG/COG from the file, and one type 5 per ship before its first report (``SHIP <mmsi>``);
+- the node ``nmea_player`` (``fusion.nmea_player``), paced by the node clock (the ``ais_live``
+  scenario), ``start`` and origin as ``ais_source``'s: data time τ plays at origin + τ − start.
 """
 
 from __future__ import annotations

@@ -1,13 +1,32 @@
-"""Parameters of the ``fusion`` node (module docstring of ``track_nodes.fusion.fusion``)."""
+"""Parameters of the ``fusion`` node (module docstring of ``track_nodes.fusion.fusion``).
+
+The associator's settings are ``track_core.fusion.AssociatorConfig``, declared under the node's flat
+parameter names (``threshold``, not ``associator.threshold``: the names users set) with the config's
+defaults; ``associator_config`` maps the parameters back to the config, as a replay of a scenario
+file does (``report.network_replay``).
+"""
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
-from track_core.geofeasibility.track import THRESHOLD
+from track_core.fusion import AssociatorConfig
+from track_core.fusion.config import METHODS
 from track_msgs_py.validate import InputPolicy
-from track_nodes.base import param
+from track_nodes.base import ParameterError, param
+from track_nodes.base.params import param_specs
+
+_A = AssociatorConfig()
+# Node parameter of each AssociatorConfig field whose name differs (stamp_rate: ``rate`` with ``schedule``
+# stamps); the other fields the node declares keep their names; ``gate`` is not a parameter.
+RENAMED = {'stamp_rate': 'rate', 'stamp_max_wait': 'stamps_max_wait'}
+ASSOCIATOR_PARAMS = ('method', 'threshold', 'combine', 'window', 'floor', 'release_ratio', 'prior_weight',
+                     'prior_score', 'n_samples', 'seed', 'same_source_pairs', 'stale_after', 'max_prediction', 'q_s',
+                     'schedule', 'rate', 'stamps_max_wait')
 
 
 @dataclass
@@ -23,34 +42,34 @@ class FusionParams:
     navsatfix_topics: list[str] = param([''], 'sensor_msgs/NavSatFix position topics (a GNSS fix, e.g. the own '
         'ship), one track per topic, placed in map through the run\'s datum on map_datum (none yet: refused)')
     rate: float = param(2.0, 'scoring rate [Hz]', 0.01, 100.0, live=True)
-    method: str = param('exact', 'geofeasibility score', choices=('exact', 'glr', 'glr_thresholded', 'mc'))
-    n_samples: int = param(500, 'Monte-Carlo samples per pair (method mc)', 10, 1_000_000)
-    threshold: float = param(THRESHOLD, 'associate a pair when its combined score is at least this',
+    method: str = param(_A.method, 'geofeasibility score', choices=METHODS)
+    n_samples: int = param(_A.n_samples, 'Monte-Carlo samples per pair (method mc)', 10, 1_000_000)
+    threshold: float = param(_A.threshold, 'associate a pair when its combined score is at least this',
                              0.0, 1.0, live=True)
-    release_ratio: float = param(1.0, 'an associated pair stays associated while its combined score is at least '
-        'release_ratio·threshold (hysteresis; 1: the paper\'s one level; ε^(1/window) keeps an association through one '
-        'disjoint instant; track_core.fusion.associator)', 1e-6, 1.0, live=True)
-    prior_weight: float = param(0.0, 'prior of a young pair: its combination includes this many instants scoring '
-        'prior_score, so one or two instant scores do not decide alone (0: the paper\'s combination; '
+    release_ratio: float = param(_A.release_ratio, 'an associated pair stays associated while its combined score is '
+        'at least release_ratio·threshold (hysteresis; 1: the paper\'s one level; ε^(1/window) keeps an association '
+        'through one disjoint instant; track_core.fusion.associator)', 1e-6, 1.0, live=True)
+    prior_weight: float = param(_A.prior_weight, 'prior of a young pair: its combination includes this many instants '
+        'scoring prior_score, so one or two instant scores do not decide alone (0: the paper\'s combination; '
         'track_core.geofeasibility.track)', 0.0, 1e6, live=True)
-    prior_score: float = param(1.0, 'the score of the prior\'s instants: the typical instant score of a true pair',
-                               1e-6, 1.0, live=True)
-    combine: str = param('geometric', 'track-level combination of instant scores', choices=('geometric', 'harmonic'))
-    window: int = param(10, 'instant scores kept per pair for the combination', 1, 100_000)
-    floor: float = param(0.0, 'floor ε of an instant score in the combination: a disjoint instant enters the mean as '
-        'ε (0: the paper\'s means, one disjoint instant vetoes the window; e^-2 = 0.135: a 2σ ellipse misses its '
-        'target that often; track_core.geofeasibility.track)', 0.0, 0.999)
-    stale_after: float = param(2.0, 'a position report older than this drops out [s]', 1e-3, 1e6, live=True)
-    max_prediction: float = param(10.0, 'an Odometry track predicted further than this drops out [s]',
+    prior_score: float = param(_A.prior_score, 'the score of the prior\'s instants: the typical instant score of a '
+                               'true pair', 1e-6, 1.0, live=True)
+    combine: str = param(_A.combine, 'track-level combination of instant scores', choices=('geometric', 'harmonic'))
+    window: int = param(_A.window, 'instant scores kept per pair for the combination', 1, 100_000)
+    floor: float = param(_A.floor, 'floor ε of an instant score in the combination: a disjoint instant enters the '
+        'mean as ε (0: the paper\'s means, one disjoint instant vetoes the window; e^-2 = 0.135: a 2σ ellipse misses '
+        'its target that often; track_core.geofeasibility.track)', 0.0, 0.999)
+    stale_after: float = param(_A.stale_after, 'a position report older than this drops out [s]', 1e-3, 1e6, live=True)
+    max_prediction: float = param(_A.max_prediction, 'an Odometry track predicted further than this drops out [s]',
                                   1e-3, 1e6, live=True)
-    q_s: float = param(0.1, 'CV process-noise intensity used when predicting tracks [m²/s³]', 0.0, 1e6)
-    seed: int = param(0, 'seed of the Generator used by the mc method', 0, 2**31 - 1)
-    same_source_pairs: bool = param(False, 'also score pairs from one source (Odometry: same topic; pose: same '
-        'namespace)')
+    q_s: float = param(_A.q_s, 'CV process-noise intensity used when predicting tracks [m²/s³]', 0.0, 1e6)
+    seed: int = param(_A.seed, 'seed of the Generator used by the mc method', 0, 2**31 - 1)
+    same_source_pairs: bool = param(_A.same_source_pairs, 'also score pairs from one source (Odometry: same topic; '
+        'pose: same namespace)')
     schedule: str = param('timer', 'timer: score at node-clock ticks; stamps: at the data instants k/rate, '
         'deterministic (module docstring)', choices=('timer', 'stamps'))
-    stamps_max_wait: float = param(30.0, 'schedule stamps: wait at most this long in data time for an input topic '
-        'that has not delivered an instant before scoring it without (module docstring) [s]', 0.0, 1e6)
+    stamps_max_wait: float = param(_A.stamp_max_wait, 'schedule stamps: wait at most this long in data time for an '
+        'input topic that has not delivered an instant before scoring it without (module docstring) [s]', 0.0, 1e6)
     publish_pairs: str = param('all', 'all: every pair of different sources; nonzero: only the pairs with a '
         'positive score or combined score, or associated (module docstring)', choices=('all', 'nonzero'))
     region: list[float] = param([-math.inf, math.inf, -math.inf, math.inf], 'shard: the rectangle [xmin, xmax, '
@@ -71,3 +90,24 @@ class FusionParams:
                                  '[s]', 1e-3, 1e9, live=True)
     stamp_lead: float = param(2.0, 'look-ahead tolerance: refuse reports stamped more than this ahead of the node '
         'clock (a few report periods) [s]', 1e-3, 1e9, live=True)
+
+
+def associator_config(values: Any) -> AssociatorConfig:
+    """The ``AssociatorConfig`` of fusion node parameters ``values`` (a ``FusionParams`` or a mapping of
+    parameter names, e.g. a scenario file's fusion section; a parameter left out has its node default),
+    checked as the node checks them: a bad value → ``ParameterError``, one line naming the parameter."""
+    given = dict(values) if isinstance(values, Mapping) else dataclasses.asdict(values)
+    specs = {s.name: s for s in param_specs(FusionParams)}
+    unknown = sorted(set(given) - set(specs))
+    if unknown:
+        raise ParameterError(f'parameters {", ".join(unknown)} are not fusion node parameters')
+    p = {k: given.get(k, specs[k].default) for k in ASSOCIATOR_PARAMS}
+    for k, v in p.items():
+        specs[k].check(v)
+    fields = {k: v for k, v in p.items() if k in AssociatorConfig.__dataclass_fields__}
+    try:
+        return AssociatorConfig(**fields, stamp_rate=p['rate'] if p['schedule'] == 'stamps' else None,
+                                stamp_max_wait=p['stamps_max_wait'])
+    except (ValueError, TypeError) as exc:
+        name, _, rest = str(exc).partition(' ')
+        raise ParameterError(f'parameter {RENAMED.get(name, name)} {rest}') from None

@@ -1,50 +1,24 @@
 """``acoustic_sensor`` and ``doa_sensor``: one node per sensor of the IDSQ network.
 
-Each instance is one sensor (``id``, ``position``, ``type``); the rest of the network (positions,
-types, hence its §5.1 neighbours) comes from ``vehicle_sim``'s transient-local ``/idsq/layout``,
-which must agree with those three parameters (else one error line and the node stays passive).
-Its stamp is the step origin; a zero stamp means "origin pending": the sensor sets up its topics
-and holds readings until the stamped copy of the same layout comes.
-The protocol (readings, handoffs, acks, the start rule, missing readings, re-selection) is
-``track_core.idsq.leader_protocol.HandoffLedger``; this node converts messages and carries out its effects.
-It never reads a truth: its measurements are its own front end's readings (or the simulator's,
-``vehicle_sim``, standing in for it).
+Each instance is one sensor (``id``, ``position``, ``type``); the rest of the network comes from
+``vehicle_sim``'s transient-local ``/idsq/layout``, which must agree with those three parameters
+(else one error line and the node stays passive); a zero layout stamp means "origin pending". The
+protocol is ``track_core.idsq.leader_protocol.HandoffLedger``; this node converts messages and
+carries out its effects. It never reads a truth.
 
-- in: its readings on ``/idsq/sensor_<id>/reading`` (``track_msgs/IdsqReading``,
-  ``records.idsq.IdsqReading``: one per step, step s stamped origin + (s + 1)·Δt; amplitude, and for
-  a DOA sensor the REP-103 direction in map, turned into the paper's θ = wrap(π/2 − direction));
-  the step-0 amplitudes of every sensor on ``/idsq/election`` (the same message type; the start
-  rule); the handoff on ``/idsq/sensor_<id>/handoff``, the replies on ``/idsq/sensor_<id>/ack`` and the
-  revokes on ``/idsq/sensor_<id>/revoke`` (``track_msgs`` ``IdsqHandoff``, ``IdsqAck``, ``IdsqRevoke``;
-  ``records.idsq``);
-- out: its own step-0 reading, relayed once on ``/idsq/election``;
-  the reply on the sender's ``/idsq/sensor_<j>/ack``; when leading a step, ``/idsq/estimate``
-  (Odometry with the belief covariance), ``/idsq/belief`` (``records.idsq.IdsqBelief``), ``/idsq/markers``,
-  the ``/idsq/leader`` events (``track_msgs/IdsqLeaderEvent``) and the handoff to the next sensor;
-  a ``void`` event when its lead of a step was revoked (one chain: ``track_core.idsq.leader_protocol``), and
-  the revokes it sends on with it.
-
-QoS: handoff, ack and revoke topics are reliable and transient-local (depth 4), so a handoff published
-while discovery is settling is delivered when they match. The readings: reliable, depth 256 (a
-busy leader loses no step), volatile by default (any reliable publisher matches, a driver's default
-QoS included) or transient-local (``reading_durability``; the scenario files: a sensor that matched
-late still gets step 0 from ``vehicle_sim``'s transient-local history). The election topic is
-reliable and transient-local (``ELECTION_QOS``): a late sensor still hears every amplitude.
-
-Missing readings (``leader_protocol``): while the sensor holds the belief of a step whose reading
-has not come, a steady-clock timer of ``reading_timeout`` runs; when it expires the step is led
-predict-only and handed on (counted: ``missed``); a reading that comes after that is dropped with
-one throttled refusal line (``late``). The election waits ``reading_timeout`` after its first
-amplitude for the rest, then decides on those heard (``unheard``).
-
-Ack timeouts run on the steady clock: an ack depends on message latency, not on simulated time
-(with ``--processes`` the /clock runs regardless of CPU load). Many sensors in one process: rclpy
-rebuilds its wait set over every entity at each wait, and the default QoS-event handlers are most
-of them (a wait ten times slower with them), so endpoints are made without them; and every stamp
-is the time of its step, so the node drops the /clock subscription
-that ``use_sim_time`` made (each 0.05 s launcher tick would wake every sensor).
-Refused readings, handoffs, replies and revokes go through ``TrackNode.refuse`` (its /diagnostics publisher
-and timer are made at the first refusal only: a network never sent bad input keeps its wait set).
+- in: ``/idsq/sensor_<id>/reading`` (step s stamped origin + (s + 1)·Δt; amplitude, and for a DOA
+  sensor the REP-103 direction in map read as θ = wrap(π/2 − direction)), ``/idsq/election``, and
+  ``/idsq/sensor_<id>/handoff``, ``.../ack``, ``.../revoke`` (``records.idsq``).
+- out: its step-0 reading once on ``/idsq/election``; replies on the sender's ack topic; when
+  leading, ``/idsq/estimate`` (Odometry), ``/idsq/belief``, ``/idsq/markers``, ``/idsq/leader``
+  events (``void`` when revoked) and the handoff or revokes it sends on.
+- QoS: handoff, ack, revoke reliable transient-local (depth 4); readings reliable depth 256,
+  volatile or transient-local (``reading_durability``); election ``ELECTION_QOS``.
+- ``reading_timeout`` (steady clock): a missing reading makes a predict-only lead (``missed``), a
+  late one is dropped (``late``); the election decides on those heard (``unheard``). Ack timeouts
+  run on the steady clock too.
+- Endpoints without QoS-event handlers and no /clock subscription (many sensors share a process);
+  refusals through ``TrackNode.refuse``. In full: docs/MODULES.md, "The IDSQ sensor nodes in full".
 """
 
 from __future__ import annotations

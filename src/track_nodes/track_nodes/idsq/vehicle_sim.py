@@ -1,42 +1,24 @@
 """``vehicle_sim``: the §5.1 vehicle and sensor field of the IDSQ paper, as topics, and the
 simulator that stands in for every sensor's front end.
 
-- At start it draws the sensor layout with the core's seeded §5.1 generator
-  (``track_core.idsq.simulation.draw_run(Scenario(...), SeedSequence(seed)).layout``: K/4 rows ×
-  4 columns over the field, jittered by N(0, ``jitter_var``), round(``doa_fraction``·K) DOA
-  sensors) and publishes it once on ``/idsq/layout`` (transient-local, so sensors started later
-  still get it): ``sensor_msgs/PointCloud2``, one point per sensor, float32 ``x``, ``y``, ``z`` for
-  the viewers, then FLOAT64 ``id``, ``x_f64``, ``y_f64``, ``type`` (0 acoustic, 1 DOA;
-  ``track_msgs_py.records.idsq.layout_to_pointcloud2``). The same
-  seed gives the layout of the core experiments' run with that seed.
-- Every Δt of node time (``FixedRateSteps``) it publishes the vehicle truth of tracker step s on
-  ``/idsq/vehicle/truth`` (``nav_msgs/Odometry``, zero covariance, velocity (0, speed),
-  ``child_frame_id`` = ``vehicle_id``), stamped origin + (s + 1)·Δt: the first tick comes one period
-  after the clock origin, and the vehicle enters the field (x = W/2, y = 0) then. The origin is the
-  whole second of node time at start (at the first /clock if /clock has not started: the layout
-  is then published first stamped 0, "origin pending", and again stamped); the layout carries it as its
-  stamp, and the sensors count steps from it (``ledger.step_of_stamp``), so the field also runs on
-  wall time, started by hand in any order. It stops when the
-  vehicle leaves the field (``Scenario.n_steps``, 72 for §5.1) or after ``max_steps``.
-- The readings (the sensors' front ends, simulated): for every step, every sensor's reading on its
-  own ``/idsq/sensor_<id>/reading`` (``track_msgs/IdsqReading``, ``records.idsq.IdsqReading``;
-  reliable, transient-local, depth 256), stamped like the truth of that step, drawn by
-  ``track_core.idsq.readings`` with the paper's noise models (§5.1: A/r + N(0, 0.05²); θ + N(0,
-  (3°)²), sent as a REP-103 direction) and the counter-based keys the sensors used when they
-  simulated their own readings (``measurement_normal(seed, sensor, step)``), so the same ``seed``
-  gives the same readings and tracks. The sensor nodes never see the truth.
-  The sources: the §5.1 vehicle this node drives (``truth_topics`` empty), or the Odometry topics in
-  ``truth_topics`` (one or more sources each, one ``child_frame_id`` per source; step s stamped
-  origin + (s + 1)·Δt): a step's readings are published once every topic has delivered it, each
-  sensor hearing its nearest source (``FieldSimulator``). A truth off the step grid or unreadable
-  is refused (``TrackNode.refuse``).
-
-With ``publish_truth:=false`` it publishes no vehicle: the maritime scenario's sensors hear the
-sources on ``truth_topics`` (the smart target's and the decoy's truths).
-
-The sensors are separate nodes whose ``id``/``position``/``type`` parameters must match this
-layout: ``track_nodes.launch.generate.idsq_yaml`` writes a launcher scenario with all of them from the same generator
-(``config/idsq.yaml`` was written by it).
+- Layout: drawn at start by the core's seeded §5.1 generator (``track_core.idsq.simulation.
+  draw_run(Scenario(...), SeedSequence(seed)).layout``: K/4 rows × 4 columns, jitter N(0,
+  ``jitter_var``), round(``doa_fraction``·K) DOA sensors), published once on the transient-local
+  ``/idsq/layout`` (``records.idsq.layout_to_pointcloud2``); the same seed gives the core
+  experiments' layout.
+- Truth: every Δt of node time (``FixedRateSteps``) the vehicle of step s on ``/idsq/vehicle/truth``
+  (Odometry, zero covariance, velocity (0, speed), ``child_frame_id`` = ``vehicle_id``), stamped
+  origin + (s + 1)·Δt; the origin is the whole second of node time at start (the layout's stamp; 0 =
+  "origin pending" before /clock); it stops when the vehicle leaves the field (``Scenario.n_steps``,
+  72 for §5.1) or after ``max_steps``.
+- Readings: every sensor's on ``/idsq/sensor_<id>/reading`` (reliable, transient-local, depth 256),
+  stamped like the step's truth, drawn by ``track_core.idsq.readings`` with §5.1's noise (A/r + N(0,
+  0.05²); θ + N(0, (3°)²), sent as a REP-103 direction) and the keys ``measurement_normal(seed,
+  sensor, step)``. Sources: this node's vehicle, or the Odometry topics in ``truth_topics`` (each
+  sensor hears its nearest source, ``FieldSimulator``); a truth off the step grid or unreadable is
+  refused. ``publish_truth:=false``: no vehicle (the maritime scenario). The sensor nodes'
+  ``id``/``position``/``type`` must match the layout (``track_nodes.idsq.scenario_files.idsq_yaml``
+  writes them; ``config/idsq.yaml``). In full: docs/MODULES.md, "The vehicle_sim node in full".
 """
 
 from __future__ import annotations

@@ -6,7 +6,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from track_core.slam import HybridParams, PFParams, SlamParams, VehicleParams
-from track_core.slam.profiles import PROFILES
+from track_core.slam.profiles import PROFILES, SlamProfile
+from track_core.slam.streams import BEARING_TOLERANCE
 from track_msgs_py.topics import FRAME_BASE, FRAME_LASER, FRAME_MAP, FRAME_ODOM
 from track_msgs_py.validate import InputPolicy
 from track_nodes.base import group, param
@@ -18,19 +19,20 @@ def _profile(values):
 
 @dataclass
 class SlamNodeParams:
-    """Parameters of ``slam``: ``profile`` first, since it gives the defaults of pose0 and the groups."""
+    """Parameters of ``slam``: ``profile`` first, since it gives the defaults of pose0, pose0_var and the groups."""
 
-    profile: str = param('victoria_park', 'defaults of the cekf.*, pf.*, hybrid.* and pose0 parameters',
+    profile: str = param('victoria_park', 'defaults of the cekf.*, pf.*, hybrid.*, pose0 and pose0_var parameters',
                          choices=tuple(PROFILES))
     seed: int = param(0, 'seed of the particle filter Generator', 0, 2**31 - 1)
     pose0: list[float] = param([0.0, 0.0, 0.0], 'initial pose [x m, y m, heading rad] in map: of the laser (the '
                                'filter state) with input_model acfr, of base_frame with odometry',
                                default_from=lambda v: list(_profile(v).pose0))
-    pose0_var: list[float] = param([1e-6, 1e-6, 1e-6], 'initial pose variances [m², m², rad²] (all > 0)')
+    pose0_var: list[float] = param(list(SlamProfile.pose0_var), 'initial pose variances [m², m², rad²] (all > 0)',
+                                   default_from=lambda v: list(_profile(v).pose0_var))
     compressed: bool = param(True, 'Compressed EKF (false: the full EKF; same result, slower)')
     add_radius: bool = param(True, 'landmark = trunk centre: range + diameter/2 (victoria.load add_radius)')
-    bearing_tolerance: float = param(1e-6, 'bearings this far outside hybrid.bearing_limits are clipped, not '
-                                     'dropped (float32 rounding) [rad]', 0.0, 0.1)
+    bearing_tolerance: float = param(BEARING_TOLERANCE, 'bearings this far outside hybrid.bearing_limits are '
+                                     'clipped, not dropped (float32 rounding) [rad]', 0.0, 0.1)
     pause_wall: float = param(0.2, 'a stream silent this long (wall) while the other delivered >= 2 messages no '
                               'longer holds the other back [s]', 0.0, 60.0)
     flush_idle: float = param(0.5, 'process everything buffered after this long without a message (wall) [s]',

@@ -1,90 +1,29 @@
 """``slam``: hybrid CEKF ⇄ particle-filter SLAM (track_core.slam.HybridSlam) on motion inputs and landmark observations.
 
-Subscribes (reliable, deep queues; see track_msgs_py.topics for the message mappings) to one motion
-input, by ``input_model``:
+Inputs (reliable, deep queues ``queue_depth``), by ``input_model``: ``odometry``: ``/odom``
+(nav_msgs/Odometry, REP-105; ``odometry_motion`` 'increments' or 'twist'; the twist covariance as
+input noise with ``odometry_noise``) or ``acfr``: ``/slam/inputs`` (geometry_msgs/TwistStamped:
+``linear.x`` encoder speed [m/s], ``angular.z`` steering ANGLE [rad], geometry ``acfr.L/H/a/b``).
+Observations, by ``observations``: ``detections``: ``/slam/landmarks`` (LandmarkDetectionArray in
+the laser frame, REP-103 bearing, at most ``max_detections``) or ``scan_cloud``: ``/slam/scan``
+(PointCloud2 ``range``, ``bearing`` (eq. 5: 0 = right), ``diameter``; ``add_radius``: range +
+diameter/2).
 
-- ``odometry``: ``/odom`` (nav_msgs/Odometry, the robot driver's; REP-105: pose of ``base_frame`` in
-  ``odom_frame``, twist in ``base_frame``), for any unicycle / differential-drive robot
-  (``models.UnicycleParams``, the laser at ``laser_pose`` in base_link). ``odometry_motion``: the arc
-  between two messages' poses (``increments``, applied over exactly that interval) or each message's
-  twist (``twist``); the input noise is the twist covariance (v, yaw rate) when the message has one
-  (``odometry_noise``), else the ``cekf``/``pf`` σ; see ``track_core.slam.odometry``;
-- ``acfr``: ``/slam/inputs`` (geometry_msgs/TwistStamped) of the ACFR car: ``twist.linear.x`` = encoder
-  speed [m/s], ``twist.angular.z`` = steering ANGLE [rad] (never read as a yaw rate), with the
-  geometry ``acfr.L``, ``acfr.H``, ``acfr.a``, ``acfr.b``; held until the next input;
+The state is the laser's position with the robot's heading (``models``). Outputs: ``/slam/pose``
+(Odometry of ``base_frame`` or the laser, ``pose_of``) and its twin ``/slam/pose/pose``;
+``/slam/mode`` (SlamStatus) and ``/slam/events`` (SlamEvent, one a mode switch); ``/slam/particles``
+(PoseArray, after each PF scan); ``/tf`` map → odom (``odometry.map_to_odom``; with ``acfr`` and
+``publish_odom_tf`` also odom → base_link), ``/tf_static`` base_link → laser (``laser_pose``);
+``/slam/landmark_map`` and ``/slam/map`` (transient-local, every ``map_period`` s of data time).
 
-and to one observation stream, by ``observations``:
-
-- ``detections``: ``/slam/landmarks`` (track_msgs/LandmarkDetectionArray, ``records.landmarks``) in the
-  laser frame (``child_frame_id``): range to the landmark's centre, REP-103 bearing (0 ahead), from
-  ``landmark_extractor`` (a LaserScan) or any other front end; at most ``max_detections`` per message;
-- ``scan_cloud``: ``/slam/scan`` (sensor_msgs/PointCloud2, ``records.slam.SlamScan``: fields ``range``,
-  ``bearing`` (eq. 5: 0 = right), ``diameter`` after the viewers' x, y, z): one scan of tree detections.
-  With ``add_radius`` (default) the landmark is the trunk centre, range + diameter/2, as
-  ``track_core.slam.victoria.load`` does offline.
-
-The filter's state is the laser's position with the robot's heading (``models``). It publishes
-
-- ``/slam/pose`` (nav_msgs/Odometry, after every scan): the pose of ``base_frame`` (``pose_of: base``,
-  REP-105) or of the laser (``pose_of: laser``, the filter state) in map with its x/y/yaw covariance,
-  and its twin ``/slam/pose/pose`` (geometry_msgs/PoseWithCovarianceStamped, ``base/twins.py``);
-- ``/slam/mode`` (``track_msgs/SlamStatus``, ``records.slam.SlamMode``, after every scan): mode and counters;
-- ``/slam/events`` (``track_msgs/SlamEvent``, ``records.slam.SlamEvent``): one per mode switch, with the pose;
-- ``/slam/particles`` (geometry_msgs/PoseArray, with headings): the particle cloud after every scan the
-  PF ran on (``HybridSlam.last_particles``), including the one on which it handed back to the CEKF
-  (in the PF's map frame, before the hand-over update), and an empty array at the next scan;
-- ``/tf``: map → odom (``frame_id`` → ``odom_frame``) at every pose stamp and at the first input,
-  ``odometry.map_to_odom`` of the estimate and the robot's odom → base_link at that stamp, as
-  slam_toolbox and robot_localization do: the node never broadcasts ``base_frame``'s parent. The
-  odom pose at a stamp comes from the Odometry messages (interpolated; ``odometry.OdomTrack``);
-  with ``acfr`` inputs, which come without driver odometry, from the node's dead reckoning of them,
-  and ``publish_odom_tf`` then broadcasts that odom → base_link too (the scenarios that replay the
-  raw ACFR inputs set it: nobody else would place base_link). ``/tf_static``: base_link → laser
-  (``laser_pose``; acfr: the laser a ahead and b left of the rear-axle centre);
-- ``/slam/landmark_map`` (track_msgs/LandmarkMap, transient-local): the landmark means and 2×2
-  covariances, with every ``/slam/map``;
-- ``/slam/map`` (visualization_msgs/MarkerArray, transient-local, ``markers.slam.map_markers``):
-  landmark means and 2σ ellipses, at most every ``map_period`` seconds of data time
-  (``HybridSlam.map_estimate``: exact, without a copy or a global update of the filter, but
-  O(n_B·n_A²) in the compressed phase, so not at every scan), and once more when the input goes idle.
-
-Time order: inputs and scans reach the filter in stamp order through ``track_core.slam.streams.
-StreamMerger`` (watermark, ``pause_wall``, ``flush_idle``, ``drain_budget``; its docstring says why), so
-the result is the offline one of ``experiments.run_victoria`` (the integration test checks it on real
-data). The executor does not serve the two subscriptions fairly under a backlog, so every callback
-first takes all messages waiting in BOTH subscriptions (``_take_pending``): a stream the merger sees
-silent has nothing queued. Deep reliable queues (``queue_depth``) and the buffer hold a backlog (nothing lost or
-reordered; the output lags) and a 0.1 s steady timer keeps draining, so shutdown stays prompt.
-
-Bad input (never raises in a callback; each goes to ``refuse``: counted per reason, logged at most
-once per reason every ``warn_throttle`` seconds, on /diagnostics; and counted in ``/slam/mode``):
-
-- an observation (one point of a scan) that ``streams.scan_observations`` finds unusable (non-finite,
-  range ≤ 0 or beyond the world bound of ``validate.InputPolicy``, diameter beyond it, bearing outside
-  ``hybrid.bearing_limits`` ± ``bearing_tolerance``) is dropped, the rest of the scan used. A scan
-  without ``range``/``bearing`` fields, or with observations none of which is usable, is refused whole
-  before its stamp reaches the merger (an empty scan, with no observation, is a valid one);
-- an input with a non-finite value, |speed| beyond the policy's speed bound or |steering| ≥ π/2 is dropped;
-  an Odometry message with a frame other than ``odom_frame`` → ``base_frame``, a non-finite number, a
-  non-unit quaternion, a twist covariance (v, yaw rate) that is not PSD, or a stamp before the previous
-  one is refused before it changes anything; detections in another frame than the laser's, with
-  columns of different lengths, more than ``max_detections`` rows or a broken covariance, too;
-- a message whose stamp is malformed, more than ``stamp_horizon`` (or ``stamp_lead``) ahead of the node clock (once it
-  reads non-zero, ``validate.clock_now``), earlier than the previous one on its topic (time went
-  backwards), or earlier than data already processed (arrived more than the buffer allows), is
-  refused before it reaches the filter, so the state is untouched. A zero stamp is accepted: data
-  time starts at 0 here (slam_sim's first input is stamped 0.0).
-
-A clock jump (``track_nodes.base.timejump``: a bag replayed in a loop) starts a new run: the filter
-at ``pose0`` seeded again, the stream merger and the map schedule forgotten (``reset_time_state``).
-
-Parameters (``slam/params.py``): the node's own, then every field of the core's ``SlamParams``,
-``PFParams`` and ``HybridParams`` as ``cekf.*``, ``pf.*`` and ``hybrid.*``, with the defaults of
-``profile``: ``victoria_park``, ``loop_sim`` (``track_core.slam.profiles``; the default ``LoopWorld`` with
-the ambiguity trigger on, as ``slam-loop``) or ``generic`` (a robot with wheel odometry and a 360° laser:
-bearings all round). Every frame name is a parameter (``frame_id`` = map, ``odom_frame``, ``base_frame``,
-``child_frame_id`` = the laser); ``pose0`` is the laser's start pose with ``acfr`` inputs (the experiments'
-convention) and base_frame's with ``odometry``. Invalid values stop the node.
+Inputs and scans reach the filter in stamp order through ``streams.StreamMerger``, so the result is
+the offline ``experiments.run_victoria``'s; each callback first takes what waits in both
+subscriptions. Bad input is refused (``refuse``: counted per reason, throttled, on /diagnostics): an
+unusable observation is dropped, a scan with none usable, a bad input, Odometry or detection array,
+a stamp ahead of the clock, backwards or behind the buffer is refused before the filter. A clock
+jump restarts the run at ``pose0`` (``reset_time_state``). Parameters (``slam/params.py``): the
+node's, then ``cekf.*``, ``pf.*``, ``hybrid.*`` with the defaults of ``profile`` (``victoria_park``,
+``loop_sim``, ``generic``). In full: docs/MODULES.md, "The slam node in full".
 """
 
 from __future__ import annotations
@@ -102,11 +41,12 @@ from sensor_msgs.msg import PointCloud2
 from visualization_msgs.msg import MarkerArray
 
 from track_core.filters import symmetrize
+from track_core.filters.poses import OdomTrack
 from track_core.slam import HybridSlam
 from track_core.slam.blas import single_threaded_blas
 from track_core.slam.landmarks import to_eq5_bearing
 from track_core.slam.models import UnicycleParams, acfr_to_unicycle
-from track_core.slam.odometry import OdometryInputs, OdomTrack, base_to_sensor, map_to_odom, sensor_to_base
+from track_core.slam.odometry import OdometryInputs, base_to_sensor, map_to_odom, sensor_to_base
 from track_core.slam.streams import INPUT, SCAN, StreamMerger, scan_observations
 from track_msgs import msg as tm
 from track_msgs_py.markers.slam import map_markers
@@ -388,6 +328,9 @@ class SlamNode(TrackNode):
     def _after_scan(self, t: float, t_ns: int) -> None:
         s, p = self.slam, self.p
         self._map_dirty = True
+        if refused := s.cekf.take_refused_landmarks():  # the map-size cap: counted, one throttled line
+            self.refuse(self._scan_topic, f'cekf.max_landmarks: the map holds {p.cekf.max_landmarks}; {refused} new '
+                                          'landmark(s) of this scan refused')
         for ev in s.events[self._n_events:]:
             self._publish_event(ev)
         self._n_events = len(s.events)

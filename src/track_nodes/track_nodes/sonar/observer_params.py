@@ -1,5 +1,9 @@
 """Parameters of ``sonar_observer`` (module docstring of ``track_nodes.sonar.sonar_observer``) and what
-they build: the desired covariance P_D of eq. 7 and the filter's target model."""
+they build: the desired covariance P_D of eq. 7, the filter's target model and its tracker.
+
+The tracker's settings are ``track_core.sonar.SSPFConfig``, ``SchedulerConfig`` and ``SonarParams``,
+declared under the node's flat parameter names (``delta``, ``P_D``, ...: the names users set) with
+their defaults; ``sspf_config`` / ``scheduler_config`` map the parameters back to them."""
 
 from __future__ import annotations
 
@@ -8,13 +12,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from track_core.sonar import DEFAULT_P_D, SmartTargetParams, desired_covariance
-from track_core.sonar.scheduler import DELTA
-from track_core.sonar.sspf import PREDICTIONS, TRACKERS
+from track_core.sonar import SchedulerConfig, SmartTargetParams, SonarParams, SSPFConfig, desired_covariance
+from track_core.sonar.scheduler import METRICS
+from track_core.sonar.sspf import PREDICTIONS, SSPF, TRACKERS, make_tracker
 from track_nodes.base import ParameterError, param
 
 TARGET_MODELS = ('cv', 'smart')
 _SMART = SmartTargetParams()
+_SCHED, _SSPF, _SONAR = SchedulerConfig(), SSPFConfig(), SonarParams()
+# The node parameter of each field of the SS-PF's target model (``SmartTargetParams``).
+MODEL_PARAMS = {**{f: 'model_' + f for f in ('p_max', 'r_50', 'width', 'evade_speed', 'max_accel', 'quiet_period')},
+                'max_turn_rate': 'model_max_turn_rate_deg'}
 
 
 @dataclass
@@ -24,16 +32,16 @@ class SonarObserverParams:
     seed: int = param(0, 'seed of the particle filter (the second of two spawned streams; sonar_sim draws the first)',
                       0, 2**31 - 1)
     tracker: str = param('ss-pf', 'ss-pf: eq. 7 scheduling; papf: passive only; acpf: active only', choices=TRACKERS)
-    delta: float = param(DELTA, 'threshold δ of eq. 7 (Table 1: 5) [m²]', 0.0, 1e12, live=True)
-    P_D: list[float] = param([float(v) for v in np.diag(DEFAULT_P_D)], 'desired covariance P_D of eq. 7 in [x, vx, y, '
+    delta: float = param(_SCHED.delta, 'threshold δ of eq. 7 (Table 1: 5) [m²]', 0.0, 1e12, live=True)
+    P_D: list[float] = param(list(_SCHED.P_D), 'desired covariance P_D of eq. 7 in [x, vx, y, '
                              'vy]: 4 values (diagonal) or 16 (row-major 4x4), symmetric PSD')
-    metric: str = param('spectral', 'eq. 7 distance: spectral ‖P_D − Cov‖₂ (paper) or excess λmax(Cov − P_D)',
-                        choices=('spectral', 'excess'))
-    initial_pings: int = param(1, 'active steps at the start before eq. 7 decides (Algorithm 3: 1; '
+    metric: str = param(_SCHED.metric, 'eq. 7 distance: spectral ‖P_D − Cov‖₂ (paper) or excess λmax(Cov − P_D)',
+                        choices=METRICS)
+    initial_pings: int = param(_SCHED.initial_pings, 'active steps at the start before eq. 7 decides (Algorithm 3: 1; '
                                'track_core.sonar.scheduler)', 1, 1000)
     target_model: str = param('cv', "the filter's target model: cv (eqs. 1-4) or smart (the target evades when it "
                               'hears a ping; the model_* parameters)', choices=TARGET_MODELS)
-    prediction: str = param('unscented', 'smart model: each particle predicted through the manoeuvre by its sigma '
+    prediction: str = param(_SSPF.prediction, 'smart model: each particle predicted through the manoeuvre by its sigma '
                             'points (unscented) or by its mean with F P Fᵀ + Q (linear)', choices=PREDICTIONS)
     model_p_max: float = param(_SMART.p_max, 'smart model: detection probability of a ping at close range', 0.0, 1.0)
     model_r_50: float = param(_SMART.r_50, 'smart model: range at which a ping is heard with probability p_max/2 [m]',
@@ -45,11 +53,12 @@ class SonarObserverParams:
     model_max_accel: float = param(_SMART.max_accel, 'smart model: bounded speed change [m/s²]', 0.0, 1e3)
     model_quiet_period: float = param(_SMART.quiet_period, 'smart model: time without a heard ping before cruising '
                                       'again [s]', 0.0, 1e6)
-    n_particles: int = param(200, 'number of particles N (Table 1: 200)', 1, 1_000_000)
-    regularize: bool = param(True, 'Liu-West move after resampling (track_core.sonar.sspf; not in the paper)')
-    period: float = param(1.0, 'scheduling period T (Table 1: 1 s): a predict-only step for each period without a '
+    n_particles: int = param(_SONAR.n_particles, 'number of particles N (Table 1: 200)', 1, 1_000_000)
+    regularize: bool = param(_SSPF.regularize, 'Liu-West move after resampling (track_core.sonar.sspf; not in the '
+                             'paper)')
+    period: float = param(_SONAR.T, 'scheduling period T (Table 1: 1 s): a predict-only step for each period without a '
                           'contact; the prior is one period before the first contact [s]', 1e-3, 60.0)
-    q_s: float = param(1.0, 'process-noise intensity q_s of the filter model (Table 1: 1) [m²/s³]', 1e-9, 1e3)
+    q_s: float = param(_SONAR.q_s, 'process-noise intensity q_s of the filter model (Table 1: 1) [m²/s³]', 1e-9, 1e3)
     prior_mean: list[float] = param([300.0, 12.25, 300.0, -12.25], 'prior mean m₀ = [x, vx, y, vy] one period '
                                     'before the first contact [m, m/s]')
     prior_pos_std: float = param(20.0, 'prior position std per axis [m]', 1e-6, 1e6)
@@ -94,3 +103,36 @@ def smart_target_params(p, prefix: str = '') -> SmartTargetParams:
 def target_model_of(p: SonarObserverParams) -> SmartTargetParams | None:
     """The SS-PF's ``target_model`` of the parameters: None for ``cv``, the ``model_*`` values for ``smart``."""
     return None if p.target_model == 'cv' else smart_target_params(p, 'model_')
+
+
+def sspf_config(p: SonarObserverParams) -> SSPFConfig:
+    """The SS-PF's settings of the parameters (the others: ``SSPFConfig``'s defaults)."""
+    return _checked(lambda: SSPFConfig(regularize=p.regularize, prediction=p.prediction,
+                                       target_model=target_model_of(p)), MODEL_PARAMS)
+
+
+def scheduler_config(p: SonarObserverParams) -> SchedulerConfig:
+    """Eq. 7's settings of the parameters (``P_D`` checked by ``p_d``)."""
+    p_d(p.P_D)
+    return _checked(lambda: SchedulerConfig(delta=p.delta, P_D=tuple(p.P_D), metric=p.metric,
+                                            initial_pings=p.initial_pings))
+
+
+def sonar_params(p: SonarObserverParams) -> SonarParams:
+    """The filter model's ``SonarParams`` (period T, q_s, N) of the parameters."""
+    return _checked(lambda: SonarParams(T=p.period, q_s=p.q_s, n_particles=p.n_particles), {'T': 'period'})
+
+
+def observer_tracker(p: SonarObserverParams, sonar: SonarParams, rng: np.random.Generator) -> SSPF:
+    """The node's tracker (``tracker`` of ``sspf_config`` and ``scheduler_config``), drawing from ``rng``."""
+    return make_tracker(p.tracker, sonar, rng, config=sspf_config(p), schedule=scheduler_config(p))
+
+
+def _checked(build, names: dict[str, str] | None = None):
+    """``build()``; the core's ValueError names the field, i.e. the node's parameter (or ``names[field]``)
+    → ParameterError, one line."""
+    try:
+        return build()
+    except ValueError as exc:
+        name, _, rest = str(exc).partition(' ')
+        raise ParameterError(f'parameter {(names or {}).get(name, name)} {rest}') from None

@@ -1,53 +1,27 @@
 """``sonar_observer``: the SS-PF of the sonar paper on a real sonar's contacts and the own ship's navigation.
 
-Inputs (what a sonar driver and a navigation system publish; ``sonar_sim`` stands in for both):
+Inputs (``sonar_sim`` stands in for both): ``/sonar/contacts`` (``track_msgs/SonarContact``: a
+listen (bearing) or ping (bearing and range) with its stds, the R of eqs. 5-6; bearing REP-103 in
+``world_frame`` or ``body_frame``, another frame refused) and ``/sonar/observer/odom``
+(nav_msgs/Odometry, REP-105, interpolated to each contact's stamp).
 
-- ``/sonar/contacts`` (``track_msgs/SonarContact``): one message per listen (passive: bearing) or ping
-  (active: bearing and range), at any times, with the reading's stds (its noise R of eqs. 5-6). The
-  bearing is REP-103 in ``header.frame_id``: ``world_frame`` (a true bearing) or ``body_frame`` (relative
-  to the ship's heading at the contact's stamp); another frame is refused, naming it;
-- ``/sonar/observer/odom`` (nav_msgs/Odometry, REP-105: pose in ``world_frame``, twist in
-  ``child_frame_id``): where the observer is; interpolated to each contact's stamp.
+``track_core.sonar.contacts.ContactSequencer`` makes the filter steps: a contact is a step at its
+own stamp (eqs. 3-4 over the actual interval); a period T without a contact is a predict-only step
+(``predictions``; with ``coast_after`` also on the node clock); a contact waits up to ``nav_wait``
+for a later fix; a contact not after the filter's time or over ``stamp_lead`` ahead is refused. The
+prior (``prior_mean``, stds) is the target one period before the first contact.
 
-How the two streams become filter steps is ``track_core.sonar.contacts.ContactSequencer``: a contact is
-a step at its own stamp (eqs. 3-4 over the actual interval); a period T without a contact is a
-predict-only step (counted: ``predictions``), taken when the next contact comes or, with ``coast_after``,
-when the node's clock is that far past the due period (a sensor that stopped); a contact waits up to
-``nav_wait`` for the navigation fix after it; a contact not after the filter's time, or stamped more than
-``stamp_lead`` ahead of the node clock, is refused with its reason. The prior (``prior_mean``, stds) is
-the target one period before the first contact.
+Outputs per step, stamped with the step's time: ``/sonar/estimate`` (Odometry, ``child_frame_id`` =
+``track_id``), ``/sonar/particles`` (PoseArray; one pose while merged), ``/sonar/mode``
+(SonarFilterStatus: the reading taken, eq. 7's request, ESS, ``distance`` = ‖P_D − Cov‖),
+``/sonar/markers`` (2σ ellipse), and last ``/sonar/mode_command`` (latched; also once at start,
+stamped 0). Seeded (the second of ``SeedSequence(seed).spawn(2)``): replayed contacts reproduce
+every estimate bit for bit; a clock jump restarts at the prior.
 
-Outputs, per filter step, stamped exactly with the step's time:
-
-- ``/sonar/estimate`` (nav_msgs/Odometry with the particle covariance, ``child_frame_id`` =
-  ``track_id``; position–velocity cross-covariances are dropped, see track_msgs_py.odometry);
-- ``/sonar/particles`` (geometry_msgs/PoseArray, one pose per selected particle, identity orientation;
-  one pose, the mean, while the filter's mixture is merged into one Gaussian, ``track_core.sonar.sspf``);
-- ``/sonar/mode`` (``track_msgs/SonarFilterStatus``): the reading the step took (for a predict-only step,
-  the last one's), eq. 7's request for the next, whether it took a contact, the step, the ESS, and for
-  ss-pf ``distance`` = ‖P_D − Cov‖ of eq. 7 (``records.sonar.SonarFilterStatus``);
-- ``/sonar/markers`` (visualization_msgs/MarkerArray: the 2σ position ellipse, ``markers.sonar``);
-- ``/sonar/mode_command`` (``track_msgs/SonarModeCommand``, latched) last: eq. 7's request for the next
-  reading, which the sonar driver obeys; also once at start, stamped 0 (Algorithm 3's first mode).
-
-Determinism: the filter's draws come from its seeded Generator (the second of
-``SeedSequence(seed).spawn(2)``) and its steps from the contacts' stamps, so replaying recorded contacts
-and navigation into a fresh observer with the same parameters reproduces every estimate bit for bit. A
-jump of the clock (a bag replayed in a loop, a simulator reset) starts a new run: the tracker at its
-prior with its Generator seeded again, the contacts and fixes forgotten.
-
-Target model (``target_model``, read-only). ``cv``: the paper's constant-velocity model (eqs. 1-4).
-``smart``: the SS-PF knows what its own pings do to a ``smart_target`` (``SSPF(target_model=...)``,
-``track_core.sonar.sspf``): after a step it pinged, each particle draws whether its target heard the
-ping with P_det(range) and, while it last heard one less than ``model_quiet_period`` ago, moves away
-from the observer towards ``model_evade_speed`` with bounded turn rate and acceleration
-(``smart_target.evasive_transition``). The model's parameters are this node's ``model_*`` parameters
-(the observer cannot read the target's): a scenario sets them to its ``smart_target``'s values, as
-``config/maritime.yaml`` does. ``prediction`` picks how each particle's Gaussian crosses the manoeuvre:
-``unscented`` (its sigma points through it) or ``linear`` (its mean through it, F P Fᵀ + Q).
-
-Parameters are checked at start; δ < 0, N < 1 or a P_D that is not symmetric PSD (4 values: a
-diagonal; 16: a row-major 4×4 matrix) stop the node with one line.
+``target_model``: ``cv`` (eqs. 1-4) or ``smart`` (the node's ``model_*`` parameters, as
+``config/maritime.yaml`` sets; ``prediction`` ``unscented`` or ``linear``). δ < 0, N < 1 or a P_D
+not symmetric PSD (4 values: a diagonal; 16: row-major 4×4) stop the node with one line. In full:
+docs/MODULES.md, "The sonar_observer node in full".
 """
 
 from __future__ import annotations
@@ -57,7 +31,7 @@ from geometry_msgs.msg import PoseArray
 from nav_msgs.msg import Odometry
 from visualization_msgs.msg import MarkerArray
 
-from track_core.sonar import CovarianceScheduler, Scenario, SensorMode, SonarParams, make_tracker
+from track_core.sonar import CovarianceScheduler, Scenario, SensorMode
 from track_core.sonar.contacts import ContactSequencer, Dropped, Step
 from track_msgs import msg as tm
 from track_msgs_py.markers.sonar import estimate_markers
@@ -84,7 +58,13 @@ from track_msgs_py.validate import (
     stamp_problem,
 )
 from track_nodes.base import ParameterError, TrackNode
-from track_nodes.sonar.observer_params import SonarObserverParams, p_d, target_model_of
+from track_nodes.sonar.observer_params import (
+    SonarObserverParams,
+    observer_tracker,
+    scheduler_config,
+    sonar_params,
+    sspf_config,
+)
 
 WAIT_WARN = 10.0  # s of the node's clock (sim time under use_sim_time) without a contact before a warning
 TICK = 0.1  # s of the node's clock between checks of held contacts and due periods
@@ -97,7 +77,6 @@ class SonarObserverNode(TrackNode):
 
     def setup(self) -> None:
         p = self.p
-        P_D = p_d(p.P_D)
         m0 = np.asarray(p.prior_mean, dtype=float)
         if m0.shape != (4,) or not np.all(np.isfinite(m0)):
             raise ParameterError(f'parameter prior_mean={list(p.prior_mean)!r} is invalid: allowed 4 finite numbers')
@@ -108,8 +87,9 @@ class SonarObserverNode(TrackNode):
         if p.world_frame == p.body_frame:
             raise ParameterError(f'parameters world_frame and body_frame are both {p.world_frame!r}: allowed two '
                                  'different frames')
-        self.sonar = SonarParams(T=p.period, q_s=p.q_s, n_particles=p.n_particles)
-        self._prior = (P_D, m0, Scenario(params=self.sonar, prior_pos_std=p.prior_pos_std,
+        self.sonar = sonar_params(p)
+        sspf_config(p), scheduler_config(p)   # a bad value stops the node here, with one line
+        self._prior = (m0, Scenario(params=self.sonar, prior_pos_std=p.prior_pos_std,
                                          prior_vel_std=p.prior_vel_std).prior_cov)
         self.rejected = 0
         self.dropped = 0
@@ -128,12 +108,9 @@ class SonarObserverNode(TrackNode):
 
     def _start_run(self) -> None:
         """A fresh run: the tracker at its prior with its Generator seeded, no contact or fix, the start request."""
-        p, (P_D, m0, prior_cov) = self.p, self._prior
+        p, (m0, prior_cov) = self.p, self._prior
         _, filter_ss = np.random.SeedSequence(p.seed).spawn(2)
-        self.tracker = make_tracker(p.tracker, self.sonar, np.random.default_rng(filter_ss), P_D=P_D,
-                                    delta=p.delta, metric=p.metric, regularize=p.regularize,
-                                    initial_pings=p.initial_pings, target_model=target_model_of(p),
-                                    prediction=p.prediction)
+        self.tracker = observer_tracker(p, self.sonar, np.random.default_rng(filter_ss))
         self.tracker.initialize(m0, prior_cov)
         self.sequencer = ContactSequencer(self.tracker, round(p.period * 1e9), nav_wait_ns=round(p.nav_wait * 1e9),
                                           nav_max_age_ns=round(p.nav_max_age * 1e9),

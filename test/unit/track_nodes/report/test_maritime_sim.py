@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import yaml
 
-from track_nodes.launch.generate import maritime_yaml
+from track_nodes.idsq.scenario_files import maritime_yaml
 from track_nodes.report import maritime as mar
 from track_nodes.report import maritime_sim, network_replay
 

@@ -18,8 +18,9 @@ from rclpy.clock import ROSClock
 from rclpy.time import Time
 
 from track_core.sonar import SmartTargetParams
+from track_nodes.idsq.scenario_files import seed_scenario
 from track_nodes.report.maritime import SONAR_TRACK
-from track_nodes.report.maritime_sim import sections, seed_scenario, simulate
+from track_nodes.report.maritime_sim import sections, simulate
 from track_nodes.sonar.observer_params import SonarObserverParams, target_model_of
 from track_nodes.sonar.sonar_observer import WAIT_WARN, SonarObserverNode
 
