@@ -36,6 +36,7 @@ from track_nodes.launch.graph import listing
 
 LOOK_EVERY = 0.25  # [wall s] between two looks at the graph
 LAUNCHER = 'track_launcher'  # the launcher's own node (graph.LauncherNode)
+UNNAMED = '_NODE_NAME_UNKNOWN_'  # rmw's name of a publisher whose node is not discovered yet
 
 
 def probe(names: list[str], sim: bool, listen: float = TWIN_LISTEN) -> str | None:
@@ -51,10 +52,9 @@ def probe(names: list[str], sim: bool, listen: float = TWIN_LISTEN) -> str | Non
     try:
         while (left := deadline - time.monotonic()) > 0:
             found = _look(node, announced.names, names, sim)
-            if found is not None and found == suspect:
-                domain = os.environ.get('ROS_DOMAIN_ID') or '0'
-                return (f'not alone in ROS_DOMAIN_ID={domain}: {found}; refusing to start (nothing published): '
-                        'another run or program uses this domain; unset ROS_DOMAIN_ID for a domain of its own')
+            # a publisher seen before its node's name (discovery): look again for the name, until the deadline
+            if found is not None and found == suspect and (UNNAMED not in found or left <= LOOK_EVERY):
+                return _refusal(found)
             suspect = found
             until = time.monotonic() + min(left, LOOK_EVERY)
             while (wait := until - time.monotonic()) > 0:
@@ -64,6 +64,12 @@ def probe(names: list[str], sim: bool, listen: float = TWIN_LISTEN) -> str | Non
         executor.shutdown(timeout_sec=0)
         node.destroy_node()
         context.try_shutdown()
+
+
+def _refusal(found: str) -> str:
+    domain = os.environ.get('ROS_DOMAIN_ID') or '0'
+    return (f'not alone in ROS_DOMAIN_ID={domain}: {found}; refusing to start (nothing published): '
+            'another run or program uses this domain; unset ROS_DOMAIN_ID for a domain of its own')
 
 
 def _look(node: Node, announced: set[str], names: list[str], sim: bool) -> str | None:
